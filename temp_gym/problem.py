@@ -81,11 +81,15 @@ class Problem:
         dim, wdim = ROBOTS[self.robot]
         bounds = np.asarray(self.bounds, dtype=np.float64)
         if bounds.shape != (2, dim):
-            raise ValueError(f"bounds: expected shape (2, {dim}) for {self.robot}, got {bounds.shape}")
+            raise ValueError(
+                f"bounds: expected shape (2, {dim}) for {self.robot}, got {bounds.shape}"
+            )
         if not np.all(np.isfinite(bounds)):
             raise ValueError("bounds: contains NaN or inf")
         if np.any(bounds[0] >= bounds[1]):
-            raise ValueError(f"bounds: lower must be below upper in every dimension, got {bounds.tolist()}")
+            raise ValueError(
+                f"bounds: lower must be below upper in every dimension, got {bounds.tolist()}"
+            )
         centers = np.asarray(self.obstacle_centers, dtype=np.float64).reshape(-1, wdim)
         halves = np.asarray(self.obstacle_half_extents, dtype=np.float64).reshape(-1, wdim)
         if centers.shape != halves.shape:
@@ -94,7 +98,9 @@ class Problem:
             raise ValueError("obstacles: contains NaN or inf")
         if np.any(halves <= 0):
             bad = int(np.argmax(np.any(halves <= 0, axis=1)))
-            raise ValueError(f"obstacles[{bad}].half_extents: must be positive, got {halves[bad].tolist()}")
+            raise ValueError(
+                f"obstacles[{bad}].half_extents: must be positive, got {halves[bad].tolist()}"
+            )
         start = _float_vector(self.start, "start", dim)
         goal = _float_vector(self.goal, "goal", dim)
         radius = self.goal_radius
@@ -105,7 +111,9 @@ class Problem:
             raise ValueError(f"goal_radius: must be positive and finite, got {radius}")
         for name, point in (("start", start), ("goal", goal)):
             if np.any(point < bounds[0]) or np.any(point > bounds[1]):
-                raise ValueError(f"{name}: {point.tolist()} is outside the bounds {bounds.tolist()}")
+                raise ValueError(
+                    f"{name}: {point.tolist()} is outside the bounds {bounds.tolist()}"
+                )
         for array in (bounds, centers, halves, start, goal):
             array.setflags(write=False)
         object.__setattr__(self, "bounds", bounds)
@@ -210,7 +218,9 @@ class Problem:
             centers.append(_float_vector(box["center"], f"obstacles[{i}].center", wdim))
             half = _float_vector(box["half_extents"], f"obstacles[{i}].half_extents", wdim)
             if np.any(half <= 0):
-                raise ValueError(f"obstacles[{i}].half_extents: must be positive, got {half.tolist()}")
+                raise ValueError(
+                    f"obstacles[{i}].half_extents: must be positive, got {half.tolist()}"
+                )
             halves.append(half)
         return cls(
             robot=robot,

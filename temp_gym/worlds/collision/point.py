@@ -90,7 +90,9 @@ def _path_free(path, lower_bounds, upper_bounds, box_lower, box_upper) -> bool:
     if path.shape[0] == 1:
         return _point_free(path[0], lower_bounds, upper_bounds, box_lower, box_upper)
     for i in range(path.shape[0] - 1):
-        if not _segment_free(path[i], path[i + 1], lower_bounds, upper_bounds, box_lower, box_upper):
+        if not _segment_free(
+            path[i], path[i + 1], lower_bounds, upper_bounds, box_lower, box_upper
+        ):
             return False
     return True
 
@@ -153,5 +155,7 @@ class PointBoxChecker:
         """Whether every segment of the polyline ``path`` (K x d) is free."""
         path = self._as_states(path)
         return bool(
-            _path_free(path, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper)
+            _path_free(
+                path, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
+            )
         )

@@ -1,0 +1,52 @@
+"""Environment encoding: an occupancy grid of the workspace, the model's view of obstacles.
+
+A cell is occupied when the box of the cell overlaps an obstacle box (closed intervals), so a
+box thinner than a cell still shows up. The grid covers the workspace region of
+`workspace_region`: the configuration bounds for point robots, and a fixed box around the iiwa
+that holds its whole reach.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from temp_gym.worlds.workspace import Workspace
+
+IIWA_REGION = np.array([[-1.4, -1.4, -0.2], [1.4, 1.4, 1.6]])
+"""Workspace region encoded for the iiwa (metres, base at the origin, z up); holds its reach."""
+
+
+def workspace_region(workspace: Workspace) -> np.ndarray:
+    """The ``(2, workspace_dim)`` region that the occupancy grid covers."""
+    if workspace.robot == "kuka_iiwa14":
+        return IIWA_REGION.copy()
+    return np.asarray(workspace.bounds, dtype=np.float64).copy()
+
+
+def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
+    """Occupancy of the workspace region on a ``resolution``-per-axis grid, as float32 0/1.
+
+    The array has one axis per workspace dimension, indexed ``[x, y]`` or ``[x, y, z]``.
+
+    Example:
+        >>> grid = occupancy_grid(Workspace.of(problem), resolution=32)  # (32, 32) for 2D
+    """
+    if int(resolution) != resolution or resolution < 2:
+        raise ValueError(f"resolution: expected an integer >= 2, got {resolution!r}")
+    resolution = int(resolution)
+    region = workspace_region(workspace)
+    wdim = region.shape[1]
+    cell = (region[1] - region[0]) / resolution
+    lower = workspace.obstacle_lower
+    upper = workspace.obstacle_upper
+    grid = np.zeros((resolution,) * wdim, dtype=bool)
+    for lo, hi in zip(lower, upper):
+        # Cells [region0 + i*cell, region0 + (i+1)*cell] that overlap [lo, hi] on every axis.
+        first = np.floor((lo - region[0]) / cell).astype(int)
+        last = np.ceil((hi - region[0]) / cell).astype(int) - 1
+        first = np.clip(first, 0, resolution - 1)
+        last = np.clip(last, -1, resolution - 1)
+        if np.any(last < first) or np.any(hi < region[0]) or np.any(lo > region[1]):
+            continue
+        grid[tuple(slice(a, b + 1) for a, b in zip(first, last))] = True
+    return grid.astype(np.float32)

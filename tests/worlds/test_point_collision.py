@@ -1,0 +1,89 @@
+import numpy as np
+import pytest
+
+from temp_gym.worlds.collision.point import PointBoxChecker
+
+BOUNDS = np.array([[0.0, 0.0], [20.0, 20.0]])
+
+
+def checker_with(lower, upper, bounds=BOUNDS):
+    return PointBoxChecker(bounds, np.array(lower, float), np.array(upper, float))
+
+
+def brute_force_segment_hits(a, b, lower, upper, samples=20001):
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    points = a + t * (b - a)
+    return bool(np.any(np.all((points >= lower) & (points <= upper), axis=1)))
+
+
+def test_states_inside_boxes_and_out_of_bounds_are_not_free():
+    checker = checker_with([[9, 7]], [[11, 13]])
+    states = np.array([[2, 2], [10, 10], [9, 7], [11, 13], [8.999, 10], [-0.1, 5], [5, 20.1]])
+    assert checker.states_free(states).tolist() == [True, False, False, False, True, False, False]
+
+
+def test_thin_box_caught_where_a_resolution_check_would_step_over_it():
+    # A wall 1e-6 thick: interpolating the edge at any practical resolution misses it.
+    checker = checker_with([[10 - 5e-7, 0]], [[10 + 5e-7, 20]])
+    a, b = np.array([2.0, 5.0]), np.array([18.0, 6.0])
+    interpolated = a + np.linspace(0, 1, 1000)[:, None] * (b - a)
+    assert checker.states_free(interpolated).all()  # a resolution-based check would pass
+    assert not checker.edge_free(a, b)
+    assert not checker.path_free(np.stack([a, b]))
+
+
+def test_corner_clipping_is_caught():
+    checker = checker_with([[9, 9]], [[11, 11]])
+    # The segment passes 1e-9 inside the corner (9, 11).
+    a = np.array([8.0, 10.0 - 1e-9])
+    b = np.array([10.0 - 1e-9, 12.0])
+    assert not checker.edge_free(a, b)
+    # Just outside the corner it is free.
+    assert checker.edge_free(np.array([8.0, 10.0 + 1e-6]), np.array([10.0 - 1e-6, 12.0]))
+
+
+def test_axis_parallel_segments():
+    checker = checker_with([[9, 9]], [[11, 11]])
+    assert not checker.edge_free(np.array([5.0, 10.0]), np.array([15.0, 10.0]))
+    assert checker.edge_free(np.array([5.0, 8.0]), np.array([15.0, 8.0]))
+    assert not checker.edge_free(np.array([10.0, 1.0]), np.array([10.0, 19.0]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_segment_test_agrees_with_dense_sampling(dim):
+    rng = np.random.default_rng(7)
+    bounds = np.array([np.zeros(dim), np.full(dim, 20.0)])
+    centers = rng.uniform(0, 20, size=(6, dim))
+    halves = rng.uniform(0.5, 3, size=(6, dim))
+    checker = PointBoxChecker(bounds, centers - halves, centers + halves)
+    starts = rng.uniform(0, 20, size=(400, dim))
+    ends = starts + rng.normal(scale=4.0, size=(400, dim))
+    ends = np.clip(ends, 0, 20)
+    fast = checker.edges_free(starts, ends)
+    disagreements = 0
+    for a, b, free in zip(starts, ends, fast):
+        hit = any(
+            brute_force_segment_hits(a, b, lo, hi)
+            for lo, hi in zip(centers - halves, centers + halves)
+        )
+        # Dense sampling can only miss hits, never invent them.
+        assert not (free and hit)
+        disagreements += (not free) and (not hit)
+    assert disagreements <= 2  # grazing hits that 20,001 samples can miss
+
+
+def test_batched_edges_match_single_edges_and_paths():
+    checker = checker_with([[9, 0]], [[11, 15]])
+    starts = np.array([[2.0, 2.0], [2.0, 18.0], [2.0, 17.0]])
+    ends = np.array([[18.0, 2.0], [18.0, 18.0], [18.0, 10.0]])
+    batch = checker.edges_free(starts, ends)
+    assert batch.tolist() == [checker.edge_free(a, b) for a, b in zip(starts, ends)]
+    assert batch.tolist() == [False, True, False]
+    assert checker.path_free(np.array([[2.0, 2.0], [2.0, 18.0], [18.0, 18.0], [18.0, 2.0]]))
+    assert not checker.path_free(np.array([[2.0, 2.0], [18.0, 2.0]]))
+
+
+def test_shape_errors():
+    checker = checker_with([[9, 9]], [[11, 11]])
+    with pytest.raises(ValueError, match="states"):
+        checker.states_free(np.zeros((4, 3)))
