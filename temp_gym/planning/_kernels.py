@@ -1,0 +1,253 @@
+"""Numba kernels behind `temp_gym.planning.tree.Tree`: the per-extension hot loops.
+
+The tree lives in flat arrays (see `Tree`): ``positions (capacity, d)``, ``costs (capacity,)``
+and ``links (capacity, 3)`` holding, per node, its parent, its first child and its next
+sibling (``-1`` for none), so children form singly linked lists and a subtree can be walked
+without allocating. Collision checks are not done here: a kernel returns the edges that need
+checking, Python hands them to the (any-robot) checker in one batch, and the next kernel
+consumes the answers.
+
+Nearest and near neighbours are brute-force scans, which beat a tree index for the few
+thousand nodes a planning query grows (20k nodes x 7 dims is still only ~100 us).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+PARENT = 0
+FIRST_CHILD = 1
+NEXT_SIBLING = 2
+
+# A rewire or parent change must lower a cost by more than this, so that floating-point
+# ties never flip edges back and forth (and never close a cycle).
+COST_EPS = 1e-10
+
+
+@numba.njit(cache=True, nogil=True)
+def nearest_and_steer(positions, count, sample, step_size, out_new):
+    """Find the node nearest to ``sample`` and steer from it by at most ``step_size``.
+
+    Writes the steered state into ``out_new`` and returns ``(nearest, distance)`` where
+    ``distance`` is from the nearest node to ``sample`` (before steering).
+    """
+    dim = positions.shape[1]
+    best = 0
+    best_sq = np.inf
+    for i in range(count):
+        sq = 0.0
+        for k in range(dim):
+            diff = positions[i, k] - sample[k]
+            sq += diff * diff
+        if sq < best_sq:
+            best_sq = sq
+            best = i
+    distance = math.sqrt(best_sq)
+    scale = 1.0
+    if distance > step_size:
+        scale = step_size / distance
+    for k in range(dim):
+        out_new[k] = positions[best, k] + scale * (sample[k] - positions[best, k])
+    return best, distance
+
+
+@numba.njit(cache=True, nogil=True)
+def near_and_parent_candidates(
+    positions, costs, count, new, nearest, radius, k_nearest, near_idx, near_dist, cand_idx
+):
+    """Collect the near set of ``new`` and the parent candidates cheaper than ``nearest``.
+
+    The near set is every node within ``radius`` (when ``k_nearest <= 0``) or the
+    ``k_nearest`` closest nodes; ``nearest`` is always in it. Writes the near set into
+    ``near_idx``/``near_dist`` and, sorted by cost-to-come through them, the near nodes that
+    would give ``new`` a lower cost than ``nearest`` does into ``cand_idx`` (their edges still
+    need a collision check; the edge from ``nearest`` is already known to be free).
+
+    Returns ``(num_near, num_candidates)``.
+    """
+    dim = positions.shape[1]
+    dist = np.empty(count)
+    for i in range(count):
+        sq = 0.0
+        for k in range(dim):
+            diff = positions[i, k] - new[k]
+            sq += diff * diff
+        dist[i] = math.sqrt(sq)
+    if k_nearest > 0 and k_nearest < count:
+        threshold = np.partition(dist, k_nearest - 1)[k_nearest - 1]
+    elif k_nearest > 0:
+        threshold = np.inf
+    else:
+        threshold = radius
+    num_near = 0
+    for i in range(count):
+        if dist[i] <= threshold or i == nearest:
+            near_idx[num_near] = i
+            near_dist[num_near] = dist[i]
+            num_near += 1
+    via_nearest = costs[nearest] + dist[nearest]
+    through = np.empty(num_near)
+    num_cand = 0
+    for j in range(num_near):
+        i = near_idx[j]
+        c = costs[i] + near_dist[j]
+        if i != nearest and c < via_nearest - COST_EPS:
+            cand_idx[num_cand] = i
+            through[num_cand] = c
+            num_cand += 1
+    if num_cand > 1:
+        order = np.argsort(through[:num_cand], kind="mergesort")
+        sorted_idx = cand_idx[:num_cand][order]
+        cand_idx[:num_cand] = sorted_idx
+    return num_near, num_cand
+
+
+@numba.njit(cache=True, nogil=True)
+def insert_node(
+    positions,
+    costs,
+    links,
+    count,
+    new,
+    parent,
+    goal,
+    goal_radius_sq,
+    near_idx,
+    near_dist,
+    num_near,
+    rewire_idx,
+):
+    """Append ``new`` as node ``count`` under ``parent`` and list its rewire candidates.
+
+    Rewire candidates are the near nodes whose cost would drop by re-parenting them to the
+    new node; they are written into ``rewire_idx``. Returns
+    ``(cost_to_come, in_goal_region, num_rewire_candidates)``.
+    """
+    dim = positions.shape[1]
+    sq = 0.0
+    goal_sq = 0.0
+    for k in range(dim):
+        positions[count, k] = new[k]
+        diff = new[k] - positions[parent, k]
+        sq += diff * diff
+        to_goal = new[k] - goal[k]
+        goal_sq += to_goal * to_goal
+    cost = costs[parent] + math.sqrt(sq)
+    costs[count] = cost
+    links[count, PARENT] = parent
+    links[count, FIRST_CHILD] = -1
+    links[count, NEXT_SIBLING] = links[parent, FIRST_CHILD]
+    links[parent, FIRST_CHILD] = count
+    num = 0
+    for j in range(num_near):
+        i = near_idx[j]
+        if cost + near_dist[j] < costs[i] - COST_EPS:
+            rewire_idx[num] = i
+            num += 1
+    return cost, goal_sq <= goal_radius_sq, num
+
+
+@numba.njit(cache=True, nogil=True)
+def _detach(links, child):
+    parent = links[child, PARENT]
+    previous = -1
+    current = links[parent, FIRST_CHILD]
+    while current != child:
+        previous = current
+        current = links[current, NEXT_SIBLING]
+    if previous == -1:
+        links[parent, FIRST_CHILD] = links[child, NEXT_SIBLING]
+    else:
+        links[previous, NEXT_SIBLING] = links[child, NEXT_SIBLING]
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_length(positions, a, b):
+    sq = 0.0
+    for k in range(positions.shape[1]):
+        diff = positions[a, k] - positions[b, k]
+        sq += diff * diff
+    return math.sqrt(sq)
+
+
+@numba.njit(cache=True, nogil=True)
+def propagate_costs(positions, costs, links, root, stack):
+    """Recompute the cost of every strict descendant of ``root`` from its parent's cost.
+
+    Costs are recomputed edge by edge rather than shifted by a delta, so they stay exactly
+    the sum of edge lengths along the root path (no drift over many rewires).
+    """
+    top = 0
+    child = links[root, FIRST_CHILD]
+    while child != -1:
+        stack[top] = child
+        top += 1
+        child = links[child, NEXT_SIBLING]
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        costs[node] = costs[links[node, PARENT]] + _edge_length(
+            positions, node, links[node, PARENT]
+        )
+        child = links[node, FIRST_CHILD]
+        while child != -1:
+            stack[top] = child
+            top += 1
+            child = links[child, NEXT_SIBLING]
+
+
+@numba.njit(cache=True, nogil=True)
+def best_goal_node(costs, goal_nodes, num_goal):
+    """Index of the cheapest goal node (``-1`` when there is none)."""
+    best = -1
+    best_cost = np.inf
+    for j in range(num_goal):
+        i = goal_nodes[j]
+        if costs[i] < best_cost:
+            best_cost = costs[i]
+            best = i
+    return best
+
+
+@numba.njit(cache=True, nogil=True)
+def apply_rewires(
+    positions, costs, links, node, cand_idx, free, num_cand, stack, goal_nodes, num_goal, best
+):
+    """Re-parent each candidate whose edge from ``node`` is free and still an improvement.
+
+    The improvement is re-tested against current costs because rewiring one candidate can
+    already have lowered another (its descendant). Returns ``(rewired, best_goal_node)``,
+    the latter recomputed when anything was rewired (otherwise ``best`` is passed through).
+    """
+    rewired = 0
+    for j in range(num_cand):
+        if not free[j]:
+            continue
+        i = cand_idx[j]
+        through = costs[node] + _edge_length(positions, node, i)
+        if through >= costs[i] - COST_EPS:
+            continue
+        _detach(links, i)
+        links[i, PARENT] = node
+        links[i, NEXT_SIBLING] = links[node, FIRST_CHILD]
+        links[node, FIRST_CHILD] = i
+        costs[i] = through
+        propagate_costs(positions, costs, links, i, stack)
+        rewired += 1
+    if rewired > 0 and num_goal > 0:
+        best = best_goal_node(costs, goal_nodes, num_goal)
+    return rewired, best
+
+
+@numba.njit(cache=True, nogil=True)
+def root_path_indices(links, node, out):
+    """Write the node indices from ``node`` up to the root into ``out``; return the count."""
+    num = 0
+    while node != -1:
+        out[num] = node
+        num += 1
+        node = links[node, PARENT]
+    return num

@@ -1,0 +1,196 @@
+"""OMPL's RRTstar and InformedRRTstar on our `Problem`: the reference baselines.
+
+Both planners see the world only through our fast checker: state validity calls
+``states_free`` and motion validity is a custom ``MotionValidator`` that calls ``edge_free``
+(OMPL's default discrete motion check, at its default resolution, could cut box corners).
+The range (steering step), goal region (a ``GoalState`` with threshold ``goal_radius``),
+goal bias and path-length objective match our planners, so the comparison is
+like for like. OMPL keeps its own defaults otherwise: RRTstar uses k-nearest neighbours
+(rewire factor 1.1) and InformedRRTstar prunes its tree.
+
+Node budget: OMPL cannot stop at a tree size, so the termination condition (evaluated once per
+iteration) and the motion validator together count the nodes added: the first motion checked
+in an iteration is the steered edge, and RRTstar adds a node exactly when it is valid. Pruned
+nodes are still counted, as in our planners, which never prune.
+
+Seeding: OMPL seeds its random generators from one process-wide seed generator that can
+only be seeded before its first use, so the first OMPL run in a process is seeded with its
+``seed`` and later runs continue that stream (a fresh process with the same sequence of runs
+reproduces them).
+
+Needs ``pip install temp-gym[ompl]``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings
+from temp_gym.planning.tree import default_step_size
+from temp_gym.problem import Problem
+from temp_gym.worlds.collision import CollisionChecker, certify_path, make_checker
+
+OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star")
+_SEEDED = False
+
+
+def _import_ompl():
+    try:
+        from ompl import base, geometric, util
+    except ImportError as error:
+        raise ImportError(
+            "the OMPL planners need the ompl Python bindings: pip install temp-gym[ompl]"
+        ) from error
+    return base, geometric, util
+
+
+class _Counters:
+    """What the callbacks count during one solve."""
+
+    def __init__(self, max_nodes: int, deadline: float) -> None:
+        self.max_nodes = max_nodes
+        self.deadline = deadline
+        self.nodes = 1
+        self.iterations = 0
+        self.failures = 0
+        self.checks = 0
+        self.first_check_pending = False
+
+
+def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> PlanResult:
+    """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result."""
+    if name not in OMPL_PLANNERS:
+        raise ValueError(f"planner: unknown OMPL planner {name!r}; expected one of {OMPL_PLANNERS}")
+    ob, og, ou = _import_ompl()
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+    global _SEEDED
+    if not _SEEDED:
+        ou.RNG.setSeed(int(settings.seed))
+        _SEEDED = True
+    started = time.perf_counter()
+    dim = problem.dim
+    checker = make_checker(problem)
+    time_limit = math.inf if settings.time_limit is None else settings.time_limit
+    counters = _Counters(settings.max_nodes, started + time_limit)
+
+    space = ob.RealVectorStateSpace(dim)
+    bounds = ob.RealVectorBounds(dim)
+    for k in range(dim):
+        bounds.setLow(k, float(problem.bounds[0, k]))
+        bounds.setHigh(k, float(problem.bounds[1, k]))
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+
+    def to_array(state) -> np.ndarray:
+        return np.array([state[k] for k in range(dim)])
+
+    def state_is_valid(state) -> bool:
+        counters.checks += 1
+        return bool(checker.states_free(to_array(state)[None])[0])
+
+    si.setStateValidityChecker(state_is_valid)
+    validator = _make_motion_validator(ob, si, checker, counters, to_array)
+    si.setMotionValidator(validator)
+    si.setup()
+
+    pdef = ob.ProblemDefinition(si)
+    start = space.allocState()
+    goal = space.allocState()
+    for k in range(dim):
+        start[k] = float(problem.start[k])
+        goal[k] = float(problem.goal[k])
+    pdef.addStartState(start)
+    goal_region = ob.GoalState(si)
+    goal_region.setState(goal)
+    goal_region.setThreshold(problem.goal_radius)
+    pdef.setGoal(goal_region)
+    objective = ob.PathLengthOptimizationObjective(si)
+    if settings.stop_at_first:
+        objective.setCostThreshold(ob.Cost(math.inf))
+    elif settings.target_cost is not None:
+        objective.setCostThreshold(ob.Cost(settings.target_cost))
+    else:
+        objective.setCostThreshold(ob.Cost(-math.inf))
+    pdef.setOptimizationObjective(objective)
+
+    planner = og.RRTstar(si) if name == "ompl_rrt_star" else og.InformedRRTstar(si)
+    step = default_step_size(problem) if settings.step_size is None else settings.step_size
+    planner.setRange(step)
+    planner.setGoalBias(settings.goal_bias)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+
+    log = AnytimeLog()
+    best = [math.inf]
+    max_samples = settings.sample_limit
+
+    def should_stop() -> bool:
+        # Called once at the top of every planner iteration: poll the best cost, then arm the
+        # motion validator to recognise this iteration's steered edge.
+        cost = planner.bestCost().value()
+        if cost < best[0]:
+            best[0] = cost
+            log.record(counters.nodes, time.perf_counter() - started, cost)
+        if (
+            counters.nodes >= counters.max_nodes
+            or counters.iterations >= max_samples
+            or time.perf_counter() >= counters.deadline
+        ):
+            return True
+        counters.iterations += 1
+        counters.first_check_pending = True
+        return False
+
+    planner.solve(ob.PlannerTerminationCondition(should_stop))
+    path = None
+    cost = math.inf
+    rejected = 0
+    if pdef.hasExactSolution():
+        solution = pdef.getSolutionPath()
+        candidate = np.array([to_array(s) for s in solution.getStates()])
+        if certify_path(problem, candidate):
+            path, cost = (
+                candidate,
+                float(np.sum(np.linalg.norm(np.diff(candidate, axis=0), axis=1))),
+            )
+        else:
+            rejected = 1
+    history = log.as_arrays()
+    first = len(history["nodes"]) > 0
+    return PlanResult(
+        planner=name,
+        success=path is not None,
+        path=path,
+        cost=cost,
+        nodes=counters.nodes,
+        samples=counters.iterations,
+        sampling_failures=counters.failures,
+        collision_checks=counters.checks,
+        wall_time=time.perf_counter() - started,
+        time_to_first_solution=float(history["time"][0]) if first else None,
+        nodes_to_first_solution=int(history["nodes"][0]) if first else None,
+        history=history,
+        seed=settings.seed,
+        certification_failures=rejected,
+    )
+
+
+def _make_motion_validator(ob, si, checker: CollisionChecker, counters: _Counters, to_array):
+    """A ``MotionValidator`` calling our exact-for-points / conservative ``edge_free``."""
+
+    class EdgeMotionValidator(ob.MotionValidator):
+        def checkMotion(self, s1, s2, *last_valid) -> bool:  # noqa: N802 (OMPL's name)
+            counters.checks += 1
+            free = bool(checker.edge_free(to_array(s1), to_array(s2)))
+            if counters.first_check_pending:
+                counters.first_check_pending = False
+                if free:
+                    counters.nodes += 1
+                else:
+                    counters.failures += 1
+            return free
+
+    return EdgeMotionValidator(si)

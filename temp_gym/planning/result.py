@@ -1,0 +1,157 @@
+"""`PlanResult` and `PlanSettings`: what every planner gets and returns."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from temp_gym.planning.tree import Tree
+    from temp_gym.problem import Problem
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """Validated arguments of `temp_gym.planning.plan`, handed to every planner."""
+
+    seed: int = 0
+    """Seed of the planner's random generator."""
+    max_nodes: int = 5000
+    """Stop once the tree has this many nodes (root included)."""
+    time_limit: float | None = None
+    """Stop after this many seconds of wall time (None: no limit)."""
+    stop_at_first: bool = False
+    """Stop at the first solution."""
+    step_size: float | None = None
+    """Steering step; None picks `temp_gym.planning.tree.default_step_size`."""
+    goal_bias: float = 0.05
+    """Probability of sampling the goal itself."""
+    target_cost: float | None = None
+    """Stop once a solution at most this costly is found."""
+    max_samples: int | None = None
+    """Stop after this many samples; None means ``100 * max_nodes`` (a walled-in start)."""
+
+    @property
+    def sample_limit(self) -> int:
+        """The effective sample limit."""
+        return 100 * self.max_nodes if self.max_samples is None else self.max_samples
+
+
+@dataclass
+class PlanResult:
+    """The outcome of one planning run; `to_dict` is JSON-able (the CLI writes it)."""
+
+    planner: str
+    """Registered planner name."""
+    success: bool
+    """Whether a path reaching the goal region was found and certified collision-free."""
+    path: np.ndarray | None
+    """States ``(K, d)`` from start to a state in the goal region, or None."""
+    cost: float
+    """Length of ``path`` (inf without one)."""
+    nodes: int
+    """Tree nodes added, root included (planners that prune still count pruned nodes)."""
+    samples: int
+    """Samples drawn."""
+    sampling_failures: int
+    """Samples that added no node: the steered edge collided (or the sample was a node)."""
+    collision_checks: int
+    """State and edge checks performed by the planner."""
+    wall_time: float
+    """Seconds spent planning."""
+    time_to_first_solution: float | None
+    """Seconds until the first solution (None: never)."""
+    nodes_to_first_solution: int | None
+    """Tree size at the first solution (None: never)."""
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+    """Anytime log, one entry per best-cost improvement: ``nodes``, ``time``, ``best_cost``."""
+    seed: int = 0
+    """Seed of the run."""
+    certification_failures: int = 0
+    """Solutions the exact checker rejected (never reported as the path)."""
+
+    def cost_at(self, nodes: int) -> float:
+        """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""
+        counts = self.history.get("nodes", np.empty(0))
+        hits = np.flatnonzero(np.asarray(counts) <= nodes)
+        return math.inf if len(hits) == 0 else float(self.history["best_cost"][hits[-1]])
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-able dictionary (inf costs become None)."""
+
+        def number(x: float | None) -> float | None:
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        return {
+            "planner": self.planner,
+            "success": bool(self.success),
+            "path": None if self.path is None else np.asarray(self.path).tolist(),
+            "cost": number(self.cost),
+            "nodes": int(self.nodes),
+            "samples": int(self.samples),
+            "sampling_failures": int(self.sampling_failures),
+            "collision_checks": int(self.collision_checks),
+            "wall_time": float(self.wall_time),
+            "time_to_first_solution": number(self.time_to_first_solution),
+            "nodes_to_first_solution": self.nodes_to_first_solution,
+            "history": {k: np.asarray(v).tolist() for k, v in self.history.items()},
+            "seed": int(self.seed),
+            "certification_failures": int(self.certification_failures),
+        }
+
+    def summary(self) -> str:
+        """One line: planner, success, cost, nodes, time."""
+        status = f"cost {self.cost:.4f}" if self.success else "no solution"
+        return (
+            f"{self.planner} seed={self.seed}: {status}, {self.nodes} nodes, "
+            f"{self.samples} samples ({self.sampling_failures} failed), "
+            f"{self.collision_checks} collision checks, {self.wall_time:.3f} s"
+        )
+
+
+class AnytimeLog:
+    """Records ``(nodes, time, best_cost)`` whenever the best cost improves."""
+
+    def __init__(self) -> None:
+        self.nodes: list[int] = []
+        self.times: list[float] = []
+        self.costs: list[float] = []
+
+    def record(self, nodes: int, elapsed: float, cost: float) -> None:
+        """Append one improvement."""
+        self.nodes.append(int(nodes))
+        self.times.append(float(elapsed))
+        self.costs.append(float(cost))
+
+    def as_arrays(self) -> dict[str, np.ndarray]:
+        """The history dictionary of `PlanResult`."""
+        return {
+            "nodes": np.asarray(self.nodes, dtype=np.int64),
+            "time": np.asarray(self.times, dtype=np.float64),
+            "best_cost": np.asarray(self.costs, dtype=np.float64),
+        }
+
+
+def certified_tree_solution(
+    problem: Problem, tree: Tree, max_tries: int = 32
+) -> tuple[np.ndarray | None, float, int]:
+    """The cheapest goal-node path the exact checker certifies: ``(path, cost, rejected)``.
+
+    Goal nodes are tried in cost order (at most ``max_tries``), so a rare fast-versus-exact
+    disagreement falls back to the next-best solution instead of failing the run;
+    ``rejected`` counts the paths the exact checker rejected.
+    """
+    from temp_gym.worlds.collision import certify_path
+
+    goal_nodes = tree.goal_nodes
+    order = goal_nodes[np.argsort(tree.costs[goal_nodes], kind="stable")][:max_tries]
+    rejected = 0
+    for node in order:
+        path = tree.path_to(int(node))
+        if certify_path(problem, path):
+            return path, float(tree.costs[node]), rejected
+        rejected += 1
+    return None, math.inf, rejected

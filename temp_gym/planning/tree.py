@@ -1,0 +1,407 @@
+"""The tree-extension core: one RRT* tree that every planner and the Gymnasium env drive.
+
+`Tree.extend` is the single entry point: give it a sample, and it steers from the nearest
+node, checks the steered edge (motion validity), chooses the cheapest collision-free parent
+among the near nodes, inserts the node, rewires the near nodes through it (propagating the
+lower costs to all their descendants) and updates the best solution. RRT* is a loop of
+`extend` over uniform samples; Informed RRT* changes the sampler; TEMP's attention phase
+calls `Tree.extend_with_fallback` (Algorithm 1, lines 5-10); the env calls `extend` once
+per step.
+
+The tree is stored in preallocated numpy arrays that double when full (no object per node)
+and the hot loops are numba kernels (`temp_gym.planning._kernels`).
+
+Near neighbours (Karaman & Frazzoli 2011, "Sampling-based algorithms for optimal motion
+planning", Thm. 38 and its k-nearest variant), with ``n`` the number of nodes plus one:
+
+* ``"radius"`` (default): ``r = min(gamma * (log n / n) ** (1/d), max_radius)`` with
+  ``gamma = rewire_factor * 2 * (1 + 1/d) ** (1/d) * (mu_free / zeta_d) ** (1/d)``, where
+  ``mu_free`` is the free configuration-space volume (estimated once by Monte Carlo with the
+  fast checker) and ``zeta_d`` the volume of the unit d-ball. ``rewire_factor > 1`` keeps
+  ``gamma`` above the asymptotic-optimality bound. ``max_radius`` defaults to
+  ``2 * step_size``: for the budgets we run the cap is what binds.
+* ``"k_nearest"``: ``k = ceil(rewire_factor * e * (1 + 1/d) * log n)`` nearest nodes.
+
+Example:
+    >>> tree = Tree(problem)
+    >>> result = tree.extend(np.array([5.0, 5.0]))
+    >>> result.node, tree.num_nodes, tree.best_cost
+    (1, 2, inf)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from temp_gym.planning import _kernels as kernels
+from temp_gym.worlds.collision import CollisionChecker, make_checker
+
+if TYPE_CHECKING:
+    from temp_gym.problem import Problem
+
+NEIGHBOURHOODS = ("radius", "k_nearest")
+_FREE_VOLUME_SAMPLES = 4096
+
+
+def default_step_size(problem: Problem) -> float:
+    """The steering step ``e`` used when none is given.
+
+    Point robots: 5% of the largest side of the bounds (1.0 in the usual ``[0, 20]^d``
+    worlds). The 7-DOF iiwa: 0.5 rad in joint space.
+    """
+    if problem.robot == "kuka_iiwa14":
+        return 0.5
+    return 0.05 * float(np.max(problem.bounds[1] - problem.bounds[0]))
+
+
+def unit_ball_volume(dim: int) -> float:
+    """Volume ``zeta_d`` of the unit ball in ``dim`` dimensions."""
+    return math.pi ** (dim / 2) / math.gamma(dim / 2 + 1)
+
+
+def estimate_free_volume(problem: Problem, checker: CollisionChecker) -> float:
+    """Monte Carlo estimate of the free configuration-space volume (deterministic)."""
+    low, high = problem.bounds
+    rng = np.random.default_rng(0)
+    states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
+    fraction = max(float(np.mean(checker.states_free(states))), 1.0 / _FREE_VOLUME_SAMPLES)
+    return fraction * float(np.prod(high - low))
+
+
+class Sampler(Protocol):
+    """Anything that draws one configuration from an explicit generator."""
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """Return one state of shape ``(d,)``."""
+        ...
+
+
+@dataclass(frozen=True, slots=True)
+class ExtendResult:
+    """What one `Tree.extend` (or `Tree.extend_with_fallback`) call did."""
+
+    node: int
+    """Index of the node added, or -1 when none was (the steered edge collided)."""
+    nearest: int
+    """The nearest node the last tried sample was steered from."""
+    collided: bool
+    """Whether the last tried steered edge was in collision."""
+    reached_goal: bool
+    """Whether the added node lies in the goal region."""
+    improved: bool
+    """Whether the best solution cost went down during this call."""
+    rewired: int
+    """How many near nodes were re-parented through the new node."""
+    samples: int
+    """Samples used: 1 for `Tree.extend`, 1 + random retries for the fallback."""
+    failures: int
+    """Samples whose extension failed (collided or zero-length) during this call."""
+    collision_checks: int
+    """State and edge checks performed during this call."""
+
+
+class Tree:
+    """An RRT* tree over one `Problem`, grown one sample at a time.
+
+    Args:
+        problem: The query; the root is ``problem.start``.
+        checker: Fast collision checker; defaults to ``make_checker(problem)``.
+        step_size: Steering step ``e``; defaults to `default_step_size`.
+        neighbourhood: ``"radius"`` or ``"k_nearest"`` (see the module docstring).
+        rewire_factor: Multiplies ``gamma`` (radius) or ``k`` (k-nearest); above 1.
+        max_radius: Cap of the near radius; defaults to ``2 * step_size``.
+        parent_check_chunk: Parent candidates are collision-checked in cost order, this many
+            per batched call, stopping at the first free one. Small for expensive checkers.
+        capacity: Initial node capacity; doubles when full.
+
+    Counters for wrappers and results: `num_nodes`, `samples`, `sampling_failures`,
+    `collision_checks`; solution: `best_node`, `best_cost`, `best_path`; the newest node's
+    root path (TEMP's "path so far") is `path_so_far`.
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        checker: CollisionChecker | None = None,
+        step_size: float | None = None,
+        neighbourhood: str = "radius",
+        rewire_factor: float = 1.1,
+        max_radius: float | None = None,
+        parent_check_chunk: int = 8,
+        capacity: int = 1024,
+    ) -> None:
+        if neighbourhood not in NEIGHBOURHOODS:
+            raise ValueError(
+                f"neighbourhood: expected one of {NEIGHBOURHOODS}, got {neighbourhood!r}"
+            )
+        step_size = default_step_size(problem) if step_size is None else float(step_size)
+        if not math.isfinite(step_size) or step_size <= 0:
+            raise ValueError(f"step_size: must be positive and finite, got {step_size}")
+        if not rewire_factor > 0:
+            raise ValueError(f"rewire_factor: must be positive, got {rewire_factor}")
+        if parent_check_chunk < 1:
+            raise ValueError(f"parent_check_chunk: must be at least 1, got {parent_check_chunk}")
+        self.problem = problem
+        self.checker = make_checker(problem) if checker is None else checker
+        self.dim = problem.dim
+        self.step_size = step_size
+        self.neighbourhood = neighbourhood
+        self.rewire_factor = float(rewire_factor)
+        self.max_radius = 2.0 * step_size if max_radius is None else float(max_radius)
+        self.parent_check_chunk = int(parent_check_chunk)
+        self._goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
+        self._goal_radius_sq = problem.goal_radius**2
+        dim = self.dim
+        if neighbourhood == "radius":
+            free_volume = estimate_free_volume(problem, self.checker)
+            self.gamma = (
+                self.rewire_factor
+                * 2.0
+                * (1.0 + 1.0 / dim) ** (1.0 / dim)
+                * (free_volume / unit_ball_volume(dim)) ** (1.0 / dim)
+            )
+        else:
+            self.gamma = self.rewire_factor * math.e * (1.0 + 1.0 / dim)
+        capacity = max(int(capacity), 2)
+        self.positions = np.empty((capacity, dim))
+        self.costs = np.empty(capacity)
+        self.links = np.empty((capacity, 3), dtype=np.int64)
+        self._near_idx = np.empty(capacity, dtype=np.int64)
+        self._near_dist = np.empty(capacity)
+        self._cand_idx = np.empty(capacity, dtype=np.int64)
+        self._stack = np.empty(capacity, dtype=np.int64)
+        self._goal_nodes = np.empty(capacity, dtype=np.int64)
+        self._new = np.empty(dim)
+        self.positions[0] = problem.start
+        self.costs[0] = 0.0
+        self.links[0] = (-1, -1, -1)
+        self.num_nodes = 1
+        self.num_goal_nodes = 0
+        self.newest = 0
+        """Index of the most recently added node (0, the root, before any)."""
+        self.best_node = -1
+        self.best_cost = math.inf
+        self.samples = 0
+        self.sampling_failures = 0
+        self.collision_checks = 0
+        if float(np.sum((problem.start - self._goal) ** 2)) <= self._goal_radius_sq:
+            self._goal_nodes[0] = 0
+            self.num_goal_nodes = 1
+            self.best_node, self.best_cost = 0, 0.0
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def capacity(self) -> int:
+        """Nodes the arrays hold before the next doubling."""
+        return len(self.costs)
+
+    @property
+    def parents(self) -> np.ndarray:
+        """Parent index per node (-1 for the root), a view of length `num_nodes`."""
+        return self.links[: self.num_nodes, kernels.PARENT]
+
+    @property
+    def goal_nodes(self) -> np.ndarray:
+        """Indices of the nodes inside the goal region, in insertion order (a copy)."""
+        return self._goal_nodes[: self.num_goal_nodes].copy()
+
+    def near_radius(self) -> float:
+        """The current near radius (radius rule) before the next insertion."""
+        n = self.num_nodes + 1
+        return min(self.gamma * (math.log(n) / n) ** (1.0 / self.dim), self.max_radius)
+
+    def near_count(self) -> int:
+        """The current k of the k-nearest rule before the next insertion."""
+        return max(1, math.ceil(self.gamma * math.log(self.num_nodes + 1)))
+
+    def in_goal(self, state: np.ndarray) -> bool:
+        """Whether ``state`` lies in the goal region (closed ball)."""
+        diff = np.asarray(state, dtype=np.float64) - self._goal
+        return float(diff @ diff) <= self._goal_radius_sq
+
+    def path_indices(self, node: int) -> np.ndarray:
+        """Node indices from the root to ``node``."""
+        if not 0 <= node < self.num_nodes:
+            raise IndexError(f"node: {node} is not in the tree of {self.num_nodes} nodes")
+        count = kernels.root_path_indices(self.links, node, self._stack)
+        return self._stack[:count][::-1].copy()
+
+    def path_to(self, node: int) -> np.ndarray:
+        """States ``(K, d)`` from the root to ``node`` (a fresh array)."""
+        return self.positions[self.path_indices(node)]
+
+    def path_so_far(self) -> np.ndarray:
+        """The root path of the newest node: TEMP's sigma' (Algorithm 1, line 13)."""
+        return self.path_to(self.newest)
+
+    def best_path(self) -> np.ndarray | None:
+        """Root path of the cheapest goal node, or None before the first solution."""
+        return None if self.best_node < 0 else self.path_to(self.best_node)
+
+    # ------------------------------------------------------------------ growth
+    def _grow(self) -> None:
+        capacity = 2 * self.capacity
+        for name in ("positions", "costs", "links"):
+            old = getattr(self, name)
+            new = np.empty((capacity,) + old.shape[1:], dtype=old.dtype)
+            new[: self.num_nodes] = old[: self.num_nodes]
+            setattr(self, name, new)
+        goal_nodes = np.empty(capacity, dtype=np.int64)
+        goal_nodes[: self.num_goal_nodes] = self._goal_nodes[: self.num_goal_nodes]
+        self._goal_nodes = goal_nodes
+        self._near_idx = np.empty(capacity, dtype=np.int64)
+        self._near_dist = np.empty(capacity)
+        self._cand_idx = np.empty(capacity, dtype=np.int64)
+        self._stack = np.empty(capacity, dtype=np.int64)
+
+    # ------------------------------------------------------------------ extension
+    def extend(self, sample: np.ndarray) -> ExtendResult:
+        """Extend the tree towards ``sample`` (one RRT* iteration after sampling).
+
+        Args:
+            sample: A state of shape ``(d,)``; it need not be free or in bounds.
+
+        Returns:
+            An `ExtendResult`; ``node == -1`` when the steered edge collided (or the sample
+            coincided with its nearest node), in which case the tree is unchanged.
+        """
+        if type(sample) is not np.ndarray or sample.dtype != np.float64:
+            sample = np.asarray(sample, dtype=np.float64)
+        if sample.shape != (self.dim,):
+            raise ValueError(f"sample: expected shape ({self.dim},), got {sample.shape}")
+        self.samples += 1
+        new = self._new
+        nearest, distance = kernels.nearest_and_steer(
+            self.positions, self.num_nodes, sample, self.step_size, new
+        )
+        if not distance > 0.0:
+            self.sampling_failures += 1
+            return ExtendResult(-1, nearest, False, False, False, 0, 1, 1, 0)
+        checks = 1
+        if not self.checker.edge_free(self.positions[nearest], new):
+            self.sampling_failures += 1
+            self.collision_checks += 1
+            return ExtendResult(-1, nearest, True, False, False, 0, 1, 1, 1)
+        if self.num_nodes == self.capacity:
+            self._grow()
+        radius, k = (
+            (self.near_radius(), 0) if self.neighbourhood == "radius" else (0.0, self.near_count())
+        )
+        num_near, num_cand = kernels.near_and_parent_candidates(
+            self.positions,
+            self.costs,
+            self.num_nodes,
+            new,
+            nearest,
+            radius,
+            k,
+            self._near_idx,
+            self._near_dist,
+            self._cand_idx,
+        )
+        parent = nearest
+        chunk = self.parent_check_chunk
+        for begin in range(0, num_cand, chunk):
+            cands = self._cand_idx[begin : min(begin + chunk, num_cand)]
+            free = self.checker.edges_free(
+                self.positions[cands], np.repeat(new[None], len(cands), 0)
+            )
+            checks += len(cands)
+            hits = np.flatnonzero(free)
+            if len(hits):
+                parent = int(cands[hits[0]])
+                break
+        node = self.num_nodes
+        cost, reached_goal, num_rewire = kernels.insert_node(
+            self.positions,
+            self.costs,
+            self.links,
+            node,
+            new,
+            parent,
+            self._goal,
+            self._goal_radius_sq,
+            self._near_idx,
+            self._near_dist,
+            num_near,
+            self._cand_idx,
+        )
+        self.num_nodes += 1
+        self.newest = node
+        best_before = self.best_cost
+        if reached_goal:
+            self._goal_nodes[self.num_goal_nodes] = node
+            self.num_goal_nodes += 1
+            if cost < self.best_cost:
+                self.best_node, self.best_cost = node, cost
+        rewired = 0
+        if num_rewire:
+            targets = self._cand_idx[:num_rewire]
+            free = self.checker.edges_free(
+                np.repeat(new[None], num_rewire, 0), self.positions[targets]
+            )
+            checks += num_rewire
+            rewired, best = kernels.apply_rewires(
+                self.positions,
+                self.costs,
+                self.links,
+                node,
+                targets,
+                np.asarray(free, dtype=np.bool_),
+                num_rewire,
+                self._stack,
+                self._goal_nodes,
+                self.num_goal_nodes,
+                self.best_node,
+            )
+            if rewired and best >= 0:
+                self.best_node, self.best_cost = best, float(self.costs[best])
+        self.collision_checks += checks
+        return ExtendResult(
+            node, nearest, False, reached_goal, self.best_cost < best_before, rewired, 1, 0, checks
+        )
+
+    def extend_with_fallback(
+        self,
+        sample: np.ndarray,
+        sampler: Sampler,
+        rng: np.random.Generator,
+        max_tries: int = 1000,
+    ) -> ExtendResult:
+        """Algorithm 1, lines 5-10: try ``sample``; while it fails, retry with random samples.
+
+        Args:
+            sample: The proposed state (e.g. from the attention policy).
+            sampler: Source of the random replacement samples.
+            rng: Generator the replacements are drawn from.
+            max_tries: Most random retries, so a walled-in tree cannot loop forever.
+
+        Returns:
+            The `ExtendResult` of the last attempt, with ``samples``, ``failures`` and
+            ``collision_checks`` summed over all attempts.
+        """
+        if max_tries < 0:
+            raise ValueError(f"max_tries: must be non-negative, got {max_tries}")
+        result = self.extend(sample)
+        samples, failures, checks, tries = 1, result.failures, result.collision_checks, 0
+        while result.node < 0 and tries < max_tries:
+            result = self.extend(sampler.sample(rng))
+            tries += 1
+            samples += 1
+            failures += result.failures
+            checks += result.collision_checks
+        return ExtendResult(
+            result.node,
+            result.nearest,
+            result.collided,
+            result.reached_goal,
+            result.improved,
+            result.rewired,
+            samples,
+            failures,
+            checks,
+        )

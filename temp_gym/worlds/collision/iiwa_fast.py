@@ -1,0 +1,355 @@
+"""Fast, conservative collision checking for the KUKA iiwa 14 among axis-aligned boxes.
+
+The planners' hot loop. One numba kernel does forward kinematics and tests the sphere model
+of `temp_gym.worlds.robots.sphere_fit` (spheres that provably cover each link's collision
+mesh) against the boxes, with early exit. A link's spheres are only tested against a box when
+the link's bounding sphere touches it (the broad phase), and link_0, which never moves, is
+tested once in ``__init__``. Boxes are closed: touching counts as a collision.
+
+**Conservative.** Spheres cover the meshes, so a state this checker calls free is free for
+`IiwaExactChecker` too (the tests check it on tens of thousands of states); the converse
+fails on a few percent of states, where only a sphere's bulge touches a box.
+
+**Self-collision is not checked, by either checker.** The pybullet model the benchmarks
+mirror loads without ``URDF_USE_SELF_COLLISION``, the task definition is about obstacles, and
+the joint limits already keep adjacent links apart. A sphere test of non-adjacent pairs would
+reject folded but legal poses because sphere bulges overlap near the joints, while the
+exact checker would need 21 extra mesh-mesh pairs per state. Leaving it out of both keeps the
+guarantee "fast never calls free what exact calls colliding" trivially true for it.
+
+**Invalid states.** A state outside the joint limits, or with a NaN or inf coordinate, is
+not free (no exception); wrongly shaped input raises `ValueError`.
+
+**Motion validity (resolution).** An edge is the straight joint-space segment. Rotating joint
+``i`` by ``dq_i`` moves any point of link ``j`` by at most ``|dq_i| R[i, j]`` (see
+`temp_gym.worlds.robots.iiwa14.motion_radii`), so along the edge link ``j`` moves at most
+``W_j = sum_i |dq_i| R[i, j]``. The edge is split into ``n = ceil(max_j W_j / resolution)``
+equal steps (``resolution`` = 0.02 m of workspace motion by default) and each of the
+``n + 1`` states, endpoints included, is checked with link ``j``'s spheres grown by
+``W_j / (2 n)``. Every intermediate pose is within half a step of a checked one, so this
+certifies the whole motion against the sphere model, thin boxes included, rather than sampling
+it. States are checked in bisection order so that blocked edges fail early.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from temp_gym.worlds.robots.iiwa14 import NUM_JOINTS, NUM_LINKS, fk_into, load_model, motion_radii
+from temp_gym.worlds.robots.sphere_fit import load_mesh_radii, load_sphere_model
+
+DEFAULT_RESOLUTION = 0.02
+"""Largest workspace displacement (m) of any link point between two checked states."""
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sphere_hits_box(x, y, z, radius, box) -> bool:
+    """Closed sphere versus closed box ``box = (cx, cy, cz, hx, hy, hz)`` (branch-free gap)."""
+    gx = max(abs(x - box[0]) - box[3], 0.0)
+    gy = max(abs(y - box[1]) - box[4], 0.0)
+    gz = max(abs(z - box[2]) - box[5], 0.0)
+    return gx * gx + gy * gy + gz * gz <= radius * radius
+
+
+@numba.njit(cache=True, nogil=True)
+def _in_bounds(q, lower_bounds, upper_bounds) -> bool:
+    for k in range(q.shape[0]):
+        # Written so that NaN fails the test.
+        if not (q[k] >= lower_bounds[k] and q[k] <= upper_bounds[k]):
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _pose_free(q, model, spheres, boxes, inflation, poses) -> bool:
+    """Whether the moving links' spheres (grown by ``inflation[j]``) miss every box."""
+    joint_origins, joint_axes = model
+    centers, radii, link_start, bound_centers, bound_radii = spheres
+    box_params, link_boxes, link_box_count = boxes
+    fk_into(q, joint_origins, joint_axes, poses)
+    # Distal links first: they sweep the most space, so collisions are found sooner.
+    for j in range(poses.shape[0] - 1, 0, -1):
+        pose = poses[j]
+        grow = inflation[j]
+        c = bound_centers[j]
+        bx = pose[0, 0] * c[0] + pose[0, 1] * c[1] + pose[0, 2] * c[2] + pose[0, 3]
+        by = pose[1, 0] * c[0] + pose[1, 1] * c[1] + pose[1, 2] * c[2] + pose[1, 3]
+        bz = pose[2, 0] * c[0] + pose[2, 1] * c[1] + pose[2, 2] * c[2] + pose[2, 3]
+        for n in range(link_box_count[j]):
+            box = box_params[link_boxes[j, n]]
+            if not _sphere_hits_box(bx, by, bz, bound_radii[j] + grow, box):
+                continue
+            for s in range(link_start[j], link_start[j + 1]):
+                c = centers[s]
+                x = pose[0, 0] * c[0] + pose[0, 1] * c[1] + pose[0, 2] * c[2] + pose[0, 3]
+                y = pose[1, 0] * c[0] + pose[1, 1] * c[1] + pose[1, 2] * c[2] + pose[1, 3]
+                z = pose[2, 0] * c[0] + pose[2, 1] * c[1] + pose[2, 2] * c[2] + pose[2, 3]
+                if _sphere_hits_box(x, y, z, radii[s] + grow, box):
+                    return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _states_free(states, bounds, model, spheres, boxes):
+    out = np.zeros(states.shape[0], dtype=np.bool_)
+    poses = np.empty((model[0].shape[0] + 1, 4, 4))
+    no_inflation = np.zeros(poses.shape[0])
+    for i in range(states.shape[0]):
+        if _in_bounds(states[i], bounds[0], bounds[1]):
+            out[i] = _pose_free(states[i], model, spheres, boxes, no_inflation, poses)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_free(start, end, bounds, model, spheres, boxes, radii, resolution, scratch) -> bool:
+    # The configuration space is a box: a segment with both ends in bounds stays in bounds.
+    if not (_in_bounds(start, bounds[0], bounds[1]) and _in_bounds(end, bounds[0], bounds[1])):
+        return False
+    poses, inflation, q = scratch
+    dim = start.shape[0]
+    worst = 0.0
+    for j in range(inflation.shape[0]):
+        sweep = 0.0
+        for i in range(dim):
+            sweep += abs(end[i] - start[i]) * radii[i, j]
+        inflation[j] = sweep
+        worst = max(worst, sweep)
+    steps = max(1, int(math.ceil(worst / resolution)))
+    for j in range(inflation.shape[0]):
+        inflation[j] /= 2.0 * steps
+    if not _pose_free(start, model, spheres, boxes, inflation, poses):
+        return False
+    if not _pose_free(end, model, spheres, boxes, inflation, poses):
+        return False
+    stride = 1
+    while stride < steps:
+        stride *= 2
+    stride //= 2
+    while stride >= 1:  # bisection order: k = stride * odd visits each 0 < k < steps once
+        for k in range(stride, steps, 2 * stride):
+            t = k / steps
+            for i in range(dim):
+                q[i] = start[i] + t * (end[i] - start[i])
+            if not _pose_free(q, model, spheres, boxes, inflation, poses):
+                return False
+        stride //= 2
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _edges_free(starts, ends, bounds, model, spheres, boxes, radii, resolution):
+    scratch = (
+        np.empty((model[0].shape[0] + 1, 4, 4)),
+        np.empty(model[0].shape[0] + 1),
+        np.empty(starts.shape[1]),
+    )
+    out = np.empty(starts.shape[0], dtype=np.bool_)
+    for i in range(starts.shape[0]):
+        out[i] = _edge_free(starts[i], ends[i], bounds, model, spheres, boxes, radii, resolution,
+                            scratch)  # fmt: skip
+    return out
+
+
+def _as_boxes(box_lower: np.ndarray, box_upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validated ``(M, 3)`` float64 box corners."""
+    lower = np.ascontiguousarray(box_lower, dtype=np.float64)
+    upper = np.ascontiguousarray(box_upper, dtype=np.float64)
+    if lower.size == 0 and upper.size == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    if lower.ndim != 2 or lower.shape[1] != 3 or lower.shape != upper.shape:
+        raise ValueError(
+            f"box_lower, box_upper: expected two (M, 3) arrays, got {lower.shape}, {upper.shape}"
+        )
+    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        raise ValueError("box_lower, box_upper: contain NaN or inf")
+    if np.any(lower > upper):
+        raise ValueError("box_lower, box_upper: a lower corner is above its upper corner")
+    return lower, upper
+
+
+def _as_bounds(bounds: np.ndarray) -> np.ndarray:
+    bounds = np.ascontiguousarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, NUM_JOINTS):
+        raise ValueError(f"bounds: expected shape (2, {NUM_JOINTS}), got {bounds.shape}")
+    if not np.all(np.isfinite(bounds)) or np.any(bounds[0] > bounds[1]):
+        raise ValueError("bounds: must be finite with lower <= upper")
+    return bounds
+
+
+def _as_states(states: np.ndarray, name: str = "states") -> np.ndarray:
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if states.ndim == 1:
+        states = states.reshape(1, -1)
+    if states.ndim != 2 or states.shape[1] != NUM_JOINTS:
+        raise ValueError(f"{name}: expected shape (N, {NUM_JOINTS}), got {states.shape}")
+    return states
+
+
+def _as_state(state: np.ndarray, name: str) -> np.ndarray:
+    state = np.ascontiguousarray(state, dtype=np.float64)
+    if state.shape != (NUM_JOINTS,):
+        raise ValueError(f"{name}: expected shape ({NUM_JOINTS},), got {state.shape}")
+    return state
+
+
+def _base_free(box_params: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> bool:
+    """Whether link_0, which never moves, misses every box; computed once per checker.
+
+    Boxes its spheres miss are cleared cheaply. The rest (typically a floor slab just below
+    the base, which the spheres' bulge reaches) go to fcl on link_0's mesh, the same test the
+    exact checker makes, so the two checkers agree on the base exactly.
+    """
+    suspects = [
+        box
+        for box in box_params
+        if any(_sphere_hits_box(*c, r, box) for c, r in zip(centers, radii))
+    ]
+    if not suspects:
+        return True
+    from temp_gym.worlds.collision.iiwa_exact import base_link_collides
+
+    return not base_link_collides(np.array(suspects))
+
+
+def _bounding_center(centers: np.ndarray, radii: np.ndarray, iterations: int = 300) -> np.ndarray:
+    """A center for a small ball enclosing the given spheres (Badoiu-Clarkson iterations).
+
+    Any center is valid (the radius is computed from it); this one just keeps it small.
+    """
+    center = centers.mean(axis=0)
+    for step in range(1, iterations + 1):
+        reach = np.linalg.norm(centers - center, axis=1) + radii
+        far = int(np.argmax(reach))
+        direction = centers[far] - center
+        length = np.linalg.norm(direction)
+        point = centers[far] + (direction / length * radii[far] if length > 0 else 0.0)
+        center = center + (point - center) / (step + 1)
+    return center
+
+
+class IiwaSphereChecker:
+    """Fast, conservative iiwa checker: sphere-covered links against axis-aligned boxes.
+
+    Args:
+        bounds: ``(2, 7)`` joint limits; states outside are not free.
+        box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
+        box_upper: ``(M, 3)`` upper box corners.
+        resolution: largest workspace motion (m) of any link point between two checked states
+            of an edge; checked states use spheres grown by half of it, so edges are certified
+            against the sphere model.
+
+    Example:
+        >>> checker = IiwaSphereChecker(joint_limits(), [[0.5, -1, 0]], [[0.6, 1, 1]])
+        >>> checker.states_free(np.zeros((1, 7)))
+        array([ True])
+    """
+
+    def __init__(
+        self,
+        bounds: np.ndarray,
+        box_lower: np.ndarray,
+        box_upper: np.ndarray,
+        resolution: float = DEFAULT_RESOLUTION,
+    ) -> None:
+        if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
+            raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
+        if resolution <= 0:
+            raise ValueError(f"resolution: must be positive, got {resolution}")
+        self.dim = NUM_JOINTS
+        self.resolution = float(resolution)
+        self._bounds = _as_bounds(bounds)
+        self._boxes = _as_boxes(box_lower, box_upper)
+        model = load_model()
+        self._model = (
+            np.ascontiguousarray(model.joint_origins),
+            np.ascontiguousarray(model.joint_axes),
+        )
+        link_spheres = load_sphere_model()
+        if len(link_spheres) != NUM_LINKS:
+            raise ValueError(f"sphere model: expected {NUM_LINKS} links, got {len(link_spheres)}")
+        centers = np.concatenate([c for c, _ in link_spheres])
+        radii = np.concatenate([r for _, r in link_spheres])
+        link_start = np.cumsum([0] + [len(r) for _, r in link_spheres]).astype(np.int64)
+        bound_centers = np.array([_bounding_center(c, r) for c, r in link_spheres])
+        bound_radii = np.array(
+            [np.max(np.linalg.norm(c - m, axis=1) + r)
+             for (c, r), m in zip(link_spheres, bound_centers)]
+        )  # fmt: skip
+        self._spheres = (centers, radii, link_start, bound_centers, bound_radii)
+        self._motion_radii = np.ascontiguousarray(motion_radii(load_mesh_radii()))
+        lower, upper = self._boxes
+        box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
+        self.base_free = _base_free(box_params, *link_spheres[0])
+        # Per-link candidate boxes. Link_1's origin never moves, and link j's spheres stay
+        # within reach[j] of it (triangle inequality along the chain); edge checks grow the
+        # spheres by at most resolution / 2.
+        anchor = model.joint_origins[0, :3, 3]
+        offsets = np.linalg.norm(model.joint_origins[1:, :3, 3], axis=1)
+        link_boxes = np.zeros((NUM_LINKS, max(len(box_params), 1)), dtype=np.int64)
+        link_box_count = np.zeros(NUM_LINKS, dtype=np.int64)
+        gaps = np.linalg.norm(np.maximum(np.abs(anchor - box_params[:, :3]) - box_params[:, 3:],
+                                         0.0), axis=1)  # fmt: skip
+        for j in range(1, NUM_LINKS):
+            link_centers, link_radii = link_spheres[j]
+            reach = offsets[: j - 1].sum() + np.max(
+                np.linalg.norm(link_centers, axis=1) + link_radii
+            )
+            near = np.flatnonzero(gaps <= reach + self.resolution / 2 + 1e-9)
+            link_boxes[j, : len(near)] = near
+            link_box_count[j] = len(near)
+        self._boxes = (box_params, link_boxes, link_box_count)
+        self._num_boxes = len(box_params)
+        self.description = (
+            f"iiwa sphere model ({len(radii)} spheres), {self._num_boxes} boxes, "
+            f"edge resolution {self.resolution} m"
+            + ("" if self.base_free else ", base link in collision")
+        )
+
+    @property
+    def num_spheres(self) -> int:
+        """Number of spheres in the link model (link_0 included)."""
+        return len(self._spheres[1])
+
+    def states_free(self, states: np.ndarray) -> np.ndarray:
+        """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free."""
+        states = _as_states(states)
+        if not self.base_free:
+            return np.zeros(len(states), dtype=bool)
+        return _states_free(states, self._bounds, self._model, self._spheres, self._boxes)
+
+    def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Return ``bool[N]``: whether each joint-space segment ``starts[i] -> ends[i]`` is free."""
+        starts = _as_states(starts, "starts")
+        ends = _as_states(ends, "ends")
+        if starts.shape != ends.shape:
+            try:
+                starts, ends = (np.ascontiguousarray(a) for a in np.broadcast_arrays(starts, ends))
+            except ValueError:
+                raise ValueError(
+                    f"starts, ends: shapes {starts.shape} and {ends.shape} do not match"
+                ) from None
+        if not self.base_free:
+            return np.zeros(len(starts), dtype=bool)
+        return _edges_free(starts, ends, self._bounds, self._model, self._spheres, self._boxes,
+                           self._motion_radii, self.resolution)  # fmt: skip
+
+    def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
+        """Whether the straight joint-space motion ``start -> end`` is free, endpoints included."""
+        start = _as_state(start, "start")
+        end = _as_state(end, "end")
+        return bool(self.edges_free(start[None], end[None])[0])
+
+    def path_free(self, path: np.ndarray) -> bool:
+        """Whether every edge of the polyline ``path`` (K x 7) is free (one state: that state)."""
+        path = _as_states(path, "path")
+        if len(path) == 0:
+            raise ValueError("path: expected at least one state")
+        if len(path) == 1:
+            return bool(self.states_free(path)[0])
+        return bool(np.all(self.edges_free(path[:-1], path[1:])))
+
+
+__all__ = ["DEFAULT_RESOLUTION", "IiwaSphereChecker"]

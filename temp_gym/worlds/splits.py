@@ -1,0 +1,56 @@
+"""Fixed, seeded pools of workspaces: the train / val / test split.
+
+Workspace ``i`` of split ``s`` for robot ``r`` is drawn from its own generator, seeded by
+``SeedSequence([SPLIT_ENTROPY, robot code, split code, i])``; so it never changes, does not
+depend on which other workspaces were drawn, and the same ids serve demonstration generation
+(train, val), training, and evaluation (test). Pool sizes follow the paper: 80 training and 20
+validation workspaces; the test pool is disjoint from both.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from temp_gym.problem import ROBOTS
+from temp_gym.worlds.generators import generate_workspace
+from temp_gym.worlds.workspace import Workspace
+
+SPLITS = {"train": 80, "val": 20, "test": 50}
+"""Number of workspaces in each split."""
+SPLIT_ENTROPY = 20241122
+_ROBOT_CODES = {name: code for code, name in enumerate(ROBOTS)}
+_SPLIT_CODES = {name: code for code, name in enumerate(SPLITS)}
+
+
+def _check(robot: str, split: str, index: int | None = None) -> None:
+    if robot not in ROBOTS:
+        raise ValueError(f"robot: unknown robot {robot!r}; expected one of {list(ROBOTS)}")
+    if split not in SPLITS:
+        raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
+    if index is not None and not 0 <= index < SPLITS[split]:
+        raise ValueError(
+            f"index: split {split!r} has workspaces 0..{SPLITS[split] - 1}, not {index}"
+        )
+
+
+def workspace_rng(robot: str, split: str, index: int) -> np.random.Generator:
+    """The generator that draws workspace ``index`` of ``split``."""
+    _check(robot, split, index)
+    sequence = np.random.SeedSequence(
+        [SPLIT_ENTROPY, _ROBOT_CODES[robot], _SPLIT_CODES[split], index]
+    )
+    return np.random.default_rng(sequence)
+
+
+@lru_cache(maxsize=256)
+def split_workspace(robot: str, split: str, index: int) -> Workspace:
+    """Workspace ``index`` of ``split`` for ``robot`` (cached; always the same one)."""
+    return generate_workspace(robot, workspace_rng(robot, split, index))
+
+
+def split_size(split: str) -> int:
+    """How many workspaces ``split`` holds."""
+    _check(next(iter(ROBOTS)), split)
+    return SPLITS[split]

@@ -1,0 +1,108 @@
+import json
+import math
+
+import numpy as np
+import pytest
+
+from temp_gym.planning import PLANNERS, PlanResult, plan
+from temp_gym.worlds.collision import certify_path
+
+OURS = ["rrt_star", "informed_rrt_star"]
+
+
+def assert_valid_solution(problem, result):
+    assert result.success
+    path = result.path
+    assert path.ndim == 2 and path.shape[1] == problem.dim
+    np.testing.assert_array_equal(path[0], problem.start)
+    assert np.linalg.norm(path[-1] - problem.goal) <= problem.goal_radius + 1e-12
+    assert certify_path(problem, path)
+    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    assert result.cost == pytest.approx(length, abs=1e-9)
+
+
+@pytest.mark.parametrize("planner", OURS)
+@pytest.mark.parametrize("which", ["problem_2d", "problem_3d"])
+def test_solutions_are_certified_and_reach_the_goal(planner, which, request):
+    problem = request.getfixturevalue(which)
+    result = plan(problem, planner=planner, seed=1, max_nodes=1500)
+    assert isinstance(result, PlanResult)
+    assert_valid_solution(problem, result)
+    assert result.nodes == 1500
+    assert result.samples == result.nodes - 1 + result.sampling_failures
+    assert result.collision_checks >= result.samples - 1
+    assert result.time_to_first_solution is not None
+    assert result.nodes_to_first_solution <= result.nodes
+    costs = result.history["best_cost"]
+    assert len(costs) >= 1 and np.all(np.diff(costs) < 0)
+    assert costs[-1] == pytest.approx(result.cost)
+    assert result.cost_at(result.nodes) == pytest.approx(result.cost)
+    json.dumps(result.to_dict())
+
+
+@pytest.mark.parametrize("planner", OURS)
+def test_same_seed_same_result(problem_2d, planner):
+    a = plan(problem_2d, planner=planner, seed=5, max_nodes=800)
+    b = plan(problem_2d, planner=planner, seed=5, max_nodes=800)
+    c = plan(problem_2d, planner=planner, seed=6, max_nodes=800)
+    np.testing.assert_array_equal(a.path, b.path)
+    for field in ("cost", "nodes", "samples", "sampling_failures", "collision_checks"):
+        assert getattr(a, field) == getattr(b, field)
+    np.testing.assert_array_equal(a.history["nodes"], b.history["nodes"])
+    np.testing.assert_array_equal(a.history["best_cost"], b.history["best_cost"])
+    assert a.cost != c.cost
+
+
+def test_stop_rules(problem_2d):
+    first = plan(problem_2d, seed=2, stop_at_first=True)
+    assert first.success and first.nodes == first.nodes_to_first_solution
+    target = plan(problem_2d, seed=2, target_cost=first.cost + 2.0, max_nodes=4000)
+    assert target.cost <= first.cost + 2.0 and target.nodes == first.nodes
+    timed = plan(problem_2d, seed=2, time_limit=0.0)
+    assert timed.nodes == 1 and not timed.success and timed.path is None
+    assert math.isinf(timed.cost) and timed.to_dict()["cost"] is None
+    capped = plan(problem_2d, seed=2, max_nodes=5000, max_samples=50)
+    assert capped.samples == 50
+
+
+def test_informed_is_no_worse_on_average(problem_2d):
+    ours = [plan(problem_2d, planner=p, seed=s, max_nodes=2000).cost for p in OURS for s in (1, 2)]
+    assert np.mean(ours[2:]) <= np.mean(ours[:2]) * 1.02
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"planner": "rrt_sharp"}, "planner"),
+        ({"max_nodes": 0}, "max_nodes"),
+        ({"max_nodes": 2.5}, "max_nodes"),
+        ({"time_limit": -1.0}, "time_limit"),
+        ({"seed": -1}, "seed"),
+        ({"seed": 1.5}, "seed"),
+        ({"step_size": 0.0}, "step_size"),
+        ({"step_size": math.inf}, "step_size"),
+        ({"goal_bias": 1.5}, "goal_bias"),
+        ({"target_cost": math.nan}, "target_cost"),
+        ({"max_samples": 0}, "max_samples"),
+    ],
+)
+def test_bad_arguments_raise(problem_2d, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        plan(problem_2d, **kwargs)
+
+
+def test_bad_problem_raises():
+    with pytest.raises(ValueError, match="problem"):
+        plan({"robot": "point2d"})
+
+
+def test_registry_lists_all_planners():
+    assert {"rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star"} <= set(
+        PLANNERS
+    )
+
+
+def test_start_in_goal_region_is_solved_at_once(problem_2d):
+    problem = problem_2d.replace(goal=[2.2, 2.2])
+    result = plan(problem, seed=0, max_nodes=50)
+    assert result.success and result.cost == 0.0 and len(result.path) == 1

@@ -1,0 +1,103 @@
+import math
+
+import numpy as np
+import pytest
+from conftest import assert_is_tree
+
+from temp_gym.planning import GoalBiasedSampler, Tree, UniformSampler
+
+
+def test_rewiring_lowers_costs_and_descendants_follow(empty_2d):
+    tree = Tree(empty_2d, step_size=10.0, max_radius=3.0)
+    a = tree.extend(np.array([3.0, 2.0])).node
+    b = tree.extend(np.array([1.5, 4.0])).node
+    d = tree.extend(np.array([1.5, 6.5])).node
+    assert tree.parents[b] == a and tree.parents[d] == b
+    cost_b, cost_d = tree.costs[b], tree.costs[d]
+    result = tree.extend(np.array([1.2, 2.6]))
+    c = result.node
+    assert tree.parents[c] == 0  # chose the root over the nearest node b
+    assert result.rewired >= 1
+    assert tree.parents[b] == c  # b was rewired through c
+    assert tree.costs[b] < cost_b - 1.0
+    expected_b = tree.costs[c] + math.dist((1.2, 2.6), (1.5, 4.0))
+    assert tree.costs[b] == pytest.approx(expected_b, abs=1e-12)
+    # the descendant's cost followed by the same amount
+    assert tree.costs[d] == pytest.approx(cost_d - (cost_b - tree.costs[b]), abs=1e-12)
+    assert_is_tree(tree)
+
+
+def test_rewiring_updates_best_solution(empty_2d):
+    tree = Tree(empty_2d, step_size=30.0, max_radius=3.0)
+    # a detour into the goal region, then a shortcut that must be rewired in
+    tree.extend(np.array([1.0, 3.5]))
+    tree.extend(np.array([1.0, 6.0]))
+    assert tree.best_node == -1
+    for y in np.arange(8.5, 20.0, 2.5):
+        tree.extend(np.array([1.0, y]))
+    for x in np.arange(3.5, 19.0, 2.5):
+        tree.extend(np.array([x, 19.0]))
+    tree.extend(np.array([19.0, 19.0]))
+    assert tree.best_node >= 0 and tree.in_goal(tree.positions[tree.best_node])
+    detour = tree.best_cost
+    chain = [np.array([1.0 + k * 1.9, 1.0 + k * 1.9]) for k in range(1, 10)]
+    improved = [tree.extend(x).improved for x in chain]
+    assert any(improved)
+    assert tree.best_cost < detour - 5.0
+    np.testing.assert_allclose(
+        tree.best_cost, np.sum(np.linalg.norm(np.diff(tree.best_path(), axis=0), axis=1))
+    )
+    assert_is_tree(tree)
+
+
+@pytest.mark.parametrize("neighbourhood", ["radius", "k_nearest"])
+def test_tree_stays_a_tree_after_many_extensions(problem_3d, neighbourhood):
+    tree = Tree(problem_3d, neighbourhood=neighbourhood, capacity=16)  # forces doubling
+    rng = np.random.default_rng(3)
+    sampler = GoalBiasedSampler(UniformSampler(problem_3d.bounds), problem_3d.goal, 0.05)
+    for _ in range(1500):
+        tree.extend(sampler.sample(rng))
+    assert tree.num_nodes > 1000 and tree.capacity >= tree.num_nodes
+    assert_is_tree(tree)
+    assert tree.best_node >= 0
+    assert tree.in_goal(tree.positions[tree.best_node])
+    best = min(tree.costs[g] for g in tree.goal_nodes)
+    assert tree.best_cost == best
+
+
+def test_counters_and_results(problem_2d):
+    tree = Tree(problem_2d)
+    # a sample straight through the wall collides and leaves the tree unchanged
+    result = tree.extend(np.array([10.0, 3.5]))
+    wall = tree.extend(np.array([9.0, 10.0]))
+    assert wall.node == -1 or result.node >= 0
+    n = tree.num_nodes
+    blocked = Tree(problem_2d, step_size=30.0).extend(np.array([18.0, 10.0]))
+    assert blocked.node == -1 and blocked.collided and blocked.failures == 1
+    assert blocked.collision_checks == 1
+    assert tree.samples == 2 and tree.num_nodes == n
+    np.testing.assert_array_equal(tree.path_so_far()[0], problem_2d.start)
+    np.testing.assert_array_equal(tree.path_so_far()[-1], tree.positions[tree.newest])
+
+
+def test_extend_with_fallback_retries_until_a_node_is_added(problem_2d):
+    tree = Tree(problem_2d, step_size=30.0)
+    rng = np.random.default_rng(0)
+    sampler = UniformSampler(problem_2d.bounds)
+    result = tree.extend_with_fallback(np.array([18.0, 10.0]), sampler, rng)
+    assert result.node == 1
+    assert result.failures >= 1 and result.samples == result.failures + 1
+    assert tree.sampling_failures == result.failures
+    assert tree.samples == result.samples
+    # bounded: a walled-in retry budget of zero gives up after the first sample
+    again = tree.extend_with_fallback(np.array([18.0, 10.0]), sampler, rng, max_tries=0)
+    assert again.samples == 1
+
+
+def test_bad_arguments(problem_2d):
+    with pytest.raises(ValueError, match="neighbourhood"):
+        Tree(problem_2d, neighbourhood="grid")
+    with pytest.raises(ValueError, match="step_size"):
+        Tree(problem_2d, step_size=0.0)
+    with pytest.raises(ValueError, match="sample"):
+        Tree(problem_2d).extend(np.zeros(3))

@@ -1,0 +1,166 @@
+"""Fast (sphere) versus exact (fcl) iiwa collision checking, and pybullet as a third opinion."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet
+import pytest
+from pybullet_utils.bullet_client import BulletClient
+
+from temp_gym.worlds.collision import CollisionChecker
+from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
+from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.iiwa_world import generate_iiwa_workspace
+from temp_gym.worlds.robots.iiwa14 import joint_limits, urdf_path
+
+LIMITS = joint_limits()
+# A 2 mm wall in the plane y = 0, in front of the robot: swinging joint 1 across it collides.
+THIN_WALL = (np.array([[0.6, -0.001, 0.0]]), np.array([[1.2, 0.001, 1.2]]))
+REACHING = np.array([0.0, 1.0, 0.0, -0.5, 0.0, 0.5, 0.0])
+
+
+def _checkers(workspace):
+    args = (workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+    return IiwaSphereChecker(*args), IiwaExactChecker(*args)
+
+
+@pytest.fixture(scope="module")
+def workspaces():
+    return [generate_iiwa_workspace(np.random.default_rng(seed)) for seed in range(5)]
+
+
+def test_checkers_follow_protocol():
+    fast = IiwaSphereChecker(LIMITS, *THIN_WALL)
+    exact = IiwaExactChecker(LIMITS, *THIN_WALL)
+    for checker in (fast, exact):
+        assert isinstance(checker, CollisionChecker)
+        assert checker.dim == 7 and checker.description
+
+
+def test_fast_never_frees_what_exact_rejects(workspaces):
+    rng = np.random.default_rng(10)
+    false_collisions, exact_free_total, total = 0, 0, 0
+    for workspace in workspaces:
+        fast, exact = _checkers(workspace)
+        states = rng.uniform(LIMITS[0], LIMITS[1], size=(4000, 7))
+        fast_free, exact_free = fast.states_free(states), exact.states_free(states)
+        assert not np.any(fast_free & ~exact_free), "fast called a colliding state free"
+        false_collisions += int(np.sum(~fast_free & exact_free))
+        exact_free_total += int(exact_free.sum())
+        total += len(states)
+    rate = false_collisions / exact_free_total
+    print(f"\nfast false-collision rate: {rate:.2%} of {exact_free_total} exact-free states")
+    assert total >= 20_000
+    assert rate < 0.15
+
+
+def test_pybullet_free_implies_exact_free(workspaces):
+    workspace = workspaces[0]
+    exact = _checkers(workspace)[1]
+    client = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        robot = client.loadURDF(str(urdf_path()), [0, 0, 0], useFixedBase=True)
+        boxes = [
+            client.createMultiBody(
+                0, client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half), -1, center
+            )
+            for center, half in zip(workspace.obstacle_centers, workspace.obstacle_half_extents)
+        ]
+        states = np.random.default_rng(11).uniform(LIMITS[0], LIMITS[1], size=(300, 7))
+        bullet_free = np.empty(len(states), dtype=bool)
+        for k, q in enumerate(states):
+            for j in range(7):
+                client.resetJointState(robot, j, q[j])
+            client.performCollisionDetection()
+            bullet_free[k] = not any(
+                client.getClosestPoints(robot, box, distance=0.0) for box in boxes
+            )
+    finally:
+        client.disconnect()
+    exact_free = exact.states_free(states)
+    # pybullet uses the meshes' convex hulls, which contain the meshes.
+    assert not np.any(bullet_free & ~exact_free)
+    assert np.mean(bullet_free == exact_free) > 0.85
+
+
+def test_exact_edge_catches_thin_wall_that_sampling_misses():
+    exact = IiwaExactChecker(LIMITS, *THIN_WALL)
+    fast = IiwaSphereChecker(LIMITS, *THIN_WALL)
+    start, end = REACHING.copy(), REACHING.copy()
+    start[0], end[0] = -0.8, 0.8
+    assert exact.states_free(np.stack([start, end])).all()
+    # Sampling the motion at a few states steps right over the 2 mm wall...
+    samples = np.linspace(start, end, 4)
+    assert exact.states_free(samples).all()
+    # ...the certified checks do not.
+    assert not exact.edge_free(start, end)
+    assert not fast.edge_free(start, end)
+    assert not exact.path_free(np.stack([start, end]))
+
+
+def test_free_edges_are_certified(workspaces):
+    fast, exact = _checkers(workspaces[1])
+    rng = np.random.default_rng(12)
+    starts = rng.uniform(LIMITS[0], LIMITS[1], size=(400, 7))
+    ends = np.clip(starts + rng.normal(0, 0.15, size=starts.shape), LIMITS[0], LIMITS[1])
+    fast_free = fast.edges_free(starts, ends)
+    chosen = np.flatnonzero(fast_free)[:15]
+    assert len(chosen) >= 10
+    assert exact.edges_free(starts[chosen], ends[chosen]).all()
+    start, end = REACHING.copy(), REACHING.copy()
+    start[0], end[0] = 0.5, 0.9  # on one side of the wall
+    assert IiwaExactChecker(LIMITS, *THIN_WALL).edge_free(start, end)
+    assert IiwaSphereChecker(LIMITS, *THIN_WALL).path_free(np.stack([start, end, start]))
+
+
+@pytest.mark.parametrize("cls", [IiwaSphereChecker, IiwaExactChecker])
+def test_invalid_states_are_not_free(cls):
+    checker = cls(LIMITS, *THIN_WALL)
+    states = np.stack([np.zeros(7), np.full(7, np.nan), LIMITS[1] + 0.1, np.full(7, np.inf)])
+    assert checker.states_free(states).tolist() == [True, False, False, False]
+    assert not checker.edge_free(np.zeros(7), np.full(7, np.nan))
+    assert not checker.edge_free(np.zeros(7), LIMITS[1] + 0.1)
+    assert checker.path_free(np.zeros((1, 7)))
+    assert checker.states_free(np.zeros(7)).shape == (1,)
+
+
+@pytest.mark.parametrize("cls", [IiwaSphereChecker, IiwaExactChecker])
+def test_bad_inputs_raise(cls):
+    checker = cls(LIMITS, *THIN_WALL)
+    with pytest.raises(ValueError, match="states"):
+        checker.states_free(np.zeros((3, 6)))
+    with pytest.raises(ValueError, match="start"):
+        checker.edge_free(np.zeros(6), np.zeros(7))
+    with pytest.raises(ValueError, match="starts, ends"):
+        checker.edges_free(np.zeros((3, 7)), np.zeros((2, 7)))
+    with pytest.raises(ValueError, match="path"):
+        checker.path_free(np.zeros((0, 7)))
+    with pytest.raises(ValueError, match="bounds"):
+        cls(np.zeros((2, 6)), *THIN_WALL)
+    with pytest.raises(ValueError, match="box_lower"):
+        cls(LIMITS, THIN_WALL[1], THIN_WALL[0])
+    with pytest.raises(ValueError, match="box_lower"):
+        cls(LIMITS, np.zeros((2, 2)), np.ones((2, 2)))
+
+
+def test_fast_resolution_validated():
+    with pytest.raises(ValueError, match="resolution"):
+        IiwaSphereChecker(LIMITS, *THIN_WALL, resolution=0.0)
+
+
+def test_base_link_against_floor_is_exact():
+    floor = (np.array([[-1.5, -1.5, -0.1]]), np.array([[1.5, 1.5, -1e-4]]))
+    assert IiwaSphereChecker(LIMITS, *floor).base_free
+    assert IiwaExactChecker(LIMITS, *floor).base_free
+    touching = (np.array([[-1.5, -1.5, -0.1]]), np.array([[1.5, 1.5, 0.01]]))
+    fast = IiwaSphereChecker(LIMITS, *touching)
+    assert not fast.base_free and not fast.states_free(np.zeros(7))[0]
+    assert not IiwaExactChecker(LIMITS, *touching).states_free(np.zeros(7))[0]
+
+
+def test_no_boxes_everything_in_bounds_is_free():
+    empty = (np.zeros((0, 3)), np.zeros((0, 3)))
+    states = np.random.default_rng(13).uniform(LIMITS[0], LIMITS[1], size=(50, 7))
+    for checker in (IiwaSphereChecker(LIMITS, *empty), IiwaExactChecker(LIMITS, *empty)):
+        assert checker.states_free(states).all()
+        assert checker.edge_free(states[0], states[1])
