@@ -1,6 +1,14 @@
-"""temp-gym: sampling-based motion planning as Gymnasium environments, and TEMP."""
+"""temp-gym: sampling-based motion planning as Gymnasium environments, and TEMP.
 
+Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0``.
+"""
+
+from temp_gym.envs import ENV_IDS, register_envs
+from temp_gym.planning.plan import plan
+from temp_gym.planning.result import PlanResult
 from temp_gym.problem import ROBOTS, Problem
 
-__all__ = ["ROBOTS", "Problem"]
+register_envs()
+
+__all__ = ["ENV_IDS", "ROBOTS", "PlanResult", "Problem", "plan"]
 __version__ = "0.1.0"

@@ -3,10 +3,33 @@
 Both planners see the world only through our fast checker: state validity calls
 ``states_free`` and motion validity is a custom ``MotionValidator`` that calls ``edge_free``
 (OMPL's default discrete motion check, at its default resolution, could cut box corners).
-The range (steering step), goal region (a ``GoalState`` with threshold ``goal_radius``),
-goal bias and path-length objective match our planners, so the comparison is
-like for like. OMPL keeps its own defaults otherwise: RRTstar uses k-nearest neighbours
-(rewire factor 1.1) and InformedRRTstar prunes its tree.
+The goal region (a ``GoalState`` with threshold ``goal_radius``), goal bias and path-length
+objective match our planners.
+
+Range and neighbourhood (why OMPL's ``range`` is ``RANGE_FACTOR = 2`` steering steps): OMPL's
+``range`` is both the steering step and a hard cap on the length of every edge RRTstar makes.
+With its radius rule the near radius is ``min(range, r_rrt * (log n / n) ** (1/d))``; with
+k-nearest (OMPL's default) the k neighbours are found, but only those closer than ``range`` may
+become the new node's parent or be rewired through it (in ``RRTstar.cpp``, k-nearest mode skips
+any neighbour at distance ``>= maxDistance_`` before its motion check). This is OMPL's design,
+not a bug of the wheel. With ``range`` equal to our step (1.0 in ``[0, 20]^d``) the new node
+lies exactly one step from its nearest node and, in 3D at a few thousand nodes, almost never has
+another node within one step, so choose-parent and rewiring nearly never fire: in an empty
+``[0, 20]^3`` (optimum 30.68) OMPL made 1.12 motion checks per iteration (the steered edge plus
+0.12), never one longer than ``range``; k-nearest and the radius rule gave identical trees, and
+the cost stalled at 1.31-1.33x the optimum from 500 to 2000 nodes, often an exact integer (every
+edge a full step), while our RRT* reached 1.14x. Our planners cap the near radius at
+``2 * step`` (`temp_gym.planning.tree.Tree`), so OMPL gets ``range = 2 * step``: the same
+longest edge and near-radius cap as ours (its steered edges are then up to two of our steps
+long). In the same empty 3D world OMPL's RRTstar then reaches 1.18x at 2000 nodes (2D: 1.015x,
+against 1.04x with ``range = step``). ``K_NEAREST = False`` selects OMPL's radius rule, the rule
+our planners use; InformedRRTstar keeps OMPL's other defaults (tree pruning, informed sampling).
+Set ``RANGE_FACTOR = 1.0`` for OMPL's steps equal to ours.
+
+Not the cause (checked): the termination condition is evaluated once per iteration and
+``solve`` runs once; the objective's cost threshold is ``-inf`` unless ``stop_at_first`` or
+``target_cost`` asks otherwise, so OMPL keeps refining (with ``range = step`` and 117,000
+iterations it reaches 1.04x in the empty 3D world: slowly, not never).
 
 Node budget: OMPL cannot stop at a tree size, so the termination condition (evaluated once per
 iteration) and the motion validator together count the nodes added: the first motion checked
@@ -34,6 +57,10 @@ from temp_gym.problem import Problem
 from temp_gym.worlds.collision import CollisionChecker, certify_path, make_checker
 
 OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star")
+RANGE_FACTOR = 2.0
+"""OMPL's ``range`` is this many steering steps (see the module docstring)."""
+K_NEAREST = False
+"""Whether OMPL's RRTstar uses k-nearest neighbours (True) or its radius rule (False)."""
 _SEEDED = False
 
 
@@ -118,7 +145,8 @@ def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> Plan
 
     planner = og.RRTstar(si) if name == "ompl_rrt_star" else og.InformedRRTstar(si)
     step = default_step_size(problem) if settings.step_size is None else settings.step_size
-    planner.setRange(step)
+    planner.setRange(RANGE_FACTOR * step)
+    planner.setKNearest(K_NEAREST)
     planner.setGoalBias(settings.goal_bias)
     planner.setProblemDefinition(pdef)
     planner.setup()

@@ -2,9 +2,12 @@ import numpy as np
 import pytest
 
 from temp_gym.planning import plan
+from temp_gym.problem import Problem
 from temp_gym.worlds.collision import certify_path
 
 pytest.importorskip("ompl")
+
+from temp_gym.planning.ompl_planners import RANGE_FACTOR  # noqa: E402
 
 
 @pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
@@ -22,3 +25,32 @@ def test_ompl_planners_solve_a_2d_problem(problem_2d, planner):
 def test_ompl_stop_at_first(problem_2d):
     result = plan(problem_2d, planner="ompl_rrt_star", seed=0, stop_at_first=True, max_nodes=5000)
     assert result.success and result.nodes < 5000
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
+def test_ompl_cost_approaches_the_optimum_in_an_empty_world(planner):
+    # OMPL caps every RRTstar edge (choose-parent and rewiring included) at its range; with
+    # range = one step, 2D costs stayed up to 7% above the optimum at 2000 nodes (3D: 30%).
+    problem = Problem.from_dict(
+        {
+            "robot": "point2d",
+            "bounds": [[0, 0], [20, 20]],
+            "obstacles": [],
+            "start": [2, 2],
+            "goal": [18, 18],
+            "goal_radius": 0.5,
+        }
+    )
+    optimum = float(np.linalg.norm(problem.goal - problem.start)) - problem.goal_radius
+    for seed in range(3):
+        result = plan(problem, planner=planner, seed=seed, max_nodes=2000)
+        assert result.success and result.nodes == 2000
+        assert result.cost <= 1.05 * optimum
+
+
+def test_ompl_range_is_the_near_radius_cap_of_our_planners(problem_2d):
+    # OMPL's range bounds every edge it makes: it is set to our near-radius cap, 2 steps.
+    result = plan(problem_2d, planner="ompl_rrt_star", seed=0, max_nodes=1000, step_size=0.5)
+    edges = np.linalg.norm(np.diff(result.path, axis=0), axis=1)
+    assert edges.max() <= RANGE_FACTOR * 0.5 + 1e-9
+    assert edges.max() > 0.5 + 1e-6

@@ -38,7 +38,16 @@ import math
 import numba
 import numpy as np
 
-from temp_gym.worlds.robots.iiwa14 import NUM_JOINTS, NUM_LINKS, fk_into, load_model, motion_radii
+from temp_gym.worlds.robots.iiwa14 import (
+    FAST_FK_MARGIN,
+    NUM_JOINTS,
+    NUM_LINKS,
+    joint_step_into,
+    load_model,
+    motion_radii,
+    origin_permutations,
+    sincos_into,
+)
 from temp_gym.worlds.robots.sphere_fit import load_mesh_radii, load_sphere_model
 
 DEFAULT_RESOLUTION = 0.02
@@ -63,52 +72,107 @@ def _in_bounds(q, lower_bounds, upper_bounds) -> bool:
     return True
 
 
-@numba.njit(cache=True, nogil=True)
-def _pose_free(q, model, spheres, boxes, inflation, poses) -> bool:
-    """Whether the moving links' spheres (grown by ``inflation[j]``) miss every box."""
-    joint_origins, joint_axes = model
+@numba.njit(cache=True, nogil=True, inline="always")
+def _link_box_hits(x, y, z, radius, lower, upper, count) -> int:
+    """How many of a link's ``count`` candidate boxes (SoA corners) a closed sphere touches.
+
+    No early exit and no branches, so LLVM turns it into SIMD over boxes: the broad phase.
+    """
+    hits = 0
+    rr = radius * radius
+    for n in range(count):
+        gx = max(max(lower[0, n] - x, x - upper[0, n]), 0.0)
+        gy = max(max(lower[1, n] - y, y - upper[1, n]), 0.0)
+        gz = max(max(lower[2, n] - z, z - upper[2, n]), 0.0)
+        hits += gx * gx + gy * gy + gz * gz <= rr
+    return hits
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _link_free(pose, j, spheres, boxes, grow) -> bool:
+    """Whether link ``j`` at world pose ``pose`` (3x4), spheres grown by ``grow``, misses all."""
     centers, radii, link_start, bound_centers, bound_radii = spheres
-    box_params, link_boxes, link_box_count = boxes
-    fk_into(q, joint_origins, joint_axes, poses)
-    # Distal links first: they sweep the most space, so collisions are found sooner.
-    for j in range(poses.shape[0] - 1, 0, -1):
-        pose = poses[j]
-        grow = inflation[j]
-        c = bound_centers[j]
-        bx = pose[0, 0] * c[0] + pose[0, 1] * c[1] + pose[0, 2] * c[2] + pose[0, 3]
-        by = pose[1, 0] * c[0] + pose[1, 1] * c[1] + pose[1, 2] * c[2] + pose[1, 3]
-        bz = pose[2, 0] * c[0] + pose[2, 1] * c[1] + pose[2, 2] * c[2] + pose[2, 3]
-        for n in range(link_box_count[j]):
-            box = box_params[link_boxes[j, n]]
-            if not _sphere_hits_box(bx, by, bz, bound_radii[j] + grow, box):
-                continue
-            for s in range(link_start[j], link_start[j + 1]):
-                c = centers[s]
-                x = pose[0, 0] * c[0] + pose[0, 1] * c[1] + pose[0, 2] * c[2] + pose[0, 3]
-                y = pose[1, 0] * c[0] + pose[1, 1] * c[1] + pose[1, 2] * c[2] + pose[1, 3]
-                z = pose[2, 0] * c[0] + pose[2, 1] * c[1] + pose[2, 2] * c[2] + pose[2, 3]
-                if _sphere_hits_box(x, y, z, radii[s] + grow, box):
-                    return False
+    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
+    count = link_box_count[j]
+    if count == 0:
+        return True
+    c0, c1, c2 = bound_centers[j, 0], bound_centers[j, 1], bound_centers[j, 2]
+    bx = pose[0, 0] * c0 + pose[0, 1] * c1 + pose[0, 2] * c2 + pose[0, 3]
+    by = pose[1, 0] * c0 + pose[1, 1] * c1 + pose[1, 2] * c2 + pose[1, 3]
+    bz = pose[2, 0] * c0 + pose[2, 1] * c1 + pose[2, 2] * c2 + pose[2, 3]
+    bound = bound_radii[j] + grow
+    if _link_box_hits(bx, by, bz, bound, link_lower[j], link_upper[j], count) == 0:
+        return True
+    for n in range(count):
+        box = box_params[link_boxes[j, n]]
+        if not _sphere_hits_box(bx, by, bz, bound, box):
+            continue
+        for k in range(link_start[j], link_start[j + 1]):
+            c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
+            x = pose[0, 0] * c0 + pose[0, 1] * c1 + pose[0, 2] * c2 + pose[0, 3]
+            y = pose[1, 0] * c0 + pose[1, 1] * c1 + pose[1, 2] * c2 + pose[1, 3]
+            z = pose[2, 0] * c0 + pose[2, 1] * c1 + pose[2, 2] * c2 + pose[2, 3]
+            if _sphere_hits_box(x, y, z, radii[k] + grow, box):
+                return False
     return True
 
 
 @numba.njit(cache=True, nogil=True)
-def _states_free(states, bounds, model, spheres, boxes):
-    out = np.zeros(states.shape[0], dtype=np.bool_)
-    poses = np.empty((model[0].shape[0] + 1, 4, 4))
-    no_inflation = np.zeros(poses.shape[0])
-    for i in range(states.shape[0]):
-        if _in_bounds(states[i], bounds[0], bounds[1]):
-            out[i] = _pose_free(states[i], model, spheres, boxes, no_inflation, poses)
+def _pose_free(sines, cosines, base, kinematics, spheres, boxes, inflation, poses) -> bool:
+    """Whether the moving links' spheres (grown by ``inflation[j]``) miss every box.
+
+    ``sines[base + i]``, ``cosines[base + i]`` are joint ``i``'s; ``poses`` (8, 3, 4) is
+    scratch whose first entry is the identity.
+    """
+    perm, sign, shift = kinematics
+    for j in range(perm.shape[0]):
+        joint_step_into(poses[j], perm[j], sign[j], shift[j], cosines[base + j],
+                        sines[base + j], poses[j + 1])  # fmt: skip
+    # Distal links first: they sweep the most space, so collisions are found sooner.
+    for j in range(poses.shape[0] - 1, 0, -1):
+        if not _link_free(poses[j], j, spheres, boxes, inflation[j]):
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _identity_poses(count):
+    poses = np.zeros((count, 3, 4))
+    for r in range(3):
+        poses[0, r, r] = 1.0
+    return poses
+
+
+_BLOCK = 256
+"""States per block: sines and cosines are computed a block at a time, vectorized."""
+
+
+@numba.njit(cache=True, nogil=True)
+def _states_free(states, bounds, kinematics, spheres, boxes):
+    num, dim = states.shape
+    out = np.zeros(num, dtype=np.bool_)
+    poses = _identity_poses(dim + 1)
+    no_inflation = np.zeros(dim + 1)
+    flat = states.reshape(-1)
+    sines = np.empty(_BLOCK * dim)
+    cosines = np.empty(_BLOCK * dim)
+    for first in range(0, num, _BLOCK):
+        last = min(first + _BLOCK, num)
+        sincos_into(flat[first * dim : last * dim], sines, cosines)
+        for i in range(first, last):
+            if _in_bounds(states[i], bounds[0], bounds[1]):
+                out[i] = _pose_free(sines, cosines, (i - first) * dim, kinematics, spheres,
+                                    boxes, no_inflation, poses)  # fmt: skip
     return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _edge_free(start, end, bounds, model, spheres, boxes, radii, resolution, scratch) -> bool:
+def _edge_free(start, end, bounds, kinematics, spheres, boxes, radii, resolution,
+               scratch) -> bool:  # fmt: skip
     # The configuration space is a box: a segment with both ends in bounds stays in bounds.
     if not (_in_bounds(start, bounds[0], bounds[1]) and _in_bounds(end, bounds[0], bounds[1])):
         return False
-    poses, inflation, q = scratch
+    poses, inflation, q, sines, cosines = scratch
     dim = start.shape[0]
     worst = 0.0
     for j in range(inflation.shape[0]):
@@ -120,9 +184,11 @@ def _edge_free(start, end, bounds, model, spheres, boxes, radii, resolution, scr
     steps = max(1, int(math.ceil(worst / resolution)))
     for j in range(inflation.shape[0]):
         inflation[j] /= 2.0 * steps
-    if not _pose_free(start, model, spheres, boxes, inflation, poses):
+    sincos_into(start, sines, cosines)
+    if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
         return False
-    if not _pose_free(end, model, spheres, boxes, inflation, poses):
+    sincos_into(end, sines, cosines)
+    if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
         return False
     stride = 1
     while stride < steps:
@@ -133,23 +199,27 @@ def _edge_free(start, end, bounds, model, spheres, boxes, radii, resolution, scr
             t = k / steps
             for i in range(dim):
                 q[i] = start[i] + t * (end[i] - start[i])
-            if not _pose_free(q, model, spheres, boxes, inflation, poses):
+            sincos_into(q, sines, cosines)
+            if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
                 return False
         stride //= 2
     return True
 
 
 @numba.njit(cache=True, nogil=True)
-def _edges_free(starts, ends, bounds, model, spheres, boxes, radii, resolution):
+def _edges_free(starts, ends, bounds, kinematics, spheres, boxes, radii, resolution):
+    dim = starts.shape[1]
     scratch = (
-        np.empty((model[0].shape[0] + 1, 4, 4)),
-        np.empty(model[0].shape[0] + 1),
-        np.empty(starts.shape[1]),
+        _identity_poses(dim + 1),
+        np.empty(dim + 1),
+        np.empty(dim),
+        np.empty(dim),
+        np.empty(dim),
     )
     out = np.empty(starts.shape[0], dtype=np.bool_)
     for i in range(starts.shape[0]):
-        out[i] = _edge_free(starts[i], ends[i], bounds, model, spheres, boxes, radii, resolution,
-                            scratch)  # fmt: skip
+        out[i] = _edge_free(starts[i], ends[i], bounds, kinematics, spheres, boxes, radii,
+                            resolution, scratch)  # fmt: skip
     return out
 
 
@@ -263,10 +333,7 @@ class IiwaSphereChecker:
         self._bounds = _as_bounds(bounds)
         self._boxes = _as_boxes(box_lower, box_upper)
         model = load_model()
-        self._model = (
-            np.ascontiguousarray(model.joint_origins),
-            np.ascontiguousarray(model.joint_axes),
-        )
+        self._kinematics = origin_permutations(model.joint_origins)
         link_spheres = load_sphere_model()
         if len(link_spheres) != NUM_LINKS:
             raise ValueError(f"sphere model: expected {NUM_LINKS} links, got {len(link_spheres)}")
@@ -278,7 +345,9 @@ class IiwaSphereChecker:
             [np.max(np.linalg.norm(c - m, axis=1) + r)
              for (c, r), m in zip(link_spheres, bound_centers)]
         )  # fmt: skip
-        self._spheres = (centers, radii, link_start, bound_centers, bound_radii)
+        # The kernel's FK is within FAST_FK_MARGIN of the exact one: grow the spheres by it.
+        self._spheres = (centers, radii + FAST_FK_MARGIN, link_start, bound_centers,
+                         bound_radii + FAST_FK_MARGIN)  # fmt: skip
         self._motion_radii = np.ascontiguousarray(motion_radii(load_mesh_radii()))
         lower, upper = self._boxes
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
@@ -300,7 +369,14 @@ class IiwaSphereChecker:
             near = np.flatnonzero(gaps <= reach + self.resolution / 2 + 1e-9)
             link_boxes[j, : len(near)] = near
             link_box_count[j] = len(near)
-        self._boxes = (box_params, link_boxes, link_box_count)
+        # The same candidates' corners, per link and axis, for the SIMD broad phase.
+        link_lower = np.zeros((NUM_LINKS, 3, link_boxes.shape[1]))
+        link_upper = np.zeros((NUM_LINKS, 3, link_boxes.shape[1]))
+        for j in range(NUM_LINKS):
+            near = link_boxes[j, : link_box_count[j]]
+            link_lower[j, :, : len(near)] = lower[near].T
+            link_upper[j, :, : len(near)] = upper[near].T
+        self._boxes = (box_params, link_boxes, link_box_count, link_lower, link_upper)
         self._num_boxes = len(box_params)
         self.description = (
             f"iiwa sphere model ({len(radii)} spheres), {self._num_boxes} boxes, "
@@ -318,7 +394,7 @@ class IiwaSphereChecker:
         states = _as_states(states)
         if not self.base_free:
             return np.zeros(len(states), dtype=bool)
-        return _states_free(states, self._bounds, self._model, self._spheres, self._boxes)
+        return _states_free(states, self._bounds, self._kinematics, self._spheres, self._boxes)
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: whether each joint-space segment ``starts[i] -> ends[i]`` is free."""
@@ -333,7 +409,7 @@ class IiwaSphereChecker:
                 ) from None
         if not self.base_free:
             return np.zeros(len(starts), dtype=bool)
-        return _edges_free(starts, ends, self._bounds, self._model, self._spheres, self._boxes,
+        return _edges_free(starts, ends, self._bounds, self._kinematics, self._spheres, self._boxes,
                            self._motion_radii, self.resolution)  # fmt: skip
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:

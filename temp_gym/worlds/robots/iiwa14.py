@@ -202,6 +202,107 @@ def _fk_batch(configs, joint_origins, joint_axes):
     return poses
 
 
+# Fast-path kinematics for the collision kernels. The URDF's joint-origin rotations are signed
+# permutations up to its rounded rpy angles (1.57079632679 for pi/2): snapping them, and a
+# polynomial sine, moves FK results by far less than `FAST_FK_MARGIN`, which callers add to
+# their sphere radii so that conservative tests stay conservative.
+FAST_FK_MARGIN = 1e-8
+"""Bound (m) on how far the fast-path FK (snapped origins, `sincos_into`) moves any point
+within 2 m of the base, with a wide safety factor; `origin_permutations` checks it."""
+
+_PIO2_HI = 1.5707963267341256  # pi/2 to 33 bits: k * _PIO2_HI is exact for small integers k
+_PIO2_LO = 6.077100506506192e-11  # pi/2 - _PIO2_HI
+_TWO_OVER_PI = 0.6366197723675814
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sincos(x):
+    """``(sin x, cos x)`` for finite ``|x| < 1e6``, branch-free so that loops vectorize.
+
+    Reduces to ``r = x - k pi/2`` with ``|r| <= pi/4`` and sums Taylor series to ``r**15`` and
+    ``r**16``; the truncation error is below ``(pi/4)**17 / 17! < 5e-17``, so with rounding the
+    result is within a few 1e-16 of the true value. NaN or inf give garbage, never a fault.
+    """
+    k = np.floor(x * _TWO_OVER_PI + 0.5)
+    r = (x - k * _PIO2_HI) - k * _PIO2_LO
+    r2 = r * r
+    sin_r = r + r * r2 * (
+        -1.0 / 6.0
+        + r2 * (1.0 / 120.0
+        + r2 * (-1.0 / 5040.0
+        + r2 * (1.0 / 362880.0
+        + r2 * (-1.0 / 39916800.0
+        + r2 * (1.0 / 6227020800.0
+        + r2 * (-1.0 / 1307674368000.0))))))
+    )  # fmt: skip
+    cos_r = 1.0 + r2 * (
+        -0.5
+        + r2 * (1.0 / 24.0
+        + r2 * (-1.0 / 720.0
+        + r2 * (1.0 / 40320.0
+        + r2 * (-1.0 / 3628800.0
+        + r2 * (1.0 / 479001600.0
+        + r2 * (-1.0 / 87178291200.0
+        + r2 * (1.0 / 20922789888000.0)))))))
+    )  # fmt: skip
+    quadrant = k - 4.0 * np.floor(k * 0.25)  # 0, 1, 2 or 3
+    odd = (quadrant == 1.0) | (quadrant == 3.0)
+    sin_x = cos_r if odd else sin_r
+    cos_x = sin_r if odd else cos_r
+    sin_x = -sin_x if quadrant >= 2.0 else sin_x
+    cos_x = -cos_x if (quadrant == 1.0) | (quadrant == 2.0) else cos_x
+    return sin_x, cos_x
+
+
+@numba.njit(cache=True, nogil=True)
+def sincos_into(x, sin_out, cos_out) -> None:
+    """Elementwise `_sincos` of the flat array ``x`` (vectorized by LLVM)."""
+    for k in range(x.shape[0]):
+        sin_out[k], cos_out[k] = _sincos(x[k])
+
+
+def origin_permutations(joint_origins: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint origins as signed permutations: ``(perm (7, 3) int64, sign (7, 3), shift (7, 3))``.
+
+    Origin ``i``'s rotation is (up to rounding in the URDF) ``R[perm[i, k], k] = sign[i, k]``,
+    its translation ``shift[i]``. Raises `ValueError` if a rotation is not close enough to a
+    signed permutation for `FAST_FK_MARGIN` to cover the snapping.
+    """
+    rotations = joint_origins[:, :3, :3]
+    perm = np.argmax(np.abs(rotations), axis=1).astype(np.int64)
+    sign = np.sign(np.take_along_axis(rotations, perm[:, None, :], axis=1)[:, 0, :])
+    snapped = np.zeros_like(rotations)
+    for i in range(len(rotations)):
+        snapped[i, perm[i], np.arange(3)] = sign[i]
+    # Replacing rotation i by one within d_i (spectral norm <= Frobenius) moves a point at
+    # distance <= 2 m from joint i's origin by <= 2 d_i; errors add along the chain.
+    deviation = np.linalg.norm(rotations - snapped, axis=(1, 2))
+    not_permutation = any(sorted(row) != [0, 1, 2] for row in perm.tolist())
+    if not_permutation or 10.0 * 2.0 * deviation.sum() > FAST_FK_MARGIN:
+        raise ValueError("joint origins: rotations are not signed permutations")
+    shift = np.ascontiguousarray(joint_origins[:, :3, 3])
+    return perm, np.ascontiguousarray(sign), shift
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def joint_step_into(parent, perm, sign, shift, c, s, out) -> None:
+    """``out = parent @ origin @ rot_z`` on 3x4 poses, the origin a signed permutation.
+
+    ``(parent @ origin)[:, k] = sign[k] * parent[:, perm[k]]``, so the product is copies, and
+    the joint turns its first two columns by the angle with cosine ``c`` and sine ``s``.
+    """
+    p0, p1, p2 = perm[0], perm[1], perm[2]
+    a0, a1, a2 = sign[0], sign[1], sign[2]
+    t0, t1, t2 = shift[0], shift[1], shift[2]
+    for r in range(3):
+        m0 = a0 * parent[r, p0]
+        m1 = a1 * parent[r, p1]
+        out[r, 3] = parent[r, 0] * t0 + parent[r, 1] * t1 + parent[r, 2] * t2 + parent[r, 3]
+        out[r, 2] = a2 * parent[r, p2]
+        out[r, 0] = c * m0 + s * m1
+        out[r, 1] = c * m1 - s * m0
+
+
 def _as_configs(configs: np.ndarray) -> np.ndarray:
     configs = np.ascontiguousarray(configs, dtype=np.float64)
     if configs.ndim == 1:
@@ -266,7 +367,11 @@ __all__ = [
     "NUM_JOINTS",
     "NUM_LINKS",
     "IiwaModel",
+    "FAST_FK_MARGIN",
     "fk_into",
+    "joint_step_into",
+    "origin_permutations",
+    "sincos_into",
     "forward_kinematics",
     "forward_kinematics_reference",
     "joint_limits",

@@ -1,0 +1,99 @@
+"""Env overhead: one `PlanningEnv.step` against one bare `Tree.extend`, side by side.
+
+    python benchmarks/env_step.py [--steps 3000] [--repeats 3]
+
+Both consume the same sample stream (goal-biased uniform, as RRT*) on the same generated
+problems, so they grow identical trees; the difference is the env's own work: action checks,
+denormalization, the observation (fresh arrays, the path so far) and info. Reported per world:
+microseconds per extension for each and the overhead ratio env/bare (target: <= 1.25).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import temp_gym  # noqa: F401  (registers the envs)
+from temp_gym.planning.samplers import GoalBiasedSampler, UniformSampler
+from temp_gym.planning.tree import Tree
+from temp_gym.worlds.generators import generate_problem
+from temp_gym.worlds.normalization import normalize
+
+WORLDS = {
+    "2d": ("TEMP-2D-v0", "point2d"),
+    "3d": ("TEMP-3D-v0", "point3d"),
+    "7d": ("TEMP-7D-v0", "kuka_iiwa14"),
+}
+
+
+def samples_for(problem, count, seed):
+    rng = np.random.default_rng(seed)
+    sampler = GoalBiasedSampler(UniformSampler(problem.bounds), problem.goal, 0.05)
+    return np.array([sampler.sample(rng) for _ in range(count)])
+
+
+def time_bare(problem, samples):
+    tree = Tree(problem)
+    start = time.perf_counter()
+    for sample in samples:
+        tree.extend(sample)
+    return time.perf_counter() - start, tree.num_nodes
+
+
+def time_env(env, problem, actions):
+    env.reset(seed=0, options={"problem": problem})
+    start = time.perf_counter()
+    for action in actions:
+        env.step(action)
+    return time.perf_counter() - start, env.unwrapped.tree.num_nodes
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--problems", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
+    args = parser.parse_args()
+    print(
+        "| world | bare extend (us) | env.step unwrapped (us) | ratio | gym.make stack (us) | ratio |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
+    for world in args.worlds:
+        env_id, robot = WORLDS[world]
+        rng = np.random.default_rng(0)
+        # target_cost=0: anytime refinement, so the episode never ends during the timing.
+        options = {"fallback": "none", "max_nodes": 10**9, "target_cost": 0.0}
+        raw_env = gym.make(env_id, **options).unwrapped
+        made_env = gym.make(env_id, **options)
+        totals = {"bare": 0.0, "env": 0.0, "made": 0.0}
+        steps = 0
+        for _ in range(args.problems):
+            problem = generate_problem(robot, rng)
+            samples = samples_for(problem, args.steps, seed=1)
+            actions = normalize(samples, problem.bounds).astype(np.float64)
+            time_bare(problem, samples[:50])  # warm-up (numba)
+            best = {"bare": np.inf, "env": np.inf, "made": np.inf}
+            for _ in range(args.repeats):  # interleaved, best of: the machine is shared
+                elapsed, nodes_bare = time_bare(problem, samples)
+                best["bare"] = min(best["bare"], elapsed)
+                elapsed, nodes_env = time_env(raw_env, problem, actions)
+                best["env"] = min(best["env"], elapsed)
+                elapsed, _ = time_env(made_env, problem, actions)
+                best["made"] = min(best["made"], elapsed)
+                assert nodes_bare == nodes_env, "env and bare core grew different trees"
+            for key in totals:
+                totals[key] += best[key]
+            steps += len(samples)
+        bare, env, made = (1e6 * totals[k] / steps for k in ("bare", "env", "made"))
+        print(
+            f"| {world} | {bare:.1f} | {env:.1f} | {env / bare:.2f} | {made:.1f} | "
+            f"{made / bare:.2f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,405 @@
+"""`PlanningEnv`: RRT* tree growth as a Gymnasium environment, one tree extension per step."""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from temp_gym.envs import _kernels as kernels
+from temp_gym.planning.samplers import UniformSampler
+from temp_gym.planning.tree import Tree, default_step_size
+from temp_gym.problem import ROBOTS, Problem
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.normalization import half_range, normalize
+from temp_gym.worlds.splits import SPLITS, split_workspace
+from temp_gym.worlds.workspace import Workspace
+
+DIFFICULTIES = ("any", "easy", "challenging", "mixed")
+FALLBACKS = ("random", "none")
+DEFAULT_MAX_NODES = {"point2d": 3000, "point3d": 3000, "kuka_iiwa14": 5000}
+MAX_RATIO = 100.0
+"""Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
+DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
+
+
+@lru_cache(maxsize=64)
+def _reference_planner(robot: str, split: str, index: int):
+    from temp_gym.worlds.reference import ReferencePlanner
+
+    return ReferencePlanner(split_workspace(robot, split, index))
+
+
+class PlanningEnv(gym.Env):
+    """Grow an RRT* tree towards a goal region; the action is where to sample next.
+
+    ## Description
+    A sampling-based motion-planning query (a `temp_gym.Problem`: a point robot in 2D/3D or
+    a 7-DOF Kuka iiwa 14 among axis-aligned boxes) is solved by growing an RRT* tree from the
+    start. Each step is **one tree extension** on the shared core `temp_gym.planning.Tree`:
+    the action is the next sample; the env steers from the nearest node by the step size,
+    checks the edge for collisions, chooses the cheapest collision-free parent among the near
+    nodes, inserts the node and rewires. "RRT*" is this env stepped with
+    `temp_gym.policies.UniformPolicy`; TEMP is this env stepped with the learned policy.
+
+    ## Action Space
+    `Box(-1, 1, (d,), float32)`: the sample, normalized so that -1 and 1 are the lower and
+    upper configuration bounds (d = 2, 3 or 7). A finite action outside [-1, 1] is clipped
+    to it; a NaN or inf action, or one of the wrong shape, raises `ValueError` and leaves the
+    tree untouched.
+
+    With ``fallback="random"`` (the paper's Algorithm 1, lines 7-10) a sample whose steered
+    edge collides is replaced by uniform random samples until an extension succeeds (at most
+    ``max_fallback_tries``); each failure is counted. With ``fallback="none"`` a colliding
+    action adds no node and ``info["added"]`` is False.
+
+    ## Observation Space
+    A `Dict` of fresh arrays (normalized coordinates are in [-1, 1]). ``path`` holds the
+    normalized root path of the newest node, the last L nodes when it is longer.
+
+    | key | shape | meaning | range |
+    |---|---|---|---|
+    | ``occupancy`` | (R,)*w | occupancy grid of the workspace (w = 2 or 3), 1 = occupied | {0, 1} |
+    | ``start`` | (d,) | start configuration, normalized | [-1, 1] |
+    | ``goal`` | (d,) | goal configuration, normalized | [-1, 1] |
+    | ``goal_radius`` | (1,) | goal radius over the mean half-range of the bounds | (0, 100] |
+    | ``path`` | (L, d) | root path of the newest node ("path so far"), zero-padded | [-1, 1] |
+    | ``path_length`` | (1,) | number of valid rows of ``path`` | [1, L] |
+    | ``best_cost`` | (1,) | best cost / start-goal distance; 0 before a solution | [0, 100] |
+    | ``solved`` | (1,) | 1 once a solution exists | {0, 1} |
+    | ``progress`` | (1,) | nodes over ``max_nodes`` | [0, 1] |
+
+    ## Rewards
+    ``-step_penalty`` every step; ``+success_reward`` on the step that first reaches the goal
+    region; afterwards, every cost improvement ``(J_before - J_after) / |goal - start|``. The
+    sum rewards reaching the goal in few steps and then shortening the path.
+
+    ## Starting State
+    ``reset(options={"problem": problem})`` plans the given `Problem`. Without it, a workspace
+    is drawn from the env's split (a fixed, seeded pool: `temp_gym.worlds.splits`) and a task
+    of the requested difficulty in it, all from the env's own ``np_random``.
+
+    ## Episode End
+    * Termination: the goal region is first reached; or, when a target cost is set
+      (``target_cost`` argument or ``options["target_cost"]``), when the best cost is at most it.
+    * Truncation: the tree has ``max_nodes`` nodes.
+
+    ``info`` carries ``nodes``, ``samples``, ``sampling_failures``, ``collision_checks``,
+    ``best_cost`` (world units, inf before a solution), ``success``, ``added``, ``collided``;
+    at the end of an episode also ``path``, the best path (K, d) in world units, or None.
+
+    ## Arguments
+    ```python
+    gymnasium.make("TEMP-2D-v0", difficulty="challenging", max_nodes=2000, split="test")
+    ```
+    * ``robot``: ``point2d``, ``point3d`` or ``kuka_iiwa14`` (set by the registered id).
+    * ``difficulty``: ``any``, ``easy``, ``challenging`` or ``mixed`` (easy or challenging with
+      equal chance) for drawn tasks.
+    * ``max_nodes``: truncation budget. ``step_size``: steering step (world units; default
+      `temp_gym.planning.tree.default_step_size`). ``goal_radius``: goal radius of drawn tasks.
+    * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``.
+    * ``encoding_resolution``: cells per axis of the occupancy grid (32 in 2D, 16 in 3D/7D).
+    * ``split``: ``train``, ``val`` or ``test`` workspace pool for drawn tasks.
+    * ``max_path_length``: L, rows of the ``path`` observation.
+    * ``step_penalty``, ``success_reward``, ``target_cost``: see Rewards and Episode End.
+    * ``render_mode``: ``rgb_array`` or ``human``.
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        robot: str = "point2d",
+        *,
+        difficulty: str = "any",
+        max_nodes: int | None = None,
+        step_size: float | None = None,
+        goal_radius: float | None = None,
+        fallback: str = "random",
+        max_fallback_tries: int = 1000,
+        encoding_resolution: int | None = None,
+        split: str = "train",
+        max_path_length: int = 64,
+        step_penalty: float = 0.01,
+        success_reward: float = 1.0,
+        target_cost: float | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if robot not in ROBOTS:
+            raise ValueError(f"robot: unknown robot {robot!r}; expected one of {list(ROBOTS)}")
+        if difficulty not in DIFFICULTIES:
+            raise ValueError(f"difficulty: expected one of {DIFFICULTIES}, got {difficulty!r}")
+        if fallback not in FALLBACKS:
+            raise ValueError(f"fallback: expected one of {FALLBACKS}, got {fallback!r}")
+        if split not in SPLITS:
+            raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']}")
+        max_nodes = DEFAULT_MAX_NODES[robot] if max_nodes is None else int(max_nodes)
+        if max_nodes < 2:
+            raise ValueError(f"max_nodes: must be at least 2, got {max_nodes}")
+        if max_path_length < 2:
+            raise ValueError(f"max_path_length: must be at least 2, got {max_path_length}")
+        if step_size is not None and not step_size > 0:
+            raise ValueError(f"step_size: must be positive, got {step_size}")
+        self.robot = robot
+        self.difficulty = difficulty
+        self.max_nodes = max_nodes
+        self.step_size = step_size
+        self.goal_radius = goal_radius
+        self.fallback = fallback
+        self.max_fallback_tries = int(max_fallback_tries)
+        self.resolution = encoding_resolution or DEFAULT_RESOLUTION[robot]
+        self.split = split
+        self.max_path_length = int(max_path_length)
+        self.step_penalty = float(step_penalty)
+        self.success_reward = float(success_reward)
+        self.default_target_cost = target_cost
+        self.render_mode = render_mode
+
+        dim, wdim = ROBOTS[robot]
+        self.dim = dim
+        unit = spaces.Box(-1.0, 1.0, (dim,), np.float32)
+        ratio = spaces.Box(0.0, MAX_RATIO, (1,), np.float32)
+        fraction = spaces.Box(0.0, 1.0, (1,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (dim,), np.float32)
+        self.observation_space = spaces.Dict(
+            {
+                "occupancy": spaces.Box(0.0, 1.0, (self.resolution,) * wdim, np.float32),
+                "start": unit,
+                "goal": unit,
+                "goal_radius": ratio,
+                "path": spaces.Box(-1.0, 1.0, (self.max_path_length, dim), np.float32),
+                "path_length": spaces.Box(1, self.max_path_length, (1,), np.int64),
+                "best_cost": ratio,
+                "solved": fraction,
+                "progress": fraction,
+            }
+        )
+        self.problem: Problem | None = None
+        self.tree: Tree | None = None
+        self._occupancy: np.ndarray | None = None
+        self._occupancy_key: tuple | None = None
+        self._renderer = None
+        self._figure = None
+
+    # ------------------------------------------------------------------ tasks
+    def _draw_problem(self) -> Problem:
+        rng = self.np_random
+        difficulty = self.difficulty
+        if difficulty == "mixed":
+            difficulty = "easy" if rng.random() < 0.5 else "challenging"
+        last_error: RuntimeError | None = None
+        for _ in range(20):
+            index = int(rng.integers(SPLITS[self.split]))
+            workspace = split_workspace(self.robot, self.split, index)
+            try:
+                if self.robot == "kuka_iiwa14":
+                    from temp_gym.worlds.iiwa_world import generate_iiwa_task
+
+                    kwargs = {} if self.goal_radius is None else {"goal_radius": self.goal_radius}
+                    return generate_iiwa_task(workspace, rng, difficulty, **kwargs)
+                from temp_gym.worlds.generators import generate_point_task
+
+                reference = (
+                    None
+                    if difficulty == "any"
+                    else _reference_planner(self.robot, self.split, index)
+                )
+                return generate_point_task(
+                    workspace, rng, difficulty, self.goal_radius, reference=reference
+                )
+            except RuntimeError as error:  # no task of that difficulty here: next workspace
+                last_error = error
+        raise RuntimeError(f"no {difficulty} task found in 20 {self.split} workspaces") from (
+            last_error
+        )
+
+    def _encoding(self, problem: Problem) -> np.ndarray:
+        key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
+        if key != self._occupancy_key:
+            self._occupancy = occupancy_grid(Workspace.of(problem), self.resolution)
+            self._occupancy_key = key
+        return self._occupancy
+
+    # ------------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Start a new planning query (see Starting State)."""
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = set(options) - {"problem", "target_cost"}
+        if unknown:
+            raise ValueError(f"options: unknown keys {sorted(unknown)}")
+        problem = options.get("problem")
+        if problem is None:
+            problem = self._draw_problem()
+        elif not isinstance(problem, Problem):
+            raise ValueError(f"options['problem']: expected a temp_gym.Problem, got {problem!r}")
+        elif problem.robot != self.robot:
+            raise ValueError(f"options['problem']: robot {problem.robot} in a {self.robot} env")
+        target = options.get("target_cost", self.default_target_cost)
+        self.target_cost = -math.inf if target is None else float(target)
+        self.problem = problem
+        step = self.step_size if self.step_size is not None else default_step_size(problem)
+        self.tree = Tree(problem, step_size=step)
+        self._fallback_sampler = UniformSampler(problem.bounds)
+        self._bounds = problem.bounds
+        self._low, self._high = problem.bounds
+        self._distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
+        self._static = {
+            "occupancy": self._encoding(problem),
+            "start": normalize(problem.start, problem.bounds).astype(np.float32),
+            "goal": normalize(problem.goal, problem.bounds).astype(np.float32),
+            "goal_radius": np.array(
+                [min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)],
+                np.float32,
+            ),
+        }
+        self._done = False
+        self._solved_before = self.tree.best_node >= 0
+        return self._observation(), self._info(added=False, collided=False, final=False)
+
+    def step(self, action: np.ndarray):
+        """Extend the tree once towards the (denormalized) action; see the class docstring."""
+        tree = self.tree
+        if tree is None:
+            raise RuntimeError("step() called before reset()")
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != (self.dim,):
+            raise ValueError(f"action: expected shape ({self.dim},), got {action.shape}")
+        sample = np.empty(self.dim)
+        if not kernels.action_to_sample(action, self._low, self._high, sample):
+            raise ValueError(f"action: must be finite, got {action.tolist()}")
+        best_before = tree.best_cost
+        if self.fallback == "random":
+            result = tree.extend_with_fallback(
+                sample, self._fallback_sampler, self.np_random, self.max_fallback_tries
+            )
+        else:
+            result = tree.extend(sample)
+        reward = -self.step_penalty
+        solved = tree.best_node >= 0
+        if solved and not self._solved_before:
+            reward += self.success_reward
+        elif solved and tree.best_cost < best_before:
+            reward += (best_before - tree.best_cost) / self._distance
+        self._solved_before = solved
+        if self.target_cost > -math.inf:  # anytime refinement down to a target cost
+            terminated = solved and tree.best_cost <= self.target_cost
+        else:
+            terminated = solved
+        truncated = not terminated and tree.num_nodes >= self.max_nodes
+        observation = self._observation()
+        info = self._info(
+            added=result.node >= 0, collided=result.collided, final=terminated or truncated
+        )
+        if self.render_mode == "human":
+            self.render()
+        return observation, float(reward), bool(terminated), bool(truncated), info
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        tree = self.tree
+        path, length = kernels.path_observation(
+            tree.links, tree.positions, tree.newest, self._low, self._high, self.max_path_length
+        )
+        solved = tree.best_node >= 0
+        static = self._static
+        # One fresh array for the three scalar entries; each key gets its own row (a view).
+        scalars = np.array(
+            [
+                [min(tree.best_cost / self._distance, MAX_RATIO) if solved else 0.0],
+                [1.0 if solved else 0.0],
+                [min(tree.num_nodes / self.max_nodes, 1.0)],
+            ],
+            np.float32,
+        )
+        return {
+            "occupancy": static["occupancy"].copy(),
+            "start": static["start"].copy(),
+            "goal": static["goal"].copy(),
+            "goal_radius": static["goal_radius"].copy(),
+            "path": path,
+            "path_length": np.array([length], np.int64),
+            "best_cost": scalars[0],
+            "solved": scalars[1],
+            "progress": scalars[2],
+        }
+
+    def _info(self, added: bool, collided: bool, final: bool) -> dict[str, Any]:
+        tree = self.tree
+        info = {
+            "nodes": tree.num_nodes,
+            "samples": tree.samples,
+            "sampling_failures": tree.sampling_failures,
+            "collision_checks": tree.collision_checks,
+            "best_cost": tree.best_cost,
+            "success": tree.best_node >= 0,
+            "added": added,
+            "collided": collided,
+        }
+        if final:
+            info["path"] = tree.best_path()
+        return info
+
+    # ------------------------------------------------------------------ rendering
+    def render(self) -> np.ndarray | None:
+        """Draw the tree, path, start and goal (2D/3D), or the arm along its path (7D)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; nothing drawn")
+            return None
+        if self.tree is None:
+            raise RuntimeError("render() called before reset()")
+        image = self._render_image()
+        if self.render_mode == "rgb_array":
+            return image
+        self._show(image)
+        return None
+
+    def _render_image(self) -> np.ndarray:
+        from temp_gym.envs import render
+
+        tree = self.tree
+        path = tree.best_path() if tree.best_node >= 0 else tree.path_so_far()
+        if self.robot == "kuka_iiwa14":
+            if self._renderer is None:
+                self._renderer = render.IiwaRenderer()
+            return self._renderer.render(self.problem, path=path)
+        return render.render_point_world(
+            self.problem,
+            positions=tree.positions[: tree.num_nodes],
+            parents=tree.parents,
+            path=path,
+            num_nodes=tree.num_nodes,
+        )
+
+    def _show(self, image: np.ndarray) -> None:
+        import matplotlib.pyplot as plt
+
+        if self._figure is None:
+            self._figure, axes = plt.subplots()
+            axes.set_axis_off()
+            self._artist = axes.imshow(image)
+        else:
+            self._artist.set_data(image)
+        plt.pause(1.0 / self.metadata["render_fps"])
+
+    def close(self) -> None:
+        """Release the renderer's pybullet client and any window; safe to call twice."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        if self._figure is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._figure)
+            self._figure = None
+        super().close()
