@@ -1,0 +1,38 @@
+"""The on-disk demonstration format, shared by the generator, the trainer and the tests.
+
+A dataset directory (``data.dir`` in the config) holds, per split (``train``, ``val``):
+
+* ``{split}/buffer/``: a torchrl `ReplayBuffer` over `LazyMemmapStorage`, saved with
+  ``rb.dumps`` and restored with ``rb.loads``. One entry per (expert path prefix, next node).
+* ``{split}/workspaces/``: the workspace table, a memory-mapped `TensorDict` with one row per
+  workspace: ``workspace_id`` (int64) and ``occupancy`` (float32, ``(R,)*w``). Samples refer
+  to it by ``workspace_id``, so the encoding is stored once per workspace, not per sample.
+
+plus ``dataset_card.json`` (counts, planner, budget, seeds, cost and node statistics).
+
+Sample keys use the names of the env's observation (`temp_gym.envs.PlanningEnv`), so a
+policy reads a training sample and a live observation the same way. All coordinates are
+normalized to [-1, 1]^d.
+"""
+
+from __future__ import annotations
+
+SPLITS = ("train", "val")
+
+SAMPLE_KEYS: dict[str, str] = {
+    "workspace_id": "int64 (): row of the workspace table (the split's workspace index)",
+    "task_id": "int64 (): task index within the split (workspace * tasks_per_workspace + task)",
+    "step": "int64 (): k, the index of the last node of the prefix",
+    "start": "float32 (d,): start, normalized",
+    "goal": "float32 (d,): goal, normalized",
+    "goal_radius": "float32 (1,): goal radius over the mean half-range of the bounds",
+    "path": "float32 (L, d): prefix x0..xk (its last L nodes), normalized, zero-padded",
+    "path_length": "int64 (1,): valid rows of path",
+    "target": "float32 (d,): x(k+1), the next node of the expert path, normalized",
+}
+"""Every key of a stored sample, with dtype, shape and meaning."""
+
+WORKSPACE_KEYS: dict[str, str] = {
+    "workspace_id": "int64 (): the split's workspace index",
+    "occupancy": "float32 (R,)*w: occupancy grid (temp_gym.worlds.encoding.occupancy_grid)",
+}

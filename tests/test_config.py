@@ -1,0 +1,21 @@
+import pytest
+
+from temp_gym.config import apply_overrides, load_config
+
+
+def test_overrides_parse_values_and_reject_typos():
+    config = load_config("configs/2d.yaml", ["env.max_path_length=32", "data.seed=7"])
+    assert config["env"]["max_path_length"] == 32 and config["data"]["seed"] == 7
+    assert apply_overrides({"a": {"b": 1}}, ["a.b=1e-3"])["a"]["b"] == 1e-3
+    assert apply_overrides({"a": {"b": 1}}, ["a.b=null"])["a"]["b"] is None
+    assert apply_overrides({"a": {}}, ["+a.c=[1, 2]"])["a"]["c"] == [1, 2]
+    with pytest.raises(ValueError, match="unknown key"):
+        apply_overrides({"a": {"b": 1}}, ["a.c=1"])
+    with pytest.raises(ValueError, match="expected key.sub=value"):
+        apply_overrides({"a": {"b": 1}}, ["a.b"])
+
+
+@pytest.mark.parametrize("name", ["2d", "3d", "7d", "tiny"])
+def test_shipped_configs_load(name):
+    config = load_config(f"configs/{name}.yaml")
+    assert {"env", "data", "model", "optim", "loss", "train", "eval", "logger"} <= set(config)
