@@ -10,20 +10,17 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from temp_gym.envs import _kernels as kernels
+from temp_gym.planning.observation import MAX_RATIO, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree, default_step_size
 from temp_gym.problem import ROBOTS, Problem
 from temp_gym.worlds.encoding import occupancy_grid
-from temp_gym.worlds.normalization import half_range, normalize
 from temp_gym.worlds.splits import SPLITS, split_workspace
 from temp_gym.worlds.workspace import Workspace
 
 DIFFICULTIES = ("any", "easy", "challenging", "mixed")
 FALLBACKS = ("random", "none")
 DEFAULT_MAX_NODES = {"point2d": 3000, "point3d": 3000, "kuka_iiwa14": 5000}
-MAX_RATIO = 100.0
-"""Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
 DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
 
 
@@ -252,19 +249,9 @@ class PlanningEnv(gym.Env):
         step = self.step_size if self.step_size is not None else default_step_size(problem)
         self.tree = Tree(problem, step_size=step)
         self._fallback_sampler = UniformSampler(problem.bounds)
-        self._bounds = problem.bounds
-        self._low, self._high = problem.bounds
-        self._distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
-        self._static = {
-            "occupancy": self._encoding(problem),
-            "start": normalize(problem.start, problem.bounds).astype(np.float32),
-            "goal": normalize(problem.goal, problem.bounds).astype(np.float32),
-            "goal_radius": np.array(
-                [min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)],
-                np.float32,
-            ),
-        }
-        self._done = False
+        self._observer = TreeObserver(
+            problem, self._encoding(problem), self.max_path_length, self.max_nodes
+        )
         self._solved_before = self.tree.best_node >= 0
         return self._observation(), self._info(added=False, collided=False, final=False)
 
@@ -273,12 +260,7 @@ class PlanningEnv(gym.Env):
         tree = self.tree
         if tree is None:
             raise RuntimeError("step() called before reset()")
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != (self.dim,):
-            raise ValueError(f"action: expected shape ({self.dim},), got {action.shape}")
-        sample = np.empty(self.dim)
-        if not kernels.action_to_sample(action, self._low, self._high, sample):
-            raise ValueError(f"action: must be finite, got {action.tolist()}")
+        sample = self._observer.action_to_sample(action)  # ValueError leaves the tree as is
         best_before = tree.best_cost
         if self.fallback == "random":
             result = tree.extend_with_fallback(
@@ -291,7 +273,7 @@ class PlanningEnv(gym.Env):
         if solved and not self._solved_before:
             reward += self.success_reward
         elif solved and tree.best_cost < best_before:
-            reward += (best_before - tree.best_cost) / self._distance
+            reward += (best_before - tree.best_cost) / self._observer.distance
         self._solved_before = solved
         if self.target_cost > -math.inf:  # anytime refinement down to a target cost
             terminated = solved and tree.best_cost <= self.target_cost
@@ -307,32 +289,7 @@ class PlanningEnv(gym.Env):
         return observation, float(reward), bool(terminated), bool(truncated), info
 
     def _observation(self) -> dict[str, np.ndarray]:
-        tree = self.tree
-        path, length = kernels.path_observation(
-            tree.links, tree.positions, tree.newest, self._low, self._high, self.max_path_length
-        )
-        solved = tree.best_node >= 0
-        static = self._static
-        # One fresh array for the three scalar entries; each key gets its own row (a view).
-        scalars = np.array(
-            [
-                [min(tree.best_cost / self._distance, MAX_RATIO) if solved else 0.0],
-                [1.0 if solved else 0.0],
-                [min(tree.num_nodes / self.max_nodes, 1.0)],
-            ],
-            np.float32,
-        )
-        return {
-            "occupancy": static["occupancy"].copy(),
-            "start": static["start"].copy(),
-            "goal": static["goal"].copy(),
-            "goal_radius": static["goal_radius"].copy(),
-            "path": path,
-            "path_length": np.array([length], np.int64),
-            "best_cost": scalars[0],
-            "solved": scalars[1],
-            "progress": scalars[2],
-        }
+        return self._observer.observe(self.tree)
 
     def _info(self, added: bool, collided: bool, final: bool) -> dict[str, Any]:
         tree = self.tree
