@@ -3,8 +3,14 @@
 The planners' hot loop. One numba kernel does forward kinematics and tests the sphere model
 of `temp_gym.worlds.robots.sphere_fit` (spheres that provably cover each link's collision
 mesh) against the boxes, with early exit. A link's spheres are only tested against a box when
-the link's bounding sphere touches it (the broad phase), and link_0, which never moves, is
-tested once in ``__init__``. Boxes are closed: touching counts as a collision.
+the link's bounding sphere touches it (the broad phase, SIMD over boxes), and link_0, which never
+moves, is tested once in ``__init__``. Boxes are closed: touching counts as a collision.
+
+**Speed.** Sines and cosines are computed a block of states at a time by a vectorized
+polynomial (`temp_gym.worlds.robots.iiwa14.sincos_into`), FK uses 3x4 poses and the URDF's
+signed-permutation joint origins (`joint_step_into`), and the kernels take their arrays
+unpacked and index them whole: tuple unpacking and row views cost atomic reference counts.
+That FK is within `FAST_FK_MARGIN` (10 nm) of the exact one, so every sphere is grown by it.
 
 **Conservative.** Spheres cover the meshes, so a state this checker calls free is free for
 `IiwaExactChecker` too (the tests check it on tens of thousands of states); the converse
@@ -55,83 +61,65 @@ DEFAULT_RESOLUTION = 0.02
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _sphere_hits_box(x, y, z, radius, box) -> bool:
-    """Closed sphere versus closed box ``box = (cx, cy, cz, hx, hy, hz)`` (branch-free gap)."""
-    gx = max(abs(x - box[0]) - box[3], 0.0)
-    gy = max(abs(y - box[1]) - box[4], 0.0)
-    gz = max(abs(z - box[2]) - box[5], 0.0)
+def _sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
+    """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
+    gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
+    gy = max(abs(y - box_params[b, 1]) - box_params[b, 4], 0.0)
+    gz = max(abs(z - box_params[b, 2]) - box_params[b, 5], 0.0)
     return gx * gx + gy * gy + gz * gz <= radius * radius
 
 
-@numba.njit(cache=True, nogil=True)
-def _in_bounds(q, lower_bounds, upper_bounds) -> bool:
-    for k in range(q.shape[0]):
+@numba.njit(cache=True, nogil=True, inline="always")
+def _in_bounds(states, i, bounds) -> bool:
+    """Whether ``states[i]`` is within ``bounds`` (indexed whole: row views cost refcounts)."""
+    for k in range(states.shape[1]):
         # Written so that NaN fails the test.
-        if not (q[k] >= lower_bounds[k] and q[k] <= upper_bounds[k]):
+        if not (states[i, k] >= bounds[0, k] and states[i, k] <= bounds[1, k]):
             return False
     return True
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _link_box_hits(x, y, z, radius, lower, upper, count) -> int:
-    """How many of a link's ``count`` candidate boxes (SoA corners) a closed sphere touches.
-
-    No early exit and no branches, so LLVM turns it into SIMD over boxes: the broad phase.
-    """
-    hits = 0
-    rr = radius * radius
-    for n in range(count):
-        gx = max(max(lower[0, n] - x, x - upper[0, n]), 0.0)
-        gy = max(max(lower[1, n] - y, y - upper[1, n]), 0.0)
-        gz = max(max(lower[2, n] - z, z - upper[2, n]), 0.0)
-        hits += gx * gx + gy * gy + gz * gz <= rr
-    return hits
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _link_free(pose, j, spheres, boxes, grow) -> bool:
-    """Whether link ``j`` at world pose ``pose`` (3x4), spheres grown by ``grow``, misses all."""
-    centers, radii, link_start, bound_centers, bound_radii = spheres
-    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
-    count = link_box_count[j]
-    if count == 0:
-        return True
-    c0, c1, c2 = bound_centers[j, 0], bound_centers[j, 1], bound_centers[j, 2]
-    bx = pose[0, 0] * c0 + pose[0, 1] * c1 + pose[0, 2] * c2 + pose[0, 3]
-    by = pose[1, 0] * c0 + pose[1, 1] * c1 + pose[1, 2] * c2 + pose[1, 3]
-    bz = pose[2, 0] * c0 + pose[2, 1] * c1 + pose[2, 2] * c2 + pose[2, 3]
-    bound = bound_radii[j] + grow
-    if _link_box_hits(bx, by, bz, bound, link_lower[j], link_upper[j], count) == 0:
-        return True
-    for n in range(count):
-        box = box_params[link_boxes[j, n]]
-        if not _sphere_hits_box(bx, by, bz, bound, box):
-            continue
-        for k in range(link_start[j], link_start[j + 1]):
-            c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
-            x = pose[0, 0] * c0 + pose[0, 1] * c1 + pose[0, 2] * c2 + pose[0, 3]
-            y = pose[1, 0] * c0 + pose[1, 1] * c1 + pose[1, 2] * c2 + pose[1, 3]
-            z = pose[2, 0] * c0 + pose[2, 1] * c1 + pose[2, 2] * c2 + pose[2, 3]
-            if _sphere_hits_box(x, y, z, radii[k] + grow, box):
-                return False
-    return True
-
-
 @numba.njit(cache=True, nogil=True)
-def _pose_free(sines, cosines, base, kinematics, spheres, boxes, inflation, poses) -> bool:
+def _pose_free(sines, cosines, base, perm, sign, shift, centers, radii, link_start,
+               bound_centers, bound_radii, box_params, link_boxes, link_box_count, link_lower,
+               link_upper, inflation, poses) -> bool:  # fmt: skip
     """Whether the moving links' spheres (grown by ``inflation[j]``) miss every box.
 
     ``sines[base + i]``, ``cosines[base + i]`` are joint ``i``'s; ``poses`` (8, 3, 4) is
-    scratch whose first entry is the identity.
+    scratch whose first entry is the identity. Arrays come unpacked and are indexed whole,
+    never sliced: tuple unpacking and views cost atomic reference counting per call.
     """
-    perm, sign, shift = kinematics
     for j in range(perm.shape[0]):
-        joint_step_into(poses[j], perm[j], sign[j], shift[j], cosines[base + j],
-                        sines[base + j], poses[j + 1])  # fmt: skip
+        joint_step_into(poses, j, perm, sign, shift, cosines[base + j], sines[base + j])
     # Distal links first: they sweep the most space, so collisions are found sooner.
     for j in range(poses.shape[0] - 1, 0, -1):
-        if not _link_free(poses[j], j, spheres, boxes, inflation[j]):
-            return False
+        count = link_box_count[j]
+        grow = inflation[j]
+        c0, c1, c2 = bound_centers[j, 0], bound_centers[j, 1], bound_centers[j, 2]
+        bx = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
+        by = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
+        bz = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
+        bound = bound_radii[j] + grow
+        # Broad phase, branch-free so that LLVM makes it SIMD over the link's candidates.
+        hits = 0
+        for n in range(count):
+            gx = max(max(link_lower[j, 0, n] - bx, bx - link_upper[j, 0, n]), 0.0)
+            gy = max(max(link_lower[j, 1, n] - by, by - link_upper[j, 1, n]), 0.0)
+            gz = max(max(link_lower[j, 2, n] - bz, bz - link_upper[j, 2, n]), 0.0)
+            hits += gx * gx + gy * gy + gz * gz <= bound * bound
+        if hits == 0:
+            continue
+        for n in range(count):
+            b = link_boxes[j, n]
+            if not _sphere_hits_box(bx, by, bz, bound, box_params, b):
+                continue
+            for k in range(link_start[j], link_start[j + 1]):
+                c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
+                x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
+                y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
+                z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
+                if _sphere_hits_box(x, y, z, radii[k] + grow, box_params, b):
+                    return False
     return True
 
 
@@ -149,6 +137,9 @@ _BLOCK = 256
 
 @numba.njit(cache=True, nogil=True)
 def _states_free(states, bounds, kinematics, spheres, boxes):
+    perm, sign, shift = kinematics
+    centers, radii, link_start, bound_centers, bound_radii = spheres
+    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
     num, dim = states.shape
     out = np.zeros(num, dtype=np.bool_)
     poses = _identity_poses(dim + 1)
@@ -160,66 +151,74 @@ def _states_free(states, bounds, kinematics, spheres, boxes):
         last = min(first + _BLOCK, num)
         sincos_into(flat[first * dim : last * dim], sines, cosines)
         for i in range(first, last):
-            if _in_bounds(states[i], bounds[0], bounds[1]):
-                out[i] = _pose_free(sines, cosines, (i - first) * dim, kinematics, spheres,
-                                    boxes, no_inflation, poses)  # fmt: skip
+            if _in_bounds(states, i, bounds):
+                out[i] = _pose_free(sines, cosines, (i - first) * dim, perm, sign, shift,
+                                    centers, radii, link_start, bound_centers, bound_radii,
+                                    box_params, link_boxes, link_box_count, link_lower,
+                                    link_upper, no_inflation, poses)  # fmt: skip
     return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _edge_free(start, end, bounds, kinematics, spheres, boxes, radii, resolution,
-               scratch) -> bool:  # fmt: skip
+def _edge_free(starts, ends, e, bounds, perm, sign, shift, centers, radii, link_start,
+               bound_centers, bound_radii, box_params, link_boxes, link_box_count, link_lower,
+               link_upper, motion, resolution, poses, inflation, q, sines,
+               cosines) -> bool:  # fmt: skip
+    """Whether edge ``starts[e] -> ends[e]`` is free (arrays unpacked, as in `_pose_free`)."""
     # The configuration space is a box: a segment with both ends in bounds stays in bounds.
-    if not (_in_bounds(start, bounds[0], bounds[1]) and _in_bounds(end, bounds[0], bounds[1])):
+    if not (_in_bounds(starts, e, bounds) and _in_bounds(ends, e, bounds)):
         return False
-    poses, inflation, q, sines, cosines = scratch
-    dim = start.shape[0]
+    dim = starts.shape[1]
     worst = 0.0
     for j in range(inflation.shape[0]):
         sweep = 0.0
         for i in range(dim):
-            sweep += abs(end[i] - start[i]) * radii[i, j]
+            sweep += abs(ends[e, i] - starts[e, i]) * motion[i, j]
         inflation[j] = sweep
         worst = max(worst, sweep)
     steps = max(1, int(math.ceil(worst / resolution)))
     for j in range(inflation.shape[0]):
         inflation[j] /= 2.0 * steps
-    sincos_into(start, sines, cosines)
-    if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
-        return False
-    sincos_into(end, sines, cosines)
-    if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
-        return False
+    # Endpoints first, then bisection order: k = stride * odd visits each 0 < k < steps once.
+    order = np.empty(steps + 1, dtype=np.int64)
+    order[0], order[1] = 0, steps
+    count = 2
     stride = 1
     while stride < steps:
         stride *= 2
     stride //= 2
-    while stride >= 1:  # bisection order: k = stride * odd visits each 0 < k < steps once
+    while stride >= 1:
         for k in range(stride, steps, 2 * stride):
-            t = k / steps
-            for i in range(dim):
-                q[i] = start[i] + t * (end[i] - start[i])
-            sincos_into(q, sines, cosines)
-            if not _pose_free(sines, cosines, 0, kinematics, spheres, boxes, inflation, poses):
-                return False
+            order[count] = k
+            count += 1
         stride //= 2
+    for k in order:
+        t = k / steps
+        for i in range(dim):
+            q[i] = starts[e, i] + t * (ends[e, i] - starts[e, i])
+        sincos_into(q, sines, cosines)
+        if not _pose_free(sines, cosines, 0, perm, sign, shift, centers, radii, link_start,
+                          bound_centers, bound_radii, box_params, link_boxes, link_box_count,
+                          link_lower, link_upper, inflation, poses):  # fmt: skip
+            return False
     return True
 
 
 @numba.njit(cache=True, nogil=True)
-def _edges_free(starts, ends, bounds, kinematics, spheres, boxes, radii, resolution):
+def _edges_free(starts, ends, bounds, kinematics, spheres, boxes, motion, resolution):
+    perm, sign, shift = kinematics
+    centers, radii, link_start, bound_centers, bound_radii = spheres
+    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
     dim = starts.shape[1]
-    scratch = (
-        _identity_poses(dim + 1),
-        np.empty(dim + 1),
-        np.empty(dim),
-        np.empty(dim),
-        np.empty(dim),
-    )
+    poses = _identity_poses(dim + 1)
+    inflation = np.empty(dim + 1)
+    q, sines, cosines = np.empty(dim), np.empty(dim), np.empty(dim)
     out = np.empty(starts.shape[0], dtype=np.bool_)
-    for i in range(starts.shape[0]):
-        out[i] = _edge_free(starts[i], ends[i], bounds, kinematics, spheres, boxes, radii,
-                            resolution, scratch)  # fmt: skip
+    for e in range(starts.shape[0]):
+        out[e] = _edge_free(starts, ends, e, bounds, perm, sign, shift, centers, radii,
+                            link_start, bound_centers, bound_radii, box_params, link_boxes,
+                            link_box_count, link_lower, link_upper, motion, resolution, poses,
+                            inflation, q, sines, cosines)  # fmt: skip
     return out
 
 
@@ -273,9 +272,9 @@ def _base_free(box_params: np.ndarray, centers: np.ndarray, radii: np.ndarray) -
     exact checker makes, so the two checkers agree on the base exactly.
     """
     suspects = [
-        box
-        for box in box_params
-        if any(_sphere_hits_box(*c, r, box) for c, r in zip(centers, radii))
+        box_params[b]
+        for b in range(len(box_params))
+        if any(_sphere_hits_box(*c, r, box_params, b) for c, r in zip(centers, radii))
     ]
     if not suspects:
         return True

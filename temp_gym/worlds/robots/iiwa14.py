@@ -285,22 +285,25 @@ def origin_permutations(joint_origins: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def joint_step_into(parent, perm, sign, shift, c, s, out) -> None:
-    """``out = parent @ origin @ rot_z`` on 3x4 poses, the origin a signed permutation.
+def joint_step_into(poses, j, perm, sign, shift, c, s) -> None:
+    """``poses[j + 1] = poses[j] @ origin[j] @ rot_z`` on 3x4 poses, origins signed permutations.
 
-    ``(parent @ origin)[:, k] = sign[k] * parent[:, perm[k]]``, so the product is copies, and
-    the joint turns its first two columns by the angle with cosine ``c`` and sine ``s``.
+    ``(pose @ origin)[:, k] = sign[j, k] * pose[:, perm[j, k]]``, so the product is copies,
+    and the joint turns the first two columns by the angle with cosine ``c`` and sine ``s``.
+    Indexes whole arrays rather than taking row views: views cost reference counting.
     """
-    p0, p1, p2 = perm[0], perm[1], perm[2]
-    a0, a1, a2 = sign[0], sign[1], sign[2]
-    t0, t1, t2 = shift[0], shift[1], shift[2]
+    p0, p1, p2 = perm[j, 0], perm[j, 1], perm[j, 2]
+    a0, a1, a2 = sign[j, 0], sign[j, 1], sign[j, 2]
+    t0, t1, t2 = shift[j, 0], shift[j, 1], shift[j, 2]
     for r in range(3):
-        m0 = a0 * parent[r, p0]
-        m1 = a1 * parent[r, p1]
-        out[r, 3] = parent[r, 0] * t0 + parent[r, 1] * t1 + parent[r, 2] * t2 + parent[r, 3]
-        out[r, 2] = a2 * parent[r, p2]
-        out[r, 0] = c * m0 + s * m1
-        out[r, 1] = c * m1 - s * m0
+        m0 = a0 * poses[j, r, p0]
+        m1 = a1 * poses[j, r, p1]
+        poses[j + 1, r, 3] = (
+            poses[j, r, 0] * t0 + poses[j, r, 1] * t1 + poses[j, r, 2] * t2 + poses[j, r, 3]
+        )
+        poses[j + 1, r, 2] = a2 * poses[j, r, p2]
+        poses[j + 1, r, 0] = c * m0 + s * m1
+        poses[j + 1, r, 1] = c * m1 - s * m0
 
 
 def _as_configs(configs: np.ndarray) -> np.ndarray:
