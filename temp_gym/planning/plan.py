@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 from temp_gym.planning.planners import informed_rrt_star, rrt_star
 from temp_gym.planning.result import PlanResult, PlanSettings
+from temp_gym.planning.temp_planner import temp
 from temp_gym.problem import Problem
 
 PlannerFunction = Callable[[Problem, PlanSettings], PlanResult]
@@ -42,6 +43,7 @@ def _ompl_planner(name: str) -> PlannerFunction:
 
 register_planner("rrt_star", rrt_star)
 register_planner("informed_rrt_star", informed_rrt_star)
+register_planner("temp", temp)
 # OMPL is imported only when one of these runs; without it they raise a clear ImportError.
 register_planner("ompl_rrt_star", _ompl_planner("ompl_rrt_star"))
 register_planner("ompl_informed_rrt_star", _ompl_planner("ompl_informed_rrt_star"))
@@ -66,6 +68,8 @@ def plan(
     goal_bias: float = 0.05,
     target_cost: float | None = None,
     max_samples: int | None = None,
+    policy: object = None,
+    attention_nodes: int | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -77,8 +81,8 @@ def plan(
 
     Args:
         problem: The query.
-        planner: A key of `PLANNERS`: ``rrt_star``, ``informed_rrt_star``, ``ompl_rrt_star``,
-            ``ompl_informed_rrt_star``.
+        planner: A key of `PLANNERS`: ``rrt_star``, ``informed_rrt_star``, ``temp``,
+            ``ompl_rrt_star``, ``ompl_informed_rrt_star``.
         seed: Seed of the planner's random generator.
         max_nodes: Tree-size budget, root included (at least 1).
         time_limit: Seconds of wall time, or None for no limit.
@@ -88,6 +92,10 @@ def plan(
         goal_bias: Probability of sampling the goal, in ``[0, 1]``.
         target_cost: Stop once a solution costs at most this.
         max_samples: Sample budget; None means ``100 * max_nodes``.
+        policy: ``temp`` only: a `temp_gym.policies.SamplingPolicy` (for instance
+            `temp_gym.load_policy("TEMP-2D-v0")`); None loads the shipped policy for the robot.
+        attention_nodes: ``temp`` only: tree-node budget of attention-based planning before
+            classical planning takes over (None: all of ``max_nodes``).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument.
@@ -114,6 +122,14 @@ def plan(
         raise ValueError(f"target_cost: expected a number or None, got {target_cost!r}")
     if max_samples is not None and (not _is_int(max_samples) or max_samples < 1):
         raise ValueError(f"max_samples: expected an integer of at least 1, got {max_samples!r}")
+    if attention_nodes is not None and (not _is_int(attention_nodes) or attention_nodes < 1):
+        raise ValueError(
+            f"attention_nodes: expected an integer of at least 1, got {attention_nodes!r}"
+        )
+    if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
+        raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
+    if policy is not None and planner != "temp":
+        raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
     settings = PlanSettings(
         seed=int(seed),
         max_nodes=int(max_nodes),
@@ -123,5 +139,7 @@ def plan(
         goal_bias=float(goal_bias),
         target_cost=None if target_cost is None else float(target_cost),
         max_samples=None if max_samples is None else int(max_samples),
+        policy=policy,
+        attention_nodes=None if attention_nodes is None else int(attention_nodes),
     )
     return PLANNERS[planner](problem, settings)

@@ -34,6 +34,11 @@ class PlanSettings:
     max_samples: int | None = None
     """Stop after this many samples; None means ``100 * max_nodes`` (a walled-in start)."""
 
+    policy: Any = field(default=None, compare=False, repr=False)
+    """Sampling policy of the ``temp`` planner (None: the shipped one for the robot)."""
+    attention_nodes: int | None = None
+    """``temp`` planner: most tree nodes for attention-based planning (None: ``max_nodes``)."""
+
     @property
     def sample_limit(self) -> int:
         """The effective sample limit."""
@@ -72,6 +77,9 @@ class PlanResult:
     """Seed of the run."""
     certification_failures: int = 0
     """Solutions the exact checker rejected (never reported as the path)."""
+    attention: dict[str, Any] | None = None
+    """``temp`` planner only: the attention-based phase's ``solved``, ``nodes``, ``time``,
+    ``cost``, ``samples`` and ``sampling_failures`` (what the paper reports for TEMP)."""
 
     def cost_at(self, nodes: int) -> float:
         """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""
@@ -100,6 +108,9 @@ class PlanResult:
             "history": {k: np.asarray(v).tolist() for k, v in self.history.items()},
             "seed": int(self.seed),
             "certification_failures": int(self.certification_failures),
+            "attention": None
+            if self.attention is None
+            else {k: number(v) if isinstance(v, float) else v for k, v in self.attention.items()},
         }
 
     def summary(self) -> str:

@@ -1,0 +1,132 @@
+"""The TEMP planner: attention-based planning (the paper's Algorithm 1), then classical planning.
+
+**Attention-based planning (AP)**, for at most ``attention_nodes`` iterations:
+
+1. the policy (the MPT) proposes ``x_sample`` from the observation of the tree: environment,
+   start, goal and the path so far (`temp_gym.planning.observation.TreeObserver`);
+2. nearest node and steer by the step size;
+3. while that edge collides, a uniform random sample replaces it (each failure is counted);
+4. find-near and choose-parent;
+5. append and rewire (`Tree.extend_with_fallback` does 2-5 on the shared core);
+6. the path so far becomes the root path of the new node;
+7. stop as soon as a node lies in the goal region.
+
+The AP phase's time, nodes and cost are what the paper reports for TEMP; `PlanResult` keeps
+them in ``attention`` (``solved``, ``nodes``, ``time``, ``cost``, ``samples``,
+``sampling_failures``).
+
+**Classical planning (CP)** then continues the same tree with informed sampling (Informed
+RRT*) until ``max_nodes``, ``time_limit`` or ``target_cost``, for asymptotic optimality; with
+``stop_at_first`` it is skipped. If AP used up ``attention_nodes`` without reaching the goal, CP
+carries on from the tree AP built: so TEMP stays probabilistically complete whatever the
+policy proposes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from temp_gym.planning.observation import TreeObserver
+from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, certified_tree_solution
+from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
+from temp_gym.planning.tree import Tree
+from temp_gym.problem import Problem
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.workspace import Workspace
+
+DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
+DEFAULT_MAX_PATH_LENGTH = 64
+MAX_FALLBACK_TRIES = 1000
+
+
+def _observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
+    """The observer matching what the policy was trained on (its resolution and L)."""
+    resolution = getattr(policy, "encoding_resolution", None) or DEFAULT_RESOLUTION[problem.robot]
+    max_path_length = getattr(policy, "max_path_length", None) or DEFAULT_MAX_PATH_LENGTH
+    occupancy = occupancy_grid(Workspace.of(problem), resolution)
+    return TreeObserver(problem, occupancy, max_path_length, max_nodes)
+
+
+def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
+    """Plan with a sampling policy (AP, Algorithm 1), then Informed RRT* (CP)."""
+    policy = settings.policy
+    if policy is None:
+        from temp_gym.models.registry import load_policy
+
+        policy = load_policy(problem.robot)
+    started = time.perf_counter()
+    rng = np.random.default_rng(settings.seed)
+    tree = Tree(problem, step_size=settings.step_size)
+    observer = _observer_for(problem, policy, settings.max_nodes)
+    if hasattr(policy, "seed_rng"):
+        policy.seed_rng(settings.seed)
+    policy.reset(problem)
+    fallback = UniformSampler(problem.bounds)
+    log = AnytimeLog()
+    first_time: float | None = None
+    first_nodes: int | None = None
+    time_limit = math.inf if settings.time_limit is None else settings.time_limit
+    attention_nodes = (
+        settings.max_nodes if settings.attention_nodes is None else settings.attention_nodes
+    )
+
+    def out_of_budget() -> bool:
+        return (
+            tree.num_nodes >= settings.max_nodes
+            or tree.samples >= settings.sample_limit
+            or time.perf_counter() - started >= time_limit
+        )
+
+    # ---- attention-based planning (Algorithm 1)
+    while tree.best_node < 0 and tree.num_nodes < attention_nodes and not out_of_budget():
+        sample = observer.action_to_sample(policy(observer.observe(tree)))
+        tree.extend_with_fallback(sample, fallback, rng, MAX_FALLBACK_TRIES)
+    attention = {
+        "solved": tree.best_node >= 0,
+        "nodes": tree.num_nodes,
+        "time": time.perf_counter() - started,
+        "cost": tree.best_cost,
+        "samples": tree.samples,
+        "sampling_failures": tree.sampling_failures,
+    }
+    if attention["solved"]:
+        first_time, first_nodes = attention["time"], tree.num_nodes
+        log.record(tree.num_nodes, first_time, tree.best_cost)
+
+    # ---- classical planning: Informed RRT* on the same tree
+    informed = InformedSampler(problem.bounds, problem.start, problem.goal, problem.goal_radius)
+    informed.set_best_cost(tree.best_cost)
+    sampler = GoalBiasedSampler(informed, problem.goal, settings.goal_bias)
+    target = -math.inf if settings.target_cost is None else settings.target_cost
+    while not out_of_budget():
+        solved = tree.best_node >= 0
+        if solved and (settings.stop_at_first or tree.best_cost <= target):
+            break
+        result = tree.extend(sampler.sample(rng))
+        if result.improved:
+            elapsed = time.perf_counter() - started
+            log.record(tree.num_nodes, elapsed, tree.best_cost)
+            if first_time is None:
+                first_time, first_nodes = elapsed, tree.num_nodes
+            informed.set_best_cost(tree.best_cost)
+    path, cost, rejected = certified_tree_solution(problem, tree)
+    return PlanResult(
+        planner="temp",
+        success=path is not None,
+        path=path,
+        cost=cost,
+        nodes=tree.num_nodes,
+        samples=tree.samples,
+        sampling_failures=tree.sampling_failures,
+        collision_checks=tree.collision_checks,
+        wall_time=time.perf_counter() - started,
+        time_to_first_solution=first_time,
+        nodes_to_first_solution=first_nodes,
+        history=log.as_arrays(),
+        seed=settings.seed,
+        certification_failures=rejected,
+        attention=attention,
+    )

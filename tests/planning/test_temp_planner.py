@@ -1,0 +1,95 @@
+import numpy as np
+import pytest
+
+from temp_gym import Problem, plan
+from temp_gym.policies import UniformPolicy
+from temp_gym.worlds.collision import certify_path
+
+WALL = {
+    "robot": "point2d",
+    "bounds": [[0, 0], [20, 20]],
+    "obstacles": [{"center": [10, 10], "half_extents": [0.5, 8]}],
+    "start": [2, 10],
+    "goal": [18, 10],
+    "goal_radius": 0.5,
+}
+
+
+class TowardsGoal:
+    """Proposes the goal itself: a perfect policy in an open world."""
+
+    def reset(self, problem):
+        self.goal = problem.goal
+        self.bounds = problem.bounds
+
+    def __call__(self, observation):
+        return observation["goal"]
+
+
+class Stuck:
+    """A policy that cannot help: always the same corner, away from the goal."""
+
+    def reset(self, problem):
+        pass
+
+    def __call__(self, observation):
+        return np.array([-1.0, -1.0], np.float32)
+
+
+def test_attention_phase_follows_the_policy_and_stops_in_the_goal_region():
+    problem = Problem.from_dict({**WALL, "obstacles": []})
+    result = plan(problem, planner="temp", policy=TowardsGoal(), stop_at_first=True)
+    assert result.success and result.attention["solved"]
+    # Straight at the goal with step 1.0: 16 - 0.5 = 15.5 -> 16 steps, 17 nodes.
+    assert result.attention["nodes"] == 17 == result.nodes
+    assert result.attention["sampling_failures"] == 0
+    assert result.cost == pytest.approx(np.linalg.norm(result.path[-1] - problem.start))
+    assert np.linalg.norm(result.path[-1] - problem.goal) <= problem.goal_radius
+
+
+def test_random_fallback_on_collision_counts_failures():
+    problem = Problem.from_dict(WALL)
+    result = plan(problem, planner="temp", policy=TowardsGoal(), stop_at_first=True, seed=1)
+    assert result.success and result.attention["solved"]
+    assert result.attention["sampling_failures"] > 0  # the wall blocks the goal direction
+    assert certify_path(problem, result.path)
+
+
+def test_probabilistic_completeness_with_a_policy_that_cannot_help():
+    problem = Problem.from_dict(WALL)
+    result = plan(
+        problem,
+        planner="temp",
+        policy=Stuck(),
+        seed=0,
+        max_nodes=3000,
+        attention_nodes=200,
+        stop_at_first=True,
+    )
+    assert not result.attention["solved"] and result.attention["nodes"] == 200
+    assert result.success  # classical planning took over and found the way around
+    assert certify_path(problem, result.path)
+    assert result.path[0].tolist() == problem.start.tolist()
+
+
+def test_classical_phase_refines_after_attention_phase():
+    problem = Problem.from_dict(WALL)
+    result = plan(problem, planner="temp", policy=UniformPolicy(seed=0), seed=0, max_nodes=2500)
+    assert result.attention["solved"]
+    assert result.nodes == 2500
+    assert result.cost < result.attention["cost"]
+    assert np.all(np.diff(result.history["best_cost"]) < 0)
+
+
+def test_same_seed_same_result_and_policy_validation():
+    problem = Problem.from_dict(WALL)
+    a = plan(problem, planner="temp", policy=UniformPolicy(seed=3), seed=3, max_nodes=800)
+    b = plan(problem, planner="temp", policy=UniformPolicy(seed=3), seed=3, max_nodes=800)
+    np.testing.assert_array_equal(a.path, b.path)
+    assert a.attention["nodes"] == b.attention["nodes"]
+    with pytest.raises(ValueError, match="only the temp planner"):
+        plan(problem, planner="rrt_star", policy=UniformPolicy())
+    with pytest.raises(ValueError, match="SamplingPolicy"):
+        plan(problem, planner="temp", policy=object())
+    with pytest.raises(ValueError, match="attention_nodes"):
+        plan(problem, planner="temp", policy=UniformPolicy(), attention_nodes=0)
