@@ -33,7 +33,11 @@ class SamplingPolicy(Protocol):
     """Anything that proposes the next sample for a planning episode."""
 
     def reset(self, problem: Problem) -> None:
-        """Prepare for a new problem (the learned policy encodes the environment here)."""
+        """Prepare for a new problem (the learned policy encodes the environment here).
+
+        A stochastic policy may also accept ``seed=``; the planners pass theirs, so the same
+        seed gives the same plan.
+        """
         ...
 
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:

@@ -24,6 +24,7 @@ policy proposes.
 
 from __future__ import annotations
 
+import inspect
 import math
 import time
 
@@ -42,10 +43,18 @@ DEFAULT_MAX_PATH_LENGTH = 64
 MAX_FALLBACK_TRIES = 1000
 
 
+def _policy_setting(policy, name: str):
+    """``policy.name`` or ``policy.model.name`` (a learned policy keeps it on its model)."""
+    value = getattr(policy, name, None)
+    if value is None:
+        value = getattr(getattr(policy, "model", None), name, None)
+    return value
+
+
 def _observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
     """The observer matching what the policy was trained on (its resolution and L)."""
-    resolution = getattr(policy, "encoding_resolution", None) or DEFAULT_RESOLUTION[problem.robot]
-    max_path_length = getattr(policy, "max_path_length", None) or DEFAULT_MAX_PATH_LENGTH
+    resolution = _policy_setting(policy, "encoding_resolution") or DEFAULT_RESOLUTION[problem.robot]
+    max_path_length = _policy_setting(policy, "max_path_length") or DEFAULT_MAX_PATH_LENGTH
     occupancy = occupancy_grid(Workspace.of(problem), resolution)
     return TreeObserver(problem, occupancy, max_path_length, max_nodes)
 
@@ -61,9 +70,10 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
     observer = _observer_for(problem, policy, settings.max_nodes)
-    if hasattr(policy, "seed_rng"):
-        policy.seed_rng(settings.seed)
-    policy.reset(problem)
+    if "seed" in inspect.signature(policy.reset).parameters:
+        policy.reset(problem, seed=settings.seed)  # a stochastic policy: same seed, same plan
+    else:
+        policy.reset(problem)
     fallback = UniformSampler(problem.bounds)
     log = AnytimeLog()
     first_time: float | None = None
