@@ -1,0 +1,171 @@
+"""Turning task records into the paper's outputs: Table 1, plots, TensorBoard, raw JSON."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from temp_gym.evaluation.protocol import aggregate_rows, cost_curve, markdown_table, success_curve
+
+PLANNER_ORDER = ("temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star")
+
+
+def _planner_records(records: list[dict[str, Any]], group: str) -> list[dict[str, Any]]:
+    rows = []
+    for record in records:
+        if record["group"] != group:
+            continue
+        for planner, figures in record["planners"].items():
+            rows.append({"planner": planner, **figures})
+    return rows
+
+
+def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per group: Table 1 rows, TEMP/baseline time and node ratios, success curves' inputs."""
+    groups = list(dict.fromkeys(record["group"] for record in records))
+    summary: dict[str, Any] = {"groups": {}}
+    for group in groups:
+        rows = aggregate_rows(_planner_records(records, group))
+        ratios = {}
+        temp = rows.get("temp")
+        for planner, row in rows.items():
+            if planner != "temp" and temp and row["time"] and math.isfinite(row["time"]):
+                ratios[planner] = {
+                    "time": temp["time"] / row["time"],
+                    "nodes": temp["nodes"] / row["nodes"],
+                }
+        summary["groups"][group] = {"rows": rows, "temp_over": ratios}
+    return summary
+
+
+def planners_in(records: list[dict[str, Any]]) -> list[str]:
+    """The planners present, in the table's order."""
+    present = {p for record in records for p in record["planners"]}
+    return [p for p in PLANNER_ORDER if p in present] + sorted(present - set(PLANNER_ORDER))
+
+
+def write_report(records: list[dict[str, Any]], out_dir: str | Path, tensorboard: bool = True):
+    """Write ``results.md``, ``results.json``, PNG plots and (optionally) TensorBoard events.
+
+    Returns the markdown table.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarize(records)
+    planners = planners_in(records)
+    table = markdown_table(
+        {group: data["rows"] for group, data in summary["groups"].items()}, planners
+    )
+    ratio_lines = []
+    for group, data in summary["groups"].items():
+        for planner, ratio in data["temp_over"].items():
+            ratio_lines.append(
+                f"| {group} | {planner} | {ratio['time']:.3f} | {ratio['nodes']:.3f} |"
+            )
+    ratios = "\n".join(
+        ["| group | baseline | TEMP/baseline time | TEMP/baseline nodes |", "|---|---|---:|---:|"]
+        + ratio_lines
+    )
+    (out / "results.md").write_text(f"{table}\n\n{ratios}\n")
+    (out / "results.json").write_text(
+        json.dumps({"summary": summary, "records": records}, default=float, indent=1)
+    )
+    _plots(records, summary, planners, out)
+    if tensorboard:
+        _tensorboard(records, planners, out / "tensorboard")
+    return table
+
+
+def _time_grid(records: list[dict[str, Any]]) -> np.ndarray:
+    times = [
+        f["time"] for r in records for f in r["planners"].values() if f.get("time") is not None
+    ]
+    top = max(times) if times else 1.0
+    return np.linspace(0.0, top * 1.05, 200)
+
+
+def _plots(records, summary, planners, out: Path) -> None:
+    from matplotlib.figure import Figure
+
+    groups = list(summary["groups"])
+    figure = Figure(figsize=(4.5 * len(groups), 3.6))
+    for k, group in enumerate(groups):
+        axes = figure.add_subplot(1, len(groups), k + 1)
+        group_records = _planner_records(records, group)
+        times = _time_grid([r for r in records if r["group"] == group])
+        for planner, curve in success_curve(group_records, times).items():
+            axes.plot(times, curve, label=planner)
+        axes.set(title=group, xlabel="time (s)", ylabel="success rate", ylim=(0, 1.02))
+        axes.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "success_vs_time.png", dpi=110)
+
+    figure = Figure(figsize=(4.5 * len(groups), 3.6))
+    for k, group in enumerate(groups):
+        axes = figure.add_subplot(1, len(groups), k + 1)
+        histories = {
+            r["index"]: r["curves"] for r in records if r["group"] == group and "curves" in r
+        }
+        if histories:
+            top = max(max(h["nodes"], default=1) for c in histories.values() for h in c.values())
+            grid = np.linspace(1, max(top, 2), 200)
+            for planner, curve in cost_curve(histories, grid).items():
+                axes.plot(grid, curve, label=planner)
+        axes.set(title=group, xlabel="nodes", ylabel="average path cost")
+        axes.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "cost_vs_nodes.png", dpi=110)
+
+    figure = Figure(figsize=(1.2 + 1.4 * len(planners), 3.4))
+    axes = figure.add_subplot(1, 1, 1)
+    width = 0.8 / max(len(groups), 1)
+    for k, group in enumerate(groups):
+        rows = summary["groups"][group]["rows"]
+        values = [rows.get(p, {}).get("sampling_failures", np.nan) for p in planners]
+        axes.bar(np.arange(len(planners)) + k * width, values, width, label=group)
+    axes.set_xticks(np.arange(len(planners)) + 0.4 - width / 2, planners, fontsize=7)
+    axes.set(ylabel="average sampling failures")
+    axes.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "sampling_failures.png", dpi=110)
+
+
+def _tensorboard(records, planners, log_dir: Path) -> None:
+    from torch.utils.tensorboard import SummaryWriter
+
+    writer = SummaryWriter(log_dir=str(log_dir))
+    groups = list(dict.fromkeys(r["group"] for r in records))
+    layout: dict[str, dict[str, list]] = {"success vs time": {}, "cost vs nodes": {}}
+    for group in groups:
+        slug = group.replace(" ", "_")
+        group_records = _planner_records(records, group)
+        times = _time_grid([r for r in records if r["group"] == group])
+        for planner, curve in success_curve(group_records, times).items():
+            for step, value in enumerate(curve):  # step = index on the time grid
+                writer.add_scalar(f"success_vs_time/{slug}/{planner}", value, step)
+        histories = {
+            r["index"]: r["curves"] for r in records if r["group"] == group and "curves" in r
+        }
+        if histories:
+            grid = np.arange(
+                1,
+                1 + max(max(h["nodes"], default=1) for c in histories.values() for h in c.values()),
+                10,
+            )
+            for planner, curve in cost_curve(histories, grid).items():
+                for nodes, value in zip(grid, curve):
+                    writer.add_scalar(f"cost_vs_nodes/{slug}/{planner}", value, int(nodes))
+        layout["success vs time"][group] = [
+            "Multiline",
+            [f"success_vs_time/{slug}/{p}" for p in planners],
+        ]
+        layout["cost vs nodes"][group] = [
+            "Multiline",
+            [f"cost_vs_nodes/{slug}/{p}" for p in planners],
+        ]
+    writer.add_custom_scalars(layout)
+    writer.close()

@@ -1,0 +1,182 @@
+"""Running the evaluation protocol over a test set: resumable, in parallel over processes.
+
+Work unit = one test task. Its record (TEMP's attention-phase figures, every baseline's time
+and nodes to the tolerance cost, and optionally fixed-budget anytime histories for the cost
+curves) is written atomically to ``{out}/tasks/{group}-{index:04d}.json``; a rerun of the same
+command skips finished tasks, so a killed evaluation loses nothing and duplicates nothing.
+
+Test tasks come from the ``test`` workspace pool (`temp_gym.worlds.splits`), never seen in
+training: task ``i`` of a group lives in workspace ``i mod 50`` and is drawn from its own
+generator, so a task can be recomputed alone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from temp_gym.evaluation.protocol import TAU, reach_tolerance, tolerance_target
+from temp_gym.planning.plan import plan
+from temp_gym.problem import Problem
+from temp_gym.worlds.generators import generate_task
+from temp_gym.worlds.splits import SPLITS, split_workspace
+
+EVAL_ENTROPY = 7_000_001
+_DIFFICULTY_CODES = {"any": 0, "easy": 1, "challenging": 2}
+
+
+@dataclass(frozen=True)
+class EvaluationSettings:
+    """What to run; every field is a key of the config's ``evaluation`` section."""
+
+    robot: str
+    groups: dict[str, tuple[str, int]]
+    """Row name -> (difficulty, number of tasks), e.g. ``{"2D easy": ("easy", 100)}``."""
+    baselines: tuple[str, ...] = ("rrt_star", "informed_rrt_star")
+    """Planners compared with TEMP (``ompl_*`` need the ompl extra)."""
+    tau: float = TAU
+    """Cost tolerance."""
+    max_nodes: int = 5000
+    """Node budget of every run."""
+    time_limit: float = 30.0
+    """Seconds per run."""
+    attention_nodes: int | None = None
+    """TEMP's attention-phase node budget (None: all of ``max_nodes``)."""
+    curve_tasks: int = 10
+    """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
+    curve_nodes: int = 2000
+    """Node budget of those runs."""
+    seed: int = 0
+    """Seed of the test set and the planners."""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
+    """Task ``index`` of a test group: deterministic, independent of the other tasks."""
+    sequence = np.random.SeedSequence([EVAL_ENTROPY, seed, _DIFFICULTY_CODES[difficulty], index])
+    rng = np.random.default_rng(sequence)
+    pool = SPLITS["test"]
+    for attempt in range(pool):
+        workspace = split_workspace(robot, "test", (index + attempt) % pool)
+        try:
+            return generate_task(workspace, rng, difficulty)
+        except RuntimeError:  # no task of that difficulty in this workspace: the next one
+            continue
+    raise RuntimeError(f"no {difficulty} test task found for {robot}")
+
+
+def evaluate_task(
+    problem: Problem, policy, settings: EvaluationSettings, with_curves: bool
+) -> dict[str, Any]:
+    """The record of one task: TEMP's AP figures and each baseline's figures at tolerance."""
+    seed = settings.seed
+    record: dict[str, Any] = {"problem": problem.to_dict(), "planners": {}}
+    temp = plan(
+        problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
+        time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
+        stop_at_first=True,
+    )  # fmt: skip
+    attention = temp.attention
+    record["planners"]["temp"] = {
+        "success": bool(attention["solved"] and temp.success),
+        "time": attention["time"] if attention["solved"] else None,
+        "nodes": attention["nodes"] if attention["solved"] else None,
+        "cost": temp.cost if temp.success else None,
+        "sampling_failures": attention["sampling_failures"],
+    }
+    if record["planners"]["temp"]["success"]:
+        target = tolerance_target(temp.cost, settings.tau)
+        record["target_cost"] = target
+        for name in settings.baselines:
+            result = plan(
+                problem, planner=name, seed=seed, max_nodes=settings.max_nodes,
+                time_limit=settings.time_limit, target_cost=target,
+            )  # fmt: skip
+            reached = reach_tolerance(result.history, target)
+            reached["sampling_failures"] = result.sampling_failures
+            record["planners"][name] = reached
+    if with_curves:
+        record["curves"] = {}
+        for name in ("temp", *settings.baselines):
+            kwargs = {"policy": policy} if name == "temp" else {}
+            result = plan(
+                problem, planner=name, seed=seed, max_nodes=settings.curve_nodes,
+                time_limit=settings.time_limit, **kwargs,
+            )  # fmt: skip
+            record["curves"][name] = {k: np.asarray(v).tolist() for k, v in result.history.items()}
+    return record
+
+
+def _write_json_atomic(path: Path, payload: Any) -> None:
+    tmp = path.with_suffix(path.suffix + f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps(payload, allow_nan=False, default=_jsonable))
+    os.replace(tmp, path)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON-able: {type(value).__name__}")
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_worker(make_policy: Callable[[], Any]) -> None:
+    _WORKER["policy"] = make_policy()
+
+
+def _run_job(job: tuple[EvaluationSettings, str, str, int, str]) -> str:
+    settings, group, difficulty, index, path = job
+    problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
+    record = evaluate_task(problem, _WORKER["policy"], settings, index < settings.curve_tasks)
+    record.update({"group": group, "difficulty": difficulty, "index": index})
+    _write_json_atomic(Path(path), record)
+    return path
+
+
+def run_evaluation(
+    settings: EvaluationSettings,
+    make_policy: Callable[[], Any],
+    out_dir: str | Path,
+    workers: int = 2,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Evaluate every missing task of every group, then return all task records in order.
+
+    ``make_policy`` builds the TEMP policy inside each worker process (a picklable function,
+    e.g. ``functools.partial(TEMPPolicy.from_checkpoint, path)``).
+    """
+    tasks_dir = Path(out_dir) / "tasks"
+    tasks_dir.mkdir(parents=True, exist_ok=True)
+    jobs, paths = [], []
+    for group, (difficulty, count) in settings.groups.items():
+        slug = group.replace(" ", "_")
+        for index in range(count):
+            path = tasks_dir / f"{slug}-{index:04d}.json"
+            paths.append(path)
+            if not path.exists():
+                jobs.append((settings, group, difficulty, index, str(path)))
+    if jobs:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(jobs), desc="evaluating", disable=not progress)
+        if workers <= 1:
+            _init_worker(make_policy)
+            for job in jobs:
+                _run_job(job)
+                bar.update()
+        else:
+            context = get_context("spawn")
+            with context.Pool(workers, initializer=_init_worker, initargs=(make_policy,)) as pool:
+                for _ in pool.imap_unordered(_run_job, jobs):
+                    bar.update()
+        bar.close()
+    return [json.loads(path.read_text()) for path in paths]

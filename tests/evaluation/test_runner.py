@@ -1,0 +1,53 @@
+import json
+
+from temp_gym.evaluation.report import write_report
+from temp_gym.evaluation.runner import EvaluationSettings, run_evaluation, evaluation_problem
+from temp_gym.policies import UniformPolicy
+
+
+def make_policy():
+    return UniformPolicy(seed=0)
+
+
+def settings(**changes):
+    base = dict(
+        robot="point2d",
+        groups={"2D easy": ("easy", 2), "2D challenging": ("challenging", 2)},
+        max_nodes=3000,
+        curve_tasks=1,
+        curve_nodes=300,
+    )
+    base.update(changes)
+    return EvaluationSettings(**base)
+
+
+def test_test_tasks_are_deterministic_and_of_the_right_difficulty():
+    a = evaluation_problem("point2d", "challenging", 3)
+    assert a == evaluation_problem("point2d", "challenging", 3)
+    assert a != evaluation_problem("point2d", "challenging", 4)
+
+
+def test_evaluation_is_resumable_and_reports(tmp_path):
+    records = run_evaluation(settings(), make_policy, tmp_path, workers=1, progress=False)
+    assert len(records) == 4
+    for record in records:
+        assert record["planners"]["temp"]["success"]
+        assert set(record["planners"]) == {"temp", "rrt_star", "informed_rrt_star"}
+    # A rerun does nothing new: the files are not rewritten.
+    files = sorted((tmp_path / "tasks").glob("*.json"))
+    stamps = [f.stat().st_mtime_ns for f in files]
+    (files[0]).unlink()  # as if killed before the first task was written
+    again = run_evaluation(settings(), make_policy, tmp_path, workers=1, progress=False)
+    assert [f.stat().st_mtime_ns for f in files[1:]] == stamps[1:]
+    assert json.dumps(again[0]["problem"]) == json.dumps(records[0]["problem"])
+    table = write_report(again, tmp_path / "report")
+    assert "| 2D easy |" in table and "| 2D challenging |" in table
+    for name in (
+        "results.md",
+        "results.json",
+        "success_vs_time.png",
+        "cost_vs_nodes.png",
+        "sampling_failures.png",
+    ):
+        assert (tmp_path / "report" / name).exists()
+    assert list((tmp_path / "report" / "tensorboard").glob("events.*"))
