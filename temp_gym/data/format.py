@@ -7,8 +7,11 @@ A dataset directory (``data.dir`` in the config) holds, per split (``train``, ``
 * ``{split}/workspaces/``: the workspace table, a memory-mapped `TensorDict` with one row per
   workspace: ``workspace_id`` (int64) and ``occupancy`` (float32, ``(R,)*w``). Samples refer
   to it by ``workspace_id``, so the encoding is stored once per workspace, not per sample.
+* ``{split}/tasks/``: one row per attempted task (`TASK_KEYS`); ``{split}/units/``: the
+  generator's resumable per-workspace results.
 
-plus ``dataset_card.json`` (counts, planner, budget, seeds, cost and node statistics).
+plus ``dataset_card.json`` (counts, planner, budget, seeds, cost and node statistics), written
+last, and ``settings.json`` (the settings that made the dataset).
 
 Sample keys use the names of the env's observation (`temp_gym.envs.PlanningEnv`), so a
 policy reads a training sample and a live observation the same way. All coordinates are
@@ -36,3 +39,22 @@ WORKSPACE_KEYS: dict[str, str] = {
     "workspace_id": "int64 (): the split's workspace index",
     "occupancy": "float32 (R,)*w: occupancy grid (temp_gym.worlds.encoding.occupancy_grid)",
 }
+
+TASK_KEYS: dict[str, str] = {
+    "task_id": "int64 (): task index within the split, as in samples",
+    "workspace_id": "int64 (): row of the workspace table",
+    "status": "int64 (): 0 solved and stored, 1 no certified solution, 2 no task drawn",
+    "success": "bool (): status == 0 (only these tasks have samples)",
+    "start": "float64 (d,): start, world units",
+    "goal": "float64 (d,): goal, world units",
+    "goal_radius": "float64 (): goal radius, world units",
+    "cost": "float64 (): expert path cost, world units (inf when not solved)",
+    "nodes": "int64 (): tree nodes of the expert run",
+    "nodes_to_first_solution": "int64 (): tree size at the first solution (-1: none)",
+    "plan_time": "float64 (): seconds the expert planner ran",
+    "plan_seed": "int64 (): seed passed to temp_gym.plan",
+    "waypoints": "int64 (): vertices of the expert path before resampling (0: not solved)",
+    "samples": "int64 (): samples of the task in the buffer (resampled nodes - 1)",
+}
+"""Added for the generator: ``{split}/tasks/``, a memory-mapped `TensorDict` with one row per
+attempted task (failed ones included), for auditing and evaluation; not needed for training."""

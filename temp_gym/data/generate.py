@@ -1,0 +1,237 @@
+"""Generate expert demonstrations: RRT* paths over the train/val workspace pools.
+
+Work is split into **units**, one per (split, workspace): its ``tasks_per_workspace`` tasks are
+drawn and solved, and the unit is written atomically (temporary file, then `os.replace`) to
+``{dir}/{split}/units/{workspace:03d}.npz``. Units run in worker processes; a rerun skips the
+units already on disk. When all units exist, each split is assembled from its units in a fixed
+order (`temp_gym.data.assemble`), and ``dataset_card.json`` is written last: its presence marks
+a complete dataset. A kill at any moment followed by the same command therefore completes the
+dataset, with no demonstration lost or duplicated, identical to an uninterrupted run.
+
+Seeds: task ``t`` of workspace ``w`` of split ``s`` uses
+``SeedSequence([data.seed, code(s), w, t])``, spawned into one child that draws the task
+(`temp_gym.worlds.generators.generate_task`) and one that seeds the planner; any unit, or any
+single task, can be recomputed alone. Workspaces are the fixed pools of
+`temp_gym.worlds.splits`.
+
+The expert is ``data.planner`` (default Informed RRT*: RRT* whose samples, once a solution
+exists, come from the prolate hyperspheroid of the best cost, so it refines to near-optimal
+paths in fewer nodes) run for exactly ``data.max_nodes`` tree nodes, steering with
+``data.planner_step_size`` (null: the env's step). `temp_gym.plan` certifies every returned
+path with the exact checker; a plan without a certified path counts as failed and is not
+stored.
+
+Budgets (``configs/*.yaml``) are sized so a paper-scale dataset (100 workspaces x 200 tasks)
+takes at most 20 min (2D, 3D) or 60 min (7D) on 2 cores: 2D 2000 nodes with a 2.0 step,
+3D 1500 nodes with a 3.0 step (a longer expert step refines much faster in 3D: mean cost
+within ~2% of a 10,000-node run), 7D 1000 nodes with the env's 0.5 rad step.
+``benchmarks/demonstrations.py`` measures the per-plan cost of a config.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, write_json_atomic
+from temp_gym.data.format import SPLITS
+from temp_gym.planning.plan import plan
+from temp_gym.planning.tree import default_step_size
+from temp_gym.worlds.generators import generate_task
+from temp_gym.worlds.splits import split_workspace
+
+SPLIT_CODES = {split: code for code, split in enumerate(SPLITS)}
+STATUS = {"ok": 0, "no_solution": 1, "no_task": 2}
+"""Per-task outcome codes stored in each unit."""
+
+
+def task_seeds(seed: int, split: str, workspace: int, task: int) -> tuple[np.random.Generator, int]:
+    """The task generator and planner seed of one task (independent of every other task)."""
+    sequence = np.random.SeedSequence([seed, SPLIT_CODES[split], workspace, task])
+    task_sequence, plan_sequence = sequence.spawn(2)
+    plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
+    return np.random.default_rng(task_sequence), plan_seed
+
+
+def unit_path(root: Path, split: str, workspace: int) -> Path:
+    """Where the unit of (split, workspace) is stored."""
+    return root / split / "units" / f"{workspace:03d}.npz"
+
+
+def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str, np.ndarray]:
+    """Draw and solve every task of one workspace; return the unit's arrays.
+
+    Paths of the solved tasks are concatenated in ``path_points`` (world units) and delimited
+    by ``path_offsets``; ``status`` holds a `STATUS` code per task.
+    """
+    started, started_cpu = time.perf_counter(), time.process_time()
+    space = split_workspace(settings["robot"], split, workspace)
+    count, dim = settings["tasks_per_workspace"], space.dim
+    status = np.full(count, STATUS["no_task"], dtype=np.int64)
+    starts = np.zeros((count, dim))
+    goals = np.zeros((count, dim))
+    radii = np.zeros(count)
+    costs = np.full(count, np.inf)
+    nodes = np.zeros(count, dtype=np.int64)
+    first = np.full(count, -1, dtype=np.int64)
+    times = np.zeros(count)
+    plan_seeds = np.zeros(count, dtype=np.int64)
+    steps = np.zeros(count)
+    paths: list[np.ndarray] = []
+    lengths = np.zeros(count, dtype=np.int64)
+    for task in range(count):
+        rng, plan_seeds[task] = task_seeds(settings["seed"], split, workspace, task)
+        try:
+            problem = generate_task(space, rng, settings["difficulty"])
+        except RuntimeError:  # no task of that difficulty in this workspace
+            continue
+        starts[task], goals[task], radii[task] = problem.start, problem.goal, problem.goal_radius
+        steps[task] = settings["step_size"] or default_step_size(problem)
+        result = plan(
+            problem,
+            planner=settings["planner"],
+            seed=int(plan_seeds[task]),
+            max_nodes=settings["max_nodes"],
+            step_size=settings["planner_step_size"] or steps[task],
+            goal_bias=settings["goal_bias"],
+        )
+        nodes[task], times[task] = result.nodes, result.wall_time
+        if result.nodes_to_first_solution is not None:
+            first[task] = result.nodes_to_first_solution
+        if not result.success or result.path is None:
+            status[task] = STATUS["no_solution"]
+            continue
+        status[task], costs[task] = STATUS["ok"], result.cost
+        paths.append(np.asarray(result.path, dtype=np.float64))
+        lengths[task] = len(result.path)
+    return {
+        "status": status,
+        "start": starts,
+        "goal": goals,
+        "goal_radius": radii,
+        "bounds": space.bounds,
+        "step_size": steps,
+        "cost": costs,
+        "nodes": nodes,
+        "nodes_to_first_solution": first,
+        "plan_time": times,
+        "plan_seed": plan_seeds,
+        "path_offsets": np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+        "path_points": np.concatenate(paths) if paths else np.zeros((0, dim)),
+        "unit_time": np.array(time.perf_counter() - started),
+        "unit_cpu_time": np.array(time.process_time() - started_cpu),
+    }
+
+
+def write_unit(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write a unit atomically: a reader sees the whole file or none."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    with open(temporary, "wb") as handle:
+        np.savez(handle, **arrays)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(temporary, path)
+
+
+def read_unit(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of a stored unit."""
+    with np.load(path) as stored:
+        return {key: stored[key] for key in stored.files}
+
+
+def _run_unit(job: tuple[dict[str, Any], str, int, str]) -> tuple[str, int, int]:
+    settings, split, workspace, path = job
+    arrays = solve_unit(settings, split, workspace)
+    write_unit(Path(path), arrays)
+    return split, workspace, len(arrays["status"])
+
+
+def _prepare(root: Path, settings: dict[str, Any]) -> None:
+    root.mkdir(parents=True, exist_ok=True)
+    settings_path = root / SETTINGS
+    if settings_path.is_file():
+        with open(settings_path) as handle:
+            stored = json.load(handle)
+        if stored != settings:
+            changed = sorted(k for k in settings | stored if settings.get(k) != stored.get(k))
+            raise ValueError(
+                f"{root} holds a dataset made with other settings ({', '.join(changed)}); "
+                "delete it or choose another data.dir"
+            )
+    else:
+        write_json_atomic(settings_path, settings)
+    for split in SPLITS:
+        units = root / split / "units"
+        units.mkdir(parents=True, exist_ok=True)
+        for leftover in units.glob(".*.tmp*"):  # a unit whose writer was killed
+            leftover.unlink()
+
+
+def _solve_units(
+    jobs: list[tuple[dict[str, Any], str, int, str]], workers: int, progress: bool, tasks: int
+) -> None:
+    from tqdm import tqdm
+
+    total = len(jobs) * tasks
+    with tqdm(total=total, desc="demonstrations", unit="plan", disable=not progress) as bar:
+        if workers <= 1 or len(jobs) <= 1:
+            for job in jobs:
+                bar.update(_run_unit(job)[2])
+            return
+        # spawn: workers import only numpy/numba planning code, never a forked torch state.
+        context = multiprocessing.get_context("spawn")
+        with context.Pool(min(workers, len(jobs))) as pool:
+            for _, _, done in pool.imap_unordered(_run_unit, jobs, chunksize=1):
+                bar.update(done)
+
+
+def generate_dataset(
+    config: dict[str, Any], workers: int | None = None, progress: bool = True
+) -> Path:
+    """Generate (or finish) the demonstration dataset of ``config``; return its directory.
+
+    A no-op when the dataset is complete. Otherwise solves the missing units with ``workers``
+    processes (default ``data.workers``), assembles each split's replay buffer, workspace
+    table and task table, and writes ``dataset_card.json``.
+
+    Example:
+        >>> config = load_config("configs/tiny.yaml", ["data.dir=/tmp/tiny"])
+        >>> rb, workspaces = load_split(generate_dataset(config), "train")
+    """
+    from temp_gym.data.assemble import assemble_split, write_card
+
+    settings = data_settings(config)
+    root = data_dir(config)
+    if (root / CARD).is_file() and (root / SETTINGS).is_file():
+        _prepare(root, settings)  # raises if the settings differ
+        return root
+    started = time.perf_counter()
+    _prepare(root, settings)
+    workers = int(workers or config["data"].get("workers") or 1)
+    jobs = [
+        (settings, split, workspace, str(unit_path(root, split, workspace)))
+        for split in SPLITS
+        for workspace in range(settings["workspaces"][split])
+        if not unit_path(root, split, workspace).is_file()
+    ]
+    resumed = sum(settings["workspaces"].values()) - len(jobs)
+    _solve_units(jobs, workers, progress, settings["tasks_per_workspace"])
+    planned = time.perf_counter() - started
+    summaries = {split: assemble_split(root, split, settings) for split in SPLITS}
+    write_card(
+        root,
+        settings,
+        summaries,
+        wall_time=time.perf_counter() - started,
+        planning_wall_time=planned,
+        workers=workers,
+        resumed_units=resumed,
+    )
+    return root

@@ -1,0 +1,209 @@
+"""Demonstration generation on configs/tiny.yaml: format, consistency, determinism, resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from temp_gym.config import load_config
+from temp_gym.data import dataset_exists, generate_dataset, load_split, load_tasks
+from temp_gym.data.demonstrations import resample_path
+from temp_gym.data.format import SAMPLE_KEYS, SPLITS, TASK_KEYS
+from temp_gym.data.generate import read_unit, solve_unit, unit_path
+from temp_gym.worlds.normalization import denormalize
+from temp_gym.worlds.splits import split_workspace
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "trainers" / "generate.py"
+TINY = ROOT / "configs" / "tiny.yaml"
+STEP = 1.0  # default_step_size of the [0, 20]^2 worlds (env.step_size is null in tiny.yaml)
+
+
+def tiny(directory: Path, *overrides: str) -> dict:
+    return load_config(TINY, [f"data.dir={directory}", *overrides])
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory) -> Path:
+    directory = tmp_path_factory.mktemp("tiny")
+    return generate_dataset(tiny(directory), workers=1, progress=False)
+
+
+def split_contents(directory: Path) -> dict[str, torch.Tensor]:
+    contents = {}
+    for split in SPLITS:
+        buffer, workspaces = load_split(directory, split)
+        for key, value in buffer[:].items():
+            contents[f"{split}/buffer/{key}"] = value.clone()
+        for key, value in workspaces.items():
+            contents[f"{split}/workspaces/{key}"] = value.clone()
+        for key, value in load_tasks(directory, split).items():
+            if key != "plan_time":  # wall times differ between runs
+                contents[f"{split}/tasks/{key}"] = value.clone()
+    return contents
+
+
+def assert_same(a: Path, b: Path) -> None:
+    first, second = split_contents(a), split_contents(b)
+    assert first.keys() == second.keys()
+    for key in first:
+        assert first[key].dtype == second[key].dtype, key
+        assert torch.equal(first[key], second[key]), key
+
+
+def test_samples_have_every_key_with_its_shape_and_dtype(dataset):
+    config = tiny(dataset)
+    length, resolution = config["env"]["max_path_length"], config["env"]["encoding_resolution"]
+    dtypes = {"float32": torch.float32, "int64": torch.int64}
+    shapes = {"()": (), "(d,)": (2,), "(1,)": (1,), "(L, d)": (length, 2)}
+    for split in SPLITS:
+        buffer, workspaces = load_split(dataset, split)
+        assert len(buffer) > 0
+        batch = buffer.sample(7)
+        assert set(batch.keys()) == set(SAMPLE_KEYS)
+        for key, doc in SAMPLE_KEYS.items():
+            dtype, shape = doc.split(":")[0].split(" ", 1)
+            assert batch[key].dtype == dtypes[dtype], key
+            assert tuple(batch[key].shape) == (7, *shapes[shape]), key
+        assert workspaces["occupancy"].shape == (
+            config["data"]["workspaces"][split],
+            resolution,
+            resolution,
+        )
+        assert workspaces["occupancy"].dtype == torch.float32
+        assert torch.equal(workspaces["workspace_id"], torch.arange(len(workspaces)))
+        occupancy = workspaces["occupancy"][batch["workspace_id"]]
+        assert occupancy.shape == (7, resolution, resolution)
+        assert set(load_tasks(dataset, split).keys()) == set(TASK_KEYS)
+
+
+def test_buffer_reloads_with_loads(dataset):
+    from torchrl.data import LazyMemmapStorage, ReplayBuffer
+
+    card = json.loads((dataset / "dataset_card.json").read_text())
+    for split in SPLITS:
+        size = card["splits"][split]["samples"]
+        again = ReplayBuffer(storage=LazyMemmapStorage(size))
+        again.loads(dataset / split / "buffer")
+        assert len(again) == size
+        buffer, _ = load_split(dataset, split)
+        for key, value in buffer[:].items():
+            assert torch.equal(again[:][key], value), key
+
+
+def test_targets_and_paths_follow_the_resampled_expert_paths(dataset):
+    config = tiny(dataset)
+    for split in SPLITS:
+        buffer, _ = load_split(dataset, split)
+        samples = buffer[:]
+        tasks = load_tasks(dataset, split)
+        for row in torch.nonzero(tasks["success"]).flatten().tolist():
+            workspace = int(tasks["workspace_id"][row])
+            bounds = split_workspace("point2d", split, workspace).bounds
+            mine = samples["task_id"] == tasks["task_id"][row]
+            steps = samples["step"][mine]
+            assert torch.equal(steps, torch.arange(len(steps)))
+            assert len(steps) == int(tasks["samples"][row])
+            lengths = samples["path_length"][mine][:, 0]
+            paths, targets = samples["path"][mine], samples["target"][mine]
+            # Full resampled path: first node, then every target.
+            nodes = torch.cat([paths[0, :1], targets]).double().numpy()
+            world = denormalize(nodes, bounds)
+            gaps = np.linalg.norm(np.diff(world, axis=0), axis=1)
+            assert gaps.max() <= STEP + 1e-4 and gaps.min() > 0
+            assert np.allclose(world[0], tasks["start"][row].numpy(), atol=1e-4)
+            goal = tasks["goal"][row].numpy()
+            assert np.linalg.norm(world[-1] - goal) <= float(tasks["goal_radius"][row]) + 1e-4
+            for k in range(len(steps)):
+                valid = int(lengths[k])
+                assert valid == min(k + 1, config["env"]["max_path_length"])
+                assert torch.equal(paths[k, valid - 1], torch.from_numpy(nodes[k]).float())
+                assert torch.all(paths[k, valid:] == 0)
+                if k + 1 < len(steps):  # the target is the next prefix's newest node
+                    assert torch.equal(targets[k], paths[k + 1, int(lengths[k + 1]) - 1])
+
+
+def test_resampling_keeps_vertices_and_bounds_gaps():
+    path = np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 4.0], [3.0, 5.0], [3.0, 7.5]])
+    resampled = resample_path(path, 1.0)
+    gaps = np.linalg.norm(np.diff(resampled, axis=0), axis=1)
+    assert gaps.max() <= 1.0 + 1e-12 and gaps.min() > 0
+    for vertex in path:
+        assert np.any(np.all(resampled == vertex, axis=1))
+    assert len(resampled) == 1 + 5 + 1 + 3  # 5 pieces, duplicate dropped, 1, 3
+
+
+def test_failed_plans_are_counted_and_not_stored(tmp_path):
+    # 25 nodes rarely reach the goal: some plans fail.
+    config = tiny(tmp_path, "data.max_nodes=25", "data.workspaces.val=0")
+    root = generate_dataset(config, workers=1, progress=False)
+    card = json.loads((root / "dataset_card.json").read_text())
+    train = card["splits"]["train"]
+    assert train["plans_failed"] > 0 and train["plans_stored"] > 0
+    assert train["plans_stored"] + train["plans_failed"] == train["plans_attempted"] == 8
+    tasks = load_tasks(root, "train")
+    buffer, _ = load_split(root, "train")
+    stored = set(buffer[:]["task_id"].tolist())
+    assert stored == set(tasks["task_id"][tasks["success"]].tolist())
+    assert train["samples"] == len(buffer) == int(tasks["samples"].sum())
+    assert torch.all(tasks["samples"][~tasks["success"]] == 0)
+
+
+def test_a_unit_recomputed_alone_is_identical(dataset):
+    settings = json.loads((dataset / "settings.json").read_text())
+    stored = read_unit(unit_path(dataset, "train", 1))
+    again = solve_unit(settings, "train", 1)
+    for key, value in stored.items():
+        if key not in ("plan_time", "unit_time", "unit_cpu_time"):
+            assert np.array_equal(value, again[key]), key
+
+
+def test_rerun_is_a_noop_and_other_settings_are_refused(dataset):
+    config = tiny(dataset)
+    assert dataset_exists(config)
+    card = (dataset / "dataset_card.json").read_text()
+    generate_dataset(config, workers=1, progress=False)
+    assert (dataset / "dataset_card.json").read_text() == card
+    assert not dataset_exists(tiny(dataset, "data.seed=1"))
+    with pytest.raises(ValueError, match="seed"):
+        generate_dataset(tiny(dataset, "data.seed=1"), progress=False)
+
+
+def test_killed_run_resumes_to_the_uninterrupted_dataset(dataset, tmp_path):
+    command = [sys.executable, str(SCRIPT), "--config", str(TINY), "--workers", "1"]
+    command += ["--no-progress", f"data.dir={tmp_path}", "data.tasks_per_workspace=12"]
+    process = subprocess.Popen(
+        command, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    units = tmp_path / "train" / "units"
+    deadline = time.monotonic() + 60
+    while not (units.is_dir() and any(units.glob("*.npz"))) and time.monotonic() < deadline:
+        assert process.poll() is None, "the run ended before it could be killed"
+        time.sleep(0.01)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert not (tmp_path / "dataset_card.json").exists(), "killed too late to test resuming"
+    subprocess.run(command, cwd=ROOT, check=True, capture_output=True)
+    uninterrupted = tmp_path.parent / f"{tmp_path.name}-uninterrupted"
+    generate_dataset(tiny(uninterrupted, "data.tasks_per_workspace=12"), workers=2, progress=False)
+    assert_same(tmp_path, uninterrupted)
+    card = json.loads((tmp_path / "dataset_card.json").read_text())
+    assert card["timing"]["resumed_units"] >= 1
+    assert card["totals"]["plans_attempted"] == 36
+
+
+def test_same_seed_same_dataset_other_seed_other_dataset(dataset, tmp_path):
+    assert_same(dataset, generate_dataset(tiny(tmp_path / "a"), workers=2, progress=False))
+    other = generate_dataset(tiny(tmp_path / "b", "data.seed=1"), workers=1, progress=False)
+    first, second = load_split(dataset, "train")[0], load_split(other, "train")[0]
+    assert len(first) != len(second) or not torch.equal(first[:]["target"], second[:]["target"])
