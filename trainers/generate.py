@@ -2,6 +2,7 @@
 
     python trainers/generate.py --config configs/2d.yaml
     python trainers/generate.py --config configs/tiny.yaml --workers 2 data.dir=/tmp/tiny
+    python trainers/generate.py --config configs/7d.yaml --backend ray --ray-address auto
 
 Resumable: rerun the same command after an interruption. See `temp_gym.data.generate`.
 """
@@ -22,10 +23,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
     parser.add_argument("--workers", type=int, default=None, help="default: data.workers")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument(
+        "--backend", choices=["local", "ray"], default="local", help="where units run"
+    )
+    parser.add_argument(
+        "--ray-address", default=None, help="Ray cluster (default: $RAY_ADDRESS, else local)"
+    )
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parser.parse_args(argv)
     config = load_config(args.config, args.overrides)
-    root = generate_dataset(config, workers=args.workers, progress=not args.no_progress)
+    root = generate_dataset(
+        config,
+        workers=args.workers,
+        progress=not args.no_progress,
+        backend=args.backend,
+        address=args.ray_address,
+    )
     with open(root / CARD) as handle:
         card = json.load(handle)
     summary = {"dir": str(root), "totals": card["totals"], "timing": card["timing"]}

@@ -31,7 +31,6 @@ within ~2% of a 10,000-node run), 7D 1000 nodes with the env's 0.5 rad step.
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
 import time
 from pathlib import Path
@@ -146,11 +145,9 @@ def read_unit(path: Path) -> dict[str, np.ndarray]:
         return {key: stored[key] for key in stored.files}
 
 
-def _run_unit(job: tuple[dict[str, Any], str, int, str]) -> tuple[str, int, int]:
-    settings, split, workspace, path = job
-    arrays = solve_unit(settings, split, workspace)
-    write_unit(Path(path), arrays)
-    return split, workspace, len(arrays["status"])
+def _solve_job(job: tuple[dict[str, Any], str, int]) -> dict[str, np.ndarray]:
+    settings, split, workspace = job
+    return solve_unit(settings, split, workspace)
 
 
 def _prepare(root: Path, settings: dict[str, Any]) -> None:
@@ -175,31 +172,41 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
 
 
 def _solve_units(
-    jobs: list[tuple[dict[str, Any], str, int, str]], workers: int, progress: bool, tasks: int
+    root: Path,
+    jobs: list[tuple[dict[str, Any], str, int]],
+    workers: int,
+    progress: bool,
+    tasks: int,
+    backend: str = "local",
+    address: str | None = None,
 ) -> None:
+    """Solve the units on the backend; the driver writes each unit file as it arrives."""
     from tqdm import tqdm
+
+    from temp_gym.distributed import map_units
 
     total = len(jobs) * tasks
     with tqdm(total=total, desc="demonstrations", unit="plan", disable=not progress) as bar:
-        if workers <= 1 or len(jobs) <= 1:
-            for job in jobs:
-                bar.update(_run_unit(job)[2])
-            return
-        # spawn: workers import only numpy/numba planning code, never a forked torch state.
-        context = multiprocessing.get_context("spawn")
-        with context.Pool(min(workers, len(jobs))) as pool:
-            for _, _, done in pool.imap_unordered(_run_unit, jobs, chunksize=1):
-                bar.update(done)
+        for index, arrays in map_units(_solve_job, jobs, backend, workers, address):
+            _, split, workspace = jobs[index]
+            write_unit(unit_path(root, split, workspace), arrays)
+            bar.update(len(arrays["status"]))
 
 
 def generate_dataset(
-    config: dict[str, Any], workers: int | None = None, progress: bool = True
+    config: dict[str, Any],
+    workers: int | None = None,
+    progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
 ) -> Path:
     """Generate (or finish) the demonstration dataset of ``config``; return its directory.
 
     A no-op when the dataset is complete. Otherwise solves the missing units with ``workers``
-    processes (default ``data.workers``), assembles each split's replay buffer, workspace
-    table and task table, and writes ``dataset_card.json``.
+    processes (default ``data.workers``) on the ``backend`` (``local`` processes or ``ray``
+    tasks on the cluster at ``address`` / ``$RAY_ADDRESS``, see `temp_gym.distributed`),
+    assembles each split's replay buffer, workspace table and task table, and writes
+    ``dataset_card.json``. Both backends give the same dataset.
 
     Example:
         >>> config = load_config("configs/tiny.yaml", ["data.dir=/tmp/tiny"])
@@ -216,13 +223,13 @@ def generate_dataset(
     _prepare(root, settings)
     workers = int(workers or config["data"].get("workers") or 1)
     jobs = [
-        (settings, split, workspace, str(unit_path(root, split, workspace)))
+        (settings, split, workspace)
         for split in SPLITS
         for workspace in range(settings["workspaces"][split])
         if not unit_path(root, split, workspace).is_file()
     ]
     resumed = sum(settings["workspaces"].values()) - len(jobs)
-    _solve_units(jobs, workers, progress, settings["tasks_per_workspace"])
+    _solve_units(root, jobs, workers, progress, settings["tasks_per_workspace"], backend, address)
     planned = time.perf_counter() - started
     summaries = {split: assemble_split(root, split, settings) for split in SPLITS}
     write_card(

@@ -1,0 +1,44 @@
+"""`--backend ray` gives the same demonstrations as `--backend local` (tiny config)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+from test_generate import SCRIPT, TINY, assert_same
+
+from temp_gym.distributed import map_units
+
+
+def square(x: int) -> int:
+    return x * x
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_local_map_units_returns_every_result_once(workers):
+    results = dict(map_units(square, range(7), "local", workers))
+    assert results == {i: i * i for i in range(7)}
+
+
+def test_unknown_backend():
+    with pytest.raises(ValueError, match="backend"):
+        map_units(square, [1], "dask")
+
+
+def test_generate_with_ray_backend_equals_local(tmp_path):
+    pytest.importorskip("ray")
+    common = [sys.executable, str(SCRIPT), "--config", str(TINY), "--no-progress"]
+    local = subprocess.run(
+        [*common, "--workers", "2", f"data.dir={tmp_path / 'local'}"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert local.returncode == 0, local.stderr
+    env_ray = subprocess.run(
+        [*common, "--backend", "ray", "--workers", "2", f"data.dir={tmp_path / 'ray'}"],
+        capture_output=True, text=True, timeout=300,
+        env={**os.environ, "RAY_ADDRESS": ""},  # a local instance, whatever the shell says
+    )  # fmt: skip
+    assert env_ray.returncode == 0, env_ray.stderr[-3000:]
+    assert_same(tmp_path / "local", tmp_path / "ray")
