@@ -2,8 +2,9 @@
 
 Work unit = one test task. Its record (TEMP's attention-phase figures, every baseline's time
 and nodes to the tolerance cost, and optionally fixed-budget anytime histories for the cost
-curves) is written atomically to ``{out}/tasks/{group}-{index:04d}.json``; a rerun of the same
-command skips finished tasks, so a killed evaluation loses nothing and duplicates nothing.
+curves) is written atomically by the driver to ``{out}/tasks/{group}-{index:04d}.json``; a
+rerun of the same command skips finished tasks, so a killed evaluation loses nothing and
+duplicates nothing. Tasks run on local processes or on Ray (`temp_gym.distributed`).
 
 Test tasks come from the ``test`` workspace pool (`temp_gym.worlds.splits`), never seen in
 training: task ``i`` of a group lives in workspace ``i mod 50`` and is drawn from its own
@@ -16,7 +17,6 @@ import json
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -126,20 +126,19 @@ def _jsonable(value: Any) -> Any:
     raise TypeError(f"not JSON-able: {type(value).__name__}")
 
 
-_WORKER: dict[str, Any] = {}
+_POLICIES: dict[str, Any] = {}
+"""Per worker process: the policy built by each ``make_policy`` (built once, reused)."""
 
 
-def _init_worker(make_policy: Callable[[], Any]) -> None:
-    _WORKER["policy"] = make_policy()
-
-
-def _run_job(job: tuple[EvaluationSettings, str, str, int, str]) -> str:
-    settings, group, difficulty, index, path = job
+def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -> dict:
+    settings, make_policy, group, difficulty, index = job
+    key = repr(make_policy)
+    if key not in _POLICIES:
+        _POLICIES[key] = make_policy()
     problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
-    record = evaluate_task(problem, _WORKER["policy"], settings, index < settings.curve_tasks)
+    record = evaluate_task(problem, _POLICIES[key], settings, index < settings.curve_tasks)
     record.update({"group": group, "difficulty": difficulty, "index": index})
-    _write_json_atomic(Path(path), record)
-    return path
+    return record
 
 
 def run_evaluation(
@@ -148,35 +147,34 @@ def run_evaluation(
     out_dir: str | Path,
     workers: int = 2,
     progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate every missing task of every group, then return all task records in order.
 
-    ``make_policy`` builds the TEMP policy inside each worker process (a picklable function,
-    e.g. ``functools.partial(TEMPPolicy.from_checkpoint, path)``).
+    ``make_policy`` builds the TEMP policy inside each worker (a picklable function, e.g.
+    ``functools.partial(TEMPPolicy.from_checkpoint, path)``). Tasks run on local processes or
+    as Ray tasks (`temp_gym.distributed`); the driver writes each record as it arrives.
     """
+    from tqdm import tqdm
+
+    from temp_gym.distributed import map_units
+
     tasks_dir = Path(out_dir) / "tasks"
     tasks_dir.mkdir(parents=True, exist_ok=True)
-    jobs, paths = [], []
+    for leftover in tasks_dir.glob("*.tmp*"):  # a record whose writer was killed
+        leftover.unlink()
+    jobs, paths, targets = [], [], []
     for group, (difficulty, count) in settings.groups.items():
         slug = group.replace(" ", "_")
         for index in range(count):
             path = tasks_dir / f"{slug}-{index:04d}.json"
             paths.append(path)
             if not path.exists():
-                jobs.append((settings, group, difficulty, index, str(path)))
-    if jobs:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(jobs), desc="evaluating", disable=not progress)
-        if workers <= 1:
-            _init_worker(make_policy)
-            for job in jobs:
-                _run_job(job)
-                bar.update()
-        else:
-            context = get_context("spawn")
-            with context.Pool(workers, initializer=_init_worker, initargs=(make_policy,)) as pool:
-                for _ in pool.imap_unordered(_run_job, jobs):
-                    bar.update()
-        bar.close()
+                jobs.append((settings, make_policy, group, difficulty, index))
+                targets.append(path)
+    with tqdm(total=len(jobs), desc="evaluating", disable=not progress) as bar:
+        for index, record in map_units(_run_job, jobs, backend, workers, address):
+            _write_json_atomic(targets[index], record)
+            bar.update()
     return [json.loads(path.read_text()) for path in paths]
