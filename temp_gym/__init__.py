@@ -10,5 +10,13 @@ from temp_gym.problem import ROBOTS, Problem
 
 register_envs()
 
-__all__ = ["ENV_IDS", "ROBOTS", "PlanResult", "Problem", "plan"]
+__all__ = ["ENV_IDS", "ROBOTS", "PlanResult", "Problem", "load_policy", "plan"]
+
+
+def __getattr__(name: str):
+    if name == "load_policy":  # lazy: importing temp_gym does not import torch
+        from temp_gym.models.registry import load_policy
+
+        return load_policy
+    raise AttributeError(f"module 'temp_gym' has no attribute {name!r}")
 __version__ = "0.1.0"

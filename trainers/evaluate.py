@@ -1,0 +1,112 @@
+"""The paper's evaluation: TEMP vs RRT*, Informed RRT* (and OMPL's) on unseen test tasks.
+
+    python trainers/evaluate.py --config configs/2d.yaml                 # shipped policy
+    python trainers/evaluate.py --config configs/7d.yaml --checkpoint runs/.../best.pt
+    python trainers/evaluate.py --config configs/2d.yaml evaluation.tasks=20 --workers 2
+    python trainers/evaluate.py --config configs/7d.yaml --backend ray --ray-address auto
+
+Protocol (`temp_gym.evaluation`): TEMP's attention phase gives t, N, J; each baseline runs until
+its cost is at most (1 + tau) J. Test sets: 100 easy + 100 challenging tasks in 2D and 3D, 200
+tasks in 7D (``evaluation.tasks`` per group), from the unseen ``test`` workspaces.
+
+Outputs in ``evaluation.out`` (default ``results/{env id}``): ``results.md`` (Table 1 layout and
+the TEMP/baseline ratios), ``results.json`` (raw records), ``success_vs_time.png``,
+``cost_vs_nodes.png``, ``sampling_failures.png``, ``tensorboard/`` (custom-scalars layout with
+TEMP and the baselines on shared charts) and ``tasks/`` (one record per task: rerunning the
+same command resumes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+from pathlib import Path
+
+from temp_gym.config import load_config
+from temp_gym.evaluation.report import write_report
+from temp_gym.evaluation.runner import EvaluationSettings, run_evaluation
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.registry import shipped_checkpoint
+
+GROUPS = {
+    "point2d": {"2D easy": "easy", "2D challenging": "challenging"},
+    "point3d": {"3D easy": "easy", "3D challenging": "challenging"},
+    "kuka_iiwa14": {"7D": "any"},
+}
+DEFAULT_TASKS = {"point2d": 100, "point3d": 100, "kuka_iiwa14": 200}
+DEFAULTS = {
+    "baselines": ["rrt_star", "informed_rrt_star"],
+    "max_nodes": 10000,
+    "time_limit": 60.0,
+    "attention_nodes": None,
+    "curve_tasks": 10,
+    "curve_nodes": 3000,
+    "noise_std": 0.0,
+    "seed": 0,
+    "workers": 2,
+    "out": None,
+}
+
+
+def settings_from(config: dict) -> tuple[EvaluationSettings, dict]:
+    """The evaluation settings of a config's ``evaluation`` section (defaults above)."""
+    robot = config["env"]["robot"]
+    section = {**DEFAULTS, **(config.get("evaluation") or {})}
+    tasks = int(section.get("tasks") or DEFAULT_TASKS[robot])
+    groups = {name: (difficulty, tasks) for name, difficulty in GROUPS[robot].items()}
+    settings = EvaluationSettings(
+        robot=robot,
+        groups=groups,
+        baselines=tuple(section["baselines"]),
+        max_nodes=int(section["max_nodes"]),
+        time_limit=float(section["time_limit"]),
+        attention_nodes=section["attention_nodes"],
+        curve_tasks=int(section["curve_tasks"]),
+        curve_nodes=int(section["curve_nodes"]),
+        seed=int(section["seed"]),
+    )
+    return settings, section
+
+
+def main(argv: list[str] | None = None) -> str:
+    """Evaluate (resuming), write the report, print the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default="configs/2d.yaml")
+    parser.add_argument("--checkpoint", default=None, help="default: the shipped policy")
+    parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--backend", choices=["local", "ray"], default="local")
+    parser.add_argument("--ray-address", default=None)
+    parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
+    args = parser.parse_args(argv)
+    config = load_config(args.config, args.overrides)
+    settings, section = settings_from(config)
+    checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(settings.robot)
+    make_policy = functools.partial(
+        TEMPPolicy.from_checkpoint,
+        str(checkpoint),
+        robot=settings.robot,
+        noise_std=float(section["noise_std"]),
+        seed=settings.seed,
+    )
+    make_policy()  # fail fast on a missing or wrong checkpoint, before any work starts
+    out = Path(section["out"] or Path("results") / config["env"]["id"])
+    records = run_evaluation(
+        settings,
+        make_policy,
+        out,
+        workers=int(args.workers or section["workers"]),
+        progress=not args.no_progress,
+        backend=args.backend,
+        address=args.ray_address,
+    )
+    table = write_report(records, out)
+    print(table)
+    print(
+        f"\nreport: {out / 'results.md'}; TensorBoard: tensorboard --logdir {out / 'tensorboard'}"
+    )
+    return table
+
+
+if __name__ == "__main__":
+    main()
