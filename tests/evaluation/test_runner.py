@@ -1,7 +1,7 @@
 import json
 
 from temp_gym.evaluation.report import write_report
-from temp_gym.evaluation.runner import EvaluationSettings, run_evaluation, evaluation_problem
+from temp_gym.evaluation.runner import EvaluationSettings, evaluation_problem, run_evaluation
 from temp_gym.policies import UniformPolicy
 
 

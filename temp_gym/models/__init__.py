@@ -1,0 +1,31 @@
+"""The learned planner: EISE, MPT, the TEMP policy and the attention read-out.
+
+| module | what |
+|---|---|
+| `temp_gym.models.eise` | `EISE`: occupancy grid -> SEI tokens, and the reconstruction decoder |
+| `temp_gym.models.mpt` | `MPT`: SEI, goal, start, path so far -> next sample; attention weights |
+| `temp_gym.models.temp` | `TEMPModel` (both), `MODEL_DEFAULTS`, checkpoints |
+| `temp_gym.models.loss` | `TEMPLoss`: λ·L_recons + η·L_semantic |
+| `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` for `PlanningEnv` |
+| `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
+"""
+
+from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
+from temp_gym.models.eise import EISE
+from temp_gym.models.loss import TEMPLoss
+from temp_gym.models.mpt import MPT
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.temp import MODEL_DEFAULTS, TEMPModel, load_checkpoint
+
+__all__ = [
+    "EISE",
+    "GROUPS",
+    "MODEL_DEFAULTS",
+    "MPT",
+    "TEMPLoss",
+    "TEMPModel",
+    "TEMPPolicy",
+    "group_attention",
+    "load_checkpoint",
+    "normalized_group_attention",
+]

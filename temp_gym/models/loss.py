@@ -1,0 +1,44 @@
+"""`TEMPLoss`: the EISE/MPT training objective (paper, Eq. 1).
+
+``L = λ · L_recons(O, Ô) + η · L_semantic(x, x̂)``
+
+* ``L_recons``: binary cross-entropy between the 0/1 occupancy grid O and the EISE decoder's
+  logits (Ô = sigmoid(logits)), averaged over cells.
+* ``L_semantic``: mean squared error between the expert's next node x and the MPT's sample x̂,
+  both normalized to [-1, 1]^d, averaged over samples and dimensions.
+
+λ is ``loss.recons_weight`` and η is ``loss.semantic_weight`` in the config.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+
+class TEMPLoss(nn.Module):
+    """Weighted sum of the reconstruction and semantic terms.
+
+    Args:
+        recons_weight: λ.
+        semantic_weight: η.
+    """
+
+    def __init__(self, recons_weight: float = 1.0, semantic_weight: float = 1.0) -> None:
+        super().__init__()
+        self.recons_weight = float(recons_weight)
+        self.semantic_weight = float(semantic_weight)
+
+    def forward(
+        self,
+        recons_logits: torch.Tensor,
+        occupancy: torch.Tensor,
+        sample: torch.Tensor,
+        target: torch.Tensor,
+    ) -> dict[str, torch.Tensor]:
+        """Return ``loss`` (the weighted sum), ``recons`` and ``semantic`` (unweighted)."""
+        recons = F.binary_cross_entropy_with_logits(recons_logits, occupancy)
+        semantic = F.mse_loss(sample, target)
+        loss = self.recons_weight * recons + self.semantic_weight * semantic
+        return {"loss": loss, "recons": recons, "semantic": semantic}

@@ -1,0 +1,139 @@
+"""`TEMPPolicy`: the learned sampler; stepping `PlanningEnv` with it is attention-based planning.
+
+``reset(problem)`` encodes the workspace once (EISE on its occupancy grid, cached per
+workspace); each ``policy(observation)`` runs the MPT once on the cached SEI, the task and the
+path so far, and returns the next sample in [-1, 1]^d. With the env's ``fallback="random"``
+this is the paper's Algorithm 1: a sample whose edge collides is replaced by random samples.
+
+Stochasticity: with ``noise_std > 0`` the sample gets Gaussian noise of that standard
+deviation (in normalized units) from the policy's own seeded generator, and is clipped to
+[-1, 1]; so a tree that keeps returning to the same state still spreads out. ``noise_std=0``
+(the default) is deterministic.
+
+Example:
+    >>> policy = TEMPPolicy.from_checkpoint("runs/.../best.pt", noise_std=0.05, seed=0)
+    >>> env = gymnasium.make("TEMP-2D-v0", fallback="random")
+    >>> observation, info = env.reset(seed=0)
+    >>> policy.reset(env.unwrapped.problem)
+    >>> observation, reward, terminated, truncated, info = env.step(policy(observation))
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
+from temp_gym.problem import Problem
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.normalization import half_range, normalize
+from temp_gym.worlds.workspace import Workspace
+
+
+class TEMPPolicy:
+    """A `temp_gym.policies.SamplingPolicy` backed by a `TEMPModel`.
+
+    Args:
+        model: the trained model (put in eval mode; kept on CPU unless ``device`` says).
+        noise_std: standard deviation of the Gaussian output noise (normalized units).
+        seed: seed of the noise generator.
+        record_attention: keep each step's attention weights in ``attentions``.
+        device: where the model runs.
+    """
+
+    def __init__(
+        self,
+        model: TEMPModel,
+        noise_std: float = 0.0,
+        seed: int | None = None,
+        record_attention: bool = False,
+        device: str | torch.device = "cpu",
+    ) -> None:
+        if noise_std < 0:
+            raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
+        self.device = torch.device(device)
+        self.model = model.to(self.device).eval()
+        self.noise_std = float(noise_std)
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self.record_attention = record_attention
+        self.attentions: list[np.ndarray] = []
+        self.problem: Problem | None = None
+        self._sei: torch.Tensor | None = None
+        self._sei_key: tuple | None = None
+
+    @classmethod
+    def from_checkpoint(
+        cls,
+        path: str | Path,
+        robot: str | None = None,
+        dim: int | None = None,
+        **kwargs,
+    ) -> TEMPPolicy:
+        """Load a checkpoint (``weights_only=True``); ``robot``/``dim`` are checked if given."""
+        model, _ = load_checkpoint(path, robot=robot, dim=dim)
+        return cls(model, **kwargs)
+
+    def save(self, path: str | Path) -> None:
+        """Write the model's checkpoint (`TEMPModel.save`)."""
+        self.model.save(path)
+
+    @property
+    def robot(self) -> str:
+        """The robot the model was trained for."""
+        return self.model.robot
+
+    def reset(self, problem: Problem, seed: int | None = None) -> None:
+        """Encode the problem's workspace (cached per workspace); re-seed the noise if asked."""
+        check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
+        self.problem = problem
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        self.attentions = []
+        key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
+        if key != self._sei_key:
+            grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
+            with torch.inference_mode():
+                self._sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+            self._sei_key = key
+        self._task = [
+            torch.as_tensor(value, dtype=torch.float32, device=self.device).reshape(1, -1)
+            for value in (
+                normalize(problem.goal, problem.bounds),
+                [problem.goal_radius / half_range(problem.bounds).mean()],
+                normalize(problem.start, problem.bounds),
+            )
+        ]
+
+    def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
+        """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1]."""
+        if self._sei is None:
+            raise RuntimeError("call policy.reset(problem) before sampling")
+        path = np.asarray(observation["path"])
+        if path.ndim != 2 or path.shape[1] != self.model.dim:
+            raise ValueError(
+                f"observation['path']: expected (L, {self.model.dim}) for {self.model.robot}, "
+                f"got {path.shape}"
+            )
+        length = int(np.asarray(observation["path_length"]).reshape(-1)[0])
+        goal, goal_radius, start = self._task
+        with torch.inference_mode():
+            sample, weights = self.model.mpt(
+                self._sei,
+                goal,
+                goal_radius,
+                start,
+                torch.from_numpy(np.ascontiguousarray(path[:length], dtype=np.float32))
+                .unsqueeze(0)
+                .to(self.device),
+                torch.tensor([length], device=self.device),
+                need_weights=self.record_attention,
+            )
+        action = sample[0].cpu().numpy()
+        if self.record_attention:
+            self.attentions.append(weights[0].cpu().numpy())
+        if self.noise_std > 0:
+            action = action + self.rng.normal(0.0, self.noise_std, action.shape)
+        return np.clip(action, -1.0, 1.0).astype(np.float32)

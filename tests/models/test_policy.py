@@ -1,0 +1,133 @@
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from temp_gym import Problem
+from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.temp import TEMPModel, load_checkpoint
+from temp_gym.policies import SamplingPolicy
+from temp_gym.wrappers.metrics import PlanningMetrics
+
+PROBLEM = Problem.load("examples/point2d.json")
+
+
+@pytest.fixture
+def policy(small_model):
+    return TEMPPolicy(small_model, record_attention=True)
+
+
+def test_is_a_sampling_policy_and_plans_in_the_env(policy):
+    assert isinstance(policy, SamplingPolicy)
+    env = PlanningMetrics(
+        gym.make(
+            "TEMP-2D-v0",
+            fallback="random",
+            max_nodes=60,
+            encoding_resolution=16,
+            max_path_length=16,
+        )
+    )
+    observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
+    policy.reset(PROBLEM)
+    for _ in range(60):
+        action = policy(observation)
+        assert action.dtype == np.float32 and action.shape == (2,)
+        assert np.all(np.abs(action) <= 1)
+        observation, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+    assert "episode" in info
+    assert len(policy.attentions) == info["episode"]["steps"]
+
+
+def test_noise_makes_repeated_calls_differ_and_is_seeded(small_model):
+    observation = _observation()
+    deterministic = TEMPPolicy(small_model)
+    deterministic.reset(PROBLEM)
+    np.testing.assert_array_equal(deterministic(observation), deterministic(observation))
+    noisy = TEMPPolicy(small_model, noise_std=0.1, seed=3)
+    noisy.reset(PROBLEM)
+    first, second = noisy(observation), noisy(observation)
+    assert not np.array_equal(first, second)
+    again = TEMPPolicy(small_model, noise_std=0.1, seed=3)
+    again.reset(PROBLEM)
+    np.testing.assert_array_equal(again(observation), first)
+
+
+def test_checkpoint_round_trip_weights_only(small_model, tmp_path):
+    policy = TEMPPolicy(small_model)
+    policy.save(tmp_path / "model.pt")
+    raw = torch.load(tmp_path / "model.pt", weights_only=True)
+    assert raw["robot"] == "point2d" and raw["dim"] == 2 and raw["version"] == 1
+    assert raw["encoding_resolution"] == 16 and raw["max_path_length"] == 16
+    loaded = TEMPPolicy.from_checkpoint(tmp_path / "model.pt", robot="point2d")
+    for key, value in small_model.state_dict().items():
+        torch.testing.assert_close(loaded.model.state_dict()[key], value)
+    observation = _observation()
+    policy.reset(PROBLEM)
+    loaded.reset(PROBLEM)
+    np.testing.assert_array_equal(policy(observation), loaded(observation))
+
+
+def test_wrong_robot_or_dimension_is_a_clear_error(small_model, tmp_path):
+    small_model.save(tmp_path / "model.pt")
+    with pytest.raises(ValueError, match="trained for point2d .* d=7"):
+        load_checkpoint(tmp_path / "model.pt", dim=7)
+    with pytest.raises(ValueError, match="trained for robot 'point2d'"):
+        TEMPPolicy.from_checkpoint(tmp_path / "model.pt", robot="kuka_iiwa14")
+    policy = TEMPPolicy.from_checkpoint(tmp_path / "model.pt")
+    iiwa_env = gym.make("TEMP-7D-v0", split="test")
+    iiwa_env.reset(seed=0)
+    with pytest.raises(ValueError, match="trained for point2d"):
+        policy.reset(iiwa_env.unwrapped.problem)
+    with pytest.raises(RuntimeError, match="reset"):
+        policy(_observation())
+
+
+def test_not_a_checkpoint_is_an_error(tmp_path):
+    torch.save({"weights": torch.zeros(1)}, tmp_path / "other.pt")
+    with pytest.raises(ValueError, match="not a TEMP checkpoint"):
+        load_checkpoint(tmp_path / "other.pt")
+
+
+def test_group_attention_along_a_plan(policy):
+    env = gym.make(
+        "TEMP-2D-v0", fallback="random", max_nodes=30, encoding_resolution=16, max_path_length=16
+    )
+    observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
+    policy.reset(PROBLEM)
+    for _ in range(10):
+        observation, *_ = env.step(policy(observation))
+    layers, heads = 2, 4
+    assert policy.attentions[0].shape[:2] == (layers, heads)
+    step = group_attention(policy.attentions[-1], num_sei_tokens=4)
+    assert set(step) == set(GROUPS)
+    assert 0 < sum(step.values()) <= 1 + 1e-6
+    manual = policy.attentions[-1][-1].mean(0)[0]  # Eq. 8 by hand: last layer, output query
+    assert step["SEI"] == pytest.approx(manual[1:5].sum(), abs=1e-6)
+    weights = normalized_group_attention(policy.attentions, num_sei_tokens=4, layer="mean")
+    for group in GROUPS:
+        assert weights[group].shape == (10,)
+        assert weights[group].min() >= 0 and weights[group].max() <= 1
+        if np.ptp(weights["raw_" + group]) > 0:
+            assert weights[group].min() == 0 and weights[group].max() == pytest.approx(1)
+
+
+def test_model_sizes_within_budget():
+    from temp_gym.config import load_config
+
+    for name in ("2d", "3d", "7d"):
+        config = load_config(f"configs/{name}.yaml")
+        env = config["env"]
+        model = TEMPModel.from_config(
+            config["model"], env["robot"], env["encoding_resolution"], env["max_path_length"]
+        )
+        assert model.num_parameters() * 4 < 10e6 * 0.95, name
+
+
+def _observation():
+    env = gym.make("TEMP-2D-v0", encoding_resolution=16, max_path_length=16)
+    observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
+    return observation

@@ -1,0 +1,88 @@
+"""Smoke tests of trainers/bc.py: the real script in a subprocess, tiny budgets."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import torch
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run_bc(tmp_path: Path, *overrides: str, flags: tuple[str, ...] = ()) -> str:
+    command = [
+        sys.executable,
+        str(ROOT / "trainers" / "bc.py"),
+        "--config",
+        str(ROOT / "configs" / "tiny.yaml"),
+        "--no-progress",
+        *flags,
+        f"data.dir={tmp_path / 'data'}",
+        "data.workers=1",
+        f"logger.dir={tmp_path / 'runs'}",
+        *overrides,
+    ]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    done = subprocess.run(
+        command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    return done.stdout
+
+
+def test_trains_evaluates_and_resumes(tmp_path):
+    # Epoch 1 of a run without logging, then the same command with 2 epochs resumes it.
+    run_bc(tmp_path, "train.max_epochs=1", "logger.backend=", flags=("--skip-eval",))
+    run_dir = tmp_path / "runs" / "TEMP-2D-v0__bc__0"
+    assert (run_dir / "last.pt").exists() and (run_dir / "best.pt").exists()
+    assert not list(run_dir.glob("events.out.tfevents*"))
+    output = run_bc(tmp_path, "train.max_epochs=2")
+    assert "resuming" in output and "epoch 1" in output
+    assert "| TEMP" in output and "| RRT*" in output
+    assert list(run_dir.glob("events.out.tfevents*"))
+    assert (run_dir / "results.yaml").exists()
+    last = torch.load(run_dir / "last.pt", weights_only=True)
+    assert last["epoch"] == 2 and last["finished"]
+
+    # An uninterrupted 2-epoch run ends with the same weights: a resumed run loses nothing.
+    run_bc(
+        tmp_path,
+        "train.max_epochs=2",
+        "train.exp_name=straight",
+        "logger.backend=",
+        "eval.every=0",
+        flags=("--skip-eval",),
+    )
+    straight = torch.load(
+        tmp_path / "runs" / "TEMP-2D-v0__straight__0" / "last.pt", weights_only=True
+    )
+    for key, value in last["state_dict"].items():
+        torch.testing.assert_close(straight["state_dict"][key], value)
+
+
+def test_symmetry_augmentation_keeps_occupied_cells_occupied():
+    sys.path.insert(0, str(ROOT / "trainers"))
+    import utils
+
+    resolution = 8
+    grid = torch.zeros(1, resolution, resolution)
+    grid[0, 1, 6] = 1.0
+    center = torch.tensor([[1.5, 6.5]]) / resolution * 2 - 1  # normalized center of that cell
+    batch = {
+        "occupancy": grid,
+        "start": center,
+        "goal": center,
+        "path": center[:, None],
+        "target": center,
+        "path_length": torch.ones(1, 1, dtype=torch.long),
+    }
+    generator = torch.Generator().manual_seed(0)
+    for _ in range(16):
+        out = utils.augment_symmetry(batch, generator)
+        cell = ((out["start"][0] + 1) / 2 * resolution).long()
+        assert out["occupancy"][0, cell[0], cell[1]] == 1
+        torch.testing.assert_close(out["goal"], out["start"])
+    noisy = utils.perturb_path(batch, 0.1, generator)
+    assert not torch.equal(noisy["path"], batch["path"])
+    assert torch.equal(noisy["target"], batch["target"])

@@ -1,0 +1,317 @@
+"""Behaviour cloning of TEMP (EISE + MPT) on RRT* demonstrations, then TEMP vs. RRT*.
+
+    python trainers/bc.py                                   # the main job (2D, ~15 min, CPU)
+    python trainers/bc.py --config configs/7d.yaml train.max_epochs=300
+    python trainers/bc.py --config configs/tiny.yaml logger.backend=""   # no TensorBoard
+
+Steps: (1) generate the dataset of ``data.dir`` if it is missing; (2) train with
+L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation loss, until the
+learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``eval.tasks``
+held-out tasks (unseen ``test`` workspaces) with the best checkpoint in the env
+(``fallback="random"``: attention-based planning, Algorithm 1) and with RRT* (the env
+stepped by `UniformPolicy`), up to the first solution; (4) print the table.
+
+Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
+(lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG: a killed run
+restarted with the same command resumes from it), ``results.yaml`` and the TensorBoard events.
+
+TensorBoard tags: ``train/loss``, ``train/recons``, ``train/semantic`` (epoch means),
+``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
+``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``eval.periodic_tasks`` test tasks,
+every ``eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention`` (figure: per-group
+attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...`` (the comparison);
+``time/epoch``, ``time/samples_per_s``; text ``hparams`` (the config as markdown).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from tqdm import tqdm
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # `utils` next to this script
+import utils  # noqa: E402
+
+from temp_gym.config import load_config  # noqa: E402
+from temp_gym.models.attention import attention_figure, normalized_group_attention  # noqa: E402
+from temp_gym.models.policy import TEMPPolicy  # noqa: E402
+from temp_gym.models.temp import load_checkpoint  # noqa: E402
+from temp_gym.policies import UniformPolicy  # noqa: E402
+
+DEFAULT_CONFIG = "configs/2d.yaml"
+DEFAULT_OVERRIDES = [
+    "data.dir=datasets/2d-quick",
+    "data.workspaces.train=30",
+    "data.workspaces.val=5",
+    "data.tasks_per_workspace=40",
+    "train.exp_name=quick",
+    "train.max_epochs=30",
+    "train.threads=1",
+    "train.path_noise=0.03",
+    "train.monitor=semantic",
+    "model.dropout=0.1",
+    "eval.tasks=40",
+]
+"""The main job: ``configs/2d.yaml`` with a small dataset and budget (a laptop CPU, ~15 min).
+
+With 30 training workspaces the EISE's reconstruction cannot generalize to unseen ones (its
+validation term grows while planning improves), so the semantic term picks the best epoch.
+One thread: tiny batches gain little from more, and stall on a busy machine."""
+
+
+def run_directory(config: dict[str, Any]) -> Path:
+    """``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` (no time: resumable)."""
+    train = config["train"]
+    name = f"{config['env']['id']}__{train.get('exp_name', 'bc')}__{train.get('seed', 0)}"
+    return Path(config["logger"].get("dir", "runs")) / name
+
+
+def pick_device(name: str) -> torch.device:
+    """``auto``: CUDA when present, else CPU."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(name)
+
+
+@torch.no_grad()
+def validate(model, loss_module, data, batch_size, device) -> dict[str, float]:
+    """Sample-weighted mean of each loss term over a whole split."""
+    model.eval()
+    totals = {"loss": 0.0, "recons": 0.0, "semantic": 0.0}
+    for batch in utils.iterate_batches(data, batch_size, device):
+        terms = utils.model_step(model, loss_module, batch)
+        for key in totals:
+            totals[key] += float(terms[key]) * len(batch["target"])
+    return {key: value / max(len(data), 1) for key, value in totals.items()}
+
+
+def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
+    """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
+    from temp_gym.envs.render import render_point_world
+
+    eval_config = config["eval"]
+    env = utils.make_env(config, fallback="random", split=eval_config.get("split", "test"))
+    policy = TEMPPolicy(
+        model.cpu(), noise_std=eval_config.get("noise_std", 0.0), seed=eval_config["seed"]
+    )
+    episodes = []
+    for index, problem in enumerate(problems):
+        policy.record_attention = index == 0
+        episode, info = utils.run_episode(env, policy, problem, eval_config["seed"] + index)
+        episodes.append(episode)
+        if index == 0 and logger.writer is not None:
+            tree = env.unwrapped.tree
+            if problem.robot != "kuka_iiwa14":
+                image = render_point_world(
+                    problem, tree.positions, tree.parents, info.get("path"), tree.num_nodes
+                )
+                logger.image(f"{tag}/plan", image, step)
+            weights = normalized_group_attention(policy.attentions, model.mpt.num_sei_tokens)
+            logger.figure(f"{tag}/attention", attention_figure(weights), step)
+    env.close()
+    summary = utils.summarize(episodes, env.unwrapped.max_nodes)
+    logger.scalars(
+        {f"{tag}/success": summary["success"], f"{tag}/nodes": summary["nodes_mean"]}
+        | {f"{tag}/cost": summary["cost"]},
+        step,
+    )
+    return summary
+
+
+def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = True) -> Path:
+    """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path."""
+    train_config, eval_config = config["train"], config["eval"]
+    seed = int(train_config.get("seed", 0))
+    device = pick_device(train_config.get("device", "auto"))
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+    train_data = utils.make_replay_buffer(config, "train")
+    val_data = utils.make_replay_buffer(config, "val")
+    model = utils.make_model(config).to(device)
+    loss_module = utils.make_loss(config)
+    optimizer, scheduler = utils.make_optimizer(config, model)
+    logger = utils.make_logger(config, run_dir)
+    last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
+    state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False}
+    if resume and last_path.exists():
+        model_loaded, checkpoint = load_checkpoint(last_path, robot=model.robot)
+        model.load_state_dict(model_loaded.state_dict())
+        optimizer.load_state_dict(checkpoint["optimizer"])
+        scheduler.load_state_dict(checkpoint["scheduler"])
+        torch.set_rng_state(checkpoint["rng"])
+        state = {key: checkpoint.get(key, value) for key, value in state.items()}
+        print(f"resuming {run_dir} at epoch {state['epoch']}")
+    else:
+        logger.text("hparams", utils.config_markdown(config))
+    max_epochs = int(train_config["max_epochs"])
+    if state["lr_floor"] or state["epoch"] >= max_epochs:
+        print(f"{run_dir}: training already finished (epoch {state['epoch']})")
+        logger.close()
+        return best_path
+    periodic = utils.draw_problems(
+        config, eval_config.get("split", "test"), eval_config["periodic_tasks"], eval_config["seed"]
+    )
+    min_lr = float(config["optim"].get("min_lr", 1e-6))
+    clip = float(config["optim"].get("grad_clip", 0.0)) or math.inf
+    batch_size = int(train_config["batch_size"])
+    monitor = train_config.get("monitor", "loss")
+    path_noise = float(train_config.get("path_noise", 0.0))
+    augment = bool(train_config.get("augment", False)) and model.robot != "kuka_iiwa14"
+    if monitor not in ("loss", "semantic", "recons"):
+        raise ValueError(f"train.monitor: expected loss, semantic or recons, got {monitor!r}")
+    bar = tqdm(total=max_epochs, initial=state["epoch"], desc="train", disable=not progress)
+    while state["epoch"] < max_epochs and not state["lr_floor"]:
+        epoch = state["epoch"]
+        began = time.perf_counter()
+        model.train()
+        generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
+        sums = {"loss": 0.0, "recons": 0.0, "semantic": 0.0, "grad_norm": 0.0}
+        batches = 0
+        for batch in utils.iterate_batches(train_data, batch_size, device, generator):
+            if augment:
+                batch = utils.augment_symmetry(batch, generator)
+            if path_noise > 0:
+                batch = utils.perturb_path(batch, path_noise, generator)
+            terms = utils.model_step(model, loss_module, batch)
+            optimizer.zero_grad(set_to_none=True)
+            terms["loss"].backward()
+            grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
+            optimizer.step()
+            for key in ("loss", "recons", "semantic"):
+                sums[key] += float(terms[key].detach())
+            sums["grad_norm"] += float(grad_norm)
+            batches += 1
+            state["global_step"] += 1
+        seconds = time.perf_counter() - began
+        val = validate(model, loss_module, val_data, batch_size, device)
+        scheduler.step(val[monitor])
+        lr = optimizer.param_groups[0]["lr"]
+        state["epoch"] = epoch + 1
+        logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
+        logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
+        logger.scalars(
+            {
+                "train/lr": lr,
+                "time/epoch": seconds,
+                "time/samples_per_s": len(train_data) / seconds,
+            },
+            epoch,
+        )
+        if val[monitor] < state["best_val"]:
+            state["best_val"] = val[monitor]
+            model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
+        every = int(eval_config.get("every", 0))
+        if every and state["epoch"] % every == 0 and periodic:
+            evaluate_with_figures(config, model, periodic, logger, state["epoch"])
+            model.to(device)
+        state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
+        model.save(
+            last_path,
+            optimizer=optimizer.state_dict(),
+            scheduler=scheduler.state_dict(),
+            rng=torch.get_rng_state(),
+            config=config,
+            finished=state["lr_floor"] or state["epoch"] >= max_epochs,
+            **state,
+        )
+        bar.update(1)
+        bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
+    bar.close()
+    logger.close()
+    return best_path
+
+
+def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Path) -> dict:
+    """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution."""
+    eval_config = config["eval"]
+    torch.set_num_threads(1)  # the per-sample latency a planner sees
+    model, _ = load_checkpoint(checkpoint, robot=config["env"]["robot"])
+    problems = utils.draw_problems(
+        config, eval_config.get("split", "test"), eval_config["tasks"], eval_config["seed"] + 10_000
+    )
+    logger = utils.make_logger(config, run_dir)
+    temp = evaluate_with_figures(config, model, problems, logger, 0, tag="eval/final/temp")
+    env = utils.make_env(config, fallback="none", split=eval_config.get("split", "test"))
+    rrt = utils.evaluate_planner(env, UniformPolicy(seed=eval_config["seed"]), problems, 0)
+    rrt_star = utils.summarize(rrt, env.unwrapped.max_nodes)
+    env.close()
+    logger.scalars({f"eval/final/rrt_star/{key}": value for key, value in rrt_star.items()}, 0)
+    logger.scalars({f"eval/final/temp/{key}": value for key, value in temp.items()}, 0)
+    logger.close()
+    return {"tasks": len(problems), "temp": temp, "rrt_star": rrt_star}
+
+
+def results_table(results: dict[str, Any]) -> str:
+    """A markdown table of the comparison."""
+    rows = [
+        "| planner | success | nodes to 1st solution (mean / median) | cost | samples | time (s) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, label in (("temp", "TEMP (AP, fallback random)"), ("rrt_star", "RRT*")):
+        row = results[name]
+        rows.append(
+            f"| {label} | {row['success']:.2f} | {row['nodes_mean']:.1f} / "
+            f"{row['nodes_median']:.0f} | {row['cost']:.2f} | {row['samples']:.1f} | "
+            f"{row['time']:.3f} |"
+        )
+    return "\n".join(rows)
+
+
+def parse_args(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespace]:
+    """The config (file, built-in defaults for the main job, overrides) and the flags."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--config", help=f"YAML config (default: the main job, {DEFAULT_CONFIG})")
+    parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
+    parser.add_argument("--resume", action="store_true", help="require last.pt and resume")
+    parser.add_argument("--no-resume", action="store_true", help="start over, ignore last.pt")
+    parser.add_argument("--skip-eval", action="store_true", help="no final comparison")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    args = parser.parse_args(argv)
+    if args.config is None:
+        config = load_config(DEFAULT_CONFIG, DEFAULT_OVERRIDES + args.overrides)
+    else:
+        config = load_config(args.config, args.overrides)
+    return config, args
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any] | None:
+    """Run the job; returns the comparison (None with ``--skip-eval``)."""
+    config, args = parse_args(argv)
+    began = time.perf_counter()
+    run_dir = run_directory(config)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if args.resume and not (run_dir / "last.pt").exists():
+        raise SystemExit(f"--resume: no {run_dir / 'last.pt'}")
+    utils.ensure_dataset(config, progress=not args.no_progress)
+    threads = config["train"].get("threads")
+    if threads:
+        torch.set_num_threads(int(threads))
+    best = train(config, run_dir, resume=not args.no_resume, progress=not args.no_progress)
+    print(f"best checkpoint: {best}")
+    if args.skip_eval:
+        return None
+    results = compare_with_rrt_star(config, best, run_dir)
+    results["wall_time_s"] = time.perf_counter() - began
+    with open(run_dir / "results.yaml", "w") as handle:
+        yaml.safe_dump(results, handle, sort_keys=False)
+    print(
+        f"\n{results['tasks']} held-out tasks ({config['eval'].get('difficulty')}, unseen "
+        f"test workspaces), up to the first solution:\n"
+    )
+    print(results_table(results))
+    print(f"\nwall time {results['wall_time_s']:.0f} s; results in {run_dir / 'results.yaml'}")
+    if config["logger"].get("backend"):
+        print(f"TensorBoard: tensorboard --logdir {run_dir.parent}")
+    return results
+
+
+if __name__ == "__main__":
+    main()

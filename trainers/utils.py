@@ -1,0 +1,334 @@
+"""Factories and helpers for `trainers/bc.py` (torchrl sota-implementations style).
+
+``make_env``, ``make_replay_buffer``, ``make_model``, ``make_loss``, ``make_optimizer``,
+``make_logger`` each read the config section they are named after; ``iterate_batches`` and
+``evaluate_planner`` are the data and evaluation loops the trainer shares with its tests.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+import yaml
+from tensordict import TensorDict
+
+from temp_gym.models.loss import TEMPLoss
+from temp_gym.models.temp import TEMPModel
+from temp_gym.problem import Problem
+from temp_gym.wrappers.metrics import PlanningMetrics
+
+BATCH_KEYS = ("start", "goal", "goal_radius", "path", "path_length", "target")
+
+
+# ---------------------------------------------------------------------- env and data
+def make_env(config: dict[str, Any], fallback: str = "random", split: str = "test") -> gym.Env:
+    """The planning env of ``config["env"]``, wrapped in `PlanningMetrics`."""
+    env_config, eval_config = config["env"], config.get("eval", {})
+    env = gym.make(
+        env_config["id"],
+        difficulty=eval_config.get("difficulty", "any"),
+        max_nodes=eval_config.get("max_nodes"),
+        step_size=env_config.get("step_size"),
+        fallback=fallback,
+        encoding_resolution=env_config["encoding_resolution"],
+        split=split,
+        max_path_length=env_config["max_path_length"],
+        disable_env_checker=True,
+    )
+    return PlanningMetrics(env)
+
+
+def ensure_dataset(config: dict[str, Any], progress: bool = True) -> Path:
+    """The dataset directory of ``config["data"]``, generated first if it is missing."""
+    from temp_gym.data import dataset_exists, generate_dataset
+
+    if dataset_exists(config):
+        return Path(config["data"]["dir"])
+    print(f"no dataset in {config['data']['dir']}: generating it (RRT* demonstrations)")
+    return Path(generate_dataset(config, workers=config["data"].get("workers"), progress=progress))
+
+
+class SplitData:
+    """One split's samples and workspace table, ready for batching.
+
+    The samples stay where the replay buffer keeps them (a memory map); each batch is gathered
+    by index. The occupancy grids are looked up by ``workspace_id`` once per batch, and only
+    the batch's distinct workspaces are sent through the EISE.
+    """
+
+    def __init__(self, buffer: Any, workspaces: TensorDict) -> None:
+        self.samples = buffer.storage[: len(buffer)]
+        self.lengths = torch.as_tensor(self.samples["path_length"]).reshape(-1).clone()
+        ids = workspaces["workspace_id"].long()
+        self.occupancy = workspaces["occupancy"].to(torch.float32).clone()
+        self.row_of_id = torch.full((int(ids.max()) + 1,), -1, dtype=torch.long)
+        self.row_of_id[ids] = torch.arange(len(ids))
+
+    def __len__(self) -> int:
+        return int(self.samples.batch_size[0])
+
+    def batch(self, index: torch.Tensor, device: torch.device) -> dict[str, torch.Tensor]:
+        """Samples ``index`` as a model batch: unique grids plus ``occupancy_index``."""
+        part = self.samples[index]
+        rows = self.row_of_id[part["workspace_id"].long().reshape(-1)]
+        if bool((rows < 0).any()):
+            raise ValueError("a sample refers to a workspace_id missing from the table")
+        unique, inverse = torch.unique(rows, return_inverse=True)
+        batch = {key: torch.as_tensor(part[key]).to(device) for key in BATCH_KEYS}
+        batch["occupancy"] = self.occupancy[unique].to(device)
+        batch["occupancy_index"] = inverse.to(device)
+        return batch
+
+
+COORDINATE_KEYS = ("start", "goal", "path", "target")
+
+
+def augment_symmetry(
+    batch: dict[str, torch.Tensor], generator: torch.Generator
+) -> dict[str, torch.Tensor]:
+    """Apply one random symmetry of the cube to a point-robot batch (grids and coordinates).
+
+    Point worlds are cubes ([0, 20]^d) whose occupancy grid covers the configuration bounds,
+    so flipping grid axis i is negating normalized coordinate i, and swapping two grid axes
+    is swapping the two coordinates: the same planning problem, mirrored. One of the
+    ``2^d d!`` symmetries is drawn per batch. Padding rows stay zero.
+    """
+    dim = batch["start"].shape[-1]
+    flips = torch.rand(dim, generator=generator) < 0.5
+    order = torch.randperm(dim, generator=generator)
+    out = dict(batch)
+    sign = torch.where(flips, -1.0, 1.0).to(batch["start"].device)
+    for key in COORDINATE_KEYS:
+        out[key] = (batch[key] * sign)[..., order.to(batch[key].device)]
+    grid = batch["occupancy"]
+    flipped_axes = [1 + axis for axis in range(dim) if flips[axis]]
+    if flipped_axes:
+        grid = torch.flip(grid, flipped_axes)
+    out["occupancy"] = grid.permute(0, *(1 + order).tolist())
+    return out
+
+
+def perturb_path(
+    batch: dict[str, torch.Tensor], std: float, generator: torch.Generator
+) -> dict[str, torch.Tensor]:
+    """Add Gaussian noise of ``std`` (normalized units) to the valid path rows; keep the target.
+
+    The policy's own tree never follows the expert exactly; training from perturbed paths
+    toward the expert's next node teaches it to steer back (noise injection, as in DART).
+    """
+    path = batch["path"]
+    valid = torch.arange(path.shape[1], device=path.device) < batch["path_length"].reshape(-1, 1)
+    noise = torch.randn(path.shape, generator=generator).to(path.device) * std
+    out = dict(batch)
+    out["path"] = torch.clamp(path + noise * valid.unsqueeze(-1), -1.0, 1.0)
+    return out
+
+
+def make_replay_buffer(config: dict[str, Any], split: str) -> SplitData:
+    """Load ``split`` (``train`` or ``val``) of the dataset as `SplitData`."""
+    from temp_gym.data import load_split
+
+    buffer, workspaces = load_split(config["data"]["dir"], split)
+    return SplitData(buffer, workspaces)
+
+
+def iterate_batches(
+    data: SplitData,
+    batch_size: int,
+    device: torch.device,
+    generator: torch.Generator | None = None,
+    bucket: int = 32,
+) -> Iterator[dict[str, torch.Tensor]]:
+    """Batches over the whole split; shuffled by ``generator``, in order without one.
+
+    Shuffled batches are bucketed by path length: each run of ``bucket * batch_size``
+    shuffled samples is sorted by ``path_length`` and cut into batches, and the batches are
+    shuffled again. Padding is cut to the longest path of a batch (`MPT.forward`), so similar
+    lengths make an epoch several times cheaper, and batches still mix workspaces and tasks.
+    """
+    count = len(data)
+    if generator is None:
+        for first in range(0, count, batch_size):
+            yield data.batch(torch.arange(first, min(first + batch_size, count)), device)
+        return
+    order = torch.randperm(count, generator=generator)
+    batches = []
+    for first in range(0, count, bucket * batch_size):
+        chunk = order[first : first + bucket * batch_size]
+        chunk = chunk[torch.argsort(data.lengths[chunk], stable=True)]
+        batches.extend(chunk.split(batch_size))
+    for index in torch.randperm(len(batches), generator=generator).tolist():
+        yield data.batch(batches[index], device)
+
+
+# ---------------------------------------------------------------------- model and optimization
+def make_model(config: dict[str, Any]) -> TEMPModel:
+    """`TEMPModel` from the ``model`` section and the env's robot, resolution and L."""
+    env = config["env"]
+    return TEMPModel.from_config(
+        config.get("model"), env["robot"], env["encoding_resolution"], env["max_path_length"]
+    )
+
+
+def make_loss(config: dict[str, Any]) -> TEMPLoss:
+    """`TEMPLoss` with λ = ``loss.recons_weight`` and η = ``loss.semantic_weight``."""
+    loss = config.get("loss", {})
+    return TEMPLoss(loss.get("recons_weight", 1.0), loss.get("semantic_weight", 1.0))
+
+
+def make_optimizer(
+    config: dict[str, Any], model: torch.nn.Module
+) -> tuple[torch.optim.Optimizer, torch.optim.lr_scheduler.ReduceLROnPlateau]:
+    """Adam and ReduceLROnPlateau on the validation loss (the paper's schedule)."""
+    optim = config.get("optim", {})
+    optimizer = torch.optim.Adam(
+        model.parameters(),
+        lr=float(optim.get("lr", 1e-3)),
+        betas=tuple(float(beta) for beta in optim.get("betas", (0.9, 0.999))),
+        eps=float(optim.get("eps", 1e-8)),
+        weight_decay=float(optim.get("weight_decay", 0.0)),
+    )
+    scheduler = torch.optim.lr_scheduler.ReduceLROnPlateau(
+        optimizer,
+        mode="min",
+        factor=float(optim.get("lr_factor", 0.1)),
+        patience=int(optim.get("lr_patience", 10)),
+        threshold=float(optim.get("lr_threshold", 0.1)),
+        threshold_mode="rel",
+        min_lr=float(optim.get("min_lr", 1e-6)),
+    )
+    return optimizer, scheduler
+
+
+def model_step(
+    model: TEMPModel, loss_module: TEMPLoss, batch: dict[str, torch.Tensor]
+) -> dict[str, torch.Tensor]:
+    """Forward pass and loss terms for one batch."""
+    out = model(batch)
+    return loss_module(out["recons_logits"], batch["occupancy"], out["sample"], batch["target"])
+
+
+# ---------------------------------------------------------------------- logging
+class Logger:
+    """TensorBoard writer behind a small interface; ``backend=""`` makes every call a no-op."""
+
+    def __init__(self, backend: str, log_dir: Path) -> None:
+        self.writer = None
+        if backend == "tensorboard":
+            from torch.utils.tensorboard import SummaryWriter
+
+            self.writer = SummaryWriter(log_dir=str(log_dir))
+        elif backend:
+            raise ValueError(f"logger.backend: expected 'tensorboard' or '', got {backend!r}")
+        self.log_dir = log_dir
+
+    def scalars(self, values: dict[str, float], step: int) -> None:
+        """Write each ``tag: value`` (non-finite values are skipped: they do not plot)."""
+        if self.writer is not None:
+            for tag, value in values.items():
+                if math.isfinite(float(value)):
+                    self.writer.add_scalar(tag, float(value), step)
+
+    def figure(self, tag: str, figure: Any, step: int) -> None:
+        """Write a matplotlib figure."""
+        if self.writer is not None:
+            self.writer.add_figure(tag, figure, step)
+
+    def image(self, tag: str, image: np.ndarray, step: int) -> None:
+        """Write an ``(H, W, 3)`` uint8 image."""
+        if self.writer is not None:
+            self.writer.add_image(tag, image, step, dataformats="HWC")
+
+    def text(self, tag: str, text: str, step: int = 0) -> None:
+        """Write markdown text."""
+        if self.writer is not None:
+            self.writer.add_text(tag, text, step)
+
+    def close(self) -> None:
+        """Flush and close."""
+        if self.writer is not None:
+            self.writer.close()
+
+
+def make_logger(config: dict[str, Any], run_dir: Path) -> Logger:
+    """`Logger` for ``logger.backend`` writing into the run directory."""
+    return Logger(config.get("logger", {}).get("backend", "tensorboard"), run_dir)
+
+
+def config_markdown(config: dict[str, Any]) -> str:
+    """The config as a markdown table of ``section.key | value`` rows (the hparams text)."""
+    rows = ["| key | value |", "|---|---|"]
+    for section, values in config.items():
+        if isinstance(values, dict):
+            for key, value in values.items():
+                rows.append(f"| {section}.{key} | {value} |")
+        else:
+            rows.append(f"| {section} | {values} |")
+    return "\n".join(rows) + "\n\n```yaml\n" + yaml.safe_dump(config, sort_keys=False) + "```"
+
+
+# ---------------------------------------------------------------------- evaluation
+def draw_problems(config: dict[str, Any], split: str, count: int, seed: int) -> list[Problem]:
+    """``count`` tasks drawn by the env from ``split``'s workspaces, task i with seed+i."""
+    env = make_env(config, fallback="none", split=split)
+    problems = []
+    for index in range(count):
+        env.reset(seed=seed + index)
+        problems.append(env.unwrapped.problem)
+    env.close()
+    return problems
+
+
+def run_episode(
+    env: gym.Env, policy: Any, problem: Problem, seed: int
+) -> tuple[dict[str, float], dict[str, Any]]:
+    """Plan ``problem`` in ``env`` with ``policy`` until the first solution or the budget.
+
+    Returns ``info["episode"]`` (`PlanningMetrics`) plus ``time`` (wall seconds, policy
+    included), and the final info (with the tree still in ``env.unwrapped``).
+    """
+    began = time.perf_counter()
+    observation, info = env.reset(seed=seed, options={"problem": problem})
+    policy.reset(problem)
+    while True:
+        observation, _, terminated, truncated, info = env.step(policy(observation))
+        if terminated or truncated:
+            break
+    episode = {key: float(value) for key, value in info["episode"].items()}
+    episode["time"] = time.perf_counter() - began
+    return episode, info
+
+
+def evaluate_planner(
+    env: gym.Env, policy: Any, problems: list[Problem], seed: int
+) -> list[dict[str, float]]:
+    """`run_episode` over ``problems`` (episode i seeded ``seed + i``)."""
+    return [run_episode(env, policy, problem, seed + i)[0] for i, problem in enumerate(problems)]
+
+
+def summarize(episodes: list[dict[str, float]], max_nodes: int) -> dict[str, float]:
+    """Success rate, nodes to the first solution, cost, samples and time of a planner.
+
+    Nodes: mean over all episodes (a failure counts as the whole budget) and median; cost:
+    mean over successful episodes; samples and time: means over all episodes.
+    """
+    success = np.array([episode["success"] for episode in episodes]) > 0
+    nodes = np.array(
+        [episode["nodes"] if ok else max_nodes for episode, ok in zip(episodes, success)]
+    )
+    costs = np.array([episode["cost"] for episode, ok in zip(episodes, success) if ok])
+    return {
+        "success": float(success.mean()),
+        "nodes_mean": float(nodes.mean()),
+        "nodes_median": float(np.median(nodes)),
+        "cost": float(costs.mean()) if len(costs) else math.inf,
+        "samples": float(np.mean([episode["samples"] for episode in episodes])),
+        "time": float(np.mean([episode["time"] for episode in episodes])),
+    }
