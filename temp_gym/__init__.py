@@ -19,4 +19,6 @@ def __getattr__(name: str):
 
         return load_policy
     raise AttributeError(f"module 'temp_gym' has no attribute {name!r}")
+
+
 __version__ = "0.1.0"
