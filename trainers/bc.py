@@ -3,6 +3,7 @@
     python trainers/bc.py                                   # the main job (2D, ~15 min, CPU)
     python trainers/bc.py --config configs/7d.yaml train.max_epochs=300
     python trainers/bc.py --config configs/tiny.yaml logger.backend=""   # no TensorBoard
+    torchrun --nproc_per_node=2 trainers/bc.py --config configs/2d.yaml  # data parallel (DDP)
 
 Steps: (1) generate the dataset of ``data.dir`` if it is missing; (2) train with
 L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation loss, until the
@@ -74,23 +75,23 @@ def run_directory(config: dict[str, Any]) -> Path:
     return Path(config["logger"].get("dir", "runs")) / name
 
 
-def pick_device(name: str) -> torch.device:
-    """``auto``: CUDA when present, else CPU."""
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(name)
-
-
 @torch.no_grad()
-def validate(model, loss_module, data, batch_size, device) -> dict[str, float]:
-    """Sample-weighted mean of each loss term over a whole split."""
+def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[str, float]:
+    """Sample-weighted mean of each loss term over a whole split (batches split over ranks)."""
     model.eval()
-    totals = {"loss": 0.0, "recons": 0.0, "semantic": 0.0}
-    for batch in utils.iterate_batches(data, batch_size, device):
-        terms = utils.model_step(model, loss_module, batch)
-        for key in totals:
-            totals[key] += float(terms[key]) * len(batch["target"])
-    return {key: value / max(len(data), 1) for key, value in totals.items()}
+    rank, world = (dist.rank, dist.world) if dist is not None else (0, 1)
+    keys = ("loss", "recons", "semantic")
+    totals = torch.zeros(len(keys), dtype=torch.float64)
+    for number, index in enumerate(utils.iterate_batch_indices(data, batch_size)):
+        if number % world != rank:
+            continue
+        terms = utils.model_step(model, loss_module, data.batch(index, device))
+        totals += torch.tensor(
+            [float(terms[key]) * len(index) for key in keys], dtype=torch.float64
+        )
+    if dist is not None:
+        totals = dist.sum(totals)
+    return {key: float(value) / max(len(data), 1) for key, value in zip(keys, totals)}
 
 
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
@@ -126,11 +127,29 @@ def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> 
     return summary
 
 
-def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = True) -> Path:
-    """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path."""
+def _no_logging(config: dict[str, Any]) -> dict[str, Any]:
+    """The config with logging off (ranks other than 0)."""
+    return {**config, "logger": {**config["logger"], "backend": ""}}
+
+
+def train(
+    config: dict[str, Any],
+    run_dir: Path,
+    resume: bool,
+    progress: bool = True,
+    dist: utils.Distributed | None = None,
+) -> Path:
+    """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path.
+
+    Under ``torchrun`` (``dist.world > 1``) the model is wrapped in DistributedDataParallel,
+    each rank reads its slice of every global batch (``train.batch_size`` stays the global
+    size), and only rank 0 logs and writes checkpoints: the loss curve is the single-process
+    one up to float rounding (tests/trainers/test_ddp.py).
+    """
+    dist = dist or utils.Distributed(config["train"].get("device", "auto"))
     train_config, eval_config = config["train"], config["eval"]
     seed = int(train_config.get("seed", 0))
-    device = pick_device(train_config.get("device", "auto"))
+    device = dist.device
     torch.manual_seed(seed)
     np.random.seed(seed)
     train_data = utils.make_replay_buffer(config, "train")
@@ -138,9 +157,9 @@ def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = 
     model = utils.make_model(config).to(device)
     loss_module = utils.make_loss(config)
     optimizer, scheduler = utils.make_optimizer(config, model)
-    logger = utils.make_logger(config, run_dir)
+    logger = utils.make_logger(config if dist.is_main else _no_logging(config), run_dir)
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
-    state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False}
+    state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False, "history": []}
     if resume and last_path.exists():
         model_loaded, checkpoint = load_checkpoint(last_path, robot=model.robot)
         model.load_state_dict(model_loaded.state_dict())
@@ -151,6 +170,14 @@ def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = 
         print(f"resuming {run_dir} at epoch {state['epoch']}")
     else:
         logger.text("hparams", utils.config_markdown(config))
+    if dist.world > 1:
+        from torch.nn.parallel import DistributedDataParallel
+
+        trained = DistributedDataParallel(
+            model, device_ids=[device] if device.type == "cuda" else None
+        )
+    else:
+        trained = model
     max_epochs = int(train_config["max_epochs"])
     if state["lr_floor"] or state["epoch"] >= max_epochs:
         print(f"{run_dir}: training already finished (epoch {state['epoch']})")
@@ -165,36 +192,60 @@ def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = 
     monitor = train_config.get("monitor", "loss")
     path_noise = float(train_config.get("path_noise", 0.0))
     augment = bool(train_config.get("augment", False)) and model.robot != "kuka_iiwa14"
+    history_shape = (model.max_path_length, model.dim)
     if monitor not in ("loss", "semantic", "recons"):
         raise ValueError(f"train.monitor: expected loss, semantic or recons, got {monitor!r}")
-    bar = tqdm(total=max_epochs, initial=state["epoch"], desc="train", disable=not progress)
+    bar = tqdm(
+        total=max_epochs,
+        initial=state["epoch"],
+        desc="train",
+        disable=not (progress and dist.is_main),
+    )
     while state["epoch"] < max_epochs and not state["lr_floor"]:
         epoch = state["epoch"]
         began = time.perf_counter()
         model.train()
         generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
-        sums = {"loss": 0.0, "recons": 0.0, "semantic": 0.0, "grad_norm": 0.0}
+        keys = ("loss", "recons", "semantic", "grad_norm")
+        sums = torch.zeros(len(keys), dtype=torch.float64)
         batches = 0
-        for batch in utils.iterate_batches(train_data, batch_size, device, generator):
-            if augment:
-                batch = utils.augment_symmetry(batch, generator)
-            if path_noise > 0:
-                batch = utils.perturb_path(batch, path_noise, generator)
-            terms = utils.model_step(model, loss_module, batch)
+        for index in utils.iterate_batch_indices(train_data, batch_size, generator):
+            # Random draws are made for the global batch, so every rank (and a single
+            # process) consumes the generator identically; then each rank keeps its slice.
+            symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
+            noise = (
+                torch.randn((len(index), *history_shape), generator=generator)
+                if path_noise > 0
+                else None
+            )
+            positions, weight = dist.shard(len(index))
+            batch = train_data.batch(index[positions], device)
+            if symmetry is not None:
+                batch = utils.augment_symmetry(batch, symmetry=symmetry)
+            if noise is not None:
+                batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
+            terms = utils.model_step(trained, loss_module, batch)
             optimizer.zero_grad(set_to_none=True)
-            terms["loss"].backward()
+            (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
             grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
             optimizer.step()
-            for key in ("loss", "recons", "semantic"):
-                sums[key] += float(terms[key].detach())
-            sums["grad_norm"] += float(grad_norm)
+            sums += torch.tensor(
+                [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
+                + [float(grad_norm) / dist.world],
+                dtype=torch.float64,
+            )
             batches += 1
             state["global_step"] += 1
+        sums = dict(zip(keys, dist.sum(sums).tolist()))
         seconds = time.perf_counter() - began
-        val = validate(model, loss_module, val_data, batch_size, device)
+        val = validate(model, loss_module, val_data, batch_size, device, dist)
         scheduler.step(val[monitor])
         lr = optimizer.param_groups[0]["lr"]
         state["epoch"] = epoch + 1
+        state["history"].append(
+            {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
+             "lr": lr}
+        )  # fmt: skip
         logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
         logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
         logger.scalars(
@@ -207,21 +258,23 @@ def train(config: dict[str, Any], run_dir: Path, resume: bool, progress: bool = 
         )
         if val[monitor] < state["best_val"]:
             state["best_val"] = val[monitor]
-            model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
+            if dist.is_main:
+                model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
         every = int(eval_config.get("every", 0))
-        if every and state["epoch"] % every == 0 and periodic:
+        if every and state["epoch"] % every == 0 and periodic and dist.is_main:
             evaluate_with_figures(config, model, periodic, logger, state["epoch"])
             model.to(device)
         state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
-        model.save(
-            last_path,
-            optimizer=optimizer.state_dict(),
-            scheduler=scheduler.state_dict(),
-            rng=torch.get_rng_state(),
-            config=config,
-            finished=state["lr_floor"] or state["epoch"] >= max_epochs,
-            **state,
-        )
+        if dist.is_main:
+            model.save(
+                last_path,
+                optimizer=optimizer.state_dict(),
+                scheduler=scheduler.state_dict(),
+                rng=torch.get_rng_state(),
+                config=config,
+                finished=state["lr_floor"] or state["epoch"] >= max_epochs,
+                **state,
+            )
         bar.update(1)
         bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
     bar.close()
@@ -283,18 +336,27 @@ def parse_args(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespa
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:
-    """Run the job; returns the comparison (None with ``--skip-eval``)."""
+    """Run the job; returns the comparison (None with ``--skip-eval`` or on ranks above 0)."""
     config, args = parse_args(argv)
     began = time.perf_counter()
+    dist = utils.Distributed(config["train"].get("device", "auto"))
     run_dir = run_directory(config)
-    run_dir.mkdir(parents=True, exist_ok=True)
     if args.resume and not (run_dir / "last.pt").exists():
         raise SystemExit(f"--resume: no {run_dir / 'last.pt'}")
-    utils.ensure_dataset(config, progress=not args.no_progress)
+    if dist.is_main:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        utils.ensure_dataset(config, progress=not args.no_progress)
+    dist.barrier()  # the dataset exists for every rank
     threads = config["train"].get("threads")
     if threads:
         torch.set_num_threads(int(threads))
-    best = train(config, run_dir, resume=not args.no_resume, progress=not args.no_progress)
+    best = train(
+        config, run_dir, resume=not args.no_resume, progress=not args.no_progress, dist=dist
+    )
+    dist.barrier()
+    dist.close()
+    if not dist.is_main:
+        return None
     print(f"best checkpoint: {best}")
     if args.skip_eval:
         return None

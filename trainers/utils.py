@@ -90,19 +90,28 @@ class SplitData:
 COORDINATE_KEYS = ("start", "goal", "path", "target")
 
 
+def draw_symmetry(dim: int, generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+    """One of the ``2^d d!`` symmetries of the cube: per-axis flips and an axis order."""
+    flips = torch.rand(dim, generator=generator) < 0.5
+    order = torch.randperm(dim, generator=generator)
+    return flips, order
+
+
 def augment_symmetry(
-    batch: dict[str, torch.Tensor], generator: torch.Generator
+    batch: dict[str, torch.Tensor],
+    generator: torch.Generator | None = None,
+    symmetry: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> dict[str, torch.Tensor]:
     """Apply one random symmetry of the cube to a point-robot batch (grids and coordinates).
 
     Point worlds are cubes ([0, 20]^d) whose occupancy grid covers the configuration bounds,
     so flipping grid axis i is negating normalized coordinate i, and swapping two grid axes
     is swapping the two coordinates: the same planning problem, mirrored. One of the
-    ``2^d d!`` symmetries is drawn per batch. Padding rows stay zero.
+    ``2^d d!`` symmetries is drawn per batch (`draw_symmetry`), or given. Padding rows stay
+    zero.
     """
     dim = batch["start"].shape[-1]
-    flips = torch.rand(dim, generator=generator) < 0.5
-    order = torch.randperm(dim, generator=generator)
+    flips, order = symmetry if symmetry is not None else draw_symmetry(dim, generator)
     out = dict(batch)
     sign = torch.where(flips, -1.0, 1.0).to(batch["start"].device)
     for key in COORDINATE_KEYS:
@@ -116,16 +125,22 @@ def augment_symmetry(
 
 
 def perturb_path(
-    batch: dict[str, torch.Tensor], std: float, generator: torch.Generator
+    batch: dict[str, torch.Tensor],
+    std: float,
+    generator: torch.Generator | None = None,
+    noise: torch.Tensor | None = None,
 ) -> dict[str, torch.Tensor]:
     """Add Gaussian noise of ``std`` (normalized units) to the valid path rows; keep the target.
 
     The policy's own tree never follows the expert exactly; training from perturbed paths
     toward the expert's next node teaches it to steer back (noise injection, as in DART).
+    ``noise`` (standard normal, at least as many path rows) may be given instead of drawn.
     """
     path = batch["path"]
     valid = torch.arange(path.shape[1], device=path.device) < batch["path_length"].reshape(-1, 1)
-    noise = torch.randn(path.shape, generator=generator).to(path.device) * std
+    if noise is None:
+        noise = torch.randn(path.shape, generator=generator)
+    noise = noise[:, : path.shape[1]].to(path.device) * std
     out = dict(batch)
     out["path"] = torch.clamp(path + noise * valid.unsqueeze(-1), -1.0, 1.0)
     return out
@@ -146,6 +161,17 @@ def iterate_batches(
     generator: torch.Generator | None = None,
     bucket: int = 32,
 ) -> Iterator[dict[str, torch.Tensor]]:
+    """`iterate_batch_indices`, gathered into model batches."""
+    for index in iterate_batch_indices(data, batch_size, generator, bucket):
+        yield data.batch(index, device)
+
+
+def iterate_batch_indices(
+    data: SplitData,
+    batch_size: int,
+    generator: torch.Generator | None = None,
+    bucket: int = 32,
+) -> Iterator[torch.Tensor]:
     """Batches over the whole split; shuffled by ``generator``, in order without one.
 
     Shuffled batches are bucketed by path length: each run of ``bucket * batch_size``
@@ -156,7 +182,7 @@ def iterate_batches(
     count = len(data)
     if generator is None:
         for first in range(0, count, batch_size):
-            yield data.batch(torch.arange(first, min(first + batch_size, count)), device)
+            yield torch.arange(first, min(first + batch_size, count))
         return
     order = torch.randperm(count, generator=generator)
     batches = []
@@ -165,7 +191,72 @@ def iterate_batches(
         chunk = chunk[torch.argsort(data.lengths[chunk], stable=True)]
         batches.extend(chunk.split(batch_size))
     for index in torch.randperm(len(batches), generator=generator).tolist():
-        yield data.batch(batches[index], device)
+        yield batches[index]
+
+
+# ---------------------------------------------------------------------- data parallelism
+class Distributed:
+    """This process's place in a ``torchrun`` job (rank 0 of 1 without one).
+
+    Under ``torchrun --nproc_per_node=N`` the process group is initialised with gloo on CPU
+    or nccl on CUDA (one GPU per local rank). Every rank holds the model; each global batch
+    is cut into ``world`` equal slices (`shard`) and each rank reads only its slice; DDP
+    averages the gradients. Rank 0 alone logs, checkpoints, evaluates and builds the dataset.
+    """
+
+    def __init__(self, device_name: str = "auto") -> None:
+        import os
+
+        import torch.distributed as dist
+
+        self.world = int(os.environ.get("WORLD_SIZE", "1"))
+        self.rank = int(os.environ.get("RANK", "0"))
+        local_rank = int(os.environ.get("LOCAL_RANK", "0"))
+        cuda = torch.cuda.is_available() and device_name in ("auto", "cuda")
+        if device_name == "auto":
+            device_name = "cuda" if cuda else "cpu"
+        if device_name == "cuda" and self.world > 1:
+            device_name = f"cuda:{local_rank}"
+        self.device = torch.device(device_name)
+        if self.world > 1 and not dist.is_initialized():
+            dist.init_process_group(backend="nccl" if self.device.type == "cuda" else "gloo")
+        self.is_main = self.rank == 0
+
+    def shard(self, size: int) -> tuple[torch.Tensor, float]:
+        """Positions of this rank's slice of a global batch of ``size``, and its loss weight.
+
+        The weight ``n_rank * world / size`` makes the mean over ranks of the weighted slice
+        losses equal the global batch's loss (both loss terms are per-sample means). A rank
+        whose slice is empty runs one sample with weight 0, so DDP's collective still happens.
+        """
+        positions = torch.arange(size).tensor_split(self.world)[self.rank]
+        if len(positions) == 0:
+            return torch.zeros(1, dtype=torch.long), 0.0
+        return positions, len(positions) * self.world / size
+
+    def sum(self, values: torch.Tensor) -> torch.Tensor:
+        """Sum ``values`` over ranks (identity without torchrun)."""
+        if self.world > 1:
+            import torch.distributed as dist
+
+            values = values.clone()
+            dist.all_reduce(values)
+        return values
+
+    def barrier(self) -> None:
+        """Wait for every rank."""
+        if self.world > 1:
+            import torch.distributed as dist
+
+            dist.barrier()
+
+    def close(self) -> None:
+        """Leave the process group."""
+        if self.world > 1:
+            import torch.distributed as dist
+
+            if dist.is_initialized():
+                dist.destroy_process_group()
 
 
 # ---------------------------------------------------------------------- model and optimization
@@ -212,7 +303,13 @@ def model_step(
 ) -> dict[str, torch.Tensor]:
     """Forward pass and loss terms for one batch."""
     out = model(batch)
-    return loss_module(out["recons_logits"], batch["occupancy"], out["sample"], batch["target"])
+    return loss_module(
+        out["recons_logits"],
+        batch["occupancy"],
+        out["sample"],
+        batch["target"],
+        batch.get("occupancy_index"),
+    )
 
 
 # ---------------------------------------------------------------------- logging

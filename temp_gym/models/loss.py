@@ -3,7 +3,11 @@
 ``L = λ · L_recons(O, Ô) + η · L_semantic(x, x̂)``
 
 * ``L_recons``: binary cross-entropy between the 0/1 occupancy grid O and the EISE decoder's
-  logits (Ô = sigmoid(logits)), averaged over cells.
+  logits (Ô = sigmoid(logits)), averaged over cells, then over the batch's *samples* (each
+  sample's workspace grid; when a batch stores each distinct grid once, ``occupancy_index``
+  maps samples to grids). Both terms are per-sample means, so the loss of a batch is the
+  size-weighted mean of the losses of its parts: what makes data-parallel training equal to
+  single-process training (`trainers/bc.py`).
 * ``L_semantic``: mean squared error between the expert's next node x and the MPT's sample x̂,
   both normalized to [-1, 1]^d, averaged over samples and dimensions.
 
@@ -36,9 +40,15 @@ class TEMPLoss(nn.Module):
         occupancy: torch.Tensor,
         sample: torch.Tensor,
         target: torch.Tensor,
+        occupancy_index: torch.Tensor | None = None,
     ) -> dict[str, torch.Tensor]:
         """Return ``loss`` (the weighted sum), ``recons`` and ``semantic`` (unweighted)."""
-        recons = F.binary_cross_entropy_with_logits(recons_logits, occupancy)
+        per_grid = (
+            F.binary_cross_entropy_with_logits(recons_logits, occupancy, reduction="none")
+            .flatten(1)
+            .mean(dim=1)
+        )
+        recons = (per_grid if occupancy_index is None else per_grid[occupancy_index]).mean()
         semantic = F.mse_loss(sample, target)
         loss = self.recons_weight * recons + self.semantic_weight * semantic
         return {"loss": loss, "recons": recons, "semantic": semantic}
