@@ -1,4 +1,7 @@
+import functools
 import json
+
+import pytest
 
 from temp_gym.evaluation.report import write_report
 from temp_gym.evaluation.runner import EvaluationSettings, evaluation_problem, run_evaluation
@@ -51,3 +54,22 @@ def test_evaluation_is_resumable_and_reports(tmp_path):
     ):
         assert (tmp_path / "report" / name).exists()
     assert list((tmp_path / "report" / "tensorboard").glob("events.*"))
+
+
+def _without_times(record):
+    planners = {
+        name: {k: v for k, v in figures.items() if k != "time"}
+        for name, figures in record["planners"].items()
+    }
+    return {**record, "planners": planners}
+
+
+def test_ray_backend_gives_the_same_records(tmp_path, monkeypatch):
+    pytest.importorskip("ray")
+    monkeypatch.setenv("RAY_ADDRESS", "")  # a local instance, whatever the shell says
+    one = settings(groups={"2D challenging": ("challenging", 2)}, curve_tasks=0)
+    # Ray workers import the policy factory by name: a partial of a package class.
+    factory = functools.partial(UniformPolicy, seed=0)
+    local = run_evaluation(one, factory, tmp_path / "local", workers=1, progress=False)
+    ray = run_evaluation(one, factory, tmp_path / "ray", workers=2, progress=False, backend="ray")
+    assert [_without_times(r) for r in ray] == [_without_times(r) for r in local]
