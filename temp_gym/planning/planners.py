@@ -11,7 +11,7 @@ from temp_gym.planning.result import (
     AnytimeLog,
     PlanResult,
     PlanSettings,
-    certified_tree_solution,
+    tree_plan_result,
 )
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
@@ -57,23 +57,7 @@ def run_tree_planner(
                 solved, first_time, first_nodes = True, elapsed, tree.num_nodes
             if informed:
                 base.set_best_cost(tree.best_cost)
-    path, cost, rejected = certified_tree_solution(problem, tree)
-    return PlanResult(
-        planner=name,
-        success=path is not None,
-        path=path,
-        cost=cost,
-        nodes=tree.num_nodes,
-        samples=tree.samples,
-        sampling_failures=tree.sampling_failures,
-        collision_checks=tree.collision_checks,
-        wall_time=time.perf_counter() - started,
-        time_to_first_solution=first_time,
-        nodes_to_first_solution=first_nodes,
-        history=log.as_arrays(),
-        seed=settings.seed,
-        certification_failures=rejected,
-    )
+    return tree_plan_result(problem, tree, name, settings, started, log, first_time, first_nodes)
 
 
 def rrt_star(problem: Problem, settings: PlanSettings) -> PlanResult:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -166,3 +167,35 @@ def certified_tree_solution(
             return path, float(tree.costs[node]), rejected
         rejected += 1
     return None, math.inf, rejected
+
+
+def tree_plan_result(
+    problem: Problem,
+    tree: Tree,
+    planner: str,
+    settings: PlanSettings,
+    started: float,
+    log: AnytimeLog,
+    first_time: float | None,
+    first_nodes: int | None,
+    **extra: Any,
+) -> PlanResult:
+    """The `PlanResult` of a finished tree: certified best path, counters, wall time, history."""
+    path, cost, rejected = certified_tree_solution(problem, tree)
+    return PlanResult(
+        planner=planner,
+        success=path is not None,
+        path=path,
+        cost=cost,
+        nodes=tree.num_nodes,
+        samples=tree.samples,
+        sampling_failures=tree.sampling_failures,
+        collision_checks=tree.collision_checks,
+        wall_time=time.perf_counter() - started,
+        time_to_first_solution=first_time,
+        nodes_to_first_solution=first_nodes,
+        history=log.as_arrays(),
+        seed=settings.seed,
+        certification_failures=rejected,
+        **extra,
+    )

@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 from temp_gym.planning.observation import TreeObserver
-from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, certified_tree_solution
+from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
@@ -122,21 +122,6 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
             if first_time is None:
                 first_time, first_nodes = elapsed, tree.num_nodes
             informed.set_best_cost(tree.best_cost)
-    path, cost, rejected = certified_tree_solution(problem, tree)
-    return PlanResult(
-        planner="temp",
-        success=path is not None,
-        path=path,
-        cost=cost,
-        nodes=tree.num_nodes,
-        samples=tree.samples,
-        sampling_failures=tree.sampling_failures,
-        collision_checks=tree.collision_checks,
-        wall_time=time.perf_counter() - started,
-        time_to_first_solution=first_time,
-        nodes_to_first_solution=first_nodes,
-        history=log.as_arrays(),
-        seed=settings.seed,
-        certification_failures=rejected,
-        attention=attention,
+    return tree_plan_result(
+        problem, tree, "temp", settings, started, log, first_time, first_nodes, attention=attention
     )
