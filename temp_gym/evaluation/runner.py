@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +55,6 @@ class EvaluationSettings:
     """Node budget of those runs."""
     seed: int = 0
     """Seed of the test set and the planners."""
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
