@@ -18,4 +18,14 @@ def test_overrides_parse_values_and_reject_typos():
 @pytest.mark.parametrize("name", ["2d", "3d", "7d", "tiny"])
 def test_shipped_configs_load(name):
     config = load_config(f"configs/{name}.yaml")
-    assert {"env", "data", "model", "optim", "loss", "train", "eval", "logger"} <= set(config)
+    assert {
+        "env",
+        "data",
+        "model",
+        "optim",
+        "loss",
+        "train",
+        "eval",
+        "evaluation",
+        "logger",
+    } <= set(config)
