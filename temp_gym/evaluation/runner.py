@@ -132,9 +132,11 @@ _POLICIES: dict[str, Any] = {}
 def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -> dict:
     settings, make_policy, group, difficulty, index = job
     key = repr(make_policy)
+    problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
     if key not in _POLICIES:
         _POLICIES[key] = make_policy()
-    problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
+        # Warm-up (torch's first inference, numba's first calls) outside any timed run.
+        plan(problem, planner="temp", policy=_POLICIES[key], max_nodes=20)
     record = evaluate_task(problem, _POLICIES[key], settings, index < settings.curve_tasks)
     record.update({"group": group, "difficulty": difficulty, "index": index})
     return record
