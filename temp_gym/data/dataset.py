@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from temp_gym.data.format import SPLITS
-from temp_gym.envs.planning_env import DEFAULT_RESOLUTION
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import ROBOTS
+from temp_gym.worlds.encoding import DEFAULT_RESOLUTION
 from temp_gym.worlds.generators import DIFFICULTIES
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
 

@@ -10,18 +10,17 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from temp_gym.planning.observation import MAX_RATIO, TreeObserver
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, MAX_RATIO, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree, default_step_size
 from temp_gym.problem import ROBOTS, Problem
-from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
 from temp_gym.worlds.splits import SPLITS, split_workspace
 from temp_gym.worlds.workspace import Workspace
 
 DIFFICULTIES = ("any", "easy", "challenging", "mixed")
 FALLBACKS = ("random", "none")
 DEFAULT_MAX_NODES = {"point2d": 3000, "point3d": 3000, "kuka_iiwa14": 5000}
-DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
 
 
 @lru_cache(maxsize=64)
@@ -123,7 +122,7 @@ class PlanningEnv(gym.Env):
         max_fallback_tries: int = 1000,
         encoding_resolution: int | None = None,
         split: str = "train",
-        max_path_length: int = 64,
+        max_path_length: int = DEFAULT_MAX_PATH_LENGTH,
         step_penalty: float = 0.01,
         success_reward: float = 1.0,
         target_cost: float | None = None,

@@ -17,6 +17,8 @@ from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import half_range, normalize
 
+DEFAULT_MAX_PATH_LENGTH = 64
+"""Default L, the rows of the ``path`` (path-so-far) observation."""
 MAX_RATIO = 100.0
 """Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
 

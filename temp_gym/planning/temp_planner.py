@@ -30,16 +30,14 @@ import time
 
 import numpy as np
 
-from temp_gym.planning.observation import TreeObserver
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
 from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
-from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
 from temp_gym.worlds.workspace import Workspace
 
-DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
-DEFAULT_MAX_PATH_LENGTH = 64
 MAX_FALLBACK_TRIES = 1000
 
 

@@ -12,6 +12,9 @@ import numpy as np
 
 from temp_gym.worlds.workspace import Workspace
 
+DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
+"""Default cells per workspace axis of the occupancy grid, per robot (env, planner, data)."""
+
 IIWA_REGION = np.array([[-1.4, -1.4, -0.2], [1.4, 1.4, 1.6]])
 """Workspace region encoded for the iiwa (metres, base at the origin, z up); holds its reach."""
 
