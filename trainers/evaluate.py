@@ -11,7 +11,8 @@ tasks in 7D (``evaluation.tasks`` per group), from the unseen ``test`` workspace
 
 Outputs in ``evaluation.out`` (default ``results/{env id}``): ``results.md`` (Table 1 layout and
 the TEMP/baseline ratios), ``results.json`` (raw records), ``success_vs_time.png``,
-``cost_vs_nodes.png``, ``sampling_failures.png``, ``tensorboard/`` (custom-scalars layout with
+``cost_vs_nodes.png``, ``sampling_failures.png``, ``attention.png`` (normalized attention per
+token group along the plan of the first row's task 0), ``tensorboard/`` (custom-scalars layout with
 TEMP and the baselines on shared charts) and ``tasks/`` (one record per task: rerunning the
 same command resumes).
 """
@@ -24,9 +25,10 @@ from pathlib import Path
 
 from temp_gym.config import load_config
 from temp_gym.evaluation.report import write_report
-from temp_gym.evaluation.runner import EvaluationSettings, run_evaluation
+from temp_gym.evaluation.runner import EvaluationSettings, attention_example, run_evaluation
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.registry import shipped_checkpoint
+from temp_gym.models.temp import load_checkpoint, weights_digest
 
 GROUPS = {
     "point2d": {"2D easy": "easy", "2D challenging": "challenging"},
@@ -41,17 +43,27 @@ DEFAULTS = {
     "attention_nodes": None,
     "curve_tasks": 10,
     "curve_nodes": 3000,
-    "noise_std": 0.0,
+    "noise_std": None,
     "seed": 0,
     "workers": 2,
     "out": None,
 }
 
 
-def settings_from(config: dict) -> tuple[EvaluationSettings, dict]:
-    """The evaluation settings of a config's ``evaluation`` section (defaults above)."""
+def settings_from(
+    config: dict, planner_defaults: dict | None = None
+) -> tuple[EvaluationSettings, dict]:
+    """The evaluation settings of a config's ``evaluation`` section (defaults above).
+
+    ``attention_nodes`` and ``noise_std`` left null take the checkpoint's own planner settings
+    (``planner_defaults``, what `temp_gym.load_policy` applies to a shipped policy), else
+    all of ``max_nodes`` and no noise.
+    """
     robot = config["env"]["robot"]
     section = {**DEFAULTS, **(config.get("evaluation") or {})}
+    for key, fallback in (("attention_nodes", None), ("noise_std", 0.0)):
+        if section[key] is None:
+            section[key] = (planner_defaults or {}).get(key, fallback)
     tasks = int(section.get("tasks") or DEFAULT_TASKS[robot])
     groups = {name: (difficulty, tasks) for name, difficulty in GROUPS[robot].items()}
     settings = EvaluationSettings(
@@ -80,8 +92,10 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     args = parser.parse_args(argv)
     config = load_config(args.config, args.overrides)
-    settings, section = settings_from(config)
-    checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(settings.robot)
+    robot = config["env"]["robot"]
+    checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
+    _, stored = load_checkpoint(checkpoint, robot=robot)  # fails fast on a wrong checkpoint
+    settings, section = settings_from(config, stored.get("planner"))
     make_policy = functools.partial(
         TEMPPolicy.from_checkpoint,
         str(checkpoint),
@@ -89,7 +103,6 @@ def main(argv: list[str] | None = None) -> str:
         noise_std=float(section["noise_std"]),
         seed=settings.seed,
     )
-    make_policy()  # fail fast on a missing or wrong checkpoint, before any work starts
     out = Path(section["out"] or Path("results") / config["env"]["id"])
     records = run_evaluation(
         settings,
@@ -100,7 +113,13 @@ def main(argv: list[str] | None = None) -> str:
         backend=args.backend,
         address=args.ray_address,
     )
-    table = write_report(records, out)
+    metadata = {
+        "checkpoint": str(checkpoint),
+        "checkpoint_digest": weights_digest(stored["state_dict"]),
+        "settings": {key: section[key] for key in DEFAULTS if key not in ("workers", "out")},
+    }
+    example = attention_example(settings, make_policy)
+    table = write_report(records, out, attention=example, metadata=metadata)
     print(table)
     print(
         f"\nreport: {out / 'results.md'}; TensorBoard: tensorboard --logdir {out / 'tensorboard'}"

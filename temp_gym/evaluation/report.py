@@ -48,9 +48,19 @@ def planners_in(records: list[dict[str, Any]]) -> list[str]:
     return [p for p in PLANNER_ORDER if p in present] + sorted(present - set(PLANNER_ORDER))
 
 
-def write_report(records: list[dict[str, Any]], out_dir: str | Path, tensorboard: bool = True):
+def write_report(
+    records: list[dict[str, Any]],
+    out_dir: str | Path,
+    tensorboard: bool = True,
+    attention: dict[str, Any] | None = None,
+    metadata: dict[str, Any] | None = None,
+):
     """Write ``results.md``, ``results.json``, PNG plots and (optionally) TensorBoard events.
 
+    ``attention`` is an example plan's attention read-out
+    (`temp_gym.evaluation.runner.attention_example`); with it, ``attention.png`` (the
+    normalized weights per token group along the plan) and ``attention.json`` are written too.
+    ``metadata`` (e.g. the checkpoint and its weights digest) goes into ``results.json``.
     Returns the markdown table.
     """
     out = Path(out_dir)
@@ -72,9 +82,13 @@ def write_report(records: list[dict[str, Any]], out_dir: str | Path, tensorboard
     )
     (out / "results.md").write_text(f"{table}\n\n{ratios}\n")
     (out / "results.json").write_text(
-        json.dumps({"summary": summary, "records": records}, default=float, indent=1)
+        json.dumps(
+            {**(metadata or {}), "summary": summary, "records": records}, default=float, indent=1
+        )
     )
     _plots(records, summary, planners, out)
+    if attention is not None:
+        _attention_plot(attention, out)
     if tensorboard:
         _tensorboard(records, planners, out / "tensorboard")
     return table
@@ -132,6 +146,19 @@ def _plots(records, summary, planners, out: Path) -> None:
     axes.legend(fontsize=7)
     figure.tight_layout()
     figure.savefig(out / "sampling_failures.png", dpi=110)
+
+
+def _attention_plot(attention: dict[str, Any], out: Path) -> None:
+    from temp_gym.models.attention import attention_figure
+
+    normalized = {group: np.asarray(values) for group, values in attention["normalized"].items()}
+    phase = attention["attention_phase"]
+    title = (
+        f"{attention['group']} task {attention['index']}: normalized attention per group "
+        f"({phase['nodes']} nodes)"
+    )
+    attention_figure(normalized, title=title).savefig(out / "attention.png", dpi=110)
+    (out / "attention.json").write_text(json.dumps(attention, indent=1))
 
 
 def _tensorboard(records, planners, log_dir: Path) -> None:

@@ -179,3 +179,38 @@ def run_evaluation(
             _write_json_atomic(targets[index], record)
             bar.update()
     return [json.loads(path.read_text()) for path in paths]
+
+
+def attention_example(
+    settings: EvaluationSettings, make_policy: Callable[[], Any], group: str | None = None
+) -> dict[str, Any]:
+    """TEMP's attention along one example plan: task 0 of ``group`` (default: the first row).
+
+    Plans with the policy's attention read-out on (``record_attention``) and returns the
+    group, the task, the AP figures and, per token group (SEI, Goal, Start, HPD), the raw
+    head-averaged weight of the output token's query at every sampling step of the last layer
+    and its min-max normalization (the paper's Eq. 7-8, `temp_gym.models.attention`).
+    """
+    from temp_gym.models.attention import GROUPS, normalized_group_attention
+
+    group = group or next(iter(settings.groups))
+    difficulty, _ = settings.groups[group]
+    problem = evaluation_problem(settings.robot, difficulty, 0, settings.seed)
+    policy = make_policy()
+    policy.record_attention = True
+    result = plan(
+        problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
+        max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
+    )  # fmt: skip
+    weights = normalized_group_attention(policy.attentions, policy.model.mpt.num_sei_tokens)
+    return {
+        "group": group,
+        "index": 0,
+        "problem": problem.to_dict(),
+        "attention_phase": {
+            key: value.item() if isinstance(value, np.generic) else value
+            for key, value in result.attention.items()
+        },
+        "normalized": {g: weights[g].tolist() for g in GROUPS},
+        "raw": {g: weights["raw_" + g].tolist() for g in GROUPS},
+    }

@@ -38,12 +38,23 @@ def shipped_checkpoint(name: str) -> Path:
     return path
 
 
-def load_policy(name: str, noise_std: float = 0.0, seed: int | None = None):
-    """The shipped `TEMPPolicy` for an env id or robot, e.g. ``load_policy("TEMP-7D-v0")``."""
+def load_policy(name: str, noise_std: float | None = None, seed: int | None = None):
+    """The shipped `TEMPPolicy` for an env id or robot, e.g. ``load_policy("TEMP-7D-v0")``.
+
+    The checkpoint carries the planner settings it was shipped with (its model card says how
+    they were chosen): the attention-phase budget n of Algorithm 1, which the ``temp``
+    planner uses when ``attention_nodes`` is not given, and the output noise, used unless
+    ``noise_std`` is given.
+    """
     from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.models.temp import load_checkpoint
 
     env_id = _ROBOT_IDS.get(name, name)
     robot = {v: k for k, v in _ROBOT_IDS.items()}.get(env_id)
-    return TEMPPolicy.from_checkpoint(
-        shipped_checkpoint(name), robot=robot, noise_std=noise_std, seed=seed
-    )
+    model, checkpoint = load_checkpoint(shipped_checkpoint(name), robot=robot)
+    planner = checkpoint.get("planner", {})
+    if noise_std is None:
+        noise_std = float(planner.get("noise_std", 0.0))
+    policy = TEMPPolicy(model, noise_std=noise_std, seed=seed)
+    policy.attention_nodes = planner.get("attention_nodes")
+    return policy

@@ -27,6 +27,7 @@ Example:
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Any
 
@@ -162,6 +163,17 @@ class TEMPModel(nn.Module):
         """Parameters of the whole model, or of ``part`` (``eise`` or ``mpt``)."""
         module = self if part is None else getattr(self, part)
         return sum(parameter.numel() for parameter in module.parameters())
+
+
+def weights_digest(state_dict: dict[str, torch.Tensor]) -> str:
+    """SHA-256 of a state dict (names, shapes, bytes): ties reported figures to their weights."""
+    digest = hashlib.sha256()
+    for name in sorted(state_dict):
+        tensor = state_dict[name].detach().cpu().contiguous()
+        digest.update(name.encode())
+        digest.update(str(tuple(tensor.shape)).encode())
+        digest.update(tensor.numpy().tobytes())
+    return digest.hexdigest()
 
 
 def load_checkpoint(

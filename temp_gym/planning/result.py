@@ -38,7 +38,9 @@ class PlanSettings:
     policy: Any = field(default=None, compare=False, repr=False)
     """Sampling policy of the ``temp`` planner (None: the shipped one for the robot)."""
     attention_nodes: int | None = None
-    """``temp`` planner: most tree nodes for attention-based planning (None: ``max_nodes``)."""
+    """``temp`` planner: most tree nodes for attention-based planning, the n of Algorithm 1
+    (None: the policy's ``attention_nodes`` if it has one, as shipped policies do; else
+    ``max_nodes``)."""
 
     @property
     def sample_limit(self) -> int:

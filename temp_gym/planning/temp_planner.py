@@ -77,9 +77,11 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     first_time: float | None = None
     first_nodes: int | None = None
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
-    attention_nodes = (
-        settings.max_nodes if settings.attention_nodes is None else settings.attention_nodes
-    )
+    attention_nodes = settings.attention_nodes
+    if attention_nodes is None:  # the policy's own budget n (a shipped one carries it)
+        attention_nodes = getattr(policy, "attention_nodes", None)
+    if attention_nodes is None:
+        attention_nodes = settings.max_nodes
 
     def out_of_budget() -> bool:
         return (

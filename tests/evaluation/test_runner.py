@@ -4,7 +4,12 @@ import json
 import pytest
 
 from temp_gym.evaluation.report import write_report
-from temp_gym.evaluation.runner import EvaluationSettings, evaluation_problem, run_evaluation
+from temp_gym.evaluation.runner import (
+    EvaluationSettings,
+    attention_example,
+    evaluation_problem,
+    run_evaluation,
+)
 from temp_gym.policies import UniformPolicy
 
 
@@ -73,3 +78,40 @@ def test_ray_backend_gives_the_same_records(tmp_path, monkeypatch):
     local = run_evaluation(one, factory, tmp_path / "local", workers=1, progress=False)
     ray = run_evaluation(one, factory, tmp_path / "ray", workers=2, progress=False, backend="ray")
     assert [_without_times(r) for r in ray] == [_without_times(r) for r in local]
+
+
+def _untrained_temp_policy():
+    import torch
+
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.models.temp import TEMPModel
+
+    torch.manual_seed(0)
+    model = TEMPModel.from_config(
+        {"token_dim": 16, "num_heads": 2, "num_layers": 2, "ffn_dim": 32, "num_sei_tokens": 2,
+         "eise_hidden": 32},
+        "point2d", 8, 16,
+    )  # fmt: skip
+    return TEMPPolicy(model.eval())
+
+
+def test_attention_example_reads_one_plan_and_is_plotted(tmp_path):
+    example = attention_example(settings(max_nodes=200), _untrained_temp_policy)
+    steps = len(example["raw"]["SEI"])
+    assert example["group"] == "2D easy" and example["index"] == 0
+    # One attention map per AP iteration: one model call per extension (fallback or not).
+    assert steps == example["attention_phase"]["nodes"] - 1
+    for group in ("SEI", "Goal", "Start", "HPD"):
+        normalized = example["normalized"][group]
+        assert len(normalized) == steps and min(normalized) >= 0 and max(normalized) <= 1
+    # The groups share the output query's head-averaged mass with the query's own token.
+    totals = [sum(example["raw"][g][k] for g in ("SEI", "Goal", "Start", "HPD")) for k in range(3)]
+    assert all(0.0 < total < 1.0 + 1e-6 for total in totals)
+    records = run_evaluation(
+        settings(groups={"2D easy": ("easy", 1)}, curve_tasks=0), make_policy, tmp_path,
+        workers=1, progress=False,
+    )  # fmt: skip
+    write_report(records, tmp_path / "report", tensorboard=False, attention=example)
+    assert (tmp_path / "report" / "attention.png").exists()
+    stored = json.loads((tmp_path / "report" / "attention.json").read_text())
+    assert stored["normalized"] == example["normalized"]

@@ -1,0 +1,75 @@
+"""trainers/ship.py: a slim shipped checkpoint, its model card, and load_policy's settings."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from temp_gym.models import registry
+from temp_gym.models.temp import TEMPModel, load_checkpoint, weights_digest
+from temp_gym.planning.plan import plan
+from temp_gym.worlds.generators import generate_problem
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from trainers import ship  # noqa: E402
+
+SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 2,
+         "eise_hidden": 32}  # fmt: skip
+
+
+@pytest.fixture
+def shipped(tmp_path, monkeypatch):
+    torch.manual_seed(0)
+    model = TEMPModel.from_config(SMALL, "point2d", 16, 64)
+    best = tmp_path / "best.pt"
+    model.save(best, epoch=7, val_loss=0.5, optimizer_state={"lr": 1e-3})
+    out = tmp_path / "checkpoints"
+    monkeypatch.chdir(tmp_path)  # no results/ here: the card says "not evaluated yet"
+    path = ship.main([
+        "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(best),
+        "--attention-nodes", "40", "--noise-std", "0.02", "--out-dir", str(out),
+        f"data.dir={tmp_path / 'no-data'}",
+    ])  # fmt: skip
+    monkeypatch.setattr(registry, "CHECKPOINT_DIR", out)
+    return model, path
+
+
+def test_ship_writes_a_slim_checkpoint_and_a_card(shipped):
+    model, path = shipped
+    assert path.name == "2d.pt" and path.stat().st_size < ship.MAX_BYTES
+    loaded, checkpoint = load_checkpoint(path, robot="point2d")  # weights_only=True inside
+    assert "optimizer_state" not in checkpoint
+    assert checkpoint["planner"]["attention_nodes"] == 40
+    assert checkpoint["provenance"]["digest"] == weights_digest(model.state_dict())
+    for name, tensor in model.state_dict().items():
+        assert torch.equal(loaded.state_dict()[name], tensor)
+    card = path.with_suffix(".md").read_text()
+    assert "Attention-phase budget n (Algorithm 1): 40 nodes" in card
+    assert "Not evaluated yet" in card and "Dataset card unavailable" in card
+
+
+def test_load_policy_applies_the_shipped_planner_settings(shipped):
+    policy = registry.load_policy("TEMP-2D-v0", seed=0)
+    assert policy.attention_nodes == 40 and policy.noise_std == pytest.approx(0.02)
+    assert registry.load_policy("point2d", noise_std=0.0).noise_std == 0.0
+    problem = generate_problem("point2d", np.random.default_rng(3), "challenging")
+    result = plan(problem, planner="temp", policy=policy, seed=0, max_nodes=3000)
+    assert result.attention["nodes"] <= 40 and result.success  # CP finishes what AP did not
+    explicit = plan(problem, planner="temp", policy=policy, seed=0, max_nodes=3000,
+                    attention_nodes=10, stop_at_first=True)  # fmt: skip
+    assert explicit.attention["nodes"] <= 10
+
+
+def test_ship_refuses_a_checkpoint_for_another_robot(tmp_path):
+    model = TEMPModel.from_config(SMALL, "point3d", 8, 64)
+    model.save(tmp_path / "best.pt")
+    with pytest.raises(ValueError, match="point3d"):
+        ship.main([
+            "--config", str(ROOT / "configs" / "tiny.yaml"),
+            "--checkpoint", str(tmp_path / "best.pt"), "--attention-nodes", "10",
+            "--out-dir", str(tmp_path),
+        ])  # fmt: skip

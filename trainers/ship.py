@@ -1,0 +1,185 @@
+r"""Ship a trained policy inside the package: a slim checkpoint plus its model card.
+
+    python trainers/ship.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
+        --attention-nodes 300 --noise-std 0.03 [key=value overrides used in training]
+
+Writes ``temp_gym/checkpoints/{2d,3d,7d}.pt`` (the model weights and sizes, the planner
+settings `temp_gym.load_policy` applies, and where the weights came from; no optimizer state,
+so it stays well under 10 MB) and the model card ``{2d,3d,7d}.md`` beside it: the data (the
+dataset card), the config, the training figures and, once ``trainers/evaluate.py`` has written
+``results/{env id}/results.json`` for this checkpoint, the evaluation table. Run it again after
+the evaluation to put the figures in the card; the weights are unchanged by that.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from temp_gym.config import load_config
+from temp_gym.data.assemble import read_card
+from temp_gym.models.registry import CHECKPOINT_DIR, SHIPPED
+from temp_gym.models.temp import load_checkpoint, weights_digest
+
+MAX_BYTES = 10 * 2**20
+"""The issue's limit on a shipped checkpoint."""
+
+
+def slim_checkpoint(
+    source: dict[str, Any], planner: dict[str, Any], provenance: dict[str, Any]
+) -> dict[str, Any]:
+    """The shipped dict: model entries of ``source`` plus planner settings and provenance."""
+    keep = ("version", "state_dict", "model_config", "robot", "dim", "encoding_resolution")
+    slim = {key: source[key] for key in keep + ("max_path_length",)}
+    slim["planner"] = planner
+    slim["provenance"] = provenance
+    return slim
+
+
+def _evaluation_section(env_id: str, digest: str) -> str:
+    results = Path("results") / env_id / "results.json"
+    table = Path("results") / env_id / "results.md"
+    if not results.is_file() or not table.is_file():
+        return (
+            "Not evaluated yet: run `python trainers/evaluate.py --config ...` and then this "
+            "script again.\n"
+        )
+    evaluated = json.loads(results.read_text()).get("checkpoint_digest")
+    if evaluated != digest:
+        return (
+            f"`{results}` was made with other weights (digest {evaluated}); rerun "
+            "`trainers/evaluate.py` for this checkpoint.\n"
+        )
+    return (
+        f"The paper's protocol on unseen test workspaces (`{table}`, made by "
+        "`python trainers/evaluate.py` with these weights; times on a 2-core CPU):\n\n"
+        + table.read_text()
+    )
+
+
+def model_card(
+    env_id: str,
+    config: dict[str, Any],
+    checkpoint: dict[str, Any],
+    planner: dict[str, Any],
+    provenance: dict[str, Any],
+    parameters: int,
+    size: int,
+) -> str:
+    """The markdown model card of a shipped checkpoint."""
+    data = config["data"]
+    try:
+        card = read_card(data["dir"])
+        splits = card.get("splits", {})
+        counts = ", ".join(
+            f"{split}: {figures.get('plans_stored', '?')} plans, "
+            f"{figures.get('samples', '?')} samples ({figures.get('plans_failed', '?')} failed "
+            "plans not stored)"
+            for split, figures in splits.items()
+        )
+        data_lines = [
+            f"- Expert: `{card['planner']['name']}`, {card['planner']['budget']}, step "
+            f"{card['planner']['step_size']}; every stored path certified by the exact checker.",
+            f"- Workspaces: {card['settings']['workspaces']} from the fixed train/val pools "
+            f"(`temp_gym.worlds.splits`), {card['settings']['tasks_per_workspace']} tasks each, "
+            f"difficulty `{card['settings']['difficulty']}`.",
+            f"- Stored: {counts}.",
+        ]
+    except (FileNotFoundError, KeyError, ValueError) as error:
+        data_lines = [f"- Dataset card unavailable ({error})."]
+    sections = {key: config.get(key, {}) for key in ("env", "data", "model", "optim", "loss")}
+    sections["train"] = config.get("train", {})
+    return "\n".join(
+        [
+            f"# Model card: `{env_id}` TEMP policy",
+            "",
+            f'`temp_gym.load_policy("{env_id}")` loads it; `plan(problem)` and `temp-plan` use '
+            "it by default for this robot.",
+            "",
+            "## Model",
+            f"- EISE + MPT (`temp_gym.models.TEMPModel`), robot `{checkpoint['robot']}` "
+            f"(d = {checkpoint['dim']}), occupancy grid {checkpoint['encoding_resolution']} "
+            f"cells per axis, path so far up to {checkpoint['max_path_length']} nodes.",
+            f"- Sizes: {json.dumps(checkpoint['model_config'])}; {parameters:,} parameters; "
+            f"file {size / 2**20:.2f} MB.",
+            f"- Weights digest (SHA-256): `{provenance['digest']}`.",
+            "",
+            "## Planner settings applied by `load_policy`",
+            f"- Attention-phase budget n (Algorithm 1): {planner['attention_nodes']} nodes, then "
+            "classical planning (Informed RRT*).",
+            f"- Output noise: {planner['noise_std']} (normalized units).",
+            f"- How they were chosen: {planner['chosen_by']}.",
+            "",
+            "## Data",
+            *data_lines,
+            "",
+            "## Training",
+            f"- `python trainers/bc.py --config {provenance['config']}"
+            + "".join(f" {o}" for o in provenance["overrides"])
+            + "`",
+            f"- Checkpoint: {provenance['source']} (epoch {provenance.get('epoch')}, validation "
+            f"loss {provenance.get('val_loss')}).",
+            "",
+            "```yaml",
+            json.dumps(sections, indent=1),
+            "```",
+            "",
+            "## Evaluation",
+            _evaluation_section(env_id, provenance["digest"]),
+        ]
+    )
+
+
+def main(argv: list[str] | None = None) -> Path:
+    """Write the shipped checkpoint and its card; return the checkpoint path."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", required=True, help="the config the policy was trained with")
+    parser.add_argument("--checkpoint", required=True, help="a trainers/bc.py best.pt")
+    parser.add_argument("--attention-nodes", type=int, required=True)
+    parser.add_argument("--noise-std", type=float, default=0.0)
+    parser.add_argument(
+        "--chosen-by", default="tuned on the validation workspaces", help="for the card"
+    )
+    parser.add_argument("--out-dir", default=str(CHECKPOINT_DIR))
+    parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
+    args = parser.parse_args(argv)
+    if args.attention_nodes < 1 or args.noise_std < 0:
+        raise SystemExit("--attention-nodes must be >= 1 and --noise-std >= 0")
+    config = load_config(args.config, args.overrides)
+    env_id = config["env"]["id"]
+    model, source = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
+    planner = {
+        "attention_nodes": args.attention_nodes,
+        "noise_std": args.noise_std,
+        "chosen_by": args.chosen_by,
+    }
+    provenance = {
+        "source": str(args.checkpoint),
+        "config": args.config,
+        "overrides": list(args.overrides),
+        "epoch": source.get("epoch"),
+        "val_loss": source.get("val_loss"),
+        "digest": weights_digest(source["state_dict"]),
+    }
+    out_dir = Path(args.out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{SHIPPED[env_id]}.pt"
+    partial = path.with_suffix(".pt.partial")
+    torch.save(slim_checkpoint(source, planner, provenance), partial)
+    size = partial.stat().st_size
+    if size > MAX_BYTES:
+        partial.unlink()
+        raise SystemExit(f"{path}: {size / 2**20:.1f} MB exceeds the 10 MB limit")
+    partial.replace(path)
+    card = model_card(env_id, config, source, planner, provenance, model.num_parameters(), size)
+    path.with_suffix(".md").write_text(card)
+    print(f"shipped {path} ({size / 2**20:.2f} MB) and {path.with_suffix('.md')}")
+    return path
+
+
+if __name__ == "__main__":
+    main()
