@@ -1,32 +1,51 @@
-"""MPT inference time per sample on one CPU core, for the default model of each world.
+"""MPT inference time per sample on one CPU core, PyTorch against FastMPT (numba).
 
     python benchmarks/inference.py                       # 2D, 3D and 7D defaults
-    python benchmarks/inference.py --config configs/7d.yaml --threads 1
+    python benchmarks/inference.py --config configs/7d.yaml
+    python benchmarks/inference.py --plan                # also: TEMP planning time per node
 
-Measures what `TEMPPolicy.__call__` costs in a planning step: one MPT forward pass (the
-SEI is cached per workspace), batch 1, for short and full-length paths; plus the batched
-throughput and the one-off EISE cost per workspace. Also prints parameter counts and the
-checkpoint size.
+Measures what `TEMPPolicy.__call__` costs in a planning step: one MPT forward pass (the SEI
+is cached per workspace), batch 1, for short and full-length paths, with the PyTorch model and
+with `temp_gym.models.fast_mpt.FastMPT` on the same weights and inputs, side by side; then
+the whole policy call with each backend, the batched PyTorch throughput (training and
+evaluation batches) and the one-off EISE cost per workspace. Also prints parameter counts and
+the checkpoint size. One thread throughout: ``torch.set_num_threads(1)``,
+``NUMBA_NUM_THREADS=1`` and ``OPENBLAS_NUM_THREADS=1`` (the BLAS numba calls); each time is
+the best of many short rounds, so that other jobs on the machine disturb it little.
+
+``--plan`` times whole TEMP planning runs (`temp_gym.planning.plan`) of a randomly initialised
+2D model with each backend on generated challenging problems: the attention-based phase's
+wall time per tree node, the part of it spent in the policy, and RRT*'s and Informed RRT*'s
+time per node on the same problems. A random model plans badly, so compare the time per node,
+not the totals.
 """
 
 from __future__ import annotations
 
-import argparse
-import io
-import time
+import os
 
-import numpy as np
-import torch
+for _variable in ("NUMBA_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")  # before numpy, numba and torch load
 
-from temp_gym.config import load_config
-from temp_gym.models.temp import TEMPModel
+import argparse  # noqa: E402
+import io  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from temp_gym.config import load_config  # noqa: E402
+from temp_gym.models.fast_mpt import FastMPT  # noqa: E402
+from temp_gym.models.policy import TEMPPolicy  # noqa: E402
+from temp_gym.models.temp import TEMPModel  # noqa: E402
 
 
-def _time(function, repeats: int) -> float:
+def _time(function, repeats: int, rounds: int = 20) -> float:
+    """Best seconds per call over ``rounds`` rounds of ``repeats`` calls (after a warm-up)."""
     for _ in range(max(repeats // 10, 5)):
         function()
     best = np.inf
-    for _ in range(5):  # best of 5 rounds: robust to a noisy machine
+    for _ in range(rounds):  # the best round: robust to a noisy machine
         began = time.perf_counter()
         for _ in range(repeats):
             function()
@@ -34,32 +53,51 @@ def _time(function, repeats: int) -> float:
     return best
 
 
-def benchmark(config_path: str, repeats: int) -> None:
-    config = load_config(config_path)
+def _model(config: dict, seed: int = 0) -> TEMPModel:
     env = config["env"]
-    model = TEMPModel.from_config(
+    torch.manual_seed(seed)
+    return TEMPModel.from_config(
         config.get("model"), env["robot"], env["encoding_resolution"], env["max_path_length"]
     ).eval()
+
+
+def benchmark(config_path: str, repeats: int) -> None:
+    """Print the per-sample table of one config's default model."""
+    config = load_config(config_path)
+    model = _model(config)
     dim, length = model.dim, model.max_path_length
     grid = torch.zeros(1, *model.eise.grid_shape)
     buffer = io.BytesIO()
     torch.save(model.checkpoint(), buffer)
     print(
-        f"{env['id']}: parameters {model.num_parameters():,} (EISE "
+        f"\n{config['env']['id']}: parameters {model.num_parameters():,} (EISE "
         f"{model.num_parameters('eise'):,}, MPT {model.num_parameters('mpt'):,}), "
         f"checkpoint {buffer.tell() / 1e6:.2f} MB"
     )
+    fast = FastMPT(model.mpt)
+    rng = np.random.default_rng(0)
     with torch.inference_mode():
         sei = model.eise(grid)
-        goal, start = torch.zeros(1, dim), torch.zeros(1, dim)
+        goal = torch.tensor(rng.uniform(-1, 1, (1, dim)), dtype=torch.float32)
+        start = torch.tensor(rng.uniform(-1, 1, (1, dim)), dtype=torch.float32)
         radius = torch.full((1, 1), 0.05)
-        for rows in (8, 32, length):
-            path = torch.rand(1, rows, dim) * 2 - 1
+        prefix = fast.prefix(sei.numpy(), goal.numpy(), 0.05, start.numpy())
+        print("  MPT batch 1, one sample (us)")
+        print(f"  {'path nodes':>10} | {'torch':>8} | {'numba':>8} | {'torch/numba':>11}")
+        for rows in sorted({1, 8, 16, 32, length}):
+            path = torch.tensor(rng.uniform(-1, 1, (1, rows, dim)), dtype=torch.float32)
             rows_tensor = torch.tensor([rows])
-            seconds = _time(
-                lambda p=path, n=rows_tensor: model.mpt(sei, goal, radius, start, p, n), repeats
+            torch_seconds = _time(
+                lambda p=path, n=rows_tensor: model.mpt(sei, goal, radius, start, p, n),
+                max(repeats // 10, 10),
             )
-            print(f"  MPT batch 1, path {rows:3d} nodes: {seconds * 1e3:.3f} ms/sample")
+            path_array = path[0].numpy()
+            numba_seconds = _time(lambda p=path_array, n=rows: fast.predict(prefix, p, n), repeats)
+            print(
+                f"  {rows:>10} | {torch_seconds * 1e6:>8.1f} | {numba_seconds * 1e6:>8.1f} | "
+                f"{torch_seconds / numba_seconds:>10.1f}x"
+            )
+        _policy_calls(model, repeats)
         batch = 256
         sei_b = sei.expand(batch, -1, -1)
         path = torch.rand(batch, length, dim) * 2 - 1
@@ -71,23 +109,138 @@ def benchmark(config_path: str, repeats: int) -> None:
         )
         seconds = _time(
             lambda: model.mpt(sei_b, goal_b, radius_b, start_b, path, lengths),
-            max(repeats // 50, 3),
+            max(repeats // 100, 2),
+            rounds=5,
         )
-        print(f"  MPT batch {batch}, mixed lengths: {seconds / batch * 1e3:.3f} ms/sample")
-        seconds = _time(lambda: model.eise(grid), repeats)
+        print(f"  MPT torch batch {batch}, mixed lengths: {seconds / batch * 1e6:.1f} us/sample")
+        seconds = _time(lambda: model.eise(grid), max(repeats // 20, 5), rounds=5)
         print(f"  EISE once per workspace: {seconds * 1e3:.3f} ms")
+
+
+def _policy_calls(model: TEMPModel, repeats: int) -> None:
+    """`TEMPPolicy.__call__` with each backend on an observation with a 16-node path."""
+    from temp_gym.worlds.generators import generate_problem
+
+    problem = generate_problem(model.robot, np.random.default_rng(0))
+    rows = 16
+    path = np.zeros((model.max_path_length, model.dim), np.float32)
+    path[:rows] = np.random.default_rng(1).uniform(-1, 1, (rows, model.dim))
+    observation = {"path": path, "path_length": np.array([rows])}
+    seconds = {}
+    for backend in ("torch", "numba"):
+        policy = TEMPPolicy(model, noise_std=0.03, seed=0, backend=backend)
+        policy.reset(problem)
+        count = max(repeats // 10, 10) if backend == "torch" else repeats
+        seconds[backend] = _time(lambda p=policy: p(observation), count)
+    print(
+        f"  TEMPPolicy call (path {rows}, noise): torch {seconds['torch'] * 1e6:.1f} us, "
+        f"numba {seconds['numba'] * 1e6:.1f} us ({seconds['torch'] / seconds['numba']:.1f}x)"
+    )
+
+
+class _TimedPolicy:
+    """A policy wrapper that adds up the time spent in the policy's calls."""
+
+    def __init__(self, policy: TEMPPolicy) -> None:
+        self.policy = policy
+        self.model = policy.model  # the planner reads resolution and L off the model
+        self.seconds = 0.0
+        self.calls = 0
+
+    def reset(self, problem, seed=None) -> None:
+        self.policy.reset(problem, seed=seed)
+
+    def __call__(self, observation):
+        began = time.perf_counter()
+        sample = self.policy(observation)
+        self.seconds += time.perf_counter() - began
+        self.calls += 1
+        return sample
+
+
+def plan_per_node(config_path: str, problems: int, nodes: int, rounds: int) -> None:
+    """Print TEMP's attention-phase time per node with each backend, and RRT*'s."""
+    from temp_gym.planning import plan
+    from temp_gym.worlds.generators import generate_problem
+
+    config = load_config(config_path)
+    model = _model(config)
+    robot = config["env"]["robot"]
+    rng = np.random.default_rng(1)
+    tasks = [generate_problem(robot, rng, "challenging") for _ in range(problems)]
+    print(
+        f"\nTEMP planning, randomly initialised {config['env']['id']} model, {problems} "
+        f"challenging problems, attention phase up to {nodes} nodes (best of {rounds} rounds)"
+    )
+    print(
+        f"  {'planner':>22} | {'nodes':>6} | {'us/node':>8} | {'policy us/call':>14} | "
+        f"{'rest us/node':>12}"
+    )
+    noise = config.get("eval", {}).get("noise_std", 0.0)
+    for backend in ("torch", "numba"):
+        policy = _TimedPolicy(TEMPPolicy(model, noise_std=noise, seed=0, backend=backend))
+        plan(tasks[0], planner="temp", policy=policy, seed=0, max_nodes=nodes)  # warm-up
+        total_nodes, total_seconds, policy_seconds, calls = 0, 0.0, 0.0, 0
+        for index, task in enumerate(tasks):
+            best = None
+            for _ in range(rounds):
+                policy.seconds, policy.calls = 0.0, 0
+                result = plan(
+                    task,
+                    planner="temp",
+                    policy=policy,
+                    seed=index,
+                    max_nodes=nodes,
+                    attention_nodes=nodes,
+                    stop_at_first=True,
+                )
+                run = (result.attention["time"], policy.seconds, policy.calls)
+                best = run if best is None or run[0] < best[0] else best
+            total_nodes += result.attention["nodes"]
+            total_seconds += best[0]
+            policy_seconds += best[1]
+            calls += best[2]
+        per_node = total_seconds / total_nodes
+        per_call = policy_seconds / max(calls, 1)
+        rest = (total_seconds - policy_seconds) / total_nodes
+        print(
+            f"  {'temp (' + backend + ')':>22} | {total_nodes:>6} | {per_node * 1e6:>8.1f} | "
+            f"{per_call * 1e6:>14.1f} | {rest * 1e6:>12.1f}"
+        )
+    for planner in ("rrt_star", "informed_rrt_star"):
+        plan(tasks[0], planner=planner, seed=0, max_nodes=nodes)  # warm-up
+        total_nodes, total_seconds = 0, 0.0
+        for index, task in enumerate(tasks):
+            runs = [plan(task, planner=planner, seed=index, max_nodes=nodes) for _ in range(rounds)]
+            total_nodes += runs[0].nodes
+            total_seconds += min(run.wall_time for run in runs)
+        print(
+            f"  {planner:>22} | {total_nodes:>6} | {total_seconds / total_nodes * 1e6:>8.1f} | "
+            f"{'':>14} | {'':>12}"
+        )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--config", action="append", help="config file(s); default: all worlds")
     parser.add_argument("--threads", type=int, default=1, help="torch CPU threads")
-    parser.add_argument("--repeats", type=int, default=500)
+    parser.add_argument("--repeats", type=int, default=200, help="calls per timing round")
+    parser.add_argument("--plan", action="store_true", help="also time TEMP planning per node")
+    parser.add_argument("--plan-config", default="configs/2d.yaml")
+    parser.add_argument("--plan-problems", type=int, default=5)
+    parser.add_argument("--plan-nodes", type=int, default=500)
+    parser.add_argument("--plan-rounds", type=int, default=3)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    print(f"torch {torch.__version__}, {args.threads} thread(s)")
+    print(
+        f"torch {torch.__version__}, {args.threads} torch thread(s); NUMBA_NUM_THREADS="
+        f"{os.environ['NUMBA_NUM_THREADS']}, OPENBLAS_NUM_THREADS="
+        f"{os.environ['OPENBLAS_NUM_THREADS']}"
+    )
     for path in args.config or ["configs/2d.yaml", "configs/3d.yaml", "configs/7d.yaml"]:
         benchmark(path, args.repeats)
+    if args.plan:
+        plan_per_node(args.plan_config, args.plan_problems, args.plan_nodes, args.plan_rounds)
 
 
 if __name__ == "__main__":

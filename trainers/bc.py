@@ -8,9 +8,9 @@
 Steps: (1) generate the dataset of ``data.dir`` if it is missing; (2) train with
 L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation loss, until the
 learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``eval.tasks``
-held-out tasks (unseen ``test`` workspaces) with the best checkpoint in the env
-(``fallback="random"``: attention-based planning, Algorithm 1) and with RRT* (the env
-stepped by `UniformPolicy`), up to the first solution; (4) print the table.
+held-out tasks (unseen ``test`` workspaces) up to the first solution with TEMP (the best
+checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for at most
+``eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
 (lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG: a killed run
@@ -45,7 +45,7 @@ from temp_gym.config import load_config  # noqa: E402
 from temp_gym.models.attention import attention_figure, normalized_group_attention  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import load_checkpoint  # noqa: E402
-from temp_gym.policies import UniformPolicy  # noqa: E402
+from temp_gym.planning.plan import plan  # noqa: E402
 
 DEFAULT_CONFIG = "configs/2d.yaml"
 DEFAULT_OVERRIDES = [
@@ -282,8 +282,36 @@ def train(
     return best_path
 
 
+def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:
+    """One `temp_gym.plan` run up to the first solution, as a `utils.summarize` episode."""
+    result = plan(
+        problem,
+        planner=planner,
+        seed=seed,
+        max_nodes=eval_config["max_nodes"],
+        stop_at_first=True,
+        policy=policy,
+        attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
+    )
+    episode = {
+        "success": float(result.success),
+        "nodes": float(result.nodes_to_first_solution or result.nodes),
+        "cost": result.cost,
+        "samples": float(result.samples),
+        "time": result.time_to_first_solution or result.wall_time,
+    }
+    if planner == "temp":
+        episode["attention_solved"] = float(result.attention["solved"])
+    return episode
+
+
 def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Path) -> dict:
-    """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution."""
+    """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
+
+    TEMP is the ``temp`` planner: attention-based planning (Algorithm 1) for at most
+    ``eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
+    ``rrt_star``. Both get the same tasks, seeds and ``eval.max_nodes`` budget.
+    """
     eval_config = config["eval"]
     torch.set_num_threads(1)  # the per-sample latency a planner sees
     model, _ = load_checkpoint(checkpoint, robot=config["env"]["robot"])
@@ -291,15 +319,30 @@ def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Pat
         config, eval_config.get("split", "test"), eval_config["tasks"], eval_config["seed"] + 10_000
     )
     logger = utils.make_logger(config, run_dir)
-    temp = evaluate_with_figures(config, model, problems, logger, 0, tag="eval/final/temp")
-    env = utils.make_env(config, fallback="none", split=eval_config.get("split", "test"))
-    rrt = utils.evaluate_planner(env, UniformPolicy(seed=eval_config["seed"]), problems, 0)
-    rrt_star = utils.summarize(rrt, env.unwrapped.max_nodes)
-    env.close()
+    evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
+    policy = TEMPPolicy(model.cpu(), noise_std=eval_config.get("noise_std", 0.0))
+    plan(problems[0], planner="temp", policy=policy, max_nodes=20)  # warm-up, untimed
+    seeds = [eval_config["seed"] + index for index in range(len(problems))]
+    temp_runs = [
+        plan_episode(problem, "temp", seed, eval_config, policy)
+        for problem, seed in zip(problems, seeds)
+    ]
+    rrt_runs = [
+        plan_episode(problem, "rrt_star", seed, eval_config)
+        for problem, seed in zip(problems, seeds)
+    ]
+    temp = utils.summarize(temp_runs, eval_config["max_nodes"])
+    temp["attention_success"] = float(np.mean([run["attention_solved"] for run in temp_runs]))
+    rrt_star = utils.summarize(rrt_runs, eval_config["max_nodes"])
     logger.scalars({f"eval/final/rrt_star/{key}": value for key, value in rrt_star.items()}, 0)
     logger.scalars({f"eval/final/temp/{key}": value for key, value in temp.items()}, 0)
     logger.close()
-    return {"tasks": len(problems), "temp": temp, "rrt_star": rrt_star}
+    return {
+        "tasks": len(problems),
+        "attention_nodes": eval_config.get("attention_nodes"),
+        "temp": temp,
+        "rrt_star": rrt_star,
+    }
 
 
 def results_table(results: dict[str, Any]) -> str:
@@ -308,7 +351,9 @@ def results_table(results: dict[str, Any]) -> str:
         "| planner | success | nodes to 1st solution (mean / median) | cost | samples | time (s) |",
         "|---|---|---|---|---|---|",
     ]
-    for name, label in (("temp", "TEMP (AP, fallback random)"), ("rrt_star", "RRT*")):
+    budget = results.get("attention_nodes")
+    temp_label = f"TEMP (AP <= {budget} nodes, then CP)" if budget else "TEMP (AP)"
+    for name, label in (("temp", temp_label), ("rrt_star", "RRT*")):
         row = results[name]
         rows.append(
             f"| {label} | {row['success']:.2f} | {row['nodes_mean']:.1f} / "

@@ -5,6 +5,13 @@ workspace); each ``policy(observation)`` runs the MPT once on the cached SEI, th
 path so far, and returns the next sample in [-1, 1]^d. With the env's ``fallback="random"``
 this is the paper's Algorithm 1: a sample whose edge collides is replaced by random samples.
 
+Backends: the MPT runs in PyTorch, or (``backend="numba"``, what ``"auto"`` picks on the CPU)
+in `temp_gym.models.fast_mpt.FastMPT`: the same computation on a snapshot of the weights taken
+when the policy is built, 4-10x faster per sample on one core (tens of microseconds instead of
+about half a millisecond at the usual path lengths). The per-problem part of the MPT's input
+(SEI, goal, start) is computed once in ``reset``. Recording attention needs the PyTorch model: with
+``record_attention`` set, ``"auto"`` runs PyTorch.
+
 Stochasticity: with ``noise_std > 0`` the sample gets Gaussian noise of that standard
 deviation (in normalized units) from the policy's own seeded generator, and is clipped to
 [-1, 1]; so a tree that keeps returning to the same state still spreads out. ``noise_std=0``
@@ -25,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
@@ -39,9 +47,15 @@ class TEMPPolicy:
         model: the trained model (put in eval mode; kept on CPU unless ``device`` says).
         noise_std: standard deviation of the Gaussian output noise (normalized units).
         seed: seed of the noise generator.
-        record_attention: keep each step's attention weights in ``attentions``.
+        record_attention: keep each step's attention weights in ``attentions`` (PyTorch only;
+            may be switched on and off between episodes).
         device: where the model runs.
+        backend: ``"torch"``, ``"numba"`` (`FastMPT`, CPU only, takes a snapshot of the
+            weights now: build a new policy after training the model further) or ``"auto"``:
+            numba on the CPU whenever attention is not recorded, PyTorch otherwise.
     """
+
+    BACKENDS = ("auto", "torch", "numba")
 
     def __init__(
         self,
@@ -50,11 +64,24 @@ class TEMPPolicy:
         seed: int | None = None,
         record_attention: bool = False,
         device: str | torch.device = "cpu",
+        backend: str = "auto",
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
+        if backend not in self.BACKENDS:
+            raise ValueError(f"backend: expected one of {self.BACKENDS}, got {backend!r}")
         self.device = torch.device(device)
+        if backend == "numba" and (self.device.type != "cpu" or record_attention):
+            raise ValueError(
+                "backend 'numba' runs on the CPU and records no attention; got device "
+                f"{self.device} and record_attention={record_attention}"
+            )
         self.model = model.to(self.device).eval()
+        self.backend = backend
+        self._fast = (
+            FastMPT(self.model.mpt) if backend != "torch" and self.device.type == "cpu" else None
+        )
+        self._prefix: Prefix | None = None
         self.noise_std = float(noise_std)
         self.seed = seed
         self.rng = np.random.default_rng(seed)
@@ -106,6 +133,9 @@ class TEMPPolicy:
                 normalize(problem.start, problem.bounds),
             )
         ]
+        if self._fast is not None:  # the same float32 inputs as the PyTorch model's
+            goal, goal_radius, start = (value.cpu().numpy()[0] for value in self._task)
+            self._prefix = self._fast.prefix(self._sei.cpu().numpy(), goal, goal_radius, start)
 
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
         """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1]."""
@@ -118,6 +148,18 @@ class TEMPPolicy:
                 f"got {path.shape}"
             )
         length = int(np.asarray(observation["path_length"]).reshape(-1)[0])
+        if self._fast is not None and not self.record_attention:
+            action = self._fast.predict(self._prefix, path, length)
+        else:
+            action = self._torch_sample(path, length)
+        if self.noise_std > 0:
+            action = action + self.rng.normal(0.0, self.noise_std, action.shape)
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    def _torch_sample(self, path: np.ndarray, length: int) -> np.ndarray:
+        """The PyTorch model's sample (float32 ``(d,)``); records attention if asked."""
+        if self.backend == "numba":
+            raise ValueError("backend 'numba' records no attention; use 'auto' or 'torch'")
         goal, goal_radius, start = self._task
         with torch.inference_mode():
             sample, weights = self.model.mpt(
@@ -131,9 +173,6 @@ class TEMPPolicy:
                 torch.tensor([length], device=self.device),
                 need_weights=self.record_attention,
             )
-        action = sample[0].cpu().numpy()
         if self.record_attention:
             self.attentions.append(weights[0].cpu().numpy())
-        if self.noise_std > 0:
-            action = action + self.rng.normal(0.0, self.noise_std, action.shape)
-        return np.clip(action, -1.0, 1.0).astype(np.float32)
+        return sample[0].cpu().numpy()

@@ -1,0 +1,82 @@
+r"""Choose a policy's planner settings on validation workspaces: budget n and output noise.
+
+    python trainers/tune_planner.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
+        --attention-nodes 50 100 200 400 --noise-std 0 0.03 --tasks 60
+
+For every pair (n, noise) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen
+in no test; the test workspaces stay untouched until the final evaluation) with the ``temp``
+planner up to the first solution, and prints nodes to the first solution (mean and median,
+a failure counted as the whole budget), the share solved by attention-based planning within
+n, cost and time. The recommendation minimizes the mean nodes among the settings whose
+attention phase solves at least ``--min-attention-success`` of the tasks;
+``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import utils  # noqa: E402
+from bc import plan_episode  # noqa: E402
+
+from temp_gym.config import load_config  # noqa: E402
+from temp_gym.models.policy import TEMPPolicy  # noqa: E402
+from temp_gym.models.temp import load_checkpoint  # noqa: E402
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Print the table; return the recommended ``{"attention_nodes", "noise_std"}``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--checkpoint", required=True)
+    parser.add_argument("--attention-nodes", type=int, nargs="+", default=[50, 100, 200, 400])
+    parser.add_argument("--noise-std", type=float, nargs="+", default=[0.0, 0.03])
+    parser.add_argument("--tasks", type=int, default=60)
+    parser.add_argument("--min-attention-success", type=float, default=0.9)
+    parser.add_argument("overrides", nargs="*")
+    args = parser.parse_args(argv)
+    config = load_config(args.config, args.overrides)
+    torch.set_num_threads(1)
+    model, _ = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
+    eval_config = dict(config["eval"])
+    problems = utils.draw_problems(config, "val", args.tasks, eval_config["seed"] + 20_000)
+    seeds = [eval_config["seed"] + index for index in range(len(problems))]
+    rrt = utils.summarize(
+        [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)],
+        eval_config["max_nodes"],
+    )
+    print(
+        f"{len(problems)} val tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
+        f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
+    )
+    print("| n | noise | nodes mean | median | AP solved | success | cost | time (ms) |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    best, best_nodes = None, np.inf
+    for budget, noise in itertools.product(args.attention_nodes, args.noise_std):
+        eval_config["attention_nodes"] = budget
+        policy = TEMPPolicy(model, noise_std=noise)
+        runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
+        row = utils.summarize(runs, eval_config["max_nodes"])
+        solved = float(np.mean([run["attention_solved"] for run in runs]))
+        print(
+            f"| {budget} | {noise} | {row['nodes_mean']:.1f} | {row['nodes_median']:.0f} | "
+            f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
+            f"{row['time'] * 1e3:.1f} |",
+            flush=True,
+        )
+        if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
+            best, best_nodes = {"attention_nodes": budget, "noise_std": noise}, row["nodes_mean"]
+    print(f"recommended: {best}")
+    return best or {}
+
+
+if __name__ == "__main__":
+    main()
