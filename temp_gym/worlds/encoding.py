@@ -8,6 +8,8 @@ that holds its whole reach.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from temp_gym.worlds.workspace import Workspace
@@ -36,12 +38,27 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     """
     if int(resolution) != resolution or resolution < 2:
         raise ValueError(f"resolution: expected an integer >= 2, got {resolution!r}")
-    resolution = int(resolution)
     region = workspace_region(workspace)
+    lower = np.ascontiguousarray(workspace.obstacle_lower, dtype=np.float64)
+    upper = np.ascontiguousarray(workspace.obstacle_upper, dtype=np.float64)
+    key = (region.tobytes(), lower.shape, lower.tobytes(), upper.tobytes(), int(resolution))
+    return _grid(key).copy()  # a fresh array: callers may write to it
+
+
+@functools.lru_cache(maxsize=128)
+def _grid(key: tuple) -> np.ndarray:
+    """The grid of a (region, obstacles, resolution) key, computed once per key.
+
+    A planner and its policy both encode the workspace of a problem (the observation and the
+    EISE input); an evaluation plans every task with several planners. Caching by content
+    makes the second encoding free.
+    """
+    region_bytes, shape, lower_bytes, upper_bytes, resolution = key
+    region = np.frombuffer(region_bytes, dtype=np.float64).reshape(2, -1)
+    lower = np.frombuffer(lower_bytes, dtype=np.float64).reshape(shape)
+    upper = np.frombuffer(upper_bytes, dtype=np.float64).reshape(shape)
     wdim = region.shape[1]
     cell = (region[1] - region[0]) / resolution
-    lower = workspace.obstacle_lower
-    upper = workspace.obstacle_upper
     grid = np.zeros((resolution,) * wdim, dtype=bool)
     for lo, hi in zip(lower, upper):
         # Cells [region0 + i*cell, region0 + (i+1)*cell] that overlap [lo, hi] on every axis.
@@ -52,4 +69,6 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
         if np.any(last < first) or np.any(hi < region[0]) or np.any(lo > region[1]):
             continue
         grid[tuple(slice(a, b + 1) for a, b in zip(first, last))] = True
-    return grid.astype(np.float32)
+    grid = grid.astype(np.float32)
+    grid.flags.writeable = False
+    return grid
