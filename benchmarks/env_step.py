@@ -6,6 +6,12 @@ Both consume the same sample stream (goal-biased uniform, as RRT*) on the same g
 problems, so they grow identical trees; the difference is the env's own work: action checks,
 denormalization, the observation (fresh arrays, the path so far) and info. Reported per world:
 microseconds per extension for each and the overhead ratio env/bare (target: <= 1.25).
+
+Best of repeats, taken per chunk of ``--chunk`` consecutive steps: every repeat grows the
+same tree from the same samples, so chunk k is the same work in every repeat, and its best
+time is the one least disturbed by other processes (a whole run of a few thousand steps is
+rarely undisturbed on a shared machine, and the longer run, the env's, less often so). The
+repeats of the bare core and the env are interleaved, and both are timed the same way.
 """
 
 from __future__ import annotations
@@ -35,20 +41,35 @@ def samples_for(problem, count, seed):
     return np.array([sampler.sample(rng) for _ in range(count)])
 
 
-def time_bare(problem, samples):
+def chunks(count: int, size: int) -> list[slice]:
+    """Consecutive slices of at most ``size`` covering ``range(count)``."""
+    return [slice(begin, min(begin + size, count)) for begin in range(0, count, size)]
+
+
+def time_bare(problem, samples, size):
+    """Seconds per chunk of ``Tree.extend`` over ``samples``, and the nodes grown."""
     tree = Tree(problem)
-    start = time.perf_counter()
-    for sample in samples:
-        tree.extend(sample)
-    return time.perf_counter() - start, tree.num_nodes
+    times = []
+    for part in chunks(len(samples), size):
+        chunk = samples[part]
+        start = time.perf_counter()
+        for sample in chunk:
+            tree.extend(sample)
+        times.append(time.perf_counter() - start)
+    return np.array(times), tree.num_nodes
 
 
-def time_env(env, problem, actions):
+def time_env(env, problem, actions, size):
+    """Seconds per chunk of ``env.step`` over ``actions``, and the nodes grown."""
     env.reset(seed=0, options={"problem": problem})
-    start = time.perf_counter()
-    for action in actions:
-        env.step(action)
-    return time.perf_counter() - start, env.unwrapped.tree.num_nodes
+    times = []
+    for part in chunks(len(actions), size):
+        chunk = actions[part]
+        start = time.perf_counter()
+        for action in chunk:
+            env.step(action)
+        times.append(time.perf_counter() - start)
+    return np.array(times), env.unwrapped.tree.num_nodes
 
 
 def main() -> None:
@@ -56,6 +77,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--problems", type=int, default=3)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--chunk", type=int, default=100, help="steps per best-of chunk")
     parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
     args = parser.parse_args()
     header = ["world", "bare extend (us)", "env.step unwrapped (us)", "ratio"]
@@ -74,18 +96,18 @@ def main() -> None:
             problem = generate_problem(robot, rng)
             samples = samples_for(problem, args.steps, seed=1)
             actions = normalize(samples, problem.bounds).astype(np.float64)
-            time_bare(problem, samples[:50])  # warm-up (numba)
+            time_bare(problem, samples[:50], args.chunk)  # warm-up (numba)
             best = {"bare": np.inf, "env": np.inf, "made": np.inf}
-            for _ in range(args.repeats):  # interleaved, best of: the machine is shared
-                elapsed, nodes_bare = time_bare(problem, samples)
-                best["bare"] = min(best["bare"], elapsed)
-                elapsed, nodes_env = time_env(raw_env, problem, actions)
-                best["env"] = min(best["env"], elapsed)
-                elapsed, _ = time_env(made_env, problem, actions)
-                best["made"] = min(best["made"], elapsed)
+            for _ in range(args.repeats):  # interleaved, best of per chunk: the machine is shared
+                elapsed, nodes_bare = time_bare(problem, samples, args.chunk)
+                best["bare"] = np.minimum(best["bare"], elapsed)
+                elapsed, nodes_env = time_env(raw_env, problem, actions, args.chunk)
+                best["env"] = np.minimum(best["env"], elapsed)
+                elapsed, _ = time_env(made_env, problem, actions, args.chunk)
+                best["made"] = np.minimum(best["made"], elapsed)
                 assert nodes_bare == nodes_env, "env and bare core grew different trees"
             for key in totals:
-                totals[key] += best[key]
+                totals[key] += float(np.sum(best[key]))
             steps += len(samples)
         bare, env, made = (1e6 * totals[k] / steps for k in ("bare", "env", "made"))
         print(

@@ -259,14 +259,18 @@ class PlanningEnv(gym.Env):
         tree = self.tree
         if tree is None:
             raise RuntimeError("step() called before reset()")
-        sample = self._observer.action_to_sample(action)  # ValueError leaves the tree as is
         best_before = tree.best_cost
+        # The tree clips and denormalizes the action; a bad one raises ValueError untouched.
         if self.fallback == "random":
             result = tree.extend_with_fallback(
-                sample, self._fallback_sampler, self.np_random, self.max_fallback_tries
+                action,
+                self._fallback_sampler,
+                self.np_random,
+                self.max_fallback_tries,
+                normalized=True,
             )
         else:
-            result = tree.extend(sample)
+            result = tree.extend(action, normalized=True)
         reward = -self.step_penalty
         solved = tree.best_node >= 0
         if solved and not self._solved_before:
@@ -279,10 +283,8 @@ class PlanningEnv(gym.Env):
         else:
             terminated = solved
         truncated = not terminated and tree.num_nodes >= self.max_nodes
-        observation = self._observation()
-        info = self._info(
-            added=result.node >= 0, collided=result.collided, final=terminated or truncated
-        )
+        observation = self._observer.observe(tree)
+        info = self._info(result.node >= 0, result.collided, terminated or truncated)
         if self.render_mode == "human":
             self.render()
         return observation, float(reward), bool(terminated), bool(truncated), info

@@ -4,8 +4,13 @@
 `temp_gym.envs.PlanningEnv` (occupancy, start, goal, goal radius, the path so far, best cost,
 solved, progress) from a `Tree`. The env returns it from `step`; the TEMP planner hands it to
 its policy; so a policy sees the same thing in both and in the demonstrations
-(`temp_gym.data.format`). The hot parts are numba kernels: the env's step should cost little
-more than the tree extension it wraps.
+(`temp_gym.data.format`).
+
+The env's step should cost little more than the tree extension it wraps, so the observer
+keeps the observation's float32 entries in one state block, brought up to date by one numba
+kernel when the tree has grown, and every observation is a fresh copy of that block whose
+entries are disjoint views of it; ``occupancy`` and ``path_length`` are copies of their own.
+No two observations share memory.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from temp_gym.planning._kernels import action_to_sample
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import half_range, normalize
@@ -23,39 +29,43 @@ MAX_RATIO = 100.0
 """Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
 
 
-@numba.njit(cache=True, nogil=True)
-def action_to_sample(action, low, high, out) -> bool:
-    """Clip ``action`` to [-1, 1] and map it into the bounds; False if any entry is not finite."""
-    for k in range(action.shape[0]):
-        a = action[k]
-        if not np.isfinite(a):
-            return False
-        a = min(max(a, -1.0), 1.0)
-        out[k] = low[k] + 0.5 * (a + 1.0) * (high[k] - low[k])
-    return True
+# Not nogil: releasing and taking back the GIL costs more than this microsecond kernel.
+@numba.njit(cache=True)
+def update_observation(
+    state, path_length, links, positions, params, node, best_node, best_cost, count
+):
+    """Bring the per-step entries of an observer's state block up to date with a tree.
 
-
-@numba.njit(cache=True, nogil=True)
-def path_observation(links, positions, node, low, high, max_length):
-    """Normalized float32 root path of ``node`` (its last ``max_length`` nodes), zero-padded.
-
+    ``state`` holds the static entries, then ``best_cost``, ``solved``, ``progress`` and
+    ``path`` (its last L * d floats). ``params`` is ``(start-goal distance, max_nodes, L,
+    lower bounds (d), upper bounds (d))``, one array because every argument costs dispatch
+    time. ``path`` gets the normalized root path of ``node`` (its last L nodes), zero-padded;
     ``links[:, 0]`` is the parent (-1 at the root), as in `Tree`. Walking up from ``node``
-    meets the newest nodes first, so at most ``max_length`` steps are needed. Returns the
-    fresh ``(max_length, d)`` array and the number of valid rows.
+    meets the newest nodes first, so the rows are written from the last one backwards; of
+    the padding only the rows the previous path used (``path_length[0]`` rows) are cleared.
+    ``path_length[0]`` gets the new number of rows.
     """
-    stack = np.empty(max_length, dtype=np.int64)
-    length = 0
-    while node >= 0 and length < max_length:
-        stack[length] = node
-        length += 1
-        node = links[node, 0]
     dim = positions.shape[1]
-    out = np.zeros((max_length, dim), dtype=np.float32)
-    for row in range(length):
-        index = stack[length - 1 - row]  # the stack runs newest -> oldest
+    max_length = np.int64(params[2])
+    offset = state.shape[0] - max_length * dim
+    solved = best_node >= 0
+    state[offset - 3] = min(best_cost / params[0], MAX_RATIO) if solved else 0.0
+    state[offset - 2] = 1.0 if solved else 0.0
+    state[offset - 1] = min(count / params[1], 1.0)
+    length = 0
+    probe = node
+    while probe >= 0 and length < max_length:
+        length += 1
+        probe = links[probe, 0]
+    for index in range(offset + length * dim, offset + path_length[0] * dim):
+        state[index] = 0.0
+    for row in range(length - 1, -1, -1):
+        base = offset + row * dim
         for k in range(dim):
-            out[row, k] = 2.0 * (positions[index, k] - low[k]) / (high[k] - low[k]) - 1.0
-    return out, length
+            low = params[3 + k]
+            state[base + k] = 2.0 * (positions[node, k] - low) / (params[3 + dim + k] - low) - 1.0
+        node = links[node, 0]
+    path_length[0] = length
 
 
 class TreeObserver:
@@ -74,50 +84,88 @@ class TreeObserver:
         self.problem = problem
         self.max_path_length = int(max_path_length)
         self.max_nodes = int(max_nodes)
-        self.low, self.high = problem.bounds
+        self.bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
+        self.low, self.high = self.bounds
         self.distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
         radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
-        self._static = {
-            "occupancy": np.asarray(occupancy, dtype=np.float32),
-            "start": normalize(problem.start, problem.bounds).astype(np.float32),
-            "goal": normalize(problem.goal, problem.bounds).astype(np.float32),
-            "goal_radius": np.array([radius], np.float32),
-        }
+        self._params = np.concatenate(
+            [[self.distance, self.max_nodes, self.max_path_length], self.low, self.high]
+        )
+        self._occupancy = np.array(occupancy, dtype=np.float32)
+        # The block: start | goal | goal_radius | best_cost | solved | progress | path.
+        dim = problem.dim
+        sizes = [dim, dim, 1, 1, 1, 1, self.max_path_length * dim]
+        ends = np.cumsum(sizes).tolist()
+        self._slices = tuple(slice(b, e) for b, e in zip([0] + ends[:-1], ends))
+        self._path_shape = (self.max_path_length, dim)
+        self._state = np.zeros(ends[-1], np.float32)
+        self._state[: ends[2]] = np.concatenate(
+            [
+                normalize(problem.start, problem.bounds),
+                normalize(problem.goal, problem.bounds),
+                [radius],
+            ]
+        )
+        # What `observe` reads, in one attribute. The state block and path length are
+        # updated in place and copied into every observation.
+        self._tree: Tree | None = None
+        self._nodes = -1
+        self._parts = (
+            self._state,
+            np.zeros(1, np.int64),
+            self._params,
+            self._occupancy,
+            self._path_shape,
+            self._slices,
+        )
 
     def action_to_sample(self, action: np.ndarray) -> np.ndarray:
-        """World-unit sample of a normalized action (clipped); `ValueError` if not finite."""
+        """World-unit sample of a normalized action (clipped); `ValueError` if not finite.
+
+        (The env does not call this: `Tree.extend` with ``normalized=True`` does the same in
+        the kernel that finds the nearest node.)
+        """
         action = np.asarray(action, dtype=np.float64)
         if action.shape != self.low.shape:
             raise ValueError(f"action: expected shape {self.low.shape}, got {action.shape}")
         sample = np.empty(len(self.low))
-        if not action_to_sample(action, self.low, self.high, sample):
+        if not action_to_sample(action, self.bounds, sample):
             raise ValueError(f"action: must be finite, got {action.tolist()}")
         return sample
 
     def observe(self, tree: Tree) -> dict[str, np.ndarray]:
-        """A fresh observation of ``tree`` (every array is new)."""
-        path, length = path_observation(
-            tree.links, tree.positions, tree.newest, self.low, self.high, self.max_path_length
-        )
-        solved = tree.best_node >= 0
-        static = self._static
-        # One fresh array for the three scalar entries; each key gets its own row (a view).
-        scalars = np.array(
-            [
-                [min(tree.best_cost / self.distance, MAX_RATIO) if solved else 0.0],
-                [1.0 if solved else 0.0],
-                [min(tree.num_nodes / self.max_nodes, 1.0)],
-            ],
-            np.float32,
-        )
+        """A fresh observation of ``tree``: no array is shared with another observation.
+
+        The float32 entries but ``occupancy`` are disjoint views of one new block, a copy of
+        the observer's state. The state is updated only when ``tree`` is another tree or has
+        grown since the last call: a tree changes only by gaining a node (`Tree.extend`
+        leaves it unchanged otherwise), so a failed extension costs no update.
+        """
+        state, length, params, occupancy, path_shape, slices = self._parts
+        if tree is not self._tree or tree.num_nodes != self._nodes:
+            update_observation(
+                state,
+                length,
+                tree.links,
+                tree.positions,
+                params,
+                tree.newest,
+                tree.best_node,
+                tree.best_cost,
+                tree.num_nodes,
+            )
+            self._tree = tree
+            self._nodes = tree.num_nodes
+        block = state.copy()
+        start, goal, radius, best_cost, solved, progress, path = slices
         return {
-            "occupancy": static["occupancy"].copy(),
-            "start": static["start"].copy(),
-            "goal": static["goal"].copy(),
-            "goal_radius": static["goal_radius"].copy(),
-            "path": path,
-            "path_length": np.array([length], np.int64),
-            "best_cost": scalars[0],
-            "solved": scalars[1],
-            "progress": scalars[2],
+            "occupancy": occupancy.copy(),
+            "start": block[start],
+            "goal": block[goal],
+            "goal_radius": block[radius],
+            "path": block[path].reshape(path_shape),
+            "path_length": length.copy(),
+            "best_cost": block[best_cost],
+            "solved": block[solved],
+            "progress": block[progress],
         }

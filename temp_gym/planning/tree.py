@@ -154,6 +154,7 @@ class Tree:
         self.max_radius = 2.0 * step_size if max_radius is None else float(max_radius)
         self.parent_check_chunk = int(parent_check_chunk)
         self._goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
+        self._bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
         self._goal_radius_sq = problem.goal_radius**2
         dim = self.dim
         if neighbourhood == "radius":
@@ -259,11 +260,15 @@ class Tree:
         self._stack = np.empty(capacity, dtype=np.int64)
 
     # ------------------------------------------------------------------ extension
-    def extend(self, sample: np.ndarray) -> ExtendResult:
+    def extend(self, sample: np.ndarray, normalized: bool = False) -> ExtendResult:
         """Extend the tree towards ``sample`` (one RRT* iteration after sampling).
 
         Args:
             sample: A state of shape ``(d,)``; it need not be free or in bounds.
+            normalized: ``sample`` is a normalized action (the env's): it is clipped to
+                [-1, 1]^d and mapped into the problem's bounds (-1 and 1 to the lower and
+                upper bounds) by the kernel that also finds the nearest node. A NaN or inf
+                entry then raises `ValueError` and leaves the tree unchanged.
 
         Returns:
             An `ExtendResult`; ``node == -1`` when the steered edge collided (or the sample
@@ -272,12 +277,20 @@ class Tree:
         if type(sample) is not np.ndarray or sample.dtype != np.float64:
             sample = np.asarray(sample, dtype=np.float64)
         if sample.shape != (self.dim,):
-            raise ValueError(f"sample: expected shape ({self.dim},), got {sample.shape}")
-        self.samples += 1
+            name = "action" if normalized else "sample"
+            raise ValueError(f"{name}: expected shape ({self.dim},), got {sample.shape}")
         new = self._new
-        nearest, distance = kernels.nearest_and_steer(
-            self.positions, self.num_nodes, sample, self.step_size, new
-        )
+        if normalized:
+            nearest, distance = kernels.action_nearest_and_steer(
+                self.positions, self.num_nodes, sample, self._bounds, self.step_size, new
+            )
+            if nearest < 0:
+                raise ValueError(f"action: must be finite, got {sample.tolist()}")
+        else:
+            nearest, distance = kernels.nearest_and_steer(
+                self.positions, self.num_nodes, sample, self.step_size, new
+            )
+        self.samples += 1
         if not distance > 0.0:
             self.sampling_failures += 1
             return ExtendResult(-1, nearest, False, False, False, 0, 1, 1, 0)
@@ -371,6 +384,7 @@ class Tree:
         sampler: Sampler,
         rng: np.random.Generator,
         max_tries: int = 1000,
+        normalized: bool = False,
     ) -> ExtendResult:
         """Algorithm 1, lines 5-10: try ``sample``; while it fails, retry with random samples.
 
@@ -379,6 +393,8 @@ class Tree:
             sampler: Source of the random replacement samples.
             rng: Generator the replacements are drawn from.
             max_tries: Most random retries, so a walled-in tree cannot loop forever.
+            normalized: ``sample`` (not the replacements) is a normalized action, as in
+                `extend`.
 
         Returns:
             The `ExtendResult` of the last attempt, with ``samples``, ``failures`` and
@@ -386,7 +402,7 @@ class Tree:
         """
         if max_tries < 0:
             raise ValueError(f"max_tries: must be non-negative, got {max_tries}")
-        result = self.extend(sample)
+        result = self.extend(sample, normalized)
         samples, failures, checks, tries = 1, result.failures, result.collision_checks, 0
         while result.node < 0 and tries < max_tries:
             result = self.extend(sampler.sample(rng))
