@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
+import yaml
 
 from temp_gym.config import load_config
 from temp_gym.data.assemble import read_card
@@ -125,8 +126,9 @@ def model_card(
             f"loss {provenance.get('val_loss')}).",
             "",
             "```yaml",
-            json.dumps(sections, indent=1),
+            yaml.safe_dump(sections, sort_keys=False).strip(),
             "```",
+            *(["", f"Notes: {provenance['notes']}"] if provenance.get("notes") else []),
             "",
             "## Evaluation",
             _evaluation_section(env_id, provenance["digest"]),
@@ -144,6 +146,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
     )
+    parser.add_argument("--notes", default="", help="for the card: how training went")
     parser.add_argument("--out-dir", default=str(CHECKPOINT_DIR))
     parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
     args = parser.parse_args(argv)
@@ -164,6 +167,7 @@ def main(argv: list[str] | None = None) -> Path:
         "epoch": source.get("epoch"),
         "val_loss": source.get("val_loss"),
         "digest": weights_digest(source["state_dict"]),
+        "notes": args.notes,
     }
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

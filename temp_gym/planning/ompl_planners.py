@@ -173,6 +173,12 @@ def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> Plan
         return False
 
     planner.solve(ob.PlannerTerminationCondition(should_stop))
+    # OMPL returns as soon as a solution meets the cost threshold, without another call to
+    # should_stop: log that last improvement too (the tolerance protocol reads it).
+    final_cost = planner.bestCost().value()
+    if final_cost < best[0]:
+        best[0] = final_cost
+        log.record(counters.nodes, time.perf_counter() - started, final_cost)
     path = None
     cost = math.inf
     rejected = 0

@@ -54,3 +54,15 @@ def test_ompl_range_is_the_near_radius_cap_of_our_planners(problem_2d):
     edges = np.linalg.norm(np.diff(result.path, axis=0), axis=1)
     assert edges.max() <= RANGE_FACTOR * 0.5 + 1e-9
     assert edges.max() > 0.5 + 1e-6
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
+def test_ompl_target_cost_is_in_the_history(problem_2d, planner):
+    # OMPL returns as soon as a solution meets the cost threshold; the tolerance protocol reads
+    # the time and nodes of that solution from the anytime history, so it must be logged.
+    first = plan(problem_2d, planner=planner, seed=0, stop_at_first=True, max_nodes=5000)
+    target = first.cost * 0.97
+    result = plan(problem_2d, planner=planner, seed=0, target_cost=target, max_nodes=20000)
+    assert result.success and result.cost <= target + 1e-9
+    assert result.history["best_cost"][-1] <= target + 1e-9
+    assert result.history["nodes"][-1] <= result.nodes
