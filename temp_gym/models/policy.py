@@ -27,6 +27,8 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,26 @@ from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import half_range, normalize
 from temp_gym.worlds.workspace import Workspace
+
+
+@contextlib.contextmanager
+def _single_torch_thread(enabled: bool) -> Iterator[None]:
+    """Run PyTorch ops in the block on one thread, then restore the thread count.
+
+    After a multi-threaded op PyTorch's OpenMP workers keep spinning for a while; on the fast
+    (numba) path the planner's own thread then competes with them for the cores. Measured on a
+    loaded 2-core machine: the attention phase of a 2D plan took 4-5x longer after a 2-thread
+    EISE call than after a 1-thread one.
+    """
+    previous = torch.get_num_threads()
+    if not enabled or previous == 1:
+        yield
+        return
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
 
 
 class TEMPPolicy:
@@ -122,7 +144,7 @@ class TEMPPolicy:
         key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
         if key != self._sei_key:
             grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
-            with torch.inference_mode():
+            with torch.inference_mode(), _single_torch_thread(self._fast is not None):
                 self._sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
             self._sei_key = key
         self._task = [

@@ -131,3 +131,18 @@ def _observation():
     env = gym.make("TEMP-2D-v0", encoding_resolution=16, max_path_length=16)
     observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
     return observation
+
+
+def test_reset_restores_the_torch_thread_count(small_model):
+    # The fast path encodes the workspace on one thread (no OpenMP workers left spinning
+    # beside the planner) and must leave the user's setting as it was.
+    from temp_gym.worlds.generators import generate_problem
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        policy = TEMPPolicy(small_model.eval())
+        policy.reset(generate_problem("point2d", np.random.default_rng(0)))
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(previous)
