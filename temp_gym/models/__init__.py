@@ -6,12 +6,15 @@
 | `temp_gym.models.mpt` | `MPT`: SEI, goal, start, path so far -> next sample; attention weights |
 | `temp_gym.models.temp` | `TEMPModel` (both), `MODEL_DEFAULTS`, checkpoints |
 | `temp_gym.models.loss` | `TEMPLoss`: λ·L_recons + η·L_semantic |
-| `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` for `PlanningEnv` |
+| `temp_gym.models.fast_mpt` | `FastMPT`: single-sample MPT forward pass in numba (CPU) |
+| `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` (env, `temp` planner) |
+| `temp_gym.models.registry` | the shipped policies: `load_policy`, `shipped_checkpoint` |
 | `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
 """
 
 from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
 from temp_gym.models.eise import EISE
+from temp_gym.models.fast_mpt import FastMPT
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.mpt import MPT
 from temp_gym.models.policy import TEMPPolicy
@@ -19,6 +22,7 @@ from temp_gym.models.temp import MODEL_DEFAULTS, TEMPModel, load_checkpoint
 
 __all__ = [
     "EISE",
+    "FastMPT",
     "GROUPS",
     "MODEL_DEFAULTS",
     "MPT",
