@@ -57,5 +57,8 @@ def test_cli_main_in_process(tmp_path, capsys):
 
     problem = tmp_path / "problem.json"
     problem.write_text(json.dumps(PROBLEM))
-    assert main([str(problem), "--max-nodes", "300", "--seed", "1"]) in (0, 1)
+    assert main([str(problem), "--planner", "rrt_star", "--max-nodes", "300", "--seed", "1"]) in (
+        0,
+        1,
+    )
     assert "rrt_star seed=1" in capsys.readouterr().out

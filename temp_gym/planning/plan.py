@@ -59,7 +59,7 @@ def _is_number(value: object) -> bool:
 
 def plan(
     problem: Problem,
-    planner: str = "rrt_star",
+    planner: str = "temp",
     seed: int = 0,
     max_nodes: int = 5000,
     time_limit: float | None = None,
@@ -81,7 +81,8 @@ def plan(
 
     Args:
         problem: The query.
-        planner: A key of `PLANNERS`: ``rrt_star``, ``informed_rrt_star``, ``temp``,
+        planner: A key of `PLANNERS`: ``temp`` (the default: TEMP, with the policy shipped
+            for the robot unless ``policy`` is given), ``rrt_star``, ``informed_rrt_star``,
             ``ompl_rrt_star``, ``ompl_informed_rrt_star``.
         seed: Seed of the planner's random generator.
         max_nodes: Tree-size budget, root included (at least 1).
@@ -95,7 +96,8 @@ def plan(
         policy: ``temp`` only: a `temp_gym.policies.SamplingPolicy` (for instance
             `temp_gym.load_policy("TEMP-2D-v0")`); None loads the shipped policy for the robot.
         attention_nodes: ``temp`` only: tree-node budget of attention-based planning before
-            classical planning takes over (None: all of ``max_nodes``).
+            classical planning takes over, the n of Algorithm 1 (None: the policy's own
+            ``attention_nodes``, which shipped policies carry; else all of ``max_nodes``).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument.

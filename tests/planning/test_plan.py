@@ -54,14 +54,14 @@ def test_same_seed_same_result(problem_2d, planner):
 
 
 def test_stop_rules(problem_2d):
-    first = plan(problem_2d, seed=2, stop_at_first=True)
+    first = plan(problem_2d, planner="rrt_star", seed=2, stop_at_first=True)
     assert first.success and first.nodes == first.nodes_to_first_solution
-    target = plan(problem_2d, seed=2, target_cost=first.cost + 2.0, max_nodes=4000)
+    target = plan(problem_2d, "rrt_star", seed=2, target_cost=first.cost + 2.0, max_nodes=4000)
     assert target.cost <= first.cost + 2.0 and target.nodes == first.nodes
-    timed = plan(problem_2d, seed=2, time_limit=0.0)
+    timed = plan(problem_2d, "rrt_star", seed=2, time_limit=0.0)
     assert timed.nodes == 1 and not timed.success and timed.path is None
     assert math.isinf(timed.cost) and timed.to_dict()["cost"] is None
-    capped = plan(problem_2d, seed=2, max_nodes=5000, max_samples=50)
+    capped = plan(problem_2d, "rrt_star", seed=2, max_nodes=5000, max_samples=50)
     assert capped.samples == 50
 
 
@@ -104,5 +104,5 @@ def test_registry_lists_all_planners():
 
 def test_start_in_goal_region_is_solved_at_once(problem_2d):
     problem = problem_2d.replace(goal=[2.2, 2.2])
-    result = plan(problem, seed=0, max_nodes=50)
+    result = plan(problem, "rrt_star", seed=0, max_nodes=50)
     assert result.success and result.cost == 0.0 and len(result.path) == 1
