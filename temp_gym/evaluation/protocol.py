@@ -120,11 +120,39 @@ def cost_curve(
         for planner, history in per_planner.items():
             hist_nodes = np.asarray(history["nodes"])
             hist_costs = np.asarray(history["best_cost"], dtype=np.float64)
-            index = np.searchsorted(hist_nodes, nodes, side="right") - 1
-            values = np.where(index >= 0, hist_costs[np.maximum(index, 0)], penalty)
+            if len(hist_nodes) == 0:  # this planner never solved the task
+                values = np.full(nodes.shape, penalty)
+            else:
+                index = np.searchsorted(hist_nodes, nodes, side="right") - 1
+                values = np.where(index >= 0, hist_costs[np.maximum(index, 0)], penalty)
             sums[planner] = sums.get(planner, 0.0) + values
             counts[planner] = counts.get(planner, 0) + 1
     return {planner: sums[planner] / counts[planner] for planner in sums}
+
+
+def paired_ratios(
+    records: Iterable[dict[str, Any]], planner: str, baseline: str
+) -> dict[str, float] | None:
+    """TEMP-style ratios on the tasks both planners solved: sum of times (nodes) over sums.
+
+    Each record has ``planners[name]`` with ``success``, ``time`` and ``nodes``. Means over each
+    planner's own successes (`aggregate_rows`, the paper's table) compare different task sets
+    when one planner fails often; pairing compares the same tasks. Returns ``time``, ``nodes``
+    and ``tasks`` (the number of pairs), or None when no task was solved by both.
+    """
+    pairs = [
+        (r["planners"][planner], r["planners"][baseline])
+        for r in records
+        if r["planners"].get(planner, {}).get("success")
+        and r["planners"].get(baseline, {}).get("success")
+    ]
+    if not pairs:
+        return None
+    return {
+        "time": sum(a["time"] for a, _ in pairs) / sum(b["time"] for _, b in pairs),
+        "nodes": sum(a["nodes"] for a, _ in pairs) / sum(b["nodes"] for _, b in pairs),
+        "tasks": len(pairs),
+    }
 
 
 def markdown_table(

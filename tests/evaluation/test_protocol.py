@@ -8,6 +8,7 @@ from temp_gym.evaluation import (
     aggregate_rows,
     cost_curve,
     markdown_table,
+    paired_ratios,
     reach_tolerance,
     success_curve,
     tolerance_target,
@@ -112,3 +113,32 @@ def test_cost_curve_charges_unsolved_tasks_one_and_a_half_times_the_task_maximum
     curve = cost_curve(histories, np.array([5, 10, 150, 300]))
     np.testing.assert_allclose(curve["temp"], [18.0, 12.0, 10.0, 10.0])  # 1.5 * max(12, 11)
     np.testing.assert_allclose(curve["rrt_star"], [18.0, 18.0, 18.0, 11.0])
+
+
+def test_cost_curve_charges_a_planner_that_never_solved_the_task():
+    histories = {
+        0: {
+            "temp": {"nodes": [10], "best_cost": [4.0]},
+            "rrt_star": {"nodes": [], "best_cost": []},
+        }
+    }
+    curves = cost_curve(histories, np.array([5, 20]))
+    np.testing.assert_allclose(curves["rrt_star"], [6.0, 6.0])  # 1.5 x the task's maximum
+    np.testing.assert_allclose(curves["temp"], [6.0, 4.0])
+
+
+def test_paired_ratios_compare_the_same_tasks():
+    def record(temp, baseline):
+        return {"planners": {"temp": temp, "rrt_star": baseline}}
+
+    solved = lambda t, n: {"success": True, "time": t, "nodes": n}  # noqa: E731
+    failed = {"success": False, "time": None, "nodes": None}
+    records = [
+        record(solved(1.0, 10), solved(4.0, 100)),
+        record(solved(3.0, 30), solved(4.0, 100)),
+        record(solved(9.0, 90), failed),  # the baseline failed: not a pair
+        record(failed, solved(0.1, 5)),  # TEMP failed: not a pair
+    ]
+    ratios = paired_ratios(records, "temp", "rrt_star")
+    assert ratios == {"time": pytest.approx(0.5), "nodes": pytest.approx(0.2), "tasks": 2}
+    assert paired_ratios([record(failed, solved(1.0, 1))], "temp", "rrt_star") is None
