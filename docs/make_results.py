@@ -45,6 +45,16 @@ def _fmt(value: float | None, digits: int = 3) -> str:
     return f"{value:.{digits}f}"
 
 
+def _relative(path: str | None) -> str | None:
+    """A path inside the repository, relative to it (shipped checkpoints are)."""
+    if path is None:
+        return None
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return path
+
+
 def _beats(ratio: dict | None) -> bool:
     return bool(ratio) and ratio["time"] < 1.0 and ratio["nodes"] < 1.0
 
@@ -96,7 +106,7 @@ def world_section(key: str, out: Path, docs: Path) -> tuple[str, list[str], list
     text = [
         f"## {WORLDS[key]}",
         "",
-        f"Checkpoint `{results.get('checkpoint')}` (weights digest "
+        f"Checkpoint `{_relative(results.get('checkpoint'))}` (weights digest "
         f"`{str(results.get('checkpoint_digest'))[:16]}`); settings: `{json.dumps(settings)}`.",
         "",
         (out / "results.md").read_text().strip(),
