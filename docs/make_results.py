@@ -123,8 +123,9 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--worlds", nargs="+", default=list(WORLDS), choices=list(WORLDS))
     parser.add_argument("--workers", type=int, default=None)
     parser.add_argument("--skip-evaluation", action="store_true", help="only rewrite the page")
+    parser.add_argument("--docs-dir", default=str(ROOT / "docs"), help="where results.md goes")
     args = parser.parse_args(argv)
-    docs = ROOT / "docs"
+    docs = Path(args.docs_dir)
     sections, ratios, check_lines = [], [], []
     for key in args.worlds:
         out = Path("results") / WORLDS[key]

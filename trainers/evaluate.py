@@ -93,8 +93,11 @@ def main(argv: list[str] | None = None) -> str:
     args = parser.parse_args(argv)
     config = load_config(args.config, args.overrides)
     robot = config["env"]["robot"]
-    checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
-    _, stored = load_checkpoint(checkpoint, robot=robot)  # fails fast on a wrong checkpoint
+    try:  # fail fast, with one line, on a missing checkpoint or one for another robot
+        checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
+        _, stored = load_checkpoint(checkpoint, robot=robot)
+    except (OSError, ValueError) as error:
+        raise SystemExit(f"evaluate.py: error: {error}") from None
     settings, section = settings_from(config, stored.get("planner"))
     make_policy = functools.partial(
         TEMPPolicy.from_checkpoint,

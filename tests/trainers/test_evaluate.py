@@ -1,0 +1,56 @@
+"""trainers/evaluate.py and docs/make_results.py end to end, on a tiny untrained policy."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+from temp_gym.models.temp import TEMPModel, weights_digest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "docs"))
+
+import make_results  # noqa: E402
+
+from trainers import evaluate  # noqa: E402
+
+SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 2,
+         "eise_hidden": 32}  # fmt: skip
+
+
+def test_evaluate_then_make_results(tmp_path, monkeypatch):
+    torch.manual_seed(0)
+    model = TEMPModel.from_config(SMALL, "point2d", 16, 64)
+    model.save(tmp_path / "best.pt")
+    monkeypatch.chdir(tmp_path)
+    out = Path("results") / "TEMP-2D-v0"
+    table = evaluate.main([
+        "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(tmp_path / "best.pt"),
+        "--workers", "1", "--no-progress", "evaluation.tasks=1", "evaluation.max_nodes=3000",
+        "evaluation.baselines=[rrt_star]", "evaluation.curve_tasks=1",
+        "evaluation.curve_nodes=300", f"evaluation.out={out}",
+    ])  # fmt: skip
+    assert "| 2D easy |" in table and "| 2D challenging |" in table
+    results = json.loads((out / "results.json").read_text())
+    assert results["checkpoint_digest"] == weights_digest(model.state_dict())
+    assert results["settings"]["attention_nodes"] is None  # no planner settings: all of it
+    for name in ("results.md", "success_vs_time.png", "cost_vs_nodes.png", "attention.png"):
+        assert (out / name).is_file()
+    page = make_results.main(
+        ["--worlds", "2d", "--skip-evaluation", "--docs-dir", str(tmp_path / "docs")]
+    )
+    text = page.read_text()
+    assert "## Acceptance checks" in text and "## TEMP-2D-v0" in text
+    assert (
+        "| 2D easy |" in text and (tmp_path / "docs" / "results" / "2d" / "attention.png").is_file()
+    )
+
+
+def test_evaluate_refuses_a_checkpoint_for_another_robot(tmp_path):
+    TEMPModel.from_config(SMALL, "point3d", 8, 64).save(tmp_path / "best.pt")
+    with pytest.raises(SystemExit, match="evaluate.py: error: .*point3d"):
+        evaluate.main(["--config", str(ROOT / "configs" / "tiny.yaml"),
+                       "--checkpoint", str(tmp_path / "best.pt")])  # fmt: skip
