@@ -82,7 +82,8 @@ class PlanResult:
     """Solutions the exact checker rejected (never reported as the path)."""
     attention: dict[str, Any] | None = None
     """``temp`` planner only: the attention-based phase's ``solved``, ``nodes``, ``time``,
-    ``cost``, ``samples`` and ``sampling_failures`` (what the paper reports for TEMP)."""
+    ``cost``, ``samples``, ``policy_samples`` and ``sampling_failures`` (what the paper
+    reports for TEMP)."""
 
     def cost_at(self, nodes: int) -> float:
         """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""
@@ -119,11 +120,19 @@ class PlanResult:
     def summary(self) -> str:
         """One line: planner, success, cost, nodes, time."""
         status = f"cost {self.cost:.4f}" if self.success else "no solution"
-        return (
+        line = (
             f"{self.planner} seed={self.seed}: {status}, {self.nodes} nodes, "
             f"{self.samples} samples ({self.sampling_failures} failed), "
             f"{self.collision_checks} collision checks, {self.wall_time:.3f} s"
         )
+        if self.attention is not None:
+            phase = self.attention
+            outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else "no solution"
+            line += (
+                f"; attention phase: {outcome} at {phase['nodes']} nodes, "
+                f"{phase['time']:.3f} s"
+            )
+        return line
 
 
 class AnytimeLog:

@@ -51,7 +51,7 @@ def test_temp_plan_default_solves_a_file_end_to_end(tmp_path):
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    assert done.stdout.startswith("temp ")
+    assert done.stdout.startswith("temp ") and "attention phase: cost" in done.stdout
     result = json.loads(out.read_text())
     assert result["planner"] == "temp" and result["success"]
     assert certify_path(problem, np.asarray(result["path"]))
