@@ -80,7 +80,7 @@ def checks(summary: dict) -> list[str]:
         success = temp["success_rate"] >= MIN_SUCCESS
         lines.append(
             f"| {group} | {'; '.join(verdicts)} | "
-            f"{temp['success_rate']:.2f} ({'met' if success else '**missed**'}) |"
+            f"{temp['success_rate']:.3f} ({'met' if success else '**missed**'}) |"
         )
     return lines
 
