@@ -128,10 +128,7 @@ class PlanResult:
         if self.attention is not None:
             phase = self.attention
             outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else "no solution"
-            line += (
-                f"; attention phase: {outcome} at {phase['nodes']} nodes, "
-                f"{phase['time']:.3f} s"
-            )
+            line += f"; attention phase: {outcome} at {phase['nodes']} nodes, {phase['time']:.3f} s"
         return line
 
 
