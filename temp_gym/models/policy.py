@@ -75,6 +75,9 @@ class TEMPPolicy:
         backend: ``"torch"``, ``"numba"`` (`FastMPT`, CPU only, takes a snapshot of the
             weights now: build a new policy after training the model further) or ``"auto"``:
             numba on the CPU whenever attention is not recorded, PyTorch otherwise.
+        attention_nodes: the attention-phase budget n the ``temp`` planner uses with this
+            policy when ``plan`` is given none (None: all of ``max_nodes``); shipped policies
+            carry theirs (`temp_gym.load_policy`).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -87,11 +90,15 @@ class TEMPPolicy:
         record_attention: bool = False,
         device: str | torch.device = "cpu",
         backend: str = "auto",
+        attention_nodes: int | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
         if backend not in self.BACKENDS:
             raise ValueError(f"backend: expected one of {self.BACKENDS}, got {backend!r}")
+        if attention_nodes is not None and int(attention_nodes) < 1:
+            raise ValueError(f"attention_nodes: expected >= 1 or None, got {attention_nodes}")
+        self.attention_nodes = None if attention_nodes is None else int(attention_nodes)
         self.device = torch.device(device)
         if backend == "numba" and (self.device.type != "cpu" or record_attention):
             raise ValueError(

@@ -55,6 +55,6 @@ def load_policy(name: str, noise_std: float | None = None, seed: int | None = No
     planner = checkpoint.get("planner", {})
     if noise_std is None:
         noise_std = float(planner.get("noise_std", 0.0))
-    policy = TEMPPolicy(model, noise_std=noise_std, seed=seed)
-    policy.attention_nodes = planner.get("attention_nodes")
-    return policy
+    return TEMPPolicy(
+        model, noise_std=noise_std, seed=seed, attention_nodes=planner.get("attention_nodes")
+    )

@@ -146,3 +146,10 @@ def test_reset_restores_the_torch_thread_count(small_model):
         assert torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(previous)
+
+
+def test_attention_nodes_is_a_checked_setting(small_model):
+    assert TEMPPolicy(small_model, attention_nodes=40).attention_nodes == 40
+    assert TEMPPolicy(small_model).attention_nodes is None
+    with pytest.raises(ValueError, match="attention_nodes"):
+        TEMPPolicy(small_model, attention_nodes=0)
