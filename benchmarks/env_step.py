@@ -46,30 +46,28 @@ def chunks(count: int, size: int) -> list[slice]:
     return [slice(begin, min(begin + size, count)) for begin in range(0, count, size)]
 
 
+def chunk_times(step, items, size):
+    """Seconds per chunk of ``size`` consecutive ``step(item)`` calls over ``items``."""
+    times = []
+    for part in chunks(len(items), size):
+        chunk = items[part]
+        start = time.perf_counter()
+        for item in chunk:
+            step(item)
+        times.append(time.perf_counter() - start)
+    return np.array(times)
+
+
 def time_bare(problem, samples, size):
     """Seconds per chunk of ``Tree.extend`` over ``samples``, and the nodes grown."""
     tree = Tree(problem)
-    times = []
-    for part in chunks(len(samples), size):
-        chunk = samples[part]
-        start = time.perf_counter()
-        for sample in chunk:
-            tree.extend(sample)
-        times.append(time.perf_counter() - start)
-    return np.array(times), tree.num_nodes
+    return chunk_times(tree.extend, samples, size), tree.num_nodes
 
 
 def time_env(env, problem, actions, size):
     """Seconds per chunk of ``env.step`` over ``actions``, and the nodes grown."""
     env.reset(seed=0, options={"problem": problem})
-    times = []
-    for part in chunks(len(actions), size):
-        chunk = actions[part]
-        start = time.perf_counter()
-        for action in chunk:
-            env.step(action)
-        times.append(time.perf_counter() - start)
-    return np.array(times), env.unwrapped.tree.num_nodes
+    return chunk_times(env.step, actions, size), env.unwrapped.tree.num_nodes
 
 
 def main() -> None:

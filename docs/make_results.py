@@ -40,7 +40,7 @@ MIN_SUCCESS = 0.99
 
 
 def _fmt(value: float | None, digits: int = 3) -> str:
-    if value is None or value is False or not math.isfinite(value):
+    if value is None or not math.isfinite(value):
         return "n/a"
     return f"{value:.{digits}f}"
 
@@ -74,8 +74,8 @@ def checks(summary: dict) -> list[str]:
             mark = "met" if _beats(paired) else "**missed**"
             pairs = paired["tasks"] if paired else 0
             verdicts.append(
-                f"{name}: {mark} (paired time {_fmt(paired and paired['time'])}, nodes "
-                f"{_fmt(paired and paired['nodes'])}, {pairs} tasks)"
+                f"{name}: {mark} (paired time {_fmt(paired['time'] if paired else None)}, "
+                f"nodes {_fmt(paired['nodes'] if paired else None)}, {pairs} tasks)"
             )
         success = temp["success_rate"] >= MIN_SUCCESS
         lines.append(
