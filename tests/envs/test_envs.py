@@ -8,15 +8,6 @@ from temp_gym import ENV_IDS, Problem, plan
 from temp_gym.policies import InformedPolicy, UniformPolicy
 from temp_gym.wrappers import PlanningMetrics, TensorBoardMetrics
 
-WALL = {
-    "robot": "point2d",
-    "bounds": [[0, 0], [20, 20]],
-    "obstacles": [{"center": [10, 10], "half_extents": [0.5, 8]}],
-    "start": [2, 10],
-    "goal": [18, 10],
-    "goal_radius": 0.5,
-}
-
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_env_checker_passes_with_rendering(env_id):
@@ -99,8 +90,8 @@ def test_uniform_policy_env_equals_rrt_star(env_id, seed):
     assert info["best_cost"] == pytest.approx(result.cost, abs=1e-9)
 
 
-def test_informed_policy_solves_and_samples_inside_the_informed_set():
-    problem = Problem.from_dict(WALL)
+def test_informed_policy_solves_and_samples_inside_the_informed_set(wall):
+    problem = Problem.from_dict(wall)
     env = gym.make("TEMP-2D-v0", target_cost=0.0, max_nodes=1500, fallback="none")
     policy = InformedPolicy(seed=0)
     observation, _ = env.reset(seed=0, options={"problem": problem})
@@ -119,8 +110,8 @@ def test_informed_policy_solves_and_samples_inside_the_informed_set():
     assert info["success"] and truncated
 
 
-def test_fallback_none_colliding_action_adds_no_node():
-    problem = Problem.from_dict(WALL)
+def test_fallback_none_colliding_action_adds_no_node(wall):
+    problem = Problem.from_dict(wall)
     env = gym.make("TEMP-2D-v0", fallback="none")
     env.reset(seed=0, options={"problem": problem})
     # Start (2, 10) steers towards (10, 10) by 1.0: free. Then walk into the wall.
@@ -133,8 +124,8 @@ def test_fallback_none_colliding_action_adds_no_node():
     assert reward == pytest.approx(-env.unwrapped.step_penalty)
 
 
-def test_fallback_random_always_adds_a_node_and_counts_failures():
-    problem = Problem.from_dict(WALL)
+def test_fallback_random_always_adds_a_node_and_counts_failures(wall):
+    problem = Problem.from_dict(wall)
     env = gym.make("TEMP-2D-v0", fallback="random")
     env.reset(seed=0, options={"problem": problem})
     inside_wall = np.zeros(2, np.float32)
@@ -163,7 +154,7 @@ def test_bad_actions_documented_behaviour():
         np.testing.assert_array_equal(clipped[-1][key], outside[-1][key])
 
 
-def test_step_before_reset_and_bad_options():
+def test_step_before_reset_and_bad_options(wall):
     env = gym.make("TEMP-2D-v0").unwrapped
     with pytest.raises(RuntimeError, match="reset"):
         env.step(np.zeros(2, np.float32))
@@ -172,7 +163,7 @@ def test_step_before_reset_and_bad_options():
             options={
                 "problem": Problem.from_dict(
                     {
-                        **WALL,
+                        **wall,
                         "robot": "point3d",
                         "bounds": [[0, 0, 0], [20, 20, 20]],
                         "obstacles": [],
@@ -188,8 +179,8 @@ def test_step_before_reset_and_bad_options():
         gym.make("TEMP-2D-v0", difficulty="hard")
 
 
-def test_target_cost_option_keeps_refining_after_first_solution():
-    problem = Problem.from_dict({**WALL, "obstacles": []})
+def test_target_cost_option_keeps_refining_after_first_solution(wall):
+    problem = Problem.from_dict({**wall, "obstacles": []})
     env = gym.make("TEMP-2D-v0", fallback="none", max_nodes=3000)
     policy = UniformPolicy(seed=1)
     first = run_policy_episode(env, policy, seed=1, problem=problem)
@@ -205,8 +196,8 @@ def test_target_cost_option_keeps_refining_after_first_solution():
     assert info["nodes"] > first["nodes"]
 
 
-def test_reward_is_step_penalty_plus_success_bonus():
-    problem = Problem.from_dict({**WALL, "obstacles": []})
+def test_reward_is_step_penalty_plus_success_bonus(wall):
+    problem = Problem.from_dict({**wall, "obstacles": []})
     env = gym.make("TEMP-2D-v0", fallback="none")
     env.reset(seed=0, options={"problem": problem})
     goal = np.array([0.8, 0.0], np.float32)  # (18, 10)

@@ -20,15 +20,6 @@ from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import half_range, normalize
 from temp_gym.worlds.workspace import Workspace
 
-WALL = {
-    "robot": "point2d",
-    "bounds": [[0, 0], [20, 20]],
-    "obstacles": [{"center": [10, 10], "half_extents": [0.5, 8]}],
-    "start": [2, 10],
-    "goal": [18, 10],
-    "goal_radius": 0.5,
-}
-
 
 def reference_observation(env) -> dict[str, np.ndarray]:
     """What the observation of the env's tree must hold, built without the kernels."""
@@ -64,9 +55,9 @@ def assert_observation(observation, expected, space) -> None:
 @pytest.mark.parametrize(
     ("env_id", "max_path_length"), [("TEMP-2D-v0", 4), ("TEMP-2D-v0", 64), ("TEMP-3D-v0", 8)]
 )
-def test_observation_matches_reference_after_every_step(env_id, max_path_length):
+def test_observation_matches_reference_after_every_step(env_id, max_path_length, wall):
     env = gym.make(env_id, fallback="none", max_path_length=max_path_length, max_nodes=400)
-    options = {"problem": Problem.from_dict(WALL)} if env_id == "TEMP-2D-v0" else None
+    options = {"problem": Problem.from_dict(wall)} if env_id == "TEMP-2D-v0" else None
     observation, _ = env.reset(seed=3, options=options)
     assert_observation(observation, reference_observation(env), env.observation_space)
     rng = np.random.default_rng(0)
@@ -98,9 +89,9 @@ def test_entries_of_one_observation_are_disjoint_and_writable():
     assert all(value.flags.writeable for value in observation.values())
 
 
-def test_failed_step_observation_equals_the_previous_one_but_is_fresh():
+def test_failed_step_observation_equals_the_previous_one_but_is_fresh(wall):
     env = gym.make("TEMP-2D-v0", fallback="none")
-    env.reset(seed=0, options={"problem": Problem.from_dict(WALL)})
+    env.reset(seed=0, options={"problem": Problem.from_dict(wall)})
     inside_wall = np.zeros(2)  # normalized centre = (10, 10), inside the wall
     for _ in range(7):
         before, *_ = env.step(inside_wall)
@@ -111,8 +102,8 @@ def test_failed_step_observation_equals_the_previous_one_but_is_fresh():
         assert not np.shares_memory(before[key], after[key])
 
 
-def test_observer_follows_a_new_tree_with_as_many_nodes():
-    problem = Problem.from_dict(WALL)
+def test_observer_follows_a_new_tree_with_as_many_nodes(wall):
+    problem = Problem.from_dict(wall)
     occupancy = occupancy_grid(Workspace.of(problem), 32)
     observer = TreeObserver(problem, occupancy, 8, 100)
     first, second = Tree(problem), Tree(problem)

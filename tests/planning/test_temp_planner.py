@@ -5,15 +5,6 @@ from temp_gym import Problem, plan
 from temp_gym.policies import UniformPolicy
 from temp_gym.worlds.collision import certify_path
 
-WALL = {
-    "robot": "point2d",
-    "bounds": [[0, 0], [20, 20]],
-    "obstacles": [{"center": [10, 10], "half_extents": [0.5, 8]}],
-    "start": [2, 10],
-    "goal": [18, 10],
-    "goal_radius": 0.5,
-}
-
 
 class TowardsGoal:
     """Proposes the goal itself: a perfect policy in an open world."""
@@ -36,8 +27,8 @@ class Stuck:
         return np.array([-1.0, -1.0], np.float32)
 
 
-def test_attention_phase_follows_the_policy_and_stops_in_the_goal_region():
-    problem = Problem.from_dict({**WALL, "obstacles": []})
+def test_attention_phase_follows_the_policy_and_stops_in_the_goal_region(wall):
+    problem = Problem.from_dict({**wall, "obstacles": []})
     result = plan(problem, planner="temp", policy=TowardsGoal(), stop_at_first=True)
     assert result.success and result.attention["solved"]
     # Straight at the goal with step 1.0: 16 - 0.5 = 15.5 -> 16 steps, 17 nodes.
@@ -47,16 +38,16 @@ def test_attention_phase_follows_the_policy_and_stops_in_the_goal_region():
     assert np.linalg.norm(result.path[-1] - problem.goal) <= problem.goal_radius
 
 
-def test_random_fallback_on_collision_counts_failures():
-    problem = Problem.from_dict(WALL)
+def test_random_fallback_on_collision_counts_failures(wall):
+    problem = Problem.from_dict(wall)
     result = plan(problem, planner="temp", policy=TowardsGoal(), stop_at_first=True, seed=1)
     assert result.success and result.attention["solved"]
     assert result.attention["sampling_failures"] > 0  # the wall blocks the goal direction
     assert certify_path(problem, result.path)
 
 
-def test_probabilistic_completeness_with_a_policy_that_cannot_help():
-    problem = Problem.from_dict(WALL)
+def test_probabilistic_completeness_with_a_policy_that_cannot_help(wall):
+    problem = Problem.from_dict(wall)
     result = plan(
         problem,
         planner="temp",
@@ -74,10 +65,10 @@ def test_probabilistic_completeness_with_a_policy_that_cannot_help():
     assert result.path[0].tolist() == problem.start.tolist()
 
 
-def test_goal_bias_samples_the_goal_instead_of_calling_the_policy():
+def test_goal_bias_samples_the_goal_instead_of_calling_the_policy(wall):
     # Open world, a policy stuck in a corner: with no goal bias AP never gets there; with the
     # baselines' goal bias, the goal samples walk the tree straight in.
-    problem = Problem.from_dict({**WALL, "obstacles": []})
+    problem = Problem.from_dict({**wall, "obstacles": []})
     kwargs = dict(planner="temp", policy=Stuck(), seed=0, max_nodes=400, stop_at_first=True)
     assert not plan(problem, attention_nodes=300, goal_bias=0.0, **kwargs).attention["solved"]
     result = plan(problem, attention_nodes=300, goal_bias=0.3, **kwargs)
@@ -86,8 +77,8 @@ def test_goal_bias_samples_the_goal_instead_of_calling_the_policy():
     assert goal_samples >= 16  # 16 steps of 1.0 from the start to the goal region
 
 
-def test_classical_phase_refines_after_attention_phase():
-    problem = Problem.from_dict(WALL)
+def test_classical_phase_refines_after_attention_phase(wall):
+    problem = Problem.from_dict(wall)
     result = plan(problem, planner="temp", policy=UniformPolicy(seed=0), seed=0, max_nodes=2500)
     assert result.attention["solved"]
     assert result.nodes == 2500
@@ -95,8 +86,8 @@ def test_classical_phase_refines_after_attention_phase():
     assert np.all(np.diff(result.history["best_cost"]) < 0)
 
 
-def test_same_seed_same_result_and_policy_validation():
-    problem = Problem.from_dict(WALL)
+def test_same_seed_same_result_and_policy_validation(wall):
+    problem = Problem.from_dict(wall)
     a = plan(problem, planner="temp", policy=UniformPolicy(seed=3), seed=3, max_nodes=800)
     b = plan(problem, planner="temp", policy=UniformPolicy(seed=3), seed=3, max_nodes=800)
     np.testing.assert_array_equal(a.path, b.path)
