@@ -61,9 +61,9 @@ def _model(config: dict, seed: int = 0) -> TEMPModel:
     ).eval()
 
 
-def benchmark(config_path: str, repeats: int) -> None:
-    """Print the per-sample table of one config's default model."""
-    config = load_config(config_path)
+def benchmark(config_path: str, repeats: int, overrides: list[str] | None = None) -> None:
+    """Print the per-sample table of one config's default model (sizes overridable)."""
+    config = load_config(config_path, overrides or [])
     model = _model(config)
     dim, length = model.dim, model.max_path_length
     grid = torch.zeros(1, *model.eise.grid_shape)
@@ -230,6 +230,9 @@ def main() -> None:
     parser.add_argument("--plan-problems", type=int, default=5)
     parser.add_argument("--plan-nodes", type=int, default=500)
     parser.add_argument("--plan-rounds", type=int, default=3)
+    parser.add_argument(
+        "overrides", nargs="*", help="key=value config overrides, e.g. model.token_dim=32"
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     print(
@@ -238,7 +241,7 @@ def main() -> None:
         f"{os.environ['OPENBLAS_NUM_THREADS']}"
     )
     for path in args.config or ["configs/2d.yaml", "configs/3d.yaml", "configs/7d.yaml"]:
-        benchmark(path, args.repeats)
+        benchmark(path, args.repeats, args.overrides)
     if args.plan:
         plan_per_node(args.plan_config, args.plan_problems, args.plan_nodes, args.plan_rounds)
 

@@ -25,7 +25,12 @@ from pathlib import Path
 
 from temp_gym.config import load_config
 from temp_gym.evaluation.report import write_report
-from temp_gym.evaluation.runner import EvaluationSettings, attention_example, run_evaluation
+from temp_gym.evaluation.runner import (
+    EvaluationSettings,
+    ManifestMismatchError,
+    attention_example,
+    run_evaluation,
+)
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.registry import shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
@@ -107,18 +112,23 @@ def main(argv: list[str] | None = None) -> str:
         seed=settings.seed,
     )
     out = Path(section["out"] or Path("results") / config["env"]["id"])
-    records = run_evaluation(
-        settings,
-        make_policy,
-        out,
-        workers=int(args.workers or section["workers"]),
-        progress=not args.no_progress,
-        backend=args.backend,
-        address=args.ray_address,
-    )
+    digest = weights_digest(stored["state_dict"])
+    try:
+        records = run_evaluation(
+            settings,
+            make_policy,
+            out,
+            workers=int(args.workers or section["workers"]),
+            progress=not args.no_progress,
+            backend=args.backend,
+            address=args.ray_address,
+            identity={"checkpoint_digest": digest, "noise_std": float(section["noise_std"])},
+        )
+    except ManifestMismatchError as error:  # another checkpoint's or settings' records
+        raise SystemExit(f"evaluate.py: error: {error}") from None
     metadata = {
         "checkpoint": str(checkpoint),
-        "checkpoint_digest": weights_digest(stored["state_dict"]),
+        "checkpoint_digest": digest,
         "settings": {key: section[key] for key in DEFAULTS if key not in ("workers", "out")},
     }
     example = attention_example(settings, make_policy)

@@ -1,7 +1,7 @@
 r"""Ship a trained policy inside the package: a slim checkpoint plus its model card.
 
     python trainers/ship.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
-        --attention-nodes 300 --noise-std 0.03 [key=value overrides used in training]
+        [--attention-nodes N] --noise-std 0.03 [key=value overrides used in training]
 
 Writes ``temp_gym/checkpoints/{2d,3d,7d}.pt`` (the model weights and sizes, the planner
 settings `temp_gym.load_policy` applies, and where the weights came from; no optimizer state,
@@ -110,8 +110,13 @@ def model_card(
             f"- Weights digest (SHA-256): `{provenance['digest']}`.",
             "",
             "## Planner settings applied by `load_policy`",
-            f"- Attention-phase budget n (Algorithm 1): {planner['attention_nodes']} nodes, then "
-            "classical planning (Informed RRT*).",
+            "- Attention-phase budget n (Algorithm 1): "
+            + (
+                "all of the planner's `max_nodes`, the budget every baseline gets"
+                if planner["attention_nodes"] is None
+                else f"{planner['attention_nodes']} nodes"
+            )
+            + "; then classical planning (Informed RRT*).",
             f"- Output noise: {planner['noise_std']} (normalized units).",
             f"- How they were chosen: {planner['chosen_by']}.",
             "",
@@ -141,7 +146,12 @@ def main(argv: list[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", required=True, help="the config the policy was trained with")
     parser.add_argument("--checkpoint", required=True, help="a trainers/bc.py best.pt")
-    parser.add_argument("--attention-nodes", type=int, required=True)
+    parser.add_argument(
+        "--attention-nodes",
+        type=int,
+        default=None,
+        help="AP budget n; default: all of the caller's max_nodes, the budget baselines get",
+    )
     parser.add_argument("--noise-std", type=float, default=0.0)
     parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
@@ -150,7 +160,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--out-dir", default=str(CHECKPOINT_DIR))
     parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
     args = parser.parse_args(argv)
-    if args.attention_nodes < 1 or args.noise_std < 0:
+    if (args.attention_nodes is not None and args.attention_nodes < 1) or args.noise_std < 0:
         raise SystemExit("--attention-nodes must be >= 1 and --noise-std >= 0")
     config = load_config(args.config, args.overrides)
     env_id = config["env"]["id"]

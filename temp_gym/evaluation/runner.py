@@ -6,6 +6,11 @@ curves) is written atomically by the driver to ``{out}/tasks/{group}-{index:04d}
 rerun of the same command skips finished tasks, so a killed evaluation loses nothing and
 duplicates nothing. Tasks run on local processes or on Ray (`temp_gym.distributed`).
 
+Records only mix with records of the same run: ``{out}/run.json`` (the manifest) holds the
+evaluation settings, `TEST_SET_VERSION` and what the caller adds (`trainers/evaluate.py`: the
+checkpoint's weights digest and the policy settings). A rerun whose manifest differs stops
+with an error naming the keys, instead of resuming another run's records.
+
 Test tasks come from the ``test`` workspace pool (`temp_gym.worlds.splits`), never seen in
 training: task ``i`` of a group lives in workspace ``i mod 50`` and is drawn from its own
 generator, so a task can be recomputed alone.
@@ -15,8 +20,8 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +34,9 @@ from temp_gym.worlds.generators import generate_task
 from temp_gym.worlds.splits import SPLITS, split_workspace
 
 EVAL_ENTROPY = 7_000_001
+TEST_SET_VERSION = 2
+"""Bumped whenever a code change alters which test tasks are drawn (kept in the manifest).
+2: iiwa starts and goals keep a clearance of half the edge resolution (`iiwa_world`)."""
 _DIFFICULTY_CODES = {"any": 0, "easy": 1, "challenging": 2}
 
 
@@ -142,6 +150,27 @@ def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -
     return record
 
 
+class ManifestMismatchError(ValueError):
+    """An output directory holds the records of an evaluation with another manifest."""
+
+
+def _check_manifest(out_dir: Path, manifest: dict[str, Any]) -> None:
+    """Write ``run.json`` on a first run; on a rerun, raise if it describes another run."""
+    path = out_dir / "run.json"
+    manifest = json.loads(json.dumps(manifest, default=_jsonable))  # tuples -> lists, as stored
+    if not path.exists():
+        out_dir.mkdir(parents=True, exist_ok=True)
+        _write_json_atomic(path, manifest)
+        return
+    stored = json.loads(path.read_text())
+    differ = sorted(k for k in stored.keys() | manifest.keys() if stored.get(k) != manifest.get(k))
+    if differ:
+        raise ManifestMismatchError(
+            f"{out_dir} holds records of another evaluation (differs in: {', '.join(differ)}); "
+            "resuming would mix them. Delete it or choose another output directory."
+        )
+
+
 def run_evaluation(
     settings: EvaluationSettings,
     make_policy: Callable[[], Any],
@@ -150,18 +179,29 @@ def run_evaluation(
     progress: bool = True,
     backend: str = "local",
     address: str | None = None,
+    identity: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate every missing task of every group, then return all task records in order.
 
     ``make_policy`` builds the TEMP policy inside each worker (a picklable function, e.g.
     ``functools.partial(TEMPPolicy.from_checkpoint, path)``). Tasks run on local processes or
     as Ray tasks (`temp_gym.distributed`); the driver writes each record as it arrives.
+    ``identity`` (JSON-able, e.g. the checkpoint's weights digest) joins the settings in the
+    manifest ``run.json``.
+
+    Raises:
+        ManifestMismatchError: ``out_dir`` holds records of an evaluation with another manifest.
     """
     from tqdm import tqdm
 
     from temp_gym.distributed import map_units
 
-    tasks_dir = Path(out_dir) / "tasks"
+    out_dir = Path(out_dir)
+    _check_manifest(
+        out_dir,
+        {"test_set_version": TEST_SET_VERSION, "settings": asdict(settings), **(identity or {})},
+    )
+    tasks_dir = out_dir / "tasks"
     tasks_dir.mkdir(parents=True, exist_ok=True)
     for leftover in tasks_dir.glob("*.tmp*"):  # a record whose writer was killed
         leftover.unlink()

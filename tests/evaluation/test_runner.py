@@ -5,7 +5,9 @@ import pytest
 
 from temp_gym.evaluation.report import write_report
 from temp_gym.evaluation.runner import (
+    TEST_SET_VERSION,
     EvaluationSettings,
+    ManifestMismatchError,
     attention_example,
     evaluation_problem,
     run_evaluation,
@@ -59,6 +61,20 @@ def test_evaluation_is_resumable_and_reports(tmp_path):
     ):
         assert (tmp_path / "report" / name).exists()
     assert list((tmp_path / "report" / "tensorboard").glob("events.*"))
+
+
+def test_a_rerun_with_other_settings_or_policy_refuses_to_mix_records(tmp_path):
+    empty = settings(groups={"2D easy": ("easy", 0)})
+    run_evaluation(empty, make_policy, tmp_path, progress=False, identity={"digest": "a"})
+    manifest = json.loads((tmp_path / "run.json").read_text())
+    assert manifest["test_set_version"] == TEST_SET_VERSION and manifest["digest"] == "a"
+    # The same run resumes; another checkpoint, or other settings, stop with the key named.
+    run_evaluation(empty, make_policy, tmp_path, progress=False, identity={"digest": "a"})
+    with pytest.raises(ManifestMismatchError, match="differs in: digest"):
+        run_evaluation(empty, make_policy, tmp_path, progress=False, identity={"digest": "b"})
+    other = settings(groups={"2D easy": ("easy", 0)}, max_nodes=10)
+    with pytest.raises(ManifestMismatchError, match="differs in: settings"):
+        run_evaluation(other, make_policy, tmp_path, progress=False, identity={"digest": "a"})
 
 
 def _without_times(record):

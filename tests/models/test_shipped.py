@@ -23,7 +23,8 @@ def test_shipped_checkpoint_is_small_carded_and_consistent(env_id):
     assert path.stat().st_size <= 10 * 2**20
     model, checkpoint = load_checkpoint(path, robot=ROBOTS[env_id])  # weights_only=True
     assert checkpoint["provenance"]["digest"] == weights_digest(model.state_dict())
-    assert checkpoint["planner"]["attention_nodes"] >= 1
+    # The attention phase gets the caller's whole budget, as every baseline does (the cards).
+    assert checkpoint["planner"]["attention_nodes"] is None
     card = path.with_suffix(".md").read_text()
     assert env_id in card and checkpoint["provenance"]["digest"] in card
 

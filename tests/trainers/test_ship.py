@@ -64,6 +64,18 @@ def test_load_policy_applies_the_shipped_planner_settings(shipped):
     assert explicit.attention["nodes"] <= 10
 
 
+def test_without_a_budget_the_attention_phase_gets_all_of_max_nodes(shipped, tmp_path):
+    model, path = shipped
+    out = tmp_path / "whole-budget"
+    again = ship.main([
+        "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(path),
+        "--out-dir", str(out), f"data.dir={tmp_path / 'no-data'}",
+    ])  # fmt: skip
+    _, checkpoint = load_checkpoint(again, robot="point2d")
+    assert checkpoint["planner"]["attention_nodes"] is None
+    assert "all of the planner's `max_nodes`" in again.with_suffix(".md").read_text()
+
+
 def test_ship_refuses_a_checkpoint_for_another_robot(tmp_path):
     model = TEMPModel.from_config(SMALL, "point3d", 8, 64)
     model.save(tmp_path / "best.pt")

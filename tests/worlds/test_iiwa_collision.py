@@ -164,3 +164,53 @@ def test_no_boxes_everything_in_bounds_is_free():
     for checker in (IiwaSphereChecker(LIMITS, *empty), IiwaExactChecker(LIMITS, *empty)):
         assert checker.states_free(states).all()
         assert checker.edge_free(states[0], states[1])
+
+
+def _ceiling_height_where_upright_arm_collides(clearance):
+    """Bisect the bottom height of a ceiling slab at which the upright arm starts to touch it."""
+    low, high = 0.5, 3.0  # touching at 0.5 m, clear at 3 m
+    for _ in range(50):
+        middle = (low + high) / 2
+        ceiling = (np.array([[-2.0, -2.0, middle]]), np.array([[2.0, 2.0, middle + 0.1]]))
+        free = IiwaSphereChecker(LIMITS, *ceiling).states_free(np.zeros((1, 7)), clearance)[0]
+        low, high = (low, middle) if free else (middle, high)
+    return high
+
+
+def test_clearance_grows_every_sphere_by_that_much():
+    resolution = IiwaSphereChecker(LIMITS, *THIN_WALL).resolution
+    bare = _ceiling_height_where_upright_arm_collides(0.0)
+    grown = _ceiling_height_where_upright_arm_collides(resolution / 2)
+    assert grown - bare == pytest.approx(resolution / 2, abs=1e-6)
+    # Monotone: a state free with clearance is free without it, and clearance frees fewer.
+    checker = IiwaSphereChecker(LIMITS, *THIN_WALL)
+    states = np.random.default_rng(3).uniform(LIMITS[0], LIMITS[1], size=(2000, 7))
+    loose, strict = checker.states_free(states), checker.states_free(states, resolution / 2)
+    assert not (strict & ~loose).any() and strict.sum() < loose.sum()
+
+
+def test_a_state_with_half_resolution_clearance_can_be_left():
+    # An edge check grows its end states' spheres by up to resolution / 2 (half the largest link
+    # motion W of a one-step edge), so a free state nearer a box than that can be a trap. With
+    # that clearance, every edge with W <= resolution / 3 out of it is free: its start passes
+    # and its end has moved by at most W. Without it, such edges fail.
+    workspace = generate_iiwa_workspace(np.random.default_rng(0))
+    checker, _ = _checkers(workspace)
+    resolution = checker.resolution
+    rng = np.random.default_rng(4)
+    states = rng.uniform(LIMITS[0] + 0.1, LIMITS[1] - 0.1, size=(6000, 7))
+    directions = rng.normal(size=states.shape)
+    largest_motion = (np.abs(directions) @ checker._motion_radii).max(axis=1)
+    steps = directions * (resolution / 3 / largest_motion)[:, None]
+    free = checker.states_free(states)
+    clear = checker.states_free(states, resolution / 2)
+    assert clear.sum() > 100 and (free & ~clear).sum() > 10
+    assert checker.edges_free(states[clear], states[clear] + steps[clear]).all()
+    near = free & ~clear
+    assert not checker.edges_free(states[near], states[near] + steps[near]).all()
+
+
+@pytest.mark.parametrize("clearance", [-0.001, 0.011, float("nan"), "0.01"])
+def test_bad_clearance_raises(clearance):
+    with pytest.raises(ValueError, match="clearance"):
+        IiwaSphereChecker(LIMITS, *THIN_WALL).states_free(np.zeros((1, 7)), clearance)

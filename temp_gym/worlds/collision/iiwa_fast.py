@@ -136,14 +136,14 @@ _BLOCK = 256
 
 
 @numba.njit(cache=True, nogil=True)
-def _states_free(states, bounds, kinematics, spheres, boxes):
+def _states_free(states, bounds, kinematics, spheres, boxes, clearance):
     perm, sign, shift = kinematics
     centers, radii, link_start, bound_centers, bound_radii = spheres
     box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
     num, dim = states.shape
     out = np.zeros(num, dtype=np.bool_)
     poses = _identity_poses(dim + 1)
-    no_inflation = np.zeros(dim + 1)
+    inflation = np.full(dim + 1, clearance)
     flat = states.reshape(-1)
     sines = np.empty(_BLOCK * dim)
     cosines = np.empty(_BLOCK * dim)
@@ -155,7 +155,7 @@ def _states_free(states, bounds, kinematics, spheres, boxes):
                 out[i] = _pose_free(sines, cosines, (i - first) * dim, perm, sign, shift,
                                     centers, radii, link_start, bound_centers, bound_radii,
                                     box_params, link_boxes, link_box_count, link_lower,
-                                    link_upper, no_inflation, poses)  # fmt: skip
+                                    link_upper, inflation, poses)  # fmt: skip
     return out
 
 
@@ -388,12 +388,29 @@ class IiwaSphereChecker:
         """Number of spheres in the link model (link_0 included)."""
         return len(self._spheres[1])
 
-    def states_free(self, states: np.ndarray) -> np.ndarray:
-        """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free."""
+    def states_free(self, states: np.ndarray, clearance: float = 0.0) -> np.ndarray:
+        """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free.
+
+        With ``clearance`` > 0 a state only counts as free when every sphere, grown by that
+        many metres, still misses every box. ``clearance = resolution / 2`` is what task
+        generators ask of a start and a goal: an edge check grows the spheres of its end
+        states by up to ``resolution / 2`` (module docstring), so a state closer to a box than
+        that is free but no edge of planning length can leave it.
+
+        Raises:
+            ValueError: ``clearance`` negative, not finite or above ``resolution / 2`` (the
+                broad phase only keeps boxes within that margin of each link).
+        """
+        if not (isinstance(clearance, (int, float)) and 0 <= clearance <= self.resolution / 2):
+            raise ValueError(
+                f"clearance: expected a number in [0, resolution / 2 = {self.resolution / 2}], "
+                f"got {clearance!r}"
+            )
         states = _as_states(states)
         if not self.base_free:
             return np.zeros(len(states), dtype=bool)
-        return _states_free(states, self._bounds, self._kinematics, self._spheres, self._boxes)
+        return _states_free(states, self._bounds, self._kinematics, self._spheres, self._boxes,
+                            float(clearance))  # fmt: skip
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: whether each joint-space segment ``starts[i] -> ends[i]`` is free."""
