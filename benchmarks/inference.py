@@ -63,7 +63,7 @@ def _model(config: dict, seed: int = 0) -> TEMPModel:
 
 def benchmark(config_path: str, repeats: int, overrides: list[str] | None = None) -> None:
     """Print the per-sample table of one config's default model (sizes overridable)."""
-    config = load_config(config_path, overrides or [])
+    config = load_config(config_path, overrides)
     model = _model(config)
     dim, length = model.dim, model.max_path_length
     grid = torch.zeros(1, *model.eise.grid_shape)

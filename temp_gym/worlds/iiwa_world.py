@@ -194,12 +194,12 @@ def generate_iiwa_task(
         workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper
     )
     lower, upper = workspace.bounds
+    clearance = checker.resolution / 2  # so that edges can leave start and goal (docstring)
     batch = 64
     for first in range(0, max_tries, batch):
         count = min(batch, max_tries - first)
         starts = rng.uniform(lower, upper, size=(count, 7))
         goals = rng.uniform(lower, upper, size=(count, 7))
-        clearance = checker.resolution / 2  # so that edges can leave them (module docstring)
         ok = checker.states_free(starts, clearance) & checker.states_free(goals, clearance)
         ok &= np.linalg.norm(goals - starts, axis=1) > 2 * goal_radius
         if difficulty != "any":
