@@ -5,11 +5,12 @@ r"""Choose a policy's planner settings on validation workspaces: budget n and ou
 
 For every pair (n, noise) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen
 in no test; the test workspaces stay untouched until the final measurement, ``--split test``
-with the chosen setting) with the ``temp``
-planner up to the first solution, and prints nodes to the first solution (mean and median,
-a failure counted as the whole budget), the share solved by attention-based planning within
-n, cost and time. The recommendation minimizes the mean nodes among the settings whose
-attention phase solves at least ``--min-attention-success`` of the tasks;
+with the chosen setting) with the ``temp`` planner up to the first solution, and prints nodes
+to the first solution (mean and median, a failure counted as the whole budget), the share
+solved by attention-based planning within n, cost and time; and, against RRT* on the same
+tasks, the share of tasks where TEMP needed fewer nodes and the mean difference with its 95%
+paired bootstrap interval. The recommendation minimizes the mean nodes among the settings
+whose attention phase solves at least ``--min-attention-success`` of the tasks;
 ``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
 """
 
@@ -53,16 +54,17 @@ def main(argv: list[str] | None = None) -> dict:
     eval_config = dict(config["eval"])
     problems = utils.draw_problems(config, args.split, args.tasks, eval_config["seed"] + 20_000)
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
-    rrt = utils.summarize(
-        [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)],
-        eval_config["max_nodes"],
-    )
+    rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
+    rrt = utils.summarize(rrt_runs, eval_config["max_nodes"])
     print(
         f"{len(problems)} {args.split} tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
     )
-    print("| n | noise | nodes mean | median | AP solved | success | cost | time (ms) |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(
+        "| n | noise | nodes mean | median | AP solved | success | cost | time (ms) "
+        "| fewer than RRT* | mean difference [95% CI] |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
     for budget, noise in itertools.product(args.attention_nodes, args.noise_std):
         eval_config["attention_nodes"] = budget
@@ -70,10 +72,12 @@ def main(argv: list[str] | None = None) -> dict:
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = utils.summarize(runs, eval_config["max_nodes"])
         solved = float(np.mean([run["attention_solved"] for run in runs]))
+        paired = utils.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
         print(
             f"| {budget} | {noise} | {row['nodes_mean']:.1f} | {row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
-            f"{row['time'] * 1e3:.1f} |",
+            f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
+            f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
             flush=True,
         )
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:

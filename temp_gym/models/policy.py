@@ -111,6 +111,7 @@ class TEMPPolicy:
             FastMPT(self.model.mpt) if backend != "torch" and self.device.type == "cpu" else None
         )
         self._prefix: Prefix | None = None
+        self._out = np.empty(self.model.dim, np.float32)  # the fast MPT's output row
         self.noise_std = float(noise_std)
         self.seed = seed
         self.rng = np.random.default_rng(seed)
@@ -177,8 +178,19 @@ class TEMPPolicy:
                 f"got {path.shape}"
             )
         length = int(np.asarray(observation["path_length"]).reshape(-1)[0])
+        return self.propose(path, length)
+
+    def propose(self, path: np.ndarray, length: int) -> np.ndarray:
+        """`__call__` from the path so far alone: float32 ``(d,)`` in [-1, 1].
+
+        The planner's fast path (`temp_gym.planning.temp_planner`): it hands over the
+        observer's path rows (`TreeObserver.path_so_far`) instead of a whole observation, so
+        no observation is built per step. ``path`` is ``(L, d)`` float32, normalized, with
+        ``length`` valid rows; the result is the one `__call__` gives for an observation
+        with that path.
+        """
         if self._fast is not None and not self.record_attention:
-            action = self._fast.predict(self._prefix, path, length)
+            action = self._fast.predict(self._prefix, path, length, self._out)
         else:
             action = self._torch_sample(path, length)
         if self.noise_std > 0:

@@ -133,15 +133,9 @@ class TreeObserver:
             raise ValueError(f"action: must be finite, got {action.tolist()}")
         return sample
 
-    def observe(self, tree: Tree) -> dict[str, np.ndarray]:
-        """A fresh observation of ``tree``: no array is shared with another observation.
-
-        The float32 entries but ``occupancy`` are disjoint views of one new block, a copy of
-        the observer's state. The state is updated only when ``tree`` is another tree or has
-        grown since the last call: a tree changes only by gaining a node (`Tree.extend`
-        leaves it unchanged otherwise), so a failed extension costs no update.
-        """
-        state, length, params, occupancy, path_shape, slices = self._parts
+    def _sync(self, tree: Tree) -> None:
+        """Bring the state block up to date with ``tree`` if it is another tree or has grown."""
+        state, length, params = self._parts[:3]
         if tree is not self._tree or tree.num_nodes != self._nodes:
             update_observation(
                 state,
@@ -156,6 +150,28 @@ class TreeObserver:
             )
             self._tree = tree
             self._nodes = tree.num_nodes
+
+    def path_so_far(self, tree: Tree) -> tuple[np.ndarray, int]:
+        """The ``path`` and ``path_length`` entries of `observe`, without building the rest.
+
+        Returns the observer's own ``(L, d)`` float32 rows (a view, valid until the next call:
+        read it, do not keep or change it) and the number of valid rows. The TEMP planner's
+        policy reads only these, once per step.
+        """
+        self._sync(tree)
+        state, length, _, _, path_shape, slices = self._parts
+        return state[slices[-1]].reshape(path_shape), int(length[0])
+
+    def observe(self, tree: Tree) -> dict[str, np.ndarray]:
+        """A fresh observation of ``tree``: no array is shared with another observation.
+
+        The float32 entries but ``occupancy`` are disjoint views of one new block, a copy of
+        the observer's state. The state is updated only when ``tree`` is another tree or has
+        grown since the last call: a tree changes only by gaining a node (`Tree.extend`
+        leaves it unchanged otherwise), so a failed extension costs no update.
+        """
+        self._sync(tree)
+        state, length, _, occupancy, path_shape, slices = self._parts
         block = state.copy()
         start, goal, radius, best_cost, solved, progress, path = slices
         return {

@@ -100,14 +100,20 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         )
 
     # ---- attention-based planning (Algorithm 1)
+    propose = getattr(policy, "propose", None)  # a TEMPPolicy reads the path so far alone
     policy_samples = 0
     while tree.best_node < 0 and tree.num_nodes < attention_nodes and not out_of_budget():
         if settings.goal_bias > 0 and rng.random() < settings.goal_bias:
-            sample = problem.goal  # the baselines' goal bias (module docstring)
+            # the baselines' goal bias (module docstring)
+            tree.extend_with_fallback(problem.goal, fallback, rng, MAX_FALLBACK_TRIES)
+            continue
+        if propose is not None:
+            action = propose(*observer.path_so_far(tree))
         else:
-            sample = observer.action_to_sample(policy(observer.observe(tree)))
-            policy_samples += 1
-        tree.extend_with_fallback(sample, fallback, rng, MAX_FALLBACK_TRIES)
+            action = policy(observer.observe(tree))
+        policy_samples += 1
+        # the kernel clips the normalized action and maps it into the bounds
+        tree.extend_with_fallback(action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True)
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,

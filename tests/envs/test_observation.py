@@ -129,3 +129,22 @@ def test_deep_copied_env_steps_like_the_original():
         for key, value in first[0].items():
             np.testing.assert_array_equal(value, second[0][key])
             assert not np.shares_memory(value, second[0][key])
+
+
+def test_path_so_far_is_the_path_entry_of_observe(wall):
+    # The TEMP planner's fast path reads only these two entries; they must be what a full
+    # observation of the same tree holds, with the path growing, shrinking and truncated to L.
+    problem = Problem.from_dict(wall)
+    occupancy = occupancy_grid(Workspace.of(problem), 32)
+    fast, full = TreeObserver(problem, occupancy, 4, 300), TreeObserver(problem, occupancy, 4, 300)
+    tree = Tree(problem, step_size=1.0)
+    rng = np.random.default_rng(0)
+    lengths = set()
+    for _ in range(300):  # the root alone first, then after each extension
+        path, length = fast.path_so_far(tree)
+        observation = full.observe(tree)
+        tree.extend(rng.uniform(0.0, 20.0, 2))
+        assert length == int(observation["path_length"][0])
+        np.testing.assert_array_equal(path, observation["path"])
+        lengths.add(length)
+    assert lengths == {1, 2, 3, 4}

@@ -56,6 +56,26 @@ def test_noise_makes_repeated_calls_differ_and_is_seeded(small_model):
     np.testing.assert_array_equal(again(observation), first)
 
 
+def test_propose_from_the_path_alone_equals_the_observation_call(small_model):
+    env = gym.make("TEMP-2D-v0", fallback="random", encoding_resolution=16, max_path_length=16)
+    observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
+    rng = np.random.default_rng(0)
+    for _ in range(30):  # a path of several rows
+        observation, *_ = env.step(rng.uniform(-1, 1, 2))
+    length = int(observation["path_length"][0])
+    assert length > 1
+    for noise in (0.0, 0.1):
+        by_observation = TEMPPolicy(small_model, noise_std=noise, seed=5)
+        by_path = TEMPPolicy(small_model, noise_std=noise, seed=5)
+        by_observation.reset(PROBLEM)
+        by_path.reset(PROBLEM)
+        for _ in range(3):
+            expected = by_observation(observation)
+            proposed = by_path.propose(observation["path"], length)
+            assert proposed.dtype == np.float32
+            np.testing.assert_array_equal(proposed, expected)
+
+
 def test_checkpoint_round_trip_weights_only(small_model, tmp_path):
     policy = TEMPPolicy(small_model)
     policy.save(tmp_path / "model.pt")

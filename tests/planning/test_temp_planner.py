@@ -27,6 +27,44 @@ class Stuck:
         return np.array([-1.0, -1.0], np.float32)
 
 
+class ObservationOnly:
+    """A learned policy seen through ``__call__`` alone: the planner's generic policy path."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def reset(self, problem, seed=None):
+        self.policy.reset(problem, seed=seed)
+
+    def __call__(self, observation):
+        return self.policy(observation)
+
+
+def test_policy_fast_path_plans_exactly_like_full_observations():
+    # The planner hands a TEMPPolicy only the path so far (`propose`); any other policy gets
+    # whole observations. Same policy, same seeds: the same trees, node for node.
+    from temp_gym.models.registry import load_policy
+    from temp_gym.worlds.generators import generate_problem
+
+    rng = np.random.default_rng(7)
+    for index in range(4):
+        problem = generate_problem("point2d", rng)
+        runs = [
+            plan(
+                problem,
+                planner="temp",
+                policy=policy,
+                seed=index,
+                max_nodes=1500,
+                stop_at_first=True,
+            )  # fmt: skip
+            for policy in (load_policy("point2d"), ObservationOnly(load_policy("point2d")))
+        ]
+        assert runs[0].attention["policy_samples"] > 0
+        assert runs[0].attention == {**runs[1].attention, "time": runs[0].attention["time"]}
+        np.testing.assert_array_equal(runs[0].path, runs[1].path)
+
+
 def test_attention_phase_follows_the_policy_and_stops_in_the_goal_region(wall):
     problem = Problem.from_dict({**wall, "obstacles": []})
     result = plan(problem, planner="temp", policy=TowardsGoal(), stop_at_first=True)

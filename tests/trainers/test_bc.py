@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import torch
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -86,3 +87,23 @@ def test_symmetry_augmentation_keeps_occupied_cells_occupied():
     noisy = utils.perturb_path(batch, 0.1, generator)
     assert not torch.equal(noisy["path"], batch["path"])
     assert torch.equal(noisy["target"], batch["target"])
+
+
+def test_paired_nodes_compares_task_by_task_with_failures_at_the_budget():
+    sys.path.insert(0, str(ROOT / "trainers"))
+    import utils
+
+    def runs(nodes):
+        return [{"success": float(n is not None), "nodes": n or 0} for n in nodes]
+
+    temp = runs([10, 20, None, 40])  # the failure counts as the budget, 100
+    rrt = runs([30, 20, 50, 60])
+    paired = utils.paired_nodes(temp, rrt, max_nodes=100)
+    assert paired["fewer"] == 0.5  # tasks 0 and 3; task 1 is a tie
+    assert paired["difference"] == (-20 + 0 + 50 - 20) / 4
+    assert paired["low"] <= paired["difference"] <= paired["high"]
+    assert paired["low"] < paired["high"]
+    shifted = utils.paired_nodes(runs([5, 15, 25]), runs([10, 20, 30]), max_nodes=100)
+    assert shifted == {"fewer": 1.0, "difference": -5.0, "low": -5.0, "high": -5.0}
+    with pytest.raises(ValueError, match="same non-empty task list"):
+        utils.paired_nodes(temp, rrt[:2], max_nodes=100)

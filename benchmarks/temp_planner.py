@@ -1,0 +1,87 @@
+"""TEMP's attention phase: the policy fast path against whole observations, side by side.
+
+    python benchmarks/temp_planner.py [--worlds 2d 3d 7d] [--problems 30] [--repeats 3]
+
+The ``temp`` planner hands a `TEMPPolicy` only the path so far (`TEMPPolicy.propose` on
+`TreeObserver.path_so_far`); any other policy gets a whole observation per step. Both give the
+same trees (tested in ``tests/planning/test_temp_planner.py``), so the difference is the
+per-step glue: building the observation dict, checking it, and the action round trip. Per
+world, on the same generated problems with the shipped policy and the same seeds: attention-
+phase time per node for each path and their ratio (fast / observations). Best of
+``--repeats`` per problem, the two paths interleaved, so both see the same machine load.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import torch
+
+from temp_gym import plan
+from temp_gym.models.registry import load_policy
+from temp_gym.worlds.generators import generate_problem
+
+ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
+
+
+class ObservationOnly:
+    """A policy seen through ``__call__`` alone: the planner's generic path."""
+
+    def __init__(self, policy) -> None:
+        self.policy = policy
+
+    def reset(self, problem, seed=None) -> None:
+        self.policy.reset(problem, seed=seed)
+
+    def __call__(self, observation):
+        return self.policy(observation)
+
+
+def attention_time(problem, policy, seed: int, max_nodes: int) -> tuple[float, int]:
+    """Seconds and nodes of the attention phase, up to the first solution."""
+    result = plan(
+        problem, planner="temp", policy=policy, seed=seed, max_nodes=max_nodes, stop_at_first=True
+    )
+    return result.attention["time"], result.attention["nodes"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worlds", nargs="+", default=list(ROBOTS), choices=list(ROBOTS))
+    parser.add_argument("--problems", type=int, default=30)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--max-nodes", type=int, default=3000)
+    args = parser.parse_args()
+    torch.set_num_threads(1)  # the per-sample latency a planner sees
+    print("| world | problems | nodes | fast path (us/node) | observations (us/node) | ratio |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for world in args.worlds:
+        robot = ROBOTS[world]
+        rng = np.random.default_rng(0)
+        problems = [generate_problem(robot, rng) for _ in range(args.problems)]
+        fast = load_policy(robot)
+        slow = ObservationOnly(load_policy(robot))
+        attention_time(problems[0], fast, 0, 20)  # compile and warm up, untimed
+        attention_time(problems[0], slow, 0, 20)
+        totals = {"fast": 0.0, "slow": 0.0}
+        nodes = 0
+        for seed, problem in enumerate(problems):
+            best = {"fast": np.inf, "slow": np.inf}
+            for _ in range(args.repeats):
+                for name, policy in (("fast", fast), ("slow", slow)):
+                    seconds, count = attention_time(problem, policy, seed, args.max_nodes)
+                    best[name] = min(best[name], seconds)
+            nodes += count
+            for name in totals:
+                totals[name] += best[name]
+        fast_us, slow_us = (totals[name] / nodes * 1e6 for name in ("fast", "slow"))
+        print(
+            f"| {world} | {len(problems)} | {nodes} | {fast_us:.1f} | {slow_us:.1f} | "
+            f"{fast_us / slow_us:.2f} |",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
