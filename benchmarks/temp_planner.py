@@ -1,4 +1,4 @@
-"""TEMP's attention phase: the policy fast path against whole observations, side by side.
+"""TEMP's attention phase per node: the policy fast path against whole observations, and RRT*.
 
     python benchmarks/temp_planner.py [--worlds 2d 3d 7d] [--problems 30] [--repeats 3]
 
@@ -7,13 +7,16 @@ The ``temp`` planner hands a `TEMPPolicy` only the path so far (`TEMPPolicy.prop
 same trees (tested in ``tests/planning/test_temp_planner.py``), so the difference is the
 per-step glue: building the observation dict, checking it, and the action round trip. Per
 world, on the same generated problems with the shipped policy and the same seeds: attention-
-phase time per node for each path and their ratio (fast / observations). Best of
-``--repeats`` per problem, the two paths interleaved, so both see the same machine load.
+phase time per node for each path and their ratio (fast / observations), how much of a fast
+node is the policy call (the MPT), and RRT*'s time per node up to its first solution on the
+same problems, which is what a TEMP node competes with. Best of ``--repeats`` per problem, the
+runs interleaved, so all see the same machine load.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 
 import numpy as np
 import torch
@@ -23,6 +26,26 @@ from temp_gym.models.registry import load_policy
 from temp_gym.worlds.generators import generate_problem
 
 ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
+
+
+class TimedPolicy:
+    """A `TEMPPolicy` whose ``propose`` calls (the fast path's MPT calls) are timed."""
+
+    def __init__(self, policy) -> None:
+        self.policy = policy
+        self.seconds = 0.0
+
+    def reset(self, problem, seed=None) -> None:
+        self.policy.reset(problem, seed=seed)
+
+    def __call__(self, observation):
+        return self.policy(observation)
+
+    def propose(self, path, length):
+        began = time.perf_counter()
+        action = self.policy.propose(path, length)
+        self.seconds += time.perf_counter() - began
+        return action
 
 
 class ObservationOnly:
@@ -46,6 +69,12 @@ def attention_time(problem, policy, seed: int, max_nodes: int) -> tuple[float, i
     return result.attention["time"], result.attention["nodes"]
 
 
+def rrt_star_time(problem, seed: int, max_nodes: int) -> tuple[float, int]:
+    """Seconds and nodes of RRT* up to its first solution (or the budget)."""
+    result = plan(problem, planner="rrt_star", seed=seed, max_nodes=max_nodes, stop_at_first=True)
+    return result.time_to_first_solution or result.wall_time, result.nodes
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", nargs="+", default=list(ROBOTS), choices=list(ROBOTS))
@@ -54,31 +83,41 @@ def main() -> None:
     parser.add_argument("--max-nodes", type=int, default=3000)
     args = parser.parse_args()
     torch.set_num_threads(1)  # the per-sample latency a planner sees
-    print("| world | problems | nodes | fast path (us/node) | observations (us/node) | ratio |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print(
+        "| world | problems | nodes | fast path (us/node) | of which the MPT call "
+        "| observations (us/node) | ratio | RRT* (us/node) |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for world in args.worlds:
         robot = ROBOTS[world]
         rng = np.random.default_rng(0)
         problems = [generate_problem(robot, rng) for _ in range(args.problems)]
-        fast = load_policy(robot)
+        fast = TimedPolicy(load_policy(robot))
         slow = ObservationOnly(load_policy(robot))
         attention_time(problems[0], fast, 0, 20)  # compile and warm up, untimed
         attention_time(problems[0], slow, 0, 20)
-        totals = {"fast": 0.0, "slow": 0.0}
-        nodes = 0
+        rrt_star_time(problems[0], 0, 20)
+        totals = {"fast": 0.0, "slow": 0.0, "mpt": 0.0, "rrt": 0.0}
+        nodes = rrt_nodes = 0
         for seed, problem in enumerate(problems):
-            best = {"fast": np.inf, "slow": np.inf}
+            best = {name: np.inf for name in totals}
             for _ in range(args.repeats):
                 for name, policy in (("fast", fast), ("slow", slow)):
+                    fast.seconds = 0.0
                     seconds, count = attention_time(problem, policy, seed, args.max_nodes)
+                    if name == "fast" and seconds < best["fast"]:
+                        best["mpt"] = fast.seconds
                     best[name] = min(best[name], seconds)
+                seconds, rrt_count = rrt_star_time(problem, seed, args.max_nodes)
+                best["rrt"] = min(best["rrt"], seconds)
             nodes += count
+            rrt_nodes += rrt_count
             for name in totals:
                 totals[name] += best[name]
-        fast_us, slow_us = (totals[name] / nodes * 1e6 for name in ("fast", "slow"))
+        fast_us, slow_us, mpt_us = (totals[name] / nodes * 1e6 for name in ("fast", "slow", "mpt"))
         print(
-            f"| {world} | {len(problems)} | {nodes} | {fast_us:.1f} | {slow_us:.1f} | "
-            f"{fast_us / slow_us:.2f} |",
+            f"| {world} | {len(problems)} | {nodes} | {fast_us:.1f} | {mpt_us:.1f} | "
+            f"{slow_us:.1f} | {fast_us / slow_us:.2f} | {totals['rrt'] / rrt_nodes * 1e6:.1f} |",
             flush=True,
         )
 

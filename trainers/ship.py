@@ -9,6 +9,12 @@ so it stays well under 10 MB) and the model card ``{2d,3d,7d}.md`` beside it: th
 dataset card), the config, the training figures and, once ``trainers/evaluate.py`` has written
 ``results/{env id}/results.json`` for this checkpoint, the evaluation table. Run it again after
 the evaluation to put the figures in the card; the weights are unchanged by that.
+
+    python trainers/ship.py --refresh-evaluation TEMP-3D-v0
+
+rewrites only the Evaluation section of a shipped card from ``results/{env id}`` (after a
+re-evaluation of the shipped weights, when their training run is not at hand); it refuses
+results made with other weights, as the card itself would say.
 """
 
 from __future__ import annotations
@@ -60,6 +66,28 @@ def _evaluation_section(env_id: str, digest: str) -> str:
         "`python trainers/evaluate.py` with these weights; times on a 2-core CPU):\n\n"
         + table.read_text()
     )
+
+
+def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Path:
+    """Rewrite the Evaluation section of ``env_id``'s shipped card from ``results/{env id}``.
+
+    Raises:
+        SystemExit: if the card or checkpoint is missing, or the results are of other weights.
+    """
+    if env_id not in SHIPPED:
+        raise SystemExit(f"--refresh-evaluation: expected one of {list(SHIPPED)}, got {env_id!r}")
+    path = Path(out_dir) / f"{SHIPPED[env_id]}.pt"
+    card_path = path.with_suffix(".md")
+    marker = "\n## Evaluation\n"
+    if not (path.is_file() and card_path.is_file() and marker in card_path.read_text()):
+        raise SystemExit(f"{card_path}: no shipped card with an Evaluation section to refresh")
+    digest = torch.load(path, weights_only=True)["provenance"]["digest"]
+    section = _evaluation_section(env_id, digest)
+    if not section.startswith("The paper's protocol"):
+        raise SystemExit(section.strip())
+    head = card_path.read_text().split(marker)[0]
+    card_path.write_text(head + marker + section)
+    return card_path
 
 
 def model_card(
@@ -144,8 +172,11 @@ def model_card(
 def main(argv: list[str] | None = None) -> Path:
     """Write the shipped checkpoint and its card; return the checkpoint path."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", required=True, help="the config the policy was trained with")
-    parser.add_argument("--checkpoint", required=True, help="a trainers/bc.py best.pt")
+    parser.add_argument("--config", help="the config the policy was trained with")
+    parser.add_argument("--checkpoint", help="a trainers/bc.py best.pt")
+    parser.add_argument(
+        "--refresh-evaluation", metavar="ENV_ID", help="only rewrite that card's evaluation"
+    )
     parser.add_argument(
         "--attention-nodes",
         type=int,
@@ -160,6 +191,12 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--out-dir", default=str(CHECKPOINT_DIR))
     parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
     args = parser.parse_args(argv)
+    if args.refresh_evaluation:
+        card = refresh_evaluation(args.refresh_evaluation, args.out_dir)
+        print(f"refreshed the evaluation section of {card}")
+        return card.with_suffix(".pt")
+    if args.config is None or args.checkpoint is None:
+        parser.error("--config and --checkpoint are required (or --refresh-evaluation)")
     if (args.attention_nodes is not None and args.attention_nodes < 1) or args.noise_std < 0:
         raise SystemExit("--attention-nodes must be >= 1 and --noise-std >= 0")
     config = load_config(args.config, args.overrides)

@@ -52,6 +52,28 @@ def test_ship_writes_a_slim_checkpoint_and_a_card(shipped):
     assert "Not evaluated yet" in card and "Dataset card unavailable" in card
 
 
+def test_refresh_evaluation_rewrites_only_that_section_for_the_same_weights(shipped, tmp_path):
+    model, path = shipped
+    card = path.with_suffix(".md")
+    head = card.read_text().split("\n## Evaluation\n")[0]
+    results = tmp_path / "results" / "TEMP-2D-v0"  # the fixture's working directory
+    results.mkdir(parents=True)
+    (results / "results.md").write_text("| a table |\n")
+    (results / "results.json").write_text('{"checkpoint_digest": "other weights"}')
+    refresh = ["--refresh-evaluation", "TEMP-2D-v0", "--out-dir", str(path.parent)]
+    with pytest.raises(SystemExit, match="made with other weights"):
+        ship.main(refresh)
+    assert "Not evaluated yet" in card.read_text()
+    digest = weights_digest(model.state_dict())
+    (results / "results.json").write_text(f'{{"checkpoint_digest": "{digest}"}}')
+    assert ship.main(refresh) == path
+    text = card.read_text()
+    assert text.startswith(head + "\n## Evaluation\nThe paper's protocol")
+    assert text.endswith("| a table |\n") and "Not evaluated yet" not in text
+    with pytest.raises(SystemExit, match="expected one of"):
+        ship.main(["--refresh-evaluation", "TEMP-9D-v0"])
+
+
 def test_load_policy_applies_the_shipped_planner_settings(shipped):
     policy = registry.load_policy("TEMP-2D-v0", seed=0)
     assert policy.attention_nodes == 40 and policy.noise_std == pytest.approx(0.02)

@@ -214,3 +214,25 @@ def test_a_state_with_half_resolution_clearance_can_be_left():
 def test_bad_clearance_raises(clearance):
     with pytest.raises(ValueError, match="clearance"):
         IiwaSphereChecker(LIMITS, *THIN_WALL).states_free(np.zeros((1, 7)), clearance)
+
+
+def test_checkers_share_the_robot_geometry_but_not_its_arrays():
+    # The robot's part of a checker is computed once per process; each checker works on its
+    # own copies, so no checker can change what a later one sees.
+    boxes = ([[0.4, -0.5, 0.0]], [[0.6, 0.5, 1.2]])
+    first, second = (
+        IiwaSphereChecker(joint_limits(), *boxes),
+        IiwaSphereChecker(joint_limits(), *boxes),
+    )
+    for mine, theirs in zip(first._spheres, second._spheres):
+        np.testing.assert_array_equal(mine, theirs)
+        assert not np.shares_memory(mine, theirs)
+    states = np.random.default_rng(0).uniform(*joint_limits(), size=(500, 7))
+    expected = second.states_free(states)
+    assert 0 < expected.sum() < len(states)
+    first._spheres[1][:] += 0.3  # every sphere of this checker grows by 30 cm
+    first._spheres[4][:] += 0.3
+    assert first.states_free(states).sum() < expected.sum()
+    np.testing.assert_array_equal(
+        IiwaSphereChecker(joint_limits(), *boxes).states_free(states), expected
+    )

@@ -39,6 +39,7 @@ it. States are checked in bisection order so that blocked edges fail early.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -299,6 +300,35 @@ def _bounding_center(centers: np.ndarray, radii: np.ndarray, iterations: int = 3
     return center
 
 
+@functools.lru_cache(maxsize=1)
+def _robot_geometry():
+    """The robot's part of a checker, computed once per process (~40 ms, mostly the bounds).
+
+    Returns ``(model, kinematics, link_spheres, spheres, motion_radii)``: the kinematic model
+    and its origin permutations, the sphere model per link, the kernel's sphere arrays
+    ``(centers, radii, link_start, bound_centers, bound_radii)`` with the radii grown by
+    `FAST_FK_MARGIN`, and the per-joint motion radii of the meshes. Callers copy the arrays.
+    """
+    model = load_model()
+    kinematics = origin_permutations(model.joint_origins)
+    link_spheres = load_sphere_model()
+    if len(link_spheres) != NUM_LINKS:
+        raise ValueError(f"sphere model: expected {NUM_LINKS} links, got {len(link_spheres)}")
+    centers = np.concatenate([c for c, _ in link_spheres])
+    radii = np.concatenate([r for _, r in link_spheres])
+    link_start = np.cumsum([0] + [len(r) for _, r in link_spheres]).astype(np.int64)
+    bound_centers = np.array([_bounding_center(c, r) for c, r in link_spheres])
+    bound_radii = np.array(
+        [np.max(np.linalg.norm(c - m, axis=1) + r)
+         for (c, r), m in zip(link_spheres, bound_centers)]
+    )  # fmt: skip
+    # The kernel's FK is within FAST_FK_MARGIN of the exact one: grow the spheres by it.
+    spheres = (centers, radii + FAST_FK_MARGIN, link_start, bound_centers,
+               bound_radii + FAST_FK_MARGIN)  # fmt: skip
+    mesh_motion = np.ascontiguousarray(motion_radii(load_mesh_radii()))
+    return model, kinematics, link_spheres, spheres, mesh_motion
+
+
 class IiwaSphereChecker:
     """Fast, conservative iiwa checker: sphere-covered links against axis-aligned boxes.
 
@@ -331,23 +361,12 @@ class IiwaSphereChecker:
         self.resolution = float(resolution)
         self._bounds = _as_bounds(bounds)
         self._boxes = _as_boxes(box_lower, box_upper)
-        model = load_model()
-        self._kinematics = origin_permutations(model.joint_origins)
-        link_spheres = load_sphere_model()
-        if len(link_spheres) != NUM_LINKS:
-            raise ValueError(f"sphere model: expected {NUM_LINKS} links, got {len(link_spheres)}")
-        centers = np.concatenate([c for c, _ in link_spheres])
-        radii = np.concatenate([r for _, r in link_spheres])
-        link_start = np.cumsum([0] + [len(r) for _, r in link_spheres]).astype(np.int64)
-        bound_centers = np.array([_bounding_center(c, r) for c, r in link_spheres])
-        bound_radii = np.array(
-            [np.max(np.linalg.norm(c - m, axis=1) + r)
-             for (c, r), m in zip(link_spheres, bound_centers)]
-        )  # fmt: skip
-        # The kernel's FK is within FAST_FK_MARGIN of the exact one: grow the spheres by it.
-        self._spheres = (centers, radii + FAST_FK_MARGIN, link_start, bound_centers,
-                         bound_radii + FAST_FK_MARGIN)  # fmt: skip
-        self._motion_radii = np.ascontiguousarray(motion_radii(load_mesh_radii()))
+        model, kinematics, link_spheres, spheres, mesh_motion = _robot_geometry()
+        # Private copies: the cached originals stay as computed whatever a checker does.
+        self._kinematics = tuple(array.copy() for array in kinematics)
+        self._spheres = tuple(array.copy() for array in spheres)
+        self._motion_radii = mesh_motion.copy()
+        radii = self._spheres[1]
         lower, upper = self._boxes
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
         self.base_free = _base_free(box_params, *link_spheres[0])
