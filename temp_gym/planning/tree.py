@@ -16,10 +16,11 @@ planning", Thm. 38 and its k-nearest variant), with ``n`` the number of nodes pl
 
 * ``"radius"`` (default): ``r = min(gamma * (log n / n) ** (1/d), max_radius)`` with
   ``gamma = rewire_factor * 2 * (1 + 1/d) ** (1/d) * (mu_free / zeta_d) ** (1/d)``, where
-  ``mu_free`` is the free configuration-space volume (estimated once by Monte Carlo with the
-  fast checker) and ``zeta_d`` the volume of the unit d-ball. ``rewire_factor > 1`` keeps
-  ``gamma`` above the asymptotic-optimality bound. ``max_radius`` defaults to
-  ``2 * step_size``: for the budgets we run the cap is what binds.
+  ``mu_free`` is the free configuration-space volume (estimated by Monte Carlo with the fast
+  checker, once per workspace and process: `workspace_free_volume`) and ``zeta_d`` the volume
+  of the unit d-ball. ``rewire_factor > 1`` keeps ``gamma`` above the asymptotic-optimality
+  bound. ``max_radius`` defaults to ``2 * step_size``: for the budgets we run the cap is what
+  binds.
 * ``"k_nearest"``: ``k = ceil(rewire_factor * e * (1 + 1/d) * log n)`` nearest nodes.
 
 Example:
@@ -32,6 +33,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
@@ -45,6 +47,8 @@ if TYPE_CHECKING:
 
 NEIGHBOURHOODS = ("radius", "k_nearest")
 _FREE_VOLUME_SAMPLES = 4096
+_FREE_VOLUME_CACHE: OrderedDict[tuple, float] = OrderedDict()
+_FREE_VOLUME_CACHE_SIZE = 256
 
 
 def default_step_size(problem: Problem) -> float:
@@ -70,6 +74,33 @@ def estimate_free_volume(problem: Problem, checker: CollisionChecker) -> float:
     states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
     fraction = max(float(np.mean(checker.states_free(states))), 1.0 / _FREE_VOLUME_SAMPLES)
     return fraction * float(np.prod(high - low))
+
+
+def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
+    """`estimate_free_volume` for the default checker of ``problem``, remembered per workspace.
+
+    The estimate depends only on the robot, the bounds and the boxes (its samples are seeded),
+    not on the start and goal, so many queries in one workspace (a user's scene, an
+    evaluation) pay it once per process: about 0.6 ms in 2D and 1.4 ms for the iiwa, a
+    quarter of a typical 2D RRT* plan. The last `_FREE_VOLUME_CACHE_SIZE` workspaces are kept.
+    ``checker`` must be ``make_checker(problem)``'s kind; `Tree` asks for no estimate of
+    another checker here.
+    """
+    key = (
+        problem.robot,
+        problem.bounds.tobytes(),
+        problem.obstacle_centers.tobytes(),
+        problem.obstacle_half_extents.tobytes(),
+    )
+    volume = _FREE_VOLUME_CACHE.get(key)
+    if volume is None:
+        volume = estimate_free_volume(problem, checker)
+        _FREE_VOLUME_CACHE[key] = volume
+        if len(_FREE_VOLUME_CACHE) > _FREE_VOLUME_CACHE_SIZE:
+            _FREE_VOLUME_CACHE.popitem(last=False)
+    else:
+        _FREE_VOLUME_CACHE.move_to_end(key)
+    return volume
 
 
 class Sampler(Protocol):
@@ -158,7 +189,11 @@ class Tree:
         self._goal_radius_sq = problem.goal_radius**2
         dim = self.dim
         if neighbourhood == "radius":
-            free_volume = estimate_free_volume(problem, self.checker)
+            free_volume = (
+                workspace_free_volume(problem, self.checker)
+                if checker is None  # a caller's own checker may see other free space
+                else estimate_free_volume(problem, self.checker)
+            )
             self.gamma = (
                 self.rewire_factor
                 * 2.0

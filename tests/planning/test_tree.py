@@ -101,3 +101,32 @@ def test_bad_arguments(problem_2d):
         Tree(problem_2d, step_size=0.0)
     with pytest.raises(ValueError, match="sample"):
         Tree(problem_2d).extend(np.zeros(3))
+
+
+def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
+    from dataclasses import replace
+
+    from temp_gym.planning import tree as tree_module
+    from temp_gym.worlds.collision import make_checker
+
+    monkeypatch.setattr(tree_module, "_FREE_VOLUME_CACHE", type(tree_module._FREE_VOLUME_CACHE)())
+    calls = []
+    estimate = tree_module.estimate_free_volume
+
+    def counting(problem, checker):
+        calls.append(problem)
+        return estimate(problem, checker)
+
+    monkeypatch.setattr(tree_module, "estimate_free_volume", counting)
+    first = Tree(problem_2d)
+    assert first.gamma > 0 and len(calls) == 1
+    other_query = replace(problem_2d, start=problem_2d.goal, goal=problem_2d.start)
+    assert Tree(other_query).gamma == first.gamma and len(calls) == 1  # same workspace
+    no_boxes = replace(
+        problem_2d,
+        obstacle_centers=problem_2d.obstacle_centers[:0],
+        obstacle_half_extents=problem_2d.obstacle_half_extents[:0],
+    )
+    assert Tree(no_boxes).gamma > first.gamma and len(calls) == 2  # more free space
+    Tree(problem_2d, checker=make_checker(problem_2d))  # a caller's checker: not cached
+    assert len(calls) == 3
