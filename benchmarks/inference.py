@@ -33,6 +33,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+from temp_planner import TimedPolicy  # noqa: E402  (benchmarks/temp_planner.py)
 
 from temp_gym.config import load_config  # noqa: E402
 from temp_gym.models.fast_mpt import FastMPT  # noqa: E402
@@ -138,26 +139,6 @@ def _policy_calls(model: TEMPModel, repeats: int) -> None:
     )
 
 
-class _TimedPolicy:
-    """A policy wrapper that adds up the time spent in the policy's calls."""
-
-    def __init__(self, policy: TEMPPolicy) -> None:
-        self.policy = policy
-        self.model = policy.model  # the planner reads resolution and L off the model
-        self.seconds = 0.0
-        self.calls = 0
-
-    def reset(self, problem, seed=None) -> None:
-        self.policy.reset(problem, seed=seed)
-
-    def __call__(self, observation):
-        began = time.perf_counter()
-        sample = self.policy(observation)
-        self.seconds += time.perf_counter() - began
-        self.calls += 1
-        return sample
-
-
 def plan_per_node(config_path: str, problems: int, nodes: int, rounds: int) -> None:
     """Print TEMP's attention-phase time per node with each backend, and RRT*'s."""
     from temp_gym.planning import plan
@@ -178,7 +159,7 @@ def plan_per_node(config_path: str, problems: int, nodes: int, rounds: int) -> N
     )
     noise = config.get("eval", {}).get("noise_std", 0.0)
     for backend in ("torch", "numba"):
-        policy = _TimedPolicy(TEMPPolicy(model, noise_std=noise, seed=0, backend=backend))
+        policy = TimedPolicy(TEMPPolicy(model, noise_std=noise, seed=0, backend=backend))
         plan(tasks[0], planner="temp", policy=policy, seed=0, max_nodes=nodes)  # warm-up
         total_nodes, total_seconds, policy_seconds, calls = 0, 0.0, 0.0, 0
         for index, task in enumerate(tasks):

@@ -28,37 +28,38 @@ from temp_gym.worlds.generators import generate_problem
 ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
 
 
-class TimedPolicy:
-    """A `TEMPPolicy` whose ``propose`` calls (the fast path's MPT calls) are timed."""
+class ObservationOnly:
+    """A policy seen through ``__call__`` alone (the planner's generic path); calls are timed.
+
+    ``seconds`` and ``calls`` add up the policy's calls; ``model`` is passed through, since the
+    planner reads the encoding resolution and L off it.
+    """
 
     def __init__(self, policy) -> None:
         self.policy = policy
+        self.model = policy.model
         self.seconds = 0.0
+        self.calls = 0
 
     def reset(self, problem, seed=None) -> None:
         self.policy.reset(problem, seed=seed)
 
+    def _timed(self, function, *args):
+        began = time.perf_counter()
+        result = function(*args)
+        self.seconds += time.perf_counter() - began
+        self.calls += 1
+        return result
+
     def __call__(self, observation):
-        return self.policy(observation)
+        return self._timed(self.policy, observation)
+
+
+class TimedPolicy(ObservationOnly):
+    """`ObservationOnly` plus ``propose``: the planner's fast path, timed the same way."""
 
     def propose(self, path, length):
-        began = time.perf_counter()
-        action = self.policy.propose(path, length)
-        self.seconds += time.perf_counter() - began
-        return action
-
-
-class ObservationOnly:
-    """A policy seen through ``__call__`` alone: the planner's generic path."""
-
-    def __init__(self, policy) -> None:
-        self.policy = policy
-
-    def reset(self, problem, seed=None) -> None:
-        self.policy.reset(problem, seed=seed)
-
-    def __call__(self, observation):
-        return self.policy(observation)
+        return self._timed(self.policy.propose, path, length)
 
 
 def attention_time(problem, policy, seed: int, max_nodes: int) -> tuple[float, int]:

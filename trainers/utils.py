@@ -410,6 +410,11 @@ def evaluate_planner(
     return [run_episode(env, policy, problem, seed + i)[0] for i, problem in enumerate(problems)]
 
 
+def nodes_or_budget(episodes: list[dict[str, float]], max_nodes: int) -> np.ndarray:
+    """Nodes to the first solution per episode, ``max_nodes`` for a failed one."""
+    return np.array([run["nodes"] if run["success"] > 0 else max_nodes for run in episodes])
+
+
 def paired_nodes(
     episodes: list[dict[str, float]],
     baseline: list[dict[str, float]],
@@ -429,11 +434,7 @@ def paired_nodes(
         raise ValueError(
             f"expected the same non-empty task list, got {len(episodes)} and {len(baseline)}"
         )
-
-    def nodes(runs: list[dict[str, float]]) -> np.ndarray:
-        return np.array([run["nodes"] if run["success"] > 0 else max_nodes for run in runs])
-
-    difference = nodes(episodes) - nodes(baseline)
+    difference = nodes_or_budget(episodes, max_nodes) - nodes_or_budget(baseline, max_nodes)
     rng = np.random.default_rng(seed)
     means = difference[rng.integers(0, len(difference), (resamples, len(difference)))].mean(1)
     low, high = np.percentile(means, [2.5, 97.5])
@@ -452,9 +453,7 @@ def summarize(episodes: list[dict[str, float]], max_nodes: int) -> dict[str, flo
     mean over successful episodes; samples and time: means over all episodes.
     """
     success = np.array([episode["success"] for episode in episodes]) > 0
-    nodes = np.array(
-        [episode["nodes"] if ok else max_nodes for episode, ok in zip(episodes, success)]
-    )
+    nodes = nodes_or_budget(episodes, max_nodes)
     costs = np.array([episode["cost"] for episode, ok in zip(episodes, success) if ok])
     return {
         "success": float(success.mean()),

@@ -18,7 +18,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from temp_gym.planning._kernels import action_to_sample
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import half_range, normalize
@@ -84,12 +83,10 @@ class TreeObserver:
         self.problem = problem
         self.max_path_length = int(max_path_length)
         self.max_nodes = int(max_nodes)
-        self.bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
-        self.low, self.high = self.bounds
         self.distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
         radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
         self._params = np.concatenate(
-            [[self.distance, self.max_nodes, self.max_path_length], self.low, self.high]
+            [[self.distance, self.max_nodes, self.max_path_length], np.ravel(problem.bounds)]
         )
         self._occupancy = np.array(occupancy, dtype=np.float32)
         # The block: start | goal | goal_radius | best_cost | solved | progress | path.
@@ -118,20 +115,6 @@ class TreeObserver:
             self._path_shape,
             self._slices,
         )
-
-    def action_to_sample(self, action: np.ndarray) -> np.ndarray:
-        """World-unit sample of a normalized action (clipped); `ValueError` if not finite.
-
-        (The env does not call this: `Tree.extend` with ``normalized=True`` does the same in
-        the kernel that finds the nearest node.)
-        """
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != self.low.shape:
-            raise ValueError(f"action: expected shape {self.low.shape}, got {action.shape}")
-        sample = np.empty(len(self.low))
-        if not action_to_sample(action, self.bounds, sample):
-            raise ValueError(f"action: must be finite, got {action.tolist()}")
-        return sample
 
     def _sync(self, tree: Tree) -> None:
         """Bring the state block up to date with ``tree`` if it is another tree or has grown."""

@@ -366,7 +366,6 @@ class IiwaSphereChecker:
         self._kinematics = tuple(array.copy() for array in kinematics)
         self._spheres = tuple(array.copy() for array in spheres)
         self._motion_radii = mesh_motion.copy()
-        radii = self._spheres[1]
         lower, upper = self._boxes
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
         self.base_free = _base_free(box_params, *link_spheres[0])
@@ -397,7 +396,7 @@ class IiwaSphereChecker:
         self._boxes = (box_params, link_boxes, link_box_count, link_lower, link_upper)
         self._num_boxes = len(box_params)
         self.description = (
-            f"iiwa sphere model ({len(radii)} spheres), {self._num_boxes} boxes, "
+            f"iiwa sphere model ({self.num_spheres} spheres), {self._num_boxes} boxes, "
             f"edge resolution {self.resolution} m"
             + ("" if self.base_free else ", base link in collision")
         )
