@@ -7,11 +7,18 @@
 Values in overrides are parsed as YAML scalars (``3`` is an int, ``1e-3`` a float, ``null``
 None, ``[1, 2]`` a list). Overriding a key that the file does not have is an error, so a typo
 never passes silently; ``+key.sub=value`` adds a new key on purpose.
+
+Scripts parse their command line with `parse_args`: overrides may stand anywhere, also
+after an option flag that takes several values (``--noise-std 0 0.03 train.seed=1``).
 """
 
 from __future__ import annotations
 
+import argparse
 import copy
+import re
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +36,33 @@ def _parse_value(text: str) -> Any:
         except ValueError:
             return value
     return value
+
+
+OVERRIDE = re.compile(r"^\+?[A-Za-z_][\w-]*(\.[\w-]+)*=")
+"""A ``key.sub=value`` (or ``+key.sub=value``) command-line override."""
+
+
+def script_parser(description: str) -> argparse.ArgumentParser:
+    """An `argparse.ArgumentParser` whose help shows every flag's default."""
+    return argparse.ArgumentParser(
+        description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+
+
+def parse_args(
+    parser: argparse.ArgumentParser, argv: Sequence[str] | None = None
+) -> argparse.Namespace:
+    """Parse ``argv``, taking every ``key.sub=value`` token as an override, wherever it is.
+
+    The overrides end up in ``args.overrides`` (the parser may declare that positional for
+    its help text). Tokens starting with ``-`` are never overrides, so ``--flag=value``
+    stays a flag.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    overrides = [token for token in argv if OVERRIDE.match(token)]
+    args = parser.parse_args([token for token in argv if not OVERRIDE.match(token)])
+    args.overrides = list(getattr(args, "overrides", None) or []) + overrides
+    return args
 
 
 def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, Any]:

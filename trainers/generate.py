@@ -9,28 +9,33 @@ Resumable: rerun the same command after an interruption. See `temp_gym.data.gene
 
 from __future__ import annotations
 
-import argparse
 import json
+import sys
 
-from temp_gym.config import load_config
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data import generate_dataset
-from temp_gym.data.dataset import CARD
+from temp_gym.data.dataset import read_card
+from temp_gym.jobs import run_script
 
 
 def main(argv: list[str] | None = None) -> None:
     """Parse the command line, generate, print the card's totals and timing."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = script_parser(__doc__.splitlines()[0])
     parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
-    parser.add_argument("--workers", type=int, default=None, help="default: data.workers")
+    parser.add_argument(
+        "--workers", type=int, default=None, help="planning processes (None: data.workers)"
+    )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     parser.add_argument(
         "--backend", choices=["local", "ray"], default="local", help="where units run"
     )
     parser.add_argument(
-        "--ray-address", default=None, help="Ray cluster (default: $RAY_ADDRESS, else local)"
+        "--ray-address",
+        default=None,
+        help="Ray cluster: an address or 'auto' (None: $RAY_ADDRESS, else a local instance)",
     )
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
-    args = parser.parse_args(argv)
+    args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     root = generate_dataset(
         config,
@@ -39,11 +44,10 @@ def main(argv: list[str] | None = None) -> None:
         backend=args.backend,
         address=args.ray_address,
     )
-    with open(root / CARD) as handle:
-        card = json.load(handle)
+    card = read_card(root)
     summary = {"dir": str(root), "totals": card["totals"], "timing": card["timing"]}
     print(json.dumps(summary, indent=2))
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("generate.py", main))

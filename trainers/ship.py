@@ -20,6 +20,7 @@ results made with other weights, as the card itself would say.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 from pathlib import Path
 from typing import Any
@@ -28,7 +29,8 @@ import torch
 import yaml
 
 from temp_gym.config import load_config
-from temp_gym.data.assemble import read_card
+from temp_gym.data.dataset import CARD
+from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR, SHIPPED
 from temp_gym.models.temp import load_checkpoint, weights_digest
 
@@ -102,7 +104,7 @@ def model_card(
     """The markdown model card of a shipped checkpoint."""
     data = config["data"]
     try:
-        card = read_card(data["dir"])
+        card = read_json(Path(data["dir"]) / CARD, "the model card is written without it")
         splits = card.get("splits", {})
         counts = ", ".join(
             f"{split}: {figures.get('plans_stored', '?')} plans, "
@@ -219,13 +221,13 @@ def main(argv: list[str] | None = None) -> Path:
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / f"{SHIPPED[env_id]}.pt"
-    partial = path.with_suffix(".pt.partial")
-    torch.save(slim_checkpoint(source, planner, provenance), partial)
-    size = partial.stat().st_size
+    buffer = io.BytesIO()
+    torch.save(slim_checkpoint(source, planner, provenance), buffer)
+    size = buffer.getbuffer().nbytes
     if size > MAX_BYTES:
-        partial.unlink()
         raise SystemExit(f"{path}: {size / 2**20:.1f} MB exceeds the 10 MB limit")
-    partial.replace(path)
+    with atomic_write(path) as handle:
+        handle.write(buffer.getvalue())
     card = model_card(env_id, config, source, planner, provenance, model.num_parameters(), size)
     path.with_suffix(".md").write_text(card)
     print(f"shipped {path} ({size / 2**20:.2f} MB) and {path.with_suffix('.md')}")

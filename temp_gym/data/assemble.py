@@ -9,22 +9,22 @@ after the renames. An assembly interrupted at any point is redone from the units
 from __future__ import annotations
 
 import datetime
-import json
 import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from temp_gym.data.dataset import CARD, write_json_atomic
+from temp_gym.data.dataset import CARD, FORMAT_VERSION, TABLES
 from temp_gym.data.demonstrations import resample_path, task_samples
-from temp_gym.data.format import SAMPLE_KEYS, TASK_KEYS
+from temp_gym.data.format import SAMPLE_KEYS, SPLITS, TASK_KEYS, sample_shapes
 from temp_gym.data.generate import STATUS, read_unit, unit_path
+from temp_gym.data.tables import close_table, create_table, file_manifest, write_table
+from temp_gym.files import write_json_atomic
 from temp_gym.problem import ROBOTS
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.splits import split_workspace
 
-TABLES = ("buffer", "workspaces", "tasks")
 MARKER = "assembled.json"
 
 
@@ -99,50 +99,39 @@ def _task_table(units: list[dict[str, np.ndarray]], paths: list[dict], settings:
 
 
 def _build(root: Path, split: str, settings: dict, units: list, paths: list) -> None:
-    import torch
-    from tensordict import TensorDict
-    from torchrl.data import LazyMemmapStorage, ReplayBuffer
-    from torchrl.data.replay_buffers.samplers import RandomSampler
-
     staging = root / split / ".assembly"
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
+    dim = ROBOTS[settings["robot"]][0]
     total = sum(len(path) - 1 for resampled in paths for path in resampled.values())
-    if total:
-        storage = LazyMemmapStorage(total, scratch_dir=staging / "scratch")
-        buffer = ReplayBuffer(storage=storage, sampler=RandomSampler())
-        for workspace, (unit, resampled) in enumerate(zip(units, paths)):
-            if resampled:
-                arrays = _unit_samples(unit, resampled, workspace, settings)
-                count = len(arrays["step"])
-                tensors = {key: torch.from_numpy(value) for key, value in arrays.items()}
-                buffer.extend(TensorDict(tensors, batch_size=[count]))
-        buffer.dumps(staging / "buffer")
-        del buffer, storage
-        shutil.rmtree(staging / "scratch", ignore_errors=True)
-    else:
-        (staging / "buffer").mkdir()
+    shapes = sample_shapes(dim, settings["max_path_length"])
+    buffer = create_table(
+        staging / "buffer",
+        {key: (dtype, (total, *shape)) for key, (dtype, shape) in shapes.items()},
+    )
+    row = 0
+    for workspace, (unit, resampled) in enumerate(zip(units, paths)):
+        if resampled:
+            arrays = _unit_samples(unit, resampled, workspace, settings)
+            count = len(arrays["step"])
+            for key, value in arrays.items():
+                buffer[key][row : row + count] = value
+            row += count
+    close_table(staging / "buffer", buffer)
+    del buffer
     robot, resolution = settings["robot"], settings["encoding_resolution"]
     grids = [
         occupancy_grid(split_workspace(robot, split, index), resolution)
         for index in range(len(units))
     ]
-    wdim = 2 if robot == "point2d" else 3
+    wdim = ROBOTS[robot][1]
     occupancy = np.stack(grids) if grids else np.zeros((0,) + (resolution,) * wdim, np.float32)
-    workspaces = TensorDict(
-        {
-            "workspace_id": torch.arange(len(units), dtype=torch.int64),
-            "occupancy": torch.from_numpy(occupancy),
-        },
-        batch_size=[len(units)],
+    write_table(
+        staging / "workspaces",
+        {"workspace_id": np.arange(len(units), dtype=np.int64), "occupancy": occupancy},
     )
-    workspaces.memmap(staging / "workspaces")
     tasks = _task_table(units, paths, settings)
-    rows = len(tasks["task_id"])
-    TensorDict(
-        {key: torch.from_numpy(np.ascontiguousarray(v)) for key, v in tasks.items()},
-        batch_size=[rows],
-    ).memmap(staging / "tasks")
+    write_table(staging / "tasks", {k: np.ascontiguousarray(v) for k, v in tasks.items()})
     for name in TABLES:
         shutil.rmtree(root / split / name, ignore_errors=True)
         (staging / name).replace(root / split / name)
@@ -214,9 +203,13 @@ def write_card(
     workers: int,
     resumed_units: int,
 ) -> dict[str, Any]:
-    """Write ``dataset_card.json`` (last: its presence marks a complete dataset)."""
+    """Write ``dataset_card.json`` (last: its presence marks a complete dataset).
+
+    ``files`` lists the size and SHA-256 of every table file; loading verifies them.
+    """
     keys = ("plans_attempted", "plans_stored", "plans_failed", "tasks_not_drawn", "samples")
     card = {
+        "format": FORMAT_VERSION,
         "robot": settings["robot"],
         "splits": summaries,
         "totals": {key: sum(s[key] for s in summaries.values()) for key in keys},
@@ -252,12 +245,9 @@ def write_card(
             else sum(s["unit_cpu_time_s_total"] for s in summaries.values()),
         },
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "files": file_manifest(
+            root, [root / split / table for split in SPLITS for table in TABLES]
+        ),
     }
     write_json_atomic(root / CARD, card)
     return card
-
-
-def read_card(root: str | Path) -> dict[str, Any]:
-    """The dataset card of a dataset directory."""
-    with open(Path(root) / CARD) as handle:
-        return json.load(handle)

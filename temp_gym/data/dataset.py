@@ -8,12 +8,14 @@ directory, so resumed units always match the rest of the dataset.
 
 from __future__ import annotations
 
-import json
-import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from temp_gym.data.format import SPLITS
+from temp_gym.data.tables import read_table, verify_table
+from temp_gym.files import StoredFileError, read_json
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import ROBOTS
 from temp_gym.worlds.encoding import DEFAULT_RESOLUTION
@@ -76,46 +78,110 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
     return settings
 
 
-def write_json_atomic(path: Path, payload: Any) -> None:
-    """Write JSON to a temporary file beside ``path`` and rename it into place."""
-    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(temporary, "w") as handle:
-        json.dump(payload, handle, indent=2, sort_keys=True)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temporary, path)
+FORMAT_VERSION = 2
+"""Version of the on-disk layout in the card's ``format``. 2: tables of ``.npy`` columns with
+sizes and SHA-256 in the card (1: torchrl ``dumps``, which pickles, and no checksums)."""
+
+TABLES = ("buffer", "workspaces", "tasks")
+"""The tables of a split, each a directory of columns (`temp_gym.data.tables`)."""
+
+
+def read_card(root: str | Path) -> dict[str, Any]:
+    """The dataset card of a dataset directory, checked for the current format.
+
+    Raises:
+        StoredFileError: no card, a damaged one, or one of an older format.
+    """
+    path = Path(root) / CARD
+    card = read_json(path, f"no complete dataset in {root}: {GENERATE}")
+    if not isinstance(card, dict) or card.get("format") != FORMAT_VERSION:
+        raise StoredFileError(
+            path,
+            f"written by an older temp-gym (format {card.get('format', 1)!r} where "
+            f"{FORMAT_VERSION} is read; its replay buffer was saved with pickle and it lists "
+            "no checksums)",
+            f"{GENERATE}: it keeps the planned units and rebuilds the tables",
+        )
+    return card
+
+
+GENERATE = "rerun trainers/generate.py with the same config and data.dir"
+
+
+def incomplete_reason(root: Path, settings: dict[str, Any]) -> str | None:
+    """Why ``root`` does not hold a complete dataset of ``settings`` (None: it does).
+
+    Cheap: the card, the settings and the size of every file the card lists; checksums are
+    verified when a table is read (`load_split`).
+    """
+    if not (root / CARD).is_file():
+        return "no dataset card"
+    try:
+        card = read_card(root)
+    except StoredFileError as error:
+        return str(error)
+    if card.get("settings") != settings:
+        return "its card was written with other settings"
+    for name, entry in card.get("files", {}).items():
+        path = root / name
+        if not path.is_file():
+            return f"{path} is missing"
+        if path.stat().st_size != entry.get("bytes"):
+            return f"{path} has {path.stat().st_size} bytes, the card says {entry.get('bytes')}"
+    listed = {tuple(name.split("/", 2)[:2]) for name in card.get("files", {})}
+    for split in SPLITS:
+        for table in TABLES:
+            if (split, table) not in listed:
+                return f"its card lists no files of {split}/{table}"
+    return None
 
 
 def dataset_exists(config: dict[str, Any]) -> bool:
     """Whether ``data.dir`` holds a complete dataset made with this config's settings."""
     root = data_dir(config)
-    if not (root / CARD).is_file() or not (root / SETTINGS).is_file():
+    try:
+        stored = read_json(root / SETTINGS, "")
+    except StoredFileError:
         return False
-    with open(root / SETTINGS) as handle:
-        return json.load(handle) == data_settings(config)
+    settings = data_settings(config)
+    return stored == settings and incomplete_reason(root, settings) is None
+
+
+def _table(root: Path, split: str, table: str) -> dict[str, np.ndarray]:
+    """The verified columns of one table of ``split``."""
+    if split not in SPLITS:
+        raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
+    card = read_card(root)
+    verify_table(root, f"{split}/{table}", card["files"])
+    return read_table(root / split / table)
+
+
+def _tensordict(columns: dict[str, np.ndarray]):
+    import torch
+    from tensordict import TensorDict
+
+    rows = len(next(iter(columns.values()))) if columns else 0
+    return TensorDict({k: torch.from_numpy(v) for k, v in columns.items()}, batch_size=[rows])
 
 
 def load_workspaces(data_dir: str | Path, split: str):
     """The workspace table of ``split``: ``workspace_id`` and ``occupancy`` per row."""
-    from tensordict import TensorDict
-
-    return TensorDict.load_memmap(Path(data_dir) / split / "workspaces")
+    return _tensordict(_table(Path(data_dir), split, "workspaces"))
 
 
 def load_tasks(data_dir: str | Path, split: str):
     """The task table of ``split`` (`temp_gym.data.format.TASK_KEYS`), one row per attempt."""
-    from tensordict import TensorDict
-
-    return TensorDict.load_memmap(Path(data_dir) / split / "tasks")
+    return _tensordict(_table(Path(data_dir), split, "tasks"))
 
 
 def load_split(data_dir: str | Path, split: str):
-    """The replay buffer and workspace table of ``split``.
+    """The replay buffer and workspace table of ``split``, verified against the card.
 
-    The buffer is a `torchrl.data.ReplayBuffer` over a `LazyMemmapStorage` (restored with
-    ``rb.loads``) with a `RandomSampler`: draw a batch with ``rb.sample(batch_size)``, or
+    The buffer is a `torchrl.data.ReplayBuffer` over a `TensorStorage` of the memory-mapped
+    sample columns, with a `RandomSampler`: draw a batch with ``rb.sample(batch_size)``, or
     read every sample with ``rb[:]`` / ``rb.storage[i]``. Samples hold a ``workspace_id``;
-    the encoding is ``workspaces["occupancy"][sample["workspace_id"]]``.
+    the encoding is ``workspaces["occupancy"][sample["workspace_id"]]``. No file is
+    unpickled, and every file must match the size and SHA-256 the card lists.
 
     Example:
         >>> rb, workspaces = load_split("datasets/2d", "train")
@@ -124,20 +190,15 @@ def load_split(data_dir: str | Path, split: str):
 
     Returns:
         ``(replay_buffer, workspaces)``.
+
+    Raises:
+        StoredFileError: the dataset is incomplete, of an older format, or a file is damaged
+            (the message names the file and what to do).
     """
-    from torchrl.data import LazyMemmapStorage, ReplayBuffer
+    from torchrl.data import ReplayBuffer, TensorStorage
     from torchrl.data.replay_buffers.samplers import RandomSampler
 
-    if split not in SPLITS:
-        raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
     root = Path(data_dir)
-    buffer_dir = root / split / "buffer"
-    if not (root / CARD).is_file() or not buffer_dir.is_dir():
-        raise FileNotFoundError(f"{root}: no complete dataset (run trainers/generate.py first)")
-    with open(buffer_dir / "storage" / "storage_metadata.json") as handle:
-        size = int(json.load(handle)["len"])
-    # loads() fills a storage of exactly the saved size.
-    buffer = ReplayBuffer(storage=LazyMemmapStorage(max(size, 1)), sampler=RandomSampler())
-    if size:
-        buffer.loads(buffer_dir)
+    samples = _tensordict(_table(root, split, "buffer"))
+    buffer = ReplayBuffer(storage=TensorStorage(samples), sampler=RandomSampler())
     return buffer, load_workspaces(root, split)

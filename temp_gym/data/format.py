@@ -2,16 +2,18 @@
 
 A dataset directory (``data.dir`` in the config) holds, per split (``train``, ``val``):
 
-* ``{split}/buffer/``: a torchrl `ReplayBuffer` over `LazyMemmapStorage`, saved with
-  ``rb.dumps`` and restored with ``rb.loads``. One entry per (expert path prefix, next node).
-* ``{split}/workspaces/``: the workspace table, a memory-mapped `TensorDict` with one row per
-  workspace: ``workspace_id`` (int64) and ``occupancy`` (float32, ``(R,)*w``). Samples refer
-  to it by ``workspace_id``, so the encoding is stored once per workspace, not per sample.
+* ``{split}/buffer/``: the samples, one entry per (expert path prefix, next node), loaded as
+  a torchrl `ReplayBuffer` (`temp_gym.data.load_split`).
+* ``{split}/workspaces/``: the workspace table, one row per workspace: ``workspace_id``
+  (int64) and ``occupancy`` (float32, ``(R,)*w``). Samples refer to it by ``workspace_id``,
+  so the encoding is stored once per workspace, not per sample.
 * ``{split}/tasks/``: one row per attempted task (`TASK_KEYS`); ``{split}/units/``: the
-  generator's resumable per-workspace results.
+  generator's resumable per-workspace results (``.npz``, read without pickle).
 
-plus ``dataset_card.json`` (counts, planner, budget, seeds, cost and node statistics), written
-last, and ``settings.json`` (the settings that made the dataset).
+Each table is a directory of ``{key}.npy`` columns (`temp_gym.data.tables`): memory-mapped,
+never unpickled. ``dataset_card.json`` (format version, counts, planner, budget, seeds, cost
+and node statistics, and the size and SHA-256 of every table file) is written last;
+``settings.json`` holds the settings that made the dataset.
 
 Sample keys use the names of the env's observation (`temp_gym.envs.PlanningEnv`), so a
 policy reads a training sample and a live observation the same way. All coordinates are
@@ -34,6 +36,17 @@ SAMPLE_KEYS: dict[str, str] = {
     "target": "float32 (d,): x(k+1), the next node of the expert path, normalized",
 }
 """Every key of a stored sample, with dtype, shape and meaning."""
+
+
+def sample_shapes(dim: int, max_path_length: int) -> dict[str, tuple[str, tuple[int, ...]]]:
+    """Dtype and per-sample shape of every `SAMPLE_KEYS` entry, for ``d = dim``, ``L``."""
+    shapes = {"()": (), "(d,)": (dim,), "(1,)": (1,), "(L, d)": (max_path_length, dim)}
+    out = {}
+    for key, doc in SAMPLE_KEYS.items():
+        dtype, shape = doc.split(":")[0].split(" ", 1)
+        out[key] = (dtype, shapes[shape])
+    return out
+
 
 WORKSPACE_KEYS: dict[str, str] = {
     "workspace_id": "int64 (): the split's workspace index",

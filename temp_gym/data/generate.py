@@ -30,16 +30,26 @@ within ~2% of a 10,000-node run), 7D 1000 nodes with the env's 0.5 rad step.
 
 from __future__ import annotations
 
-import json
-import os
 import time
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, write_json_atomic
+from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
 from temp_gym.data.format import SPLITS
+from temp_gym.files import (
+    DirectoryLock,
+    LockedError,
+    StoredFileError,
+    atomic_write,
+    read_json,
+    remove_leftovers,
+    write_json_atomic,
+)
+from temp_gym.jobs import estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
 from temp_gym.planning.tree import default_step_size
 from temp_gym.worlds.generators import generate_task
@@ -128,21 +138,40 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
     }
 
 
+UNIT_KEYS = (
+    "status", "start", "goal", "goal_radius", "bounds", "step_size", "cost", "nodes",
+    "nodes_to_first_solution", "plan_time", "plan_seed", "path_offsets", "path_points",
+    "unit_time",
+)  # fmt: skip
+"""Arrays every stored unit holds (``unit_cpu_time`` was added later and may be missing)."""
+
+RECOMPUTE_UNIT = "delete it and rerun the same command: that unit is planned again"
+
+
 def write_unit(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write a unit atomically: a reader sees the whole file or none."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(temporary, "wb") as handle:
+    """Write a unit atomically (`temp_gym.files.atomic_write`): a reader sees all or none."""
+    with atomic_write(path) as handle:
         np.savez(handle, **arrays)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temporary, path)
 
 
 def read_unit(path: Path) -> dict[str, np.ndarray]:
-    """The arrays of a stored unit."""
-    with np.load(path) as stored:
-        return {key: stored[key] for key in stored.files}
+    """The arrays of a stored unit (never unpickled).
+
+    Raises:
+        StoredFileError: the file is truncated, empty or not a unit; the message names it.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            arrays = {key: stored[key] for key in stored.files}
+    except FileNotFoundError:
+        raise StoredFileError(path, "missing", RECOMPUTE_UNIT) from None
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as error:
+        reason = str(error) or type(error).__name__
+        raise StoredFileError(path, f"damaged ({reason})", RECOMPUTE_UNIT) from None
+    missing = [key for key in UNIT_KEYS if key not in arrays]
+    if missing:
+        raise StoredFileError(path, f"not a unit (no {', '.join(missing)})", RECOMPUTE_UNIT)
+    return arrays
 
 
 def _solve_job(job: tuple[dict[str, Any], str, int]) -> dict[str, np.ndarray]:
@@ -154,8 +183,11 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
     root.mkdir(parents=True, exist_ok=True)
     settings_path = root / SETTINGS
     if settings_path.is_file():
-        with open(settings_path) as handle:
-            stored = json.load(handle)
+        stored = read_json(
+            settings_path,
+            "it records which settings made this dataset; if you know it was made with "
+            "this config, delete it and rerun, else delete the directory",
+        )
         if stored != settings:
             changed = sorted(k for k in settings | stored if settings.get(k) != stored.get(k))
             raise ValueError(
@@ -167,8 +199,7 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
     for split in SPLITS:
         units = root / split / "units"
         units.mkdir(parents=True, exist_ok=True)
-        for leftover in units.glob(".*.tmp*"):  # a unit whose writer was killed
-            leftover.unlink()
+        remove_leftovers(units)  # units whose writer was killed
 
 
 def _solve_units(
@@ -177,20 +208,50 @@ def _solve_units(
     workers: int,
     progress: bool,
     tasks: int,
+    done: int = 0,
     backend: str = "local",
     address: str | None = None,
 ) -> None:
-    """Solve the units on the backend; the driver writes each unit file as it arrives."""
+    """Solve the units on the backend; the driver writes each unit file as it arrives.
+
+    The bar counts plans and starts at the ``done`` units already on disk.
+    """
     from tqdm import tqdm
 
     from temp_gym.distributed import map_units
 
-    total = len(jobs) * tasks
-    with tqdm(total=total, desc="demonstrations", unit="plan", disable=not progress) as bar:
+    total = (len(jobs) + done) * tasks
+    bar = tqdm(
+        total=total, initial=done * tasks, desc="demonstrations", unit="plan", disable=not progress
+    )
+    with bar:
         for index, arrays in map_units(_solve_job, jobs, backend, workers, address):
             _, split, workspace = jobs[index]
             write_unit(unit_path(root, split, workspace), arrays)
             bar.update(len(arrays["status"]))
+
+
+def _estimate(root: Path, settings: dict[str, Any], jobs: list, workers: int) -> str:
+    """The time the missing units should take, from units already solved, else a probe.
+
+    The probe plans the first two tasks of the first missing unit here (the workers plan
+    them again: a unit is written whole), after the per-process warm-up of `temp_gym.plan`.
+    """
+    stored = [path for split in SPLITS for path in sorted((root / split / "units").glob("*.npz"))]
+    times = []
+    for path in stored[:20]:
+        unit = read_unit(path)
+        times.append(float(unit["unit_time"]) / max(len(unit["status"]), 1))
+    if times:
+        per_plan, basis = float(np.median(times)), f"measured on {len(times)} stored units"
+    else:
+        _, split, workspace = jobs[0]
+        probes = min(2, settings["tasks_per_workspace"])
+        solve_unit(settings | {"tasks_per_workspace": 1}, split, workspace)  # warm-up
+        probe = solve_unit(settings | {"tasks_per_workspace": probes}, split, workspace)
+        per_plan, basis = float(probe["unit_time"]) / probes, f"measured on {probes} plans"
+    per_unit = per_plan * settings["tasks_per_workspace"]
+    return estimate_line(len(jobs), per_unit, workers, "units", basis)
 
 
 def generate_dataset(
@@ -199,37 +260,74 @@ def generate_dataset(
     progress: bool = True,
     backend: str = "local",
     address: str | None = None,
+    wait: bool = False,
 ) -> Path:
-    """Generate (or finish) the demonstration dataset of ``config``; return its directory.
+    """Generate (or finish, or repair) the demonstration dataset of ``config``; return its dir.
 
     A no-op when the dataset is complete. Otherwise solves the missing units with ``workers``
     processes (default ``data.workers``) on the ``backend`` (``local`` processes or ``ray``
     tasks on the cluster at ``address`` / ``$RAY_ADDRESS``, see `temp_gym.distributed`),
     assembles each split's replay buffer, workspace table and task table, and writes
-    ``dataset_card.json``. Both backends give the same dataset.
+    ``dataset_card.json``. Both backends give the same dataset. A card whose tables are
+    missing or of another size is not complete: the tables are rebuilt from the units.
+
+    The directory is locked while this runs (`temp_gym.files.DirectoryLock`): a second run
+    on the same ``data.dir`` stops with a message naming the first (or, with ``wait``, waits
+    for it and then finds the dataset complete).
 
     Example:
         >>> config = load_config("configs/tiny.yaml", ["data.dir=/tmp/tiny"])
         >>> rb, workspaces = load_split(generate_dataset(config), "train")
-    """
-    from temp_gym.data.assemble import assemble_split, write_card
 
+    Raises:
+        temp_gym.files.LockedError: another run holds the directory (without ``wait``).
+        temp_gym.files.StoredFileError: a stored file is damaged (named, with the fix).
+    """
     settings = data_settings(config)
     root = data_dir(config)
-    if (root / CARD).is_file() and (root / SETTINGS).is_file():
+    lock = DirectoryLock(root, "generating demonstrations")
+    try:
+        lock.acquire()
+    except LockedError:
+        if not wait:
+            raise
+        report(f"waiting: {root} is in use by another run ({lock.holder()})")
+        lock.acquire(wait=True)
+    try:
         _prepare(root, settings)  # raises if the settings differ
-        return root
+        reason = incomplete_reason(root, settings)
+        if reason is None:
+            return root
+        if (root / CARD).is_file():
+            report(f"{root}: the dataset is incomplete ({reason}); rebuilding its tables")
+        _generate(root, settings, config, workers, progress, backend, address)
+    finally:
+        lock.release()
+    return root
+
+
+def _generate(root, settings, config, workers, progress, backend, address) -> None:
+    from temp_gym.data.assemble import MARKER, assemble_split, write_card
+
+    (root / CARD).unlink(missing_ok=True)
+    for split in SPLITS:
+        (root / split / MARKER).unlink(missing_ok=True)  # rebuild every table
     started = time.perf_counter()
-    _prepare(root, settings)
     workers = int(workers or config["data"].get("workers") or 1)
+    total = sum(settings["workspaces"].values())
     jobs = [
         (settings, split, workspace)
         for split in SPLITS
         for workspace in range(settings["workspaces"][split])
         if not unit_path(root, split, workspace).is_file()
     ]
-    resumed = sum(settings["workspaces"].values()) - len(jobs)
-    _solve_units(root, jobs, workers, progress, settings["tasks_per_workspace"], backend, address)
+    resumed = total - len(jobs)
+    report(progress_line(resumed, total, "units"))
+    if jobs:
+        report(_estimate(root, settings, jobs, workers))
+    _solve_units(
+        root, jobs, workers, progress, settings["tasks_per_workspace"], resumed, backend, address
+    )
     planned = time.perf_counter() - started
     summaries = {split: assemble_split(root, split, settings) for split in SPLITS}
     write_card(
@@ -241,4 +339,3 @@ def generate_dataset(
         workers=workers,
         resumed_units=resumed,
     )
-    return root

@@ -19,7 +19,6 @@ generator, so a task can be recomputed alone.
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -28,6 +27,8 @@ from typing import Any
 import numpy as np
 
 from temp_gym.evaluation.protocol import TAU, reach_tolerance, tolerance_target
+from temp_gym.files import read_json, remove_leftovers, write_json_atomic
+from temp_gym.jobs import JobError
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Problem
 from temp_gym.worlds.generators import generate_task
@@ -122,9 +123,12 @@ def evaluate_task(
 
 
 def _write_json_atomic(path: Path, payload: Any) -> None:
-    tmp = path.with_suffix(path.suffix + f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps(payload, allow_nan=False, default=_jsonable))
-    os.replace(tmp, path)
+    write_json_atomic(
+        path, payload, indent=None, sort_keys=False, allow_nan=False, default=_jsonable
+    )
+
+
+RERUN_TASK = "delete it and rerun the same command: that task is evaluated again"
 
 
 def _jsonable(value: Any) -> Any:
@@ -150,7 +154,7 @@ def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -
     return record
 
 
-class ManifestMismatchError(ValueError):
+class ManifestMismatchError(JobError, ValueError):
     """An output directory holds the records of an evaluation with another manifest."""
 
 
@@ -162,7 +166,11 @@ def _check_manifest(out_dir: Path, manifest: dict[str, Any]) -> None:
         out_dir.mkdir(parents=True, exist_ok=True)
         _write_json_atomic(path, manifest)
         return
-    stored = json.loads(path.read_text())
+    stored = read_json(
+        path,
+        "it records which checkpoint and settings made the records beside it; delete the "
+        "whole directory (or choose another output directory) and rerun",
+    )
     differ = sorted(k for k in stored.keys() | manifest.keys() if stored.get(k) != manifest.get(k))
     if differ:
         raise ManifestMismatchError(
@@ -203,8 +211,7 @@ def run_evaluation(
     )
     tasks_dir = out_dir / "tasks"
     tasks_dir.mkdir(parents=True, exist_ok=True)
-    for leftover in tasks_dir.glob("*.tmp*"):  # a record whose writer was killed
-        leftover.unlink()
+    remove_leftovers(tasks_dir)  # records whose writer was killed
     jobs, paths, targets = [], [], []
     for group, (difficulty, count) in settings.groups.items():
         slug = group.replace(" ", "_")
@@ -218,7 +225,7 @@ def run_evaluation(
         for index, record in map_units(_run_job, jobs, backend, workers, address):
             _write_json_atomic(targets[index], record)
             bar.update()
-    return [json.loads(path.read_text()) for path in paths]
+    return [read_json(path, RERUN_TASK) for path in paths]
 
 
 def attention_example(

@@ -34,6 +34,7 @@ from typing import Any
 import torch
 from torch import nn
 
+from temp_gym.files import atomic_write
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
 from temp_gym.problem import ROBOTS
@@ -153,11 +154,8 @@ class TEMPModel(nn.Module):
 
     def save(self, path: str | Path, **extra: Any) -> None:
         """Write `checkpoint` to ``path`` (atomically: a killed save leaves the old file)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(path.suffix + ".partial")
-        torch.save(self.checkpoint(**extra), partial)
-        partial.replace(path)
+        with atomic_write(path) as handle:  # fsynced before the rename
+            torch.save(self.checkpoint(**extra), handle)
 
     def num_parameters(self, part: str | None = None) -> int:
         """Parameters of the whole model, or of ``part`` (``eise`` or ``mpt``)."""

@@ -1,0 +1,80 @@
+"""What long jobs tell their user: estimates, resume state, and a clean exit on Ctrl-C.
+
+The long jobs (`trainers/generate.py`, `trainers/bc.py`, `trainers/evaluate.py`) are
+resumable, so an interruption is routine: `run_script` turns Ctrl-C into one line saying to
+rerun the same command, and a `JobError` (a damaged file, a locked directory, a run that
+would mix settings) into one line naming the file or setting, instead of a traceback.
+`progress_line` and `estimate_line` are the lines they print before work starts: what is
+already done, and how long the rest should take from a measured per-unit cost.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any
+
+INTERRUPTED = 130
+"""Exit status after Ctrl-C (the shell's 128 + SIGINT)."""
+BAD_INPUT = 2
+"""Exit status for a `JobError` (as argparse uses for a bad command line)."""
+
+
+class JobError(Exception):
+    """An error whose message is all a user needs: what is wrong, where, and what to do.
+
+    Scripts print it as one line (`run_script`); the classes that inherit it also inherit
+    the builtin error that callers already catch (`ValueError`, `RuntimeError`).
+    """
+
+
+def report(message: str) -> None:
+    """Print a status line for the user (stderr, so results on stdout stay clean)."""
+    print(message, file=sys.stderr, flush=True)
+
+
+def format_duration(seconds: float) -> str:
+    """A rough, readable duration: ``45 s``, ``12 min``, ``2.5 h``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def progress_line(done: int, total: int, unit: str) -> str:
+    """``resuming: 80/133 units done`` (or ``starting: 133 units`` when none is done)."""
+    if done == 0:
+        return f"starting: {total} {unit}"
+    if done >= total:
+        return f"all {total} {unit} done"
+    return f"resuming: {done}/{total} {unit} done"
+
+
+def estimate_line(
+    remaining: int, seconds_per_unit: float, workers: int, unit: str, basis: str
+) -> str:
+    """``estimate: ~25 min for 53 units on 2 workers (9.1 s per unit, measured on ...)``."""
+    parallel = max(1, min(workers, remaining))
+    total = remaining * seconds_per_unit / parallel
+    return (
+        f"estimate: ~{format_duration(total)} for {remaining} {unit} on {parallel} "
+        f"worker{'s' if parallel > 1 else ''} ({seconds_per_unit:.3g} s per unit, {basis})"
+    )
+
+
+def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None) -> int:
+    """Run a script's ``main``; one line and an exit status on Ctrl-C or a `JobError`.
+
+    Returns 0 on success, `INTERRUPTED` after Ctrl-C ("rerun the same command to resume")
+    and `BAD_INPUT` after a `JobError`. Any other exception keeps its traceback: it is a bug.
+    """
+    try:
+        main(argv)
+    except KeyboardInterrupt:
+        report(f"{name}: interrupted; rerun the same command to resume")
+        return INTERRUPTED
+    except JobError as error:
+        report(f"{name}: error: {error}")
+        return BAD_INPUT
+    return 0
