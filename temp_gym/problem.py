@@ -38,18 +38,101 @@ _KEYS = {"robot", "bounds", "obstacles", "start", "goal", "goal_radius"}
 _BOX_KEYS = {"center", "half_extents"}
 
 
+MAX_MAGNITUDE = 1e30
+"""Largest magnitude of any coordinate or length. Planners square distances and multiply up
+to 7 lengths (volumes): beyond this they would overflow to inf."""
+MIN_LENGTH = 1e-30
+"""Smallest goal radius and bound side: their squares and volumes must not underflow to 0
+(a squared goal radius of 0 made a start outside the goal region count as inside)."""
+
+
+def _as_float(value: Any, name: str) -> float:
+    """``float(value)`` for a real number, or a `ValueError` naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+        raise ValueError(f"{name}: expected a number, got {value!r}")
+    if isinstance(value, (complex, np.complexfloating)):
+        raise ValueError(f"{name}: expected a real number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: {_short(value)} is too large (at most {MAX_MAGNITUDE:g})") from None
+    if math.isfinite(number) and abs(number) > MAX_MAGNITUDE:
+        raise ValueError(f"{name}: {number:g} is too large (at most {MAX_MAGNITUDE:g})")
+    return number
+
+
+def _short(value: Any) -> str:
+    text = str(value)
+    return text if len(text) <= 24 else f"{text[:10]}...({len(text)} digits)"
+
+
 def _float_vector(value: Any, name: str, length: int) -> np.ndarray:
     """Convert ``value`` to a finite float vector of ``length`` or raise a naming `ValueError`."""
+    if isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
+        value = value.tolist()
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
-        raise ValueError(f"{name}: expected a list of {length} numbers, got {value!r}")
+        raise ValueError(f"{name}: expected a list of {length} numbers, got {_short(value)}")
     if len(value) != length:
         raise ValueError(f"{name}: expected {length} numbers, got {len(value)}")
     if any(isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in value):
-        raise ValueError(f"{name}: expected numbers, got {list(value)!r}")
-    array = np.asarray(value, dtype=np.float64)
+        raise ValueError(f"{name}: expected numbers, got {_short(list(value))}")
+    array = np.array([_as_float(v, f"{name}[{i}]") for i, v in enumerate(value)])
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name}: contains NaN or inf: {array.tolist()}")
     return array
+
+
+def _float_array(value: Any, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """A float64 array of ``value`` (of ``shape``, if given), or a `ValueError` naming it."""
+    try:
+        array = np.array(value, dtype=np.float64)
+    except OverflowError:
+        raise ValueError(f"{name}: a number is too large (at most {MAX_MAGNITUDE:g})") from None
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected numbers, got {_short(value)}") from None
+    if np.iscomplexobj(value):
+        raise ValueError(f"{name}: expected real numbers")
+    if shape is not None and array.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name}: contains NaN or inf")
+    if array.size and np.max(np.abs(array)) > MAX_MAGNITUDE:
+        raise ValueError(f"{name}: a magnitude above {MAX_MAGNITUDE:g} (distances would overflow)")
+    return array
+
+
+def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``json`` hook: an object may not repeat a key (JSON would silently keep the last)."""
+    data: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in data:
+            raise ValueError(f"{key}: duplicate key (a JSON object names each key once)")
+        data[key] = value
+    return data
+
+
+def parse_problem_json(raw: bytes, source: str) -> Any:
+    """Decode and parse a problem file's bytes: UTF-8 JSON, no duplicate keys.
+
+    Raises:
+        ValueError: naming ``source`` and the reason (encoding, syntax, nesting, duplicates).
+    """
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        hint = " (it looks like UTF-16)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+        raise ValueError(
+            f"problem: {source} is not UTF-8 text{hint}: byte {error.start} cannot be decoded; "
+            "save it as UTF-8"
+        ) from None
+    try:
+        return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"problem: malformed JSON in {source}: {error}") from None
+    except RecursionError:
+        raise ValueError(f"problem: {source} nests JSON too deeply to be a problem") from None
+    except ValueError as error:  # a duplicate key, or an integer of too many digits
+        raise ValueError(f"problem: {source}: {error}") from None
 
 
 @dataclass(frozen=True)
@@ -79,23 +162,22 @@ class Problem:
         if not isinstance(self.robot, str) or self.robot not in ROBOTS:
             raise ValueError(f"robot: unknown robot {self.robot!r}; expected one of {list(ROBOTS)}")
         dim, wdim = ROBOTS[self.robot]
-        bounds = np.asarray(self.bounds, dtype=np.float64)
+        bounds = _float_array(self.bounds, "bounds")
         if bounds.shape != (2, dim):
             raise ValueError(
                 f"bounds: expected shape (2, {dim}) for {self.robot}, got {bounds.shape}"
             )
-        if not np.all(np.isfinite(bounds)):
-            raise ValueError("bounds: contains NaN or inf")
         if np.any(bounds[0] >= bounds[1]):
             raise ValueError(
                 f"bounds: lower must be below upper in every dimension, got {bounds.tolist()}"
             )
-        centers = np.asarray(self.obstacle_centers, dtype=np.float64).reshape(-1, wdim)
-        halves = np.asarray(self.obstacle_half_extents, dtype=np.float64).reshape(-1, wdim)
+        if np.any(bounds[1] - bounds[0] < MIN_LENGTH):
+            raise ValueError(f"bounds: every side must be at least {MIN_LENGTH:g} long")
+        centers = _float_array(self.obstacle_centers, "obstacles: center").reshape(-1, wdim)
+        halves = _float_array(self.obstacle_half_extents, "obstacles: half_extents")
+        halves = halves.reshape(-1, wdim)
         if centers.shape != halves.shape:
             raise ValueError("obstacles: centers and half_extents differ in count")
-        if not (np.all(np.isfinite(centers)) and np.all(np.isfinite(halves))):
-            raise ValueError("obstacles: contains NaN or inf")
         if np.any(halves <= 0):
             bad = int(np.argmax(np.any(halves <= 0, axis=1)))
             raise ValueError(
@@ -103,12 +185,13 @@ class Problem:
             )
         start = _float_vector(self.start, "start", dim)
         goal = _float_vector(self.goal, "goal", dim)
-        radius = self.goal_radius
-        if isinstance(radius, bool) or not isinstance(radius, (int, float, np.number)):
-            raise ValueError(f"goal_radius: expected a number, got {radius!r}")
-        radius = float(radius)
+        radius = _as_float(self.goal_radius, "goal_radius")
         if not math.isfinite(radius) or radius <= 0:
             raise ValueError(f"goal_radius: must be positive and finite, got {radius}")
+        if radius < MIN_LENGTH:
+            raise ValueError(
+                f"goal_radius: {radius:g} is below {MIN_LENGTH:g} (its square would underflow)"
+            )
         for name, point in (("start", start), ("goal", goal)):
             if np.any(point < bounds[0]) or np.any(point > bounds[1]):
                 raise ValueError(
@@ -248,13 +331,9 @@ class Problem:
 
     @classmethod
     def load(cls, path: str | Path) -> Problem:
-        """Read a problem from a JSON file; malformed JSON raises a `ValueError`."""
-        text = Path(path).read_text()
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as error:
-            raise ValueError(f"problem: malformed JSON in {path}: {error}") from None
-        return cls.from_dict(data)
+        """Read a problem from a UTF-8 JSON file; any defect raises a `ValueError` naming it."""
+        raw = Path(path).read_bytes()
+        return cls.from_dict(parse_problem_json(raw, str(path)))
 
     def save(self, path: str | Path) -> None:
         """Write the problem as JSON (floats are written with full precision)."""

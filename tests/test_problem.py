@@ -1,4 +1,5 @@
 import json
+import re
 
 import numpy as np
 import pytest
@@ -134,3 +135,83 @@ def test_replace_validates():
     with pytest.raises(ValueError, match="goal_radius"):
         problem.replace(goal_radius=-1.0)
     assert np.array_equal(problem.replace().start, problem.start)
+
+
+HUGE = 10**400  # beyond float range: float(HUGE) raises OverflowError
+
+
+@pytest.mark.parametrize(
+    "changes, field",
+    [
+        ({"start": [HUGE, 2]}, "start[0]"),
+        ({"goal_radius": HUGE}, "goal_radius"),
+        ({"goal_radius": 1e308}, "goal_radius"),  # its square overflows
+        ({"bounds": [[-1e308, -1e308], [1e308, 1e308]]}, "bounds[0][0]"),
+        ({"bounds": [[0, 0], [20, HUGE]]}, "bounds[1][1]"),
+        ({"obstacles": [{"center": [HUGE, 1], "half_extents": [1, 1]}]}, "obstacles[0].center"),
+        ({"goal_radius": 1e-200}, "goal_radius"),  # its square underflows to 0
+        ({"bounds": [[0, 0], [1e-40, 20]], "start": [0, 2], "goal": [0, 18]}, "bounds"),
+        ({"goal_radius": 1j}, "goal_radius"),
+    ],
+)
+def test_numbers_that_overflow_or_underflow_are_rejected_by_name(changes, field):
+    with pytest.raises(ValueError, match="^" + re.escape(field)):
+        Problem.from_dict(example(**changes))
+
+
+def test_huge_integers_never_raise_overflow_error_from_the_api():
+    with pytest.raises(ValueError, match="too large"):
+        Problem(
+            "point2d", [[0, 0], [20, HUGE]], np.zeros((0, 2)), np.zeros((0, 2)), [2, 2], [3, 3], 1
+        )
+
+
+def test_a_tiny_world_is_planned_correctly_not_solved_by_underflow():
+    # Scale 1e-9: the start is 1.8e-8 from the goal, whose radius is 5e-10.
+    scale = 1e-9
+    data = example(
+        bounds=[[0, 0], [20 * scale, 20 * scale]],
+        obstacles=[{"center": [10 * scale, 10 * scale], "half_extents": [scale, 3 * scale]}],
+        start=[2 * scale, 2 * scale],
+        goal=[18 * scale, 18 * scale],
+        goal_radius=0.5 * scale,
+    )
+    from temp_gym import plan
+
+    result = plan(Problem.from_dict(data), "rrt_star", seed=0, max_nodes=1500)
+    assert result.success and result.cost > 16 * np.sqrt(2) * scale
+    assert len(result.path) > 2
+
+
+def write(tmp_path, content: bytes):
+    path = tmp_path / "problem.json"
+    path.write_bytes(content)
+    return path
+
+
+def test_duplicate_keys_are_rejected(tmp_path):
+    text = json.dumps(example()).replace(
+        '"robot": "point2d"', '"robot": "kuka_iiwa14", "robot": "point2d"'
+    )
+    with pytest.raises(ValueError, match=r"problem\.json: robot: duplicate key"):
+        Problem.load(write(tmp_path, text.encode()))
+    box = '{"center": [10, 10], "center": [3, 3], "half_extents": [1, 1]}'
+    text = json.dumps(example()).replace(json.dumps(EXAMPLE["obstacles"][0]), box)
+    with pytest.raises(ValueError, match="center: duplicate key"):
+        Problem.load(write(tmp_path, text.encode()))
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "latin-1"])
+def test_files_that_are_not_utf8_name_the_file(tmp_path, encoding):
+    text = json.dumps(example(robot="pointé2d"), ensure_ascii=False)
+    with pytest.raises(ValueError, match=r"problem\.json is not UTF-8 text.*save it as UTF-8"):
+        Problem.load(write(tmp_path, text.encode(encoding)))
+
+
+def test_a_utf8_bom_is_accepted(tmp_path):
+    assert Problem.load(write(tmp_path, json.dumps(EXAMPLE).encode("utf-8-sig"))).dim == 2
+
+
+def test_deep_nesting_is_a_value_error_not_a_recursion_error(tmp_path):
+    with pytest.raises(ValueError, match="nests JSON too deeply"):
+        Problem.load(write(tmp_path, b"[" * 200_000 + b"]" * 200_000))
