@@ -15,6 +15,7 @@ from collections.abc import Callable
 from temp_gym.planning.planners import informed_rrt_star, rrt_star
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.planning.temp_planner import temp
+from temp_gym.planning.warmup import warm_up
 from temp_gym.problem import Problem
 
 PlannerFunction = Callable[[Problem, PlanSettings], PlanResult]
@@ -49,12 +50,29 @@ register_planner("ompl_rrt_star", _ompl_planner("ompl_rrt_star"))
 register_planner("ompl_informed_rrt_star", _ompl_planner("ompl_informed_rrt_star"))
 
 
-def _is_int(value: object) -> bool:
-    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+MAX_COUNT = 2**53
+"""Largest node or sample budget: counts above it no longer convert to float exactly (and
+no tree that large fits in memory)."""
 
 
-def _is_number(value: object) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+def _count(value: object, name: str, minimum: int = 1) -> int:
+    """An integer in ``[minimum, MAX_COUNT]``, or a `ValueError` naming ``name``."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise ValueError(f"{name}: expected an integer of at least {minimum}, got {value!r}")
+    if not minimum <= value <= MAX_COUNT:
+        shown = value if abs(value) < 10**20 else f"an integer of {len(str(value))} digits"
+        raise ValueError(f"{name}: expected an integer in [{minimum}, 2**53], got {shown}")
+    return int(value)
+
+
+def _real(value: object, name: str, expected: str) -> float:
+    """``float(value)`` for a real number (not bool), or a `ValueError` naming ``name``."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: expected {expected}, got a number beyond float range") from None
 
 
 def plan(
@@ -79,14 +97,22 @@ def plan(
     at ``problem.start`` and ends inside the goal region. The same seed gives the same result
     (wall times aside) unless the time limit is what stopped the run.
 
+    What the time limit and the reported times cover: the planner's run, from building its
+    tree (collision checker, per-workspace set-up, TEMP's workspace encoding) to the end of
+    the search. Not covered: the first call in a process for each robot and planner first
+    plans the same problem briefly, untimed, to compile the numba kernels
+    (`temp_gym.planning.warmup`; seconds with an empty numba cache, milliseconds otherwise);
+    loading a shipped policy; and certifying the returned path, which ``wall_time`` includes
+    but the limit does not stop.
+
     Args:
         problem: The query.
         planner: A key of `PLANNERS`: ``temp`` (the default: TEMP, with the policy shipped
             for the robot unless ``policy`` is given), ``rrt_star``, ``informed_rrt_star``,
             ``ompl_rrt_star``, ``ompl_informed_rrt_star``.
         seed: Seed of the planner's random generator.
-        max_nodes: Tree-size budget, root included (at least 1).
-        time_limit: Seconds of wall time, or None for no limit.
+        max_nodes: Tree-size budget, root included (1 to 2**53).
+        time_limit: Seconds of wall time for the search, or None for no limit (see above).
         stop_at_first: Stop at the first solution.
         step_size: Steering step; None picks 5% of the largest bound side for point robots
             (1.0 in ``[0, 20]^d``) and 0.5 rad for the iiwa.
@@ -108,40 +134,43 @@ def plan(
         raise ValueError(
             f"planner: unknown planner {planner!r}; expected one of {sorted(PLANNERS)}"
         )
-    if not _is_int(seed) or seed < 0:
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
         raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    if not _is_int(max_nodes) or max_nodes < 1:
-        raise ValueError(f"max_nodes: expected an integer of at least 1, got {max_nodes!r}")
-    if time_limit is not None and (not _is_number(time_limit) or not time_limit >= 0):
-        raise ValueError(f"time_limit: expected a non-negative number or None, got {time_limit!r}")
-    if step_size is not None and (
-        not _is_number(step_size) or not math.isfinite(step_size) or step_size <= 0
-    ):
-        raise ValueError(f"step_size: expected a positive number or None, got {step_size!r}")
-    if not _is_number(goal_bias) or not 0.0 <= goal_bias <= 1.0:
+    max_nodes = _count(max_nodes, "max_nodes")
+    if time_limit is not None:
+        time_limit = _real(time_limit, "time_limit", "a non-negative number or None")
+        if not time_limit >= 0:
+            raise ValueError(f"time_limit: expected a non-negative number or None, got {time_limit}")
+    if step_size is not None:
+        step_size = _real(step_size, "step_size", "a positive number or None")
+        if not (math.isfinite(step_size) and step_size > 0):
+            raise ValueError(f"step_size: expected a positive number or None, got {step_size}")
+    goal_bias = _real(goal_bias, "goal_bias", "a number in [0, 1]")
+    if not 0.0 <= goal_bias <= 1.0:
         raise ValueError(f"goal_bias: expected a number in [0, 1], got {goal_bias!r}")
-    if target_cost is not None and (not _is_number(target_cost) or math.isnan(target_cost)):
-        raise ValueError(f"target_cost: expected a number or None, got {target_cost!r}")
-    if max_samples is not None and (not _is_int(max_samples) or max_samples < 1):
-        raise ValueError(f"max_samples: expected an integer of at least 1, got {max_samples!r}")
-    if attention_nodes is not None and (not _is_int(attention_nodes) or attention_nodes < 1):
-        raise ValueError(
-            f"attention_nodes: expected an integer of at least 1, got {attention_nodes!r}"
-        )
+    if target_cost is not None:
+        target_cost = _real(target_cost, "target_cost", "a number or None")
+        if math.isnan(target_cost):
+            raise ValueError("target_cost: expected a number or None, got nan")
+    if max_samples is not None:
+        max_samples = _count(max_samples, "max_samples")
+    if attention_nodes is not None:
+        attention_nodes = _count(attention_nodes, "attention_nodes")
     if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
         raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
     if policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
     settings = PlanSettings(
         seed=int(seed),
-        max_nodes=int(max_nodes),
-        time_limit=None if time_limit is None else float(time_limit),
+        max_nodes=max_nodes,
+        time_limit=time_limit,
         stop_at_first=bool(stop_at_first),
-        step_size=None if step_size is None else float(step_size),
-        goal_bias=float(goal_bias),
-        target_cost=None if target_cost is None else float(target_cost),
-        max_samples=None if max_samples is None else int(max_samples),
+        step_size=step_size,
+        goal_bias=goal_bias,
+        target_cost=target_cost,
+        max_samples=max_samples,
         policy=policy,
-        attention_nodes=None if attention_nodes is None else int(attention_nodes),
+        attention_nodes=attention_nodes,
     )
+    warm_up(problem, planner, settings, PLANNERS)  # compile before the clock starts
     return PLANNERS[planner](problem, settings)

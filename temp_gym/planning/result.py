@@ -160,6 +160,9 @@ def certified_tree_solution(
 ) -> tuple[np.ndarray | None, float, int]:
     """The cheapest goal-node path the exact checker certifies: ``(path, cost, rejected)``.
 
+    A path has at least two states, as OMPL's do: a start inside the goal region gives
+    ``[start, start]`` at cost 0.
+
     Goal nodes are tried in cost order (at most ``max_tries``), so a rare fast-versus-exact
     disagreement falls back to the next-best solution instead of failing the run;
     ``rejected`` counts the paths the exact checker rejected.
@@ -171,6 +174,8 @@ def certified_tree_solution(
     rejected = 0
     for node in order:
         path = tree.path_to(int(node))
+        if len(path) == 1:  # the start lies in the goal region: one motion of length 0
+            path = np.repeat(path, 2, axis=0)
         if certify_path(problem, path):
             return path, float(tree.costs[node]), rejected
         rejected += 1

@@ -102,7 +102,28 @@ def test_registry_lists_all_planners():
     )
 
 
-def test_start_in_goal_region_is_solved_at_once(problem_2d):
+@pytest.mark.parametrize("planner", ["rrt_star", "informed_rrt_star", "temp"])
+def test_start_in_goal_region_is_a_two_state_path_of_cost_zero(problem_2d, planner):
+    # A path is at least one motion, as OMPL's are: [start, start].
     problem = problem_2d.replace(goal=[2.2, 2.2])
-    result = plan(problem, "rrt_star", seed=0, max_nodes=50)
-    assert result.success and result.cost == 0.0 and len(result.path) == 1
+    result = plan(problem, planner, seed=0, max_nodes=50)
+    assert result.success and result.cost == 0.0 and result.nodes_to_first_solution == 1
+    assert result.path.tolist() == [problem.start.tolist()] * 2
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"max_nodes": 10**400}, "max_nodes"),
+        ({"max_samples": 10**400}, "max_samples"),
+        ({"attention_nodes": 2**60}, "attention_nodes"),
+        ({"time_limit": 10**400}, "time_limit"),
+        ({"step_size": 10**400}, "step_size"),
+        ({"target_cost": 10**400}, "target_cost"),
+        ({"target_cost": float("nan")}, "target_cost"),
+        ({"goal_bias": 10**400}, "goal_bias"),
+    ],
+)
+def test_huge_numbers_are_value_errors_naming_the_argument(problem_2d, kwargs, match):
+    with pytest.raises(ValueError, match=f"^{match}"):
+        plan(problem_2d, "rrt_star", **kwargs)

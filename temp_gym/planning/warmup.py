@@ -1,0 +1,78 @@
+"""Compile before the clock starts: one short, untimed plan per process, robot and planner.
+
+The hot loops are numba kernels compiled on first use (or loaded from numba's cache in
+``__pycache__``); with an empty cache that took 20 s of a 7D plan, inside its time limit, so
+a first ``temp-plan --time-limit 2`` returned "no solution, 2 nodes". `warm_up` runs the
+planner once on the caller's own problem with a tiny budget before `temp_gym.plan` starts
+timing, so every kernel that planner reaches (tree, sampler, collision checker, the TEMP
+policy's fast MPT, certification) is compiled, and per-process setup (the checker's robot
+geometry, torch's first inference) is done. It lists no kernels by name: whatever the planner
+calls is warmed.
+
+It leaves no trace in results: planners seed their own generators from ``settings.seed``, a
+`TEMPPolicy` is re-seeded by every plan, and the per-workspace caches it fills (free volume,
+occupancy, EISE encoding) hold the values the timed run would compute. Two exceptions keep
+that true: OMPL's planners warm up through ours (OMPL seeds a process-wide stream at its
+first run, which must stay the caller's), and a policy whose ``reset`` cannot be re-seeded is
+not used for the warm-up (its state would move).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from temp_gym.planning.result import PlanResult, PlanSettings
+from temp_gym.problem import Problem
+from temp_gym.worlds.collision import certify_path
+
+WARM_UP_NODES = 64
+"""Tree nodes of a warm-up plan (half of them attention-based for ``temp``)."""
+STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star"}
+"""Planners warmed up through another (see the module docstring)."""
+
+_WARMED: set[tuple[str, str]] = set()
+
+
+def _reseedable(policy: object) -> bool:
+    return policy is None or "seed" in inspect.signature(policy.reset).parameters
+
+
+def warm_up(
+    problem: Problem,
+    planner: str,
+    settings: PlanSettings,
+    planners: dict[str, Callable[[Problem, PlanSettings], PlanResult]],
+) -> bool:
+    """Plan ``problem`` briefly with ``planner`` unless this process already did; untimed.
+
+    Returns whether a warm-up ran. Keyed by (robot, planner): kernels are compiled per
+    process, not per problem.
+    """
+    name = STAND_INS.get(planner, planner)
+    if name == "temp" and not _reseedable(settings.policy):
+        name = "rrt_star"
+    key = (problem.robot, name)
+    if key in _WARMED:
+        return False
+    _WARMED.add(key)
+    short = replace(
+        settings,
+        max_nodes=WARM_UP_NODES,
+        max_samples=None,
+        time_limit=None,
+        stop_at_first=False,
+        target_cost=None,
+        attention_nodes=WARM_UP_NODES // 2,
+        policy=settings.policy if name == "temp" else None,
+    )
+    planners[name](problem, short)
+    # The short plan may find no path: plan once more with the start inside the goal region
+    # (solution extraction), and certify one short motion (the exact checker).
+    planners[name](problem.replace(goal=problem.start.tolist()), short)
+    toward_goal = problem.start + 1e-3 * (problem.goal - problem.start)
+    certify_path(problem, np.stack([problem.start, toward_goal, problem.start]))
+    return True

@@ -1,0 +1,97 @@
+"""The first timed plan of a process compiles nothing: the warm-up ran before the clock."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from temp_gym.planning.warmup import WARM_UP_NODES
+
+PROBLEMS = {
+    "point2d": {
+        "robot": "point2d",
+        "bounds": [[0, 0], [20, 20]],
+        "obstacles": [{"center": [10, 10], "half_extents": [1, 6]}],
+        "start": [2, 2],
+        "goal": [18, 18],
+        "goal_radius": 0.5,
+    },
+    "kuka_iiwa14": {  # bounds: the joint limits
+        "robot": "kuka_iiwa14",
+        "obstacles": [{"center": [0, 0, -0.06], "half_extents": [1.5, 1.5, 0.05]}],
+        "start": [0, 0, 0, 0, 0, 0, 0],
+        "goal": [0.6, 0.4, 0, -0.6, 0, 0.4, 0],
+        "goal_radius": 0.1,
+    },
+}
+
+# In a fresh process: wrap every planner so that each call records how many numba
+# specializations (compiled, or loaded from numba's cache) appeared during it.
+SCRIPT = textwrap.dedent(
+    """
+    import importlib, json, sys
+    import numba
+    from temp_gym import Problem, plan
+    registry = importlib.import_module("temp_gym.planning.plan").PLANNERS
+
+    def specializations():
+        total = 0
+        for name, module in list(sys.modules.items()):
+            if name.startswith("temp_gym"):
+                for value in list(vars(module).values()):
+                    if isinstance(value, numba.core.dispatcher.Dispatcher):
+                        total += len(value.overloads)
+        return total
+
+    calls = []
+    for name, function in list(registry.items()):
+        def counted(problem, settings, function=function, name=name):
+            before = specializations()
+            result = function(problem, settings)
+            calls.append([name, settings.max_nodes, specializations() - before])
+            return result
+        registry[name] = counted
+
+    problem = Problem.from_dict(json.loads(sys.argv[1]))
+    for planner in sys.argv[2:]:
+        plan(problem, planner, seed=0, max_nodes=300)
+    print(json.dumps(calls))
+    """
+)
+
+
+@pytest.mark.parametrize("robot", sorted(PROBLEMS))
+def test_the_timed_run_compiles_nothing(robot):
+    planners = ["rrt_star", "informed_rrt_star", "temp"]
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT, json.dumps(PROBLEMS[robot]), *planners],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    calls = json.loads(done.stdout.strip().splitlines()[-1])
+    timed = [call for call in calls if call[1] == 300]
+    warm_ups = [call for call in calls if call[1] == WARM_UP_NODES]
+    assert [call[0] for call in timed] == planners
+    assert sum(call[2] for call in warm_ups) > 0  # a fresh process does compile or load
+    assert all(call[2] == 0 for call in timed), timed
+
+
+def test_ompl_warms_up_through_our_planner_and_keeps_its_seed():
+    pytest.importorskip("ompl")
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT, json.dumps(PROBLEMS["point2d"]), "ompl_rrt_star"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    calls = json.loads(done.stdout.strip().splitlines()[-1])
+    # OMPL itself runs once, timed: its process-wide seed stays the caller's.
+    assert [call[0] for call in calls] == ["rrt_star", "rrt_star", "ompl_rrt_star"]
+    assert calls[-1][2] == 0
