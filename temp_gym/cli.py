@@ -1,13 +1,19 @@
-"""``temp-plan``: solve one problem file from the command line.
+"""``temp-plan``: solve problem files from the command line.
 
 Example:
     $ temp-plan problem.json                  # TEMP with the shipped policy for the robot
     $ temp-plan problem.json --planner informed_rrt_star --seed 3 --max-nodes 2000 --out r.json
     informed_rrt_star seed=3: cost 26.8120, 2000 nodes, ...
-    $ temp-plan problem.json --checkpoint runs/TEMP-2D-v0__bc__0/best.pt   # your own policy
+    $ temp-plan problem.json --checkpoint runs/TEMP-2D-v0__quick__0/best.pt   # your own policy
+    $ temp-plan problems/*.json --out-dir results/   # batch: one process, one result each
 
-Exit status: 0 when a path was found, 1 when none was, 2 for bad input (a one-line error on
-stderr, no traceback).
+Batch mode plans every file in one process, so start-up (imports, the per-process warm-up of
+the compiled kernels, loading the policy) is paid once; each file gets a summary line and,
+with ``--out-dir``, ``{out-dir}/{file stem}.json``. A bad file is reported and skipped.
+
+Exit status (`EXIT_CODES`): 0 every problem was solved, 3 no path was found for some
+problem, 2 bad input (a one-line error on stderr per bad file or argument, no traceback),
+130 interrupted. 1 is left to Python: an unexpected error, with its traceback, is a bug.
 """
 
 from __future__ import annotations
@@ -18,69 +24,156 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from temp_gym.jobs import BAD_INPUT, INTERRUPTED
+
+SOLVED = 0
+NO_PATH = 3
+EXIT_CODES = {
+    SOLVED: "every problem solved",
+    BAD_INPUT: "bad input",
+    NO_PATH: "no path found",
+    INTERRUPTED: "interrupted",
+}
+"""Exit status -> meaning."""
+
 
 def _parser() -> argparse.ArgumentParser:
     from temp_gym.planning import PLANNERS
+    from temp_gym.planning.result import PlanSettings
 
     parser = argparse.ArgumentParser(
-        prog="temp-plan", description="Solve a temp-gym problem JSON file with one planner."
+        prog="temp-plan",
+        description="Solve temp-gym problem JSON files with one planner.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog="exit status: "
+        + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items()),
     )
-    parser.add_argument("problem", help="problem JSON file (see temp_gym.problem)")
     parser.add_argument(
-        "--planner", default="temp", choices=sorted(PLANNERS), help="default: temp (TEMP)"
+        "problems", nargs="+", metavar="problem", help="problem JSON files (temp_gym.problem)"
     )
+    parser.add_argument("--planner", default="temp", choices=sorted(PLANNERS), help="planner")
     parser.add_argument(
-        "--checkpoint", default=None, help="temp: a trained policy (default: the shipped one)"
+        "--checkpoint", default=None, help="temp: a trained policy (None: the shipped one)"
     )
     parser.add_argument(
         "--attention-nodes",
         type=int,
         default=None,
-        help="temp: attention-phase budget n (default: the policy's)",
+        help="temp: attention-phase budget n (None: the policy's)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--time-limit", type=float, default=None, help="seconds (default none)")
-    parser.add_argument("--max-nodes", type=int, default=5000, help="tree-size budget")
+    parser.add_argument("--seed", type=int, default=0, help="random seed")
+    parser.add_argument(
+        "--time-limit",
+        type=float,
+        default=None,
+        help="seconds of search per problem (None: no limit; see temp_gym.plan for what it covers)",
+    )
+    parser.add_argument(
+        "--max-nodes", type=int, default=PlanSettings.max_nodes, help="tree-size budget"
+    )
     parser.add_argument("--step-size", type=float, default=None, help="steering step")
     parser.add_argument("--stop-at-first", action="store_true", help="stop at the first solution")
-    parser.add_argument("--out", default=None, help="write the result (path included) as JSON")
+    parser.add_argument(
+        "--out", default=None, help="one problem: write its result (path included) as JSON"
+    )
+    parser.add_argument(
+        "--out-dir", default=None, help="write each result to {out-dir}/{problem file stem}.json"
+    )
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+def _error(message: object) -> None:
+    print(f"temp-plan: error: {message}", file=sys.stderr)
+
+
+def _outputs(args: argparse.Namespace) -> list[Path | None]:
+    """Where each problem's result goes (None: nowhere), checked before any planning."""
+    if args.out is not None and len(args.problems) > 1:
+        raise ValueError("--out takes one problem; use --out-dir for several")
+    if args.out is not None:
+        return [Path(args.out)]
+    if args.out_dir is None:
+        return [None] * len(args.problems)
+    stems = [Path(problem).stem for problem in args.problems]
+    repeated = sorted({stem for stem in stems if stems.count(stem) > 1})
+    if repeated:
+        raise ValueError(f"--out-dir: several problems would write {repeated[0]}.json")
+    return [Path(args.out_dir) / f"{stem}.json" for stem in stems]
+
+
+def _policy(args: argparse.Namespace):
+    """The policy of ``--checkpoint`` (loaded once), or None."""
+    if args.planner != "temp":
+        if args.checkpoint is not None or args.attention_nodes is not None:
+            raise ValueError("--checkpoint and --attention-nodes apply to --planner temp only")
+        return None
+    if args.checkpoint is None:
+        return None
+    from temp_gym.models.policy import TEMPPolicy
+
+    return TEMPPolicy.from_checkpoint(args.checkpoint)
+
+
+def _solve(path: str, args: argparse.Namespace, policy, out: Path | None):
+    """Plan one problem file and write its result; bad input raises `ValueError`/`OSError`."""
     from temp_gym.planning import plan
     from temp_gym.problem import Problem
 
-    args = _parser().parse_args(argv)
-    try:
-        problem = Problem.load(args.problem)
-        extra = {}
-        if args.planner == "temp":
-            extra["attention_nodes"] = args.attention_nodes
-            if args.checkpoint is not None:
-                from temp_gym.models.policy import TEMPPolicy
+    problem = Problem.load(path)
+    extra = {}
+    if args.planner == "temp":
+        extra["attention_nodes"] = args.attention_nodes
+        if policy is not None:
+            from temp_gym.models.temp import check_compatible
 
-                extra["policy"] = TEMPPolicy.from_checkpoint(args.checkpoint, robot=problem.robot)
-        elif args.checkpoint is not None or args.attention_nodes is not None:
-            raise ValueError("--checkpoint and --attention-nodes apply to --planner temp only")
-        result = plan(
-            problem,
-            planner=args.planner,
-            seed=args.seed,
-            max_nodes=args.max_nodes,
-            time_limit=args.time_limit,
-            stop_at_first=args.stop_at_first,
-            step_size=args.step_size,
-            **extra,
-        )
-        if args.out is not None:
-            Path(args.out).write_text(json.dumps(result.to_dict()) + "\n")
+            check_compatible(
+                policy.robot, policy.model.dim, problem.robot, problem.dim, args.checkpoint
+            )
+            extra["policy"] = policy
+    result = plan(
+        problem,
+        planner=args.planner,
+        seed=args.seed,
+        max_nodes=args.max_nodes,
+        time_limit=args.time_limit,
+        stop_at_first=args.stop_at_first,
+        step_size=args.step_size,
+        **extra,
+    )
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(result.to_dict()) + "\n")
+    return result
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (`EXIT_CODES`)."""
+    args = _parser().parse_args(argv)
+    batch = len(args.problems) > 1
+    try:
+        outputs = _outputs(args)
+        policy = _policy(args)
     except (OSError, ValueError, ImportError) as error:
-        print(f"temp-plan: error: {error}", file=sys.stderr)
-        return 2
-    print(result.summary())
-    return 0 if result.success else 1
+        _error(error)
+        return BAD_INPUT
+    except KeyboardInterrupt:
+        _error("interrupted")
+        return INTERRUPTED
+    status = SOLVED
+    for path, out in zip(args.problems, outputs):
+        try:
+            result = _solve(path, args, policy, out)
+        except (OSError, ValueError, ImportError) as error:
+            _error(f"{path}: {error}" if batch and path not in str(error) else error)
+            status = BAD_INPUT
+            continue
+        except KeyboardInterrupt:
+            _error("interrupted")
+            return INTERRUPTED
+        print(f"{path}: {result.summary()}" if batch else result.summary(), flush=True)
+        if not result.success and status == SOLVED:
+            status = NO_PATH
+    return status
 
 
 if __name__ == "__main__":

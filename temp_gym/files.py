@@ -39,6 +39,8 @@ class StoredFileError(JobError, ValueError):
 
     def __init__(self, path: str | Path, problem: str, remedy: str) -> None:
         self.path = Path(path)
+        self.problem = problem
+        self.remedy = remedy
         super().__init__(f"{path}: {problem}; {remedy}")
 
 

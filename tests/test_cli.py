@@ -59,6 +59,141 @@ def test_cli_main_in_process(tmp_path, capsys):
     problem.write_text(json.dumps(PROBLEM))
     assert main([str(problem), "--planner", "rrt_star", "--max-nodes", "300", "--seed", "1"]) in (
         0,
-        1,
+        3,
     )
     assert "rrt_star seed=1" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------------- hostile input
+HUGE = "1" + "0" * 400  # an integer beyond float range
+
+
+def raw_problem(**changes) -> str:
+    return json.dumps({**PROBLEM, **changes})
+
+
+BAD_FILES = {
+    "huge integer": raw_problem(start=[2, 2]).replace("[2, 2]", f"[{HUGE}, 2]"),
+    "deep nesting": "[" * 200_000 + "]" * 200_000,
+    "goal radius whose square overflows": raw_problem(goal_radius=1e308),
+    "bounds of 1e308": raw_problem(bounds=[[-1e308, -1e308], [1e308, 1e308]]),
+    "duplicate key": raw_problem().replace(
+        '"robot": "point2d"', '"robot": "x", "robot": "point2d"'
+    ),
+    "empty file": "",
+}
+
+
+def assert_one_line_error(code, stderr, *fragments):
+    assert code == 2
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("temp-plan: error:"), stderr
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_bad_problem_files_give_one_line_and_exit_2(tmp_path, capsys, name):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(BAD_FILES[name])
+    code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50"])
+    assert_one_line_error(code, capsys.readouterr().err)
+
+
+def test_a_utf16_file_names_the_file(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_bytes(raw_problem().encode("utf-16"))
+    code = main([str(problem), "--planner", "rrt_star"])
+    assert_one_line_error(code, capsys.readouterr().err, "problem.json", "UTF-8")
+
+
+class Payload:
+    """Unpickling this creates ``marker``."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def broken_checkpoints(tmp_path):
+    import torch
+
+    from temp_gym.models.registry import shipped_checkpoint
+
+    good = torch.load(shipped_checkpoint("point2d"), weights_only=True)
+    data = shipped_checkpoint("point2d").read_bytes()
+    files = {
+        "truncated": data[: len(data) // 2],
+        "empty": b"",
+        "random bytes": bytes(range(256)) * 8,
+    }
+    paths = {}
+    for name, content in files.items():
+        paths[name] = tmp_path / f"{name}.pt"
+        paths[name].write_bytes(content)
+    missing_robot = {key: value for key, value in good.items() if key != "robot"}
+    wrong_shape = {**good, "state_dict": dict(good["state_dict"])}
+    first = next(iter(wrong_shape["state_dict"]))
+    wrong_shape["state_dict"][first] = torch.zeros(3, 1)
+    nan = {**good, "state_dict": dict(good["state_dict"])}
+    nan["state_dict"][first] = torch.full_like(good["state_dict"][first], float("nan"))
+    malicious = {**good, "extra": Payload(tmp_path / "ran")}
+    for name, content in (
+        ("missing robot", missing_robot),
+        ("wrong shapes", wrong_shape),
+        ("nan weights", nan),
+        ("malicious", malicious),
+    ):
+        paths[name] = tmp_path / f"{name}.pt"
+        torch.save(content, paths[name])
+    return paths
+
+
+def test_every_broken_checkpoint_gives_one_line_and_exit_2(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(raw_problem())
+    for name, path in broken_checkpoints(tmp_path).items():
+        code = main([str(problem), "--checkpoint", str(path), "--max-nodes", "50"])
+        err = capsys.readouterr().err
+        assert_one_line_error(code, err, str(path))
+        if name == "nan weights":
+            assert "NaN" in err
+    assert not (tmp_path / "ran").exists()  # the malicious checkpoint ran nothing
+
+
+def test_no_path_has_its_own_exit_code(tmp_path):
+    problem = tmp_path / "problem.json"
+    problem.write_text(raw_problem())
+    done = run_cli(problem, "--planner", "rrt_star", "--max-nodes", 3)
+    assert done.returncode == 3, done.stderr
+    assert "no solution" in done.stdout and done.stderr == ""
+
+
+def test_batch_mode_writes_one_result_per_problem_and_reports_bad_files(tmp_path):
+    for name, goal in (("a", [18, 18]), ("b", [18, 2])):
+        (tmp_path / f"{name}.json").write_text(raw_problem(goal=goal))
+    (tmp_path / "c.json").write_text("{broken")
+    out = tmp_path / "results"
+    files = [tmp_path / f"{name}.json" for name in "abc"]
+    done = run_cli(*files, "--planner", "rrt_star", "--max-nodes", 400, "--out-dir", out)
+    assert done.returncode == 2  # one bad file
+    assert done.stderr.count("temp-plan: error:") == 1 and "c.json" in done.stderr
+    lines = done.stdout.strip().splitlines()
+    assert [line.split(":")[0] for line in lines] == [str(files[0]), str(files[1])]
+    for name, goal in (("a", [18, 18]), ("b", [18, 2])):
+        result = json.loads((out / f"{name}.json").read_text())
+        assert result["success"] and result["path"][-1] == pytest.approx(goal, abs=0.5)
+    assert not (out / "c.json").exists()
+
+
+def test_help_shows_every_default():
+    done = run_cli("--help")
+    assert "(default: 5000)" in done.stdout and "exit status" in done.stdout

@@ -28,13 +28,15 @@ Example:
 from __future__ import annotations
 
 import hashlib
+import pickle
+import warnings
 from pathlib import Path
 from typing import Any
 
 import torch
 from torch import nn
 
-from temp_gym.files import atomic_write
+from temp_gym.files import StoredFileError, atomic_write
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
 from temp_gym.problem import ROBOTS
@@ -174,6 +176,67 @@ def weights_digest(state_dict: dict[str, torch.Tensor]) -> str:
     return digest.hexdigest()
 
 
+class CheckpointError(StoredFileError):
+    """A file that is not a loadable TEMP checkpoint; the message names it and why."""
+
+
+NOT_A_CHECKPOINT = "use a checkpoint written by trainers/bc.py or trainers/ship.py"
+
+
+def _read_checkpoint(path: str | Path, map_location) -> dict[str, Any]:
+    """``torch.load(..., weights_only=True)``; every failure becomes a `CheckpointError`."""
+    try:
+        with warnings.catch_warnings():  # torch warns about foreign pickle protocols
+            warnings.simplefilter("ignore")
+            checkpoint = torch.load(path, map_location=map_location, weights_only=True)
+    except (FileNotFoundError, IsADirectoryError, PermissionError):
+        raise
+    except pickle.UnpicklingError:
+        raise CheckpointError(
+            path,
+            "torch.load(weights_only=True) refused it: not a plain tensor checkpoint (a "
+            "foreign, damaged or malicious file; nothing in it was run)",
+            NOT_A_CHECKPOINT,
+        ) from None
+    except EOFError:
+        raise CheckpointError(path, "empty or truncated", NOT_A_CHECKPOINT) from None
+    except (RuntimeError, ValueError, TypeError, KeyError, IndexError, OSError) as error:
+        first = (str(error).splitlines() or [type(error).__name__])[0][:160]
+        raise CheckpointError(
+            path, f"not a readable torch file ({first})", NOT_A_CHECKPOINT
+        ) from None
+    if not isinstance(checkpoint, dict) or not isinstance(checkpoint.get("state_dict"), dict):
+        raise CheckpointError(path, "not a TEMP checkpoint (no state_dict)", NOT_A_CHECKPOINT)
+    if checkpoint.get("version") != CHECKPOINT_VERSION:
+        raise CheckpointError(
+            path,
+            f"checkpoint version {checkpoint.get('version')!r}, expected {CHECKPOINT_VERSION}",
+            NOT_A_CHECKPOINT,
+        )
+    for key, kind in (("robot", str), ("dim", int), ("encoding_resolution", int)):
+        if not isinstance(checkpoint.get(key), kind) or isinstance(checkpoint.get(key), bool):
+            raise CheckpointError(path, f"no valid {key!r} entry", NOT_A_CHECKPOINT)
+    for key in ("max_path_length",):
+        if not isinstance(checkpoint.get(key), int) or checkpoint[key] < 1:
+            raise CheckpointError(path, f"no valid {key!r} entry", NOT_A_CHECKPOINT)
+    if checkpoint["robot"] not in ROBOTS or ROBOTS[checkpoint["robot"]][0] != checkpoint["dim"]:
+        raise CheckpointError(
+            path, f"unknown robot {checkpoint['robot']!r} (d={checkpoint['dim']})", NOT_A_CHECKPOINT
+        )
+    if not isinstance(checkpoint.get("model_config"), dict):
+        raise CheckpointError(path, "no valid 'model_config' entry", NOT_A_CHECKPOINT)
+    for name, tensor in checkpoint["state_dict"].items():
+        if not isinstance(tensor, torch.Tensor):
+            raise CheckpointError(path, f"state_dict[{name!r}] is not a tensor", NOT_A_CHECKPOINT)
+        if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
+            raise CheckpointError(
+                path,
+                f"weight {name!r} holds NaN or inf (training diverged, or the file is damaged)",
+                "use an earlier checkpoint, or retrain",
+            )
+    return checkpoint
+
+
 def load_checkpoint(
     path: str | Path,
     robot: str | None = None,
@@ -182,26 +245,30 @@ def load_checkpoint(
 ) -> tuple[TEMPModel, dict[str, Any]]:
     """Load a checkpoint with ``weights_only=True``; return the model and the raw dict.
 
+    Every defect is a `CheckpointError` naming the file: a file torch cannot read (empty,
+    truncated, random bytes), one with objects that ``weights_only`` refuses to build, missing
+    or ill-typed entries, weights that do not fit the stored model sizes, NaN or inf weights.
+
     Raises:
-        ValueError: the file is not a TEMP checkpoint, has an unknown version, or was trained
-            for another ``robot`` or dimension ``dim`` than the ones asked for.
+        CheckpointError: the file is not a usable TEMP checkpoint (a `ValueError`).
+        ValueError: it was trained for another ``robot`` or dimension ``dim``.
+        OSError: the file cannot be opened.
     """
-    checkpoint = torch.load(path, map_location=map_location, weights_only=True)
-    if not isinstance(checkpoint, dict) or "state_dict" not in checkpoint:
-        raise ValueError(f"{path}: not a TEMP checkpoint (no state_dict)")
-    if checkpoint.get("version") != CHECKPOINT_VERSION:
-        raise ValueError(
-            f"{path}: checkpoint version {checkpoint.get('version')!r}, expected "
-            f"{CHECKPOINT_VERSION}"
-        )
+    checkpoint = _read_checkpoint(path, map_location)
     check_compatible(checkpoint["robot"], checkpoint["dim"], robot, dim, source=str(path))
-    model = TEMPModel.from_config(
-        checkpoint["model_config"],
-        checkpoint["robot"],
-        checkpoint["encoding_resolution"],
-        checkpoint["max_path_length"],
-    )
-    model.load_state_dict(checkpoint["state_dict"])
+    try:
+        model = TEMPModel.from_config(
+            checkpoint["model_config"],
+            checkpoint["robot"],
+            checkpoint["encoding_resolution"],
+            checkpoint["max_path_length"],
+        )
+        model.load_state_dict(checkpoint["state_dict"])
+    except (ValueError, TypeError, RuntimeError, KeyError) as error:
+        first = (str(error).splitlines() or [type(error).__name__])[0][:200]
+        raise CheckpointError(
+            path, f"its weights do not fit its model_config ({first})", NOT_A_CHECKPOINT
+        ) from None
     return model, checkpoint
 
 
