@@ -55,7 +55,9 @@ def _as_float(value: Any, name: str) -> float:
     try:
         number = float(value)
     except OverflowError:
-        raise ValueError(f"{name}: {_short(value)} is too large (at most {MAX_MAGNITUDE:g})") from None
+        raise ValueError(
+            f"{name}: {_short(value)} is too large (at most {MAX_MAGNITUDE:g})"
+        ) from None
     if math.isfinite(number) and abs(number) > MAX_MAGNITUDE:
         raise ValueError(f"{name}: {number:g} is too large (at most {MAX_MAGNITUDE:g})")
     return number

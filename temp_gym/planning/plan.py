@@ -140,7 +140,9 @@ def plan(
     if time_limit is not None:
         time_limit = _real(time_limit, "time_limit", "a non-negative number or None")
         if not time_limit >= 0:
-            raise ValueError(f"time_limit: expected a non-negative number or None, got {time_limit}")
+            raise ValueError(
+                f"time_limit: expected a non-negative number or None, got {time_limit}"
+            )
     if step_size is not None:
         step_size = _real(step_size, "step_size", "a positive number or None")
         if not (math.isfinite(step_size) and step_size > 0):
