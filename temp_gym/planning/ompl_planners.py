@@ -39,7 +39,8 @@ nodes are still counted, as in our planners, which never prune.
 Seeding: OMPL seeds its random generators from one process-wide seed generator that can
 only be seeded before its first use, so the first OMPL run in a process is seeded with its
 ``seed`` and later runs continue that stream (a fresh process with the same sequence of runs
-reproduces them).
+reproduces them). OMPL refuses the seed 0 and silently uses 1 instead, so our seed ``s`` is
+passed as ``s + 1`` (`ompl_seed`): every seed in ``[0, 2**64 - 2]`` is its own OMPL run.
 
 Needs ``pip install temp-gym[ompl]``.
 """
@@ -62,6 +63,19 @@ RANGE_FACTOR = 2.0
 K_NEAREST = False
 """Whether OMPL's RRTstar uses k-nearest neighbours (True) or its radius rule (False)."""
 _SEEDED = False
+MAX_SEED = 2**64 - 2
+"""Largest seed the OMPL planners take (OMPL's seeds are 64-bit and may not be 0)."""
+
+
+def ompl_seed(seed: int) -> int:
+    """OMPL's seed for our ``seed``: ``seed + 1``, one-to-one (OMPL maps 0 to 1).
+
+    Raises:
+        ValueError: ``seed`` is outside ``[0, MAX_SEED]``.
+    """
+    if not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed: the OMPL planners take seeds in [0, 2**64 - 2], got {seed}")
+    return seed + 1
 
 
 def _import_ompl():
@@ -91,11 +105,12 @@ def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> Plan
     """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result."""
     if name not in OMPL_PLANNERS:
         raise ValueError(f"planner: unknown OMPL planner {name!r}; expected one of {OMPL_PLANNERS}")
+    seed = ompl_seed(settings.seed)
     ob, og, ou = _import_ompl()
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     global _SEEDED
     if not _SEEDED:
-        ou.RNG.setSeed(int(settings.seed))
+        ou.RNG.setSeed(seed)
         _SEEDED = True
     started = time.perf_counter()
     dim = problem.dim

@@ -66,3 +66,43 @@ def test_ompl_target_cost_is_in_the_history(problem_2d, planner):
     assert result.success and result.cost <= target + 1e-9
     assert result.history["best_cost"][-1] <= target + 1e-9
     assert result.history["nodes"][-1] <= result.nodes
+
+
+def first_ompl_run(seed: int) -> dict:
+    """The first OMPL run of a fresh process (the one OMPL's process-wide seed applies to)."""
+    import json
+    import subprocess
+    import sys
+
+    script = (
+        "import json, sys; from temp_gym import Problem, plan; "
+        "sys.path.insert(0, sys.argv[2]); from conftest import make_problem_2d; "
+        "r = plan(make_problem_2d(), 'ompl_rrt_star', seed=int(sys.argv[1]), max_nodes=300); "
+        "print(json.dumps([r.cost, r.path.tolist()]))"
+    )
+    from pathlib import Path
+
+    done = subprocess.run(
+        [sys.executable, "-c", script, str(seed), str(Path(__file__).parent)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_ompl_seeds_0_and_1_are_different_runs_and_a_seed_repeats():
+    # OMPL maps its seed 0 to 1; ours are passed as seed + 1, so 0 and 1 stay distinct.
+    zero, one, zero_again = first_ompl_run(0), first_ompl_run(1), first_ompl_run(0)
+    assert zero != one
+    assert zero == zero_again
+
+
+def test_ompl_seed_mapping_is_one_to_one_and_bounded():
+    from temp_gym.planning.ompl_planners import MAX_SEED, ompl_seed
+
+    assert [ompl_seed(seed) for seed in (0, 1, 2)] == [1, 2, 3]
+    assert ompl_seed(MAX_SEED) == 2**64 - 1
+    with pytest.raises(ValueError, match="seed"):
+        ompl_seed(MAX_SEED + 1)
