@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from functools import lru_cache
 from typing import Any
 
@@ -21,6 +22,32 @@ from temp_gym.worlds.workspace import Workspace
 DIFFICULTIES = ("any", "easy", "challenging", "mixed")
 FALLBACKS = ("random", "none")
 DEFAULT_MAX_NODES = {"point2d": 3000, "point3d": 3000, "kuka_iiwa14": 5000}
+
+
+def _is_integer(value: object) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def _is_positive(value: object) -> bool:
+    """A finite number above 0 (not a bool, not complex)."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(value) and value > 0
+    except OverflowError:  # an integer beyond float range
+        return False
+
+
+def _check_target_cost(value: object, name: str) -> None:
+    """None or a real number that is not NaN."""
+    if value is None:
+        return
+    try:
+        bad = not isinstance(value, numbers.Real) or isinstance(value, bool) or math.isnan(value)
+    except OverflowError:  # an integer beyond float range
+        bad = True
+    if bad:
+        raise ValueError(f"{name}: expected a number (not NaN) or None, got {value!r}")
 
 
 @lru_cache(maxsize=64)
@@ -138,21 +165,32 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']}")
-        max_nodes = DEFAULT_MAX_NODES[robot] if max_nodes is None else int(max_nodes)
-        if max_nodes < 2:
-            raise ValueError(f"max_nodes: must be at least 2, got {max_nodes}")
-        if max_path_length < 2:
-            raise ValueError(f"max_path_length: must be at least 2, got {max_path_length}")
-        if step_size is not None and not step_size > 0:
-            raise ValueError(f"step_size: must be positive, got {step_size}")
+        max_nodes = DEFAULT_MAX_NODES[robot] if max_nodes is None else max_nodes
+        if not _is_integer(max_nodes) or max_nodes < 2:
+            raise ValueError(f"max_nodes: expected an integer of at least 2, got {max_nodes!r}")
+        if not _is_integer(max_path_length) or max_path_length < 2:
+            raise ValueError(f"max_path_length: must be at least 2, got {max_path_length!r}")
+        if step_size is not None and not _is_positive(step_size):
+            raise ValueError(f"step_size: must be positive and finite, got {step_size!r}")
+        if goal_radius is not None and not _is_positive(goal_radius):
+            raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
+        if encoding_resolution is not None and (
+            not _is_integer(encoding_resolution) or encoding_resolution < 1
+        ):
+            raise ValueError(
+                f"encoding_resolution: expected a positive integer, got {encoding_resolution!r}"
+            )
+        _check_target_cost(target_cost, "target_cost")
         self.robot = robot
         self.difficulty = difficulty
-        self.max_nodes = max_nodes
+        self.max_nodes = int(max_nodes)
         self.step_size = step_size
         self.goal_radius = goal_radius
         self.fallback = fallback
         self.max_fallback_tries = int(max_fallback_tries)
-        self.resolution = encoding_resolution or DEFAULT_RESOLUTION[robot]
+        self.resolution = (
+            DEFAULT_RESOLUTION[robot] if encoding_resolution is None else int(encoding_resolution)
+        )
         self.split = split
         self.max_path_length = int(max_path_length)
         self.step_penalty = float(step_penalty)
@@ -243,6 +281,7 @@ class PlanningEnv(gym.Env):
         elif problem.robot != self.robot:
             raise ValueError(f"options['problem']: robot {problem.robot} in a {self.robot} env")
         target = options.get("target_cost", self.default_target_cost)
+        _check_target_cost(target, "options['target_cost']")
         self.target_cost = -math.inf if target is None else float(target)
         self.problem = problem
         step = self.step_size if self.step_size is not None else default_step_size(problem)

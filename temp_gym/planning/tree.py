@@ -310,6 +310,8 @@ class Tree:
             coincided with its nearest node), in which case the tree is unchanged.
         """
         if type(sample) is not np.ndarray or sample.dtype != np.float64:
+            if np.iscomplexobj(sample):  # float64 conversion would drop the imaginary part
+                raise ValueError(f"{'action' if normalized else 'sample'}: must be real")
             sample = np.asarray(sample, dtype=np.float64)
         if sample.shape != (self.dim,):
             name = "action" if normalized else "sample"

@@ -1,0 +1,48 @@
+"""Hostile env arguments and actions: a clear error, never a silent default or a dropped part."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import temp_gym  # noqa: F401  (registers the envs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"goal_radius": 0.0}, "goal_radius"),  # was silently the default radius
+        ({"goal_radius": float("nan")}, "goal_radius"),
+        ({"encoding_resolution": 0}, "encoding_resolution"),  # was silently the default
+        ({"encoding_resolution": 2.5}, "encoding_resolution"),
+        ({"max_nodes": float("inf")}, "max_nodes"),  # was an OverflowError
+        ({"max_nodes": 3000.0}, "max_nodes"),
+        ({"target_cost": float("nan")}, "target_cost"),  # was ignored
+        ({"step_size": float("inf")}, "step_size"),
+    ],
+)
+def test_bad_constructor_arguments_are_rejected_by_name(kwargs, field):
+    with pytest.raises(ValueError, match=f"^{field}"):
+        gym.make("TEMP-2D-v0", **kwargs)
+
+
+def test_a_nan_target_cost_option_is_rejected():
+    env = gym.make("TEMP-2D-v0").unwrapped
+    with pytest.raises(ValueError, match=r"options\['target_cost'\]"):
+        env.reset(seed=0, options={"target_cost": float("nan")})
+
+
+def test_complex_actions_are_rejected_not_truncated():
+    env = gym.make("TEMP-2D-v0", fallback="none").unwrapped
+    env.reset(seed=0)
+    for action in (np.array([0.5 + 0.5j, 0.1]), [0.5, 1j]):
+        with pytest.raises(ValueError, match="action: must be real"):
+            env.step(action)
+    assert env.tree.num_nodes == 1 and env.tree.samples == 0
+
+
+def test_explicit_valid_values_are_used_not_replaced():
+    env = gym.make("TEMP-2D-v0", goal_radius=0.25, encoding_resolution=8, max_nodes=50).unwrapped
+    observation, _ = env.reset(seed=0)
+    assert env.problem.goal_radius == 0.25
+    assert observation["occupancy"].shape == (8, 8)
+    assert env.max_nodes == 50
