@@ -13,8 +13,12 @@ checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for a
 ``eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
-(lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG: a killed run
+(lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG, config: a killed run
 restarted with the same command resumes from it), ``results.yaml`` and the TensorBoard events.
+A resume under a config that changes training (`RESUMABLE_CHANGES` lists what may change) is
+refused, naming the keys. Reproducibility: with a fixed ``train.threads`` (the main job uses
+1) a run, and a resumed run, give bit-identical weights; with ``null`` torch takes one thread
+per core, so the weights depend on the machine (float sums are ordered by the thread count).
 
 TensorBoard tags: ``train/loss``, ``train/recons``, ``train/semantic`` (epoch means),
 ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
@@ -41,10 +45,18 @@ from tqdm import tqdm
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # `utils` next to this script
 import utils  # noqa: E402
 
-from temp_gym.config import load_config  # noqa: E402
+from temp_gym.config import (  # noqa: E402
+    differing_keys,
+    flatten,
+    load_config,
+    parse_args,
+    script_parser,
+)
+from temp_gym.files import StoredFileError  # noqa: E402
+from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script  # noqa: E402
 from temp_gym.models.attention import attention_figure, normalized_group_attention  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
-from temp_gym.models.temp import load_checkpoint  # noqa: E402
+from temp_gym.models.temp import CheckpointError, load_checkpoint  # noqa: E402
 from temp_gym.planning.plan import plan  # noqa: E402
 
 DEFAULT_CONFIG = "configs/2d.yaml"
@@ -159,15 +171,20 @@ def train(
     optimizer, scheduler = utils.make_optimizer(config, model)
     logger = utils.make_logger(config if dist.is_main else _no_logging(config), run_dir)
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
+    max_epochs = int(train_config["max_epochs"])
     state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False, "history": []}
     if resume and last_path.exists():
-        model_loaded, checkpoint = load_checkpoint(last_path, robot=model.robot)
-        model.load_state_dict(model_loaded.state_dict())
+        checkpoint = resume_checkpoint(last_path, config, model.robot)
+        model.load_state_dict(checkpoint["state_dict"])
         optimizer.load_state_dict(checkpoint["optimizer"])
         scheduler.load_state_dict(checkpoint["scheduler"])
         torch.set_rng_state(checkpoint["rng"])
         state = {key: checkpoint.get(key, value) for key, value in state.items()}
-        print(f"resuming {run_dir} at epoch {state['epoch']}")
+        if dist.is_main:
+            report(f"{run_dir}: {progress_line(state['epoch'], max_epochs, 'epochs')}")
+            seconds = [entry["seconds"] for entry in state["history"] if "seconds" in entry]
+            if seconds and state["epoch"] < max_epochs and not state["lr_floor"]:
+                report(epoch_estimate(max_epochs - state["epoch"], seconds))
     else:
         logger.text("hparams", utils.config_markdown(config))
     if dist.world > 1:
@@ -178,7 +195,6 @@ def train(
         )
     else:
         trained = model
-    max_epochs = int(train_config["max_epochs"])
     if state["lr_floor"] or state["epoch"] >= max_epochs:
         print(f"{run_dir}: training already finished (epoch {state['epoch']})")
         logger.close()
@@ -244,7 +260,7 @@ def train(
         state["epoch"] = epoch + 1
         state["history"].append(
             {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
-             "lr": lr}
+             "lr": lr, "seconds": time.perf_counter() - began}
         )  # fmt: skip
         logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
         logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
@@ -275,11 +291,70 @@ def train(
                 finished=state["lr_floor"] or state["epoch"] >= max_epochs,
                 **state,
             )
+        if epoch == 0 and dist.is_main and max_epochs > 1 and not state["lr_floor"]:
+            report(epoch_estimate(max_epochs - 1, [state["history"][-1]["seconds"]]))
         bar.update(1)
         bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
     bar.close()
     logger.close()
     return best_path
+
+
+RESUMABLE_CHANGES = ("train.max_epochs", "train.threads", "train.device", "data.dir",
+                     "data.workers", "eval", "logger")  # fmt: skip
+"""Config keys that may differ when a run resumes: when to stop, where and how fast it runs,
+and what is evaluated and logged. Every other key shapes the training itself (model, optim,
+loss, data, env, train), so a run refuses to resume under a change to one of them.
+``train.threads`` and ``train.device`` may change, but the result is then not bit-identical to
+an uninterrupted run (floating-point sums are ordered by the thread count and device)."""
+
+
+class ResumeMismatchError(JobError, ValueError):
+    """``last.pt`` was written under a config that differs in a key training depends on."""
+
+
+def resume_checkpoint(last_path: Path, config: dict[str, Any], robot: str) -> dict[str, Any]:
+    """``last.pt``, checked to be readable and written under the same training config.
+
+    Raises:
+        StoredFileError: it is damaged (named, with what to do).
+        ResumeMismatchError: it was trained under another config (the keys are named).
+    """
+    try:
+        _, checkpoint = load_checkpoint(last_path, robot=robot)
+    except CheckpointError as error:
+        raise StoredFileError(
+            last_path,
+            f"cannot resume from it: {error.problem}",
+            "delete it, or pass --no-resume, to train from the start",
+        ) from None
+    for key in ("optimizer", "scheduler", "rng", "epoch"):
+        if key not in checkpoint:
+            raise StoredFileError(
+                last_path,
+                f"cannot resume from it: no {key!r} (not a last.pt of trainers/bc.py)",
+                "delete it, or pass --no-resume, to train from the start",
+            )
+    stored = checkpoint.get("config")
+    if isinstance(stored, dict):
+        changed = differing_keys(stored, config, RESUMABLE_CHANGES)
+        if changed:
+            shown = ", ".join(
+                f"{key}: {flatten(stored).get(key)!r} -> {flatten(config).get(key)!r}"
+                for key in changed
+            )
+            raise ResumeMismatchError(
+                f"{last_path} was trained with another config ({shown}); rerun with the "
+                "original values to resume, or pass --no-resume (or another train.exp_name) "
+                "to start a new run"
+            )
+    return checkpoint
+
+
+def epoch_estimate(remaining: int, seconds: list[float]) -> str:
+    """The time the remaining epochs should take at the measured seconds per epoch."""
+    line = estimate_line(remaining, float(np.median(seconds)), 1, "epochs", "measured")
+    return line.replace(" on 1 worker", "") + " at most: training stops early at the lr floor"
 
 
 def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:
@@ -321,7 +396,6 @@ def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Pat
     logger = utils.make_logger(config, run_dir)
     evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.get("noise_std", 0.0))
-    plan(problems[0], planner="temp", policy=policy, max_nodes=20)  # warm-up, untimed
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
     temp_runs = [
         plan_episode(problem, "temp", seed, eval_config, policy)
@@ -363,16 +437,18 @@ def results_table(results: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
-def parse_args(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespace]:
+def read_command_line(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespace]:
     """The config (file, built-in defaults for the main job, overrides) and the flags."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--config", help=f"YAML config (default: the main job, {DEFAULT_CONFIG})")
+    parser = script_parser(__doc__.split("\n")[0])
+    parser.add_argument(
+        "--config", help=f"YAML config (None: the main job, {DEFAULT_CONFIG} + DEFAULT_OVERRIDES)"
+    )
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     parser.add_argument("--resume", action="store_true", help="require last.pt and resume")
     parser.add_argument("--no-resume", action="store_true", help="start over, ignore last.pt")
     parser.add_argument("--skip-eval", action="store_true", help="no final comparison")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
-    args = parser.parse_args(argv)
+    args = parse_args(parser, argv)
     if args.config is None:
         config = load_config(DEFAULT_CONFIG, DEFAULT_OVERRIDES + args.overrides)
     else:
@@ -382,16 +458,19 @@ def parse_args(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespa
 
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     """Run the job; returns the comparison (None with ``--skip-eval`` or on ranks above 0)."""
-    config, args = parse_args(argv)
+    config, args = read_command_line(argv)
     began = time.perf_counter()
-    dist = utils.Distributed(config["train"].get("device", "auto"))
     run_dir = run_directory(config)
     if args.resume and not (run_dir / "last.pt").exists():
         raise SystemExit(f"--resume: no {run_dir / 'last.pt'}")
+    # Every rank makes sure of the dataset before the process group exists, so no rank waits
+    # at a barrier (with its timeout) while another generates it; the directory lock lets
+    # one process per node generate while the others wait for it.
+    rank = utils.launch_rank()
+    utils.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
+    dist = utils.Distributed(config["train"].get("device", "auto"))
     if dist.is_main:
         run_dir.mkdir(parents=True, exist_ok=True)
-        utils.ensure_dataset(config, progress=not args.no_progress)
-    dist.barrier()  # the dataset exists for every rank
     threads = config["train"].get("threads")
     if threads:
         torch.set_num_threads(int(threads))
@@ -421,4 +500,4 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("bc.py", main))

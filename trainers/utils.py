@@ -45,14 +45,32 @@ def make_env(config: dict[str, Any], fallback: str = "random", split: str = "tes
     return PlanningMetrics(env)
 
 
-def ensure_dataset(config: dict[str, Any], progress: bool = True) -> Path:
-    """The dataset directory of ``config["data"]``, generated first if it is missing."""
+def ensure_dataset(config: dict[str, Any], progress: bool = True, quiet: bool = False) -> Path:
+    """The dataset directory of ``config["data"]``, generated (or repaired) if incomplete.
+
+    Waits while another process holds the directory's lock (another rank, or a
+    ``generate.py`` run), then finds the dataset it made.
+    """
     from temp_gym.data import dataset_exists, generate_dataset
 
     if dataset_exists(config):
         return Path(config["data"]["dir"])
-    print(f"no dataset in {config['data']['dir']}: generating it (RRT* demonstrations)")
-    return Path(generate_dataset(config, workers=config["data"].get("workers"), progress=progress))
+    if not quiet:
+        print(
+            f"no complete dataset in {config['data']['dir']}: generating it (RRT* demonstrations)"
+        )
+    return Path(
+        generate_dataset(
+            config, workers=config["data"].get("workers"), progress=progress, wait=True
+        )
+    )
+
+
+def launch_rank() -> int:
+    """This process's rank in a ``torchrun`` launch (0 without one), before any process group."""
+    import os
+
+    return int(os.environ.get("RANK", "0"))
 
 
 class SplitData:
@@ -210,7 +228,7 @@ class Distributed:
         import torch.distributed as dist
 
         self.world = int(os.environ.get("WORLD_SIZE", "1"))
-        self.rank = int(os.environ.get("RANK", "0"))
+        self.rank = launch_rank()
         local_rank = int(os.environ.get("LOCAL_RANK", "0"))
         cuda = torch.cuda.is_available() and device_name in ("auto", "cuda")
         if device_name == "auto":

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym.config import differing_keys
 from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
 from temp_gym.data.format import SPLITS
 from temp_gym.files import (
@@ -189,7 +190,7 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
             "this config, delete it and rerun, else delete the directory",
         )
         if stored != settings:
-            changed = sorted(k for k in settings | stored if settings.get(k) != stored.get(k))
+            changed = differing_keys(stored, settings)
             raise ValueError(
                 f"{root} holds a dataset made with other settings ({', '.join(changed)}); "
                 "delete it or choose another data.dir"

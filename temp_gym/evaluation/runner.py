@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym.config import differing_keys
 from temp_gym.evaluation.protocol import TAU, reach_tolerance, tolerance_target
 from temp_gym.files import read_json, remove_leftovers, write_json_atomic
 from temp_gym.jobs import JobError
@@ -145,10 +146,8 @@ def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -
     settings, make_policy, group, difficulty, index = job
     key = repr(make_policy)
     problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
-    if key not in _POLICIES:
+    if key not in _POLICIES:  # plan() warms itself up before its first timed run
         _POLICIES[key] = make_policy()
-        # Warm-up (torch's first inference, numba's first calls) outside any timed run.
-        plan(problem, planner="temp", policy=_POLICIES[key], max_nodes=20)
     record = evaluate_task(problem, _POLICIES[key], settings, index < settings.curve_tasks)
     record.update({"group": group, "difficulty": difficulty, "index": index})
     return record
@@ -171,7 +170,7 @@ def _check_manifest(out_dir: Path, manifest: dict[str, Any]) -> None:
         "it records which checkpoint and settings made the records beside it; delete the "
         "whole directory (or choose another output directory) and rerun",
     )
-    differ = sorted(k for k in stored.keys() | manifest.keys() if stored.get(k) != manifest.get(k))
+    differ = differing_keys(stored, manifest)
     if differ:
         raise ManifestMismatchError(
             f"{out_dir} holds records of another evaluation (differs in: {', '.join(differ)}); "
