@@ -14,16 +14,24 @@ Backends:
 
 * ``local``: a ``spawn`` process pool of ``workers`` processes (1: in this process).
 * ``ray``: one Ray task per unit (``num_cpus=1``). It connects to the cluster at ``address``
-  or ``$RAY_ADDRESS``; without either it starts a local Ray instance with ``workers`` CPUs.
-  Install it with ``pip install -e ".[distributed]"``.
+  or ``$RAY_ADDRESS`` (``auto``: the cluster this machine belongs to, started with
+  ``ray start --head``); without either it starts a local Ray instance with ``workers`` CPUs.
+  No cluster at the address is a `RayUnavailableError` saying so, never a silent local
+  instance. Install it with ``pip install -e ".[distributed]"``.
+
+Ctrl-C: local workers ignore SIGINT, so only the driver sees it and the pool is terminated
+cleanly (no tracebacks from the workers); the caller's units written so far stay.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
+
+from temp_gym.jobs import JobError
 
 BACKENDS = ("local", "ray")
 
@@ -38,6 +46,11 @@ def _call(packed: tuple[Callable[[Any], Any], int, Any]) -> tuple[int, Any]:
     return index, function(argument)
 
 
+def _ignore_interrupts() -> None:
+    """Pool initializer: Ctrl-C is the driver's to handle (it terminates the pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _local(function, arguments, workers: int) -> Iterator[tuple[int, Any]]:
     packed = [(function, index, argument) for index, argument in enumerate(arguments)]
     if workers <= 1 or len(packed) <= 1:
@@ -46,12 +59,29 @@ def _local(function, arguments, workers: int) -> Iterator[tuple[int, Any]]:
         return
     # spawn: workers import only what the unit needs, never a forked torch or Ray state.
     context = multiprocessing.get_context("spawn")
-    with context.Pool(min(workers, len(packed))) as pool:
+    pool = context.Pool(min(workers, len(packed)), initializer=_ignore_interrupts)
+    try:
         yield from pool.imap_unordered(_call, packed, chunksize=1)
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+class RayUnavailableError(JobError, ConnectionError):
+    """No Ray cluster answers at the address given."""
 
 
 def init_ray(address: str | None = None, workers: int | None = None):
-    """Connect to ``address`` (or ``$RAY_ADDRESS``), or start a local instance; return ray."""
+    """Connect to ``address`` (or ``$RAY_ADDRESS``), or start a local instance; return ray.
+
+    Raises:
+        ImportError: Ray is not installed.
+        RayUnavailableError: no cluster answers at the address (the message says how to
+            start one, or how to run on a local instance instead).
+    """
     try:
         import ray
     except ImportError as error:
@@ -60,7 +90,15 @@ def init_ray(address: str | None = None, workers: int | None = None):
         address = address or os.environ.get("RAY_ADDRESS")
         options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
         if address:
-            ray.init(address=address, **options)
+            try:
+                ray.init(address=address, **options)
+            except ConnectionError:
+                raise RayUnavailableError(
+                    f"no Ray cluster at --ray-address {address!r}: start one with "
+                    "`ray start --head` on this machine (then workers join it with "
+                    "`ray start --address=<head>:6379`), or leave out --ray-address and "
+                    "$RAY_ADDRESS to run on a local Ray instance"
+                ) from None
         else:
             ray.init(num_cpus=workers or os.cpu_count(), **options)
     return ray

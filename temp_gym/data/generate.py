@@ -235,6 +235,7 @@ def _solve_units(
 def _estimate(root: Path, settings: dict[str, Any], jobs: list, workers: int) -> str:
     """The time the missing units should take, from units already solved, else a probe.
 
+    Stored units give the median time per plan once there are at least three of them.
     The probe plans the first two tasks of the first missing unit here (the workers plan
     them again: a unit is written whole), after the per-process warm-up of `temp_gym.plan`.
     """
@@ -243,7 +244,7 @@ def _estimate(root: Path, settings: dict[str, Any], jobs: list, workers: int) ->
     for path in stored[:20]:
         unit = read_unit(path)
         times.append(float(unit["unit_time"]) / max(len(unit["status"]), 1))
-    if times:
+    if len(times) >= 3:  # a worker's first unit includes its warm-up: take the median
         per_plan, basis = float(np.median(times)), f"measured on {len(times)} stored units"
     else:
         _, split, workspace = jobs[0]
@@ -323,6 +324,10 @@ def _generate(root, settings, config, workers, progress, backend, address) -> No
         if not unit_path(root, split, workspace).is_file()
     ]
     resumed = total - len(jobs)
+    if jobs and backend == "ray":
+        from temp_gym.distributed import init_ray
+
+        init_ray(address, workers)  # fail fast: no planning before a missing cluster is found
     report(progress_line(resumed, total, "units"))
     if jobs:
         report(_estimate(root, settings, jobs, workers))

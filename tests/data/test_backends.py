@@ -42,3 +42,27 @@ def test_generate_with_ray_backend_equals_local(tmp_path):
     )  # fmt: skip
     assert env_ray.returncode == 0, env_ray.stderr[-3000:]
     assert_same(tmp_path / "local", tmp_path / "ray")
+
+
+def test_ray_address_auto_without_a_cluster_is_one_line_saying_how_to_start_one(
+    tmp_path, monkeypatch, capsys
+):
+    ray = pytest.importorskip("ray")
+
+    def no_cluster(*args, **kwargs):  # what ray.init(address="auto") raises without one
+        raise ConnectionError("Could not find any running Ray instance.")
+
+    monkeypatch.setattr(ray, "init", no_cluster)
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    sys.path.insert(0, str(SCRIPT.parent))
+    import generate
+
+    from temp_gym.jobs import run_script
+
+    argv = ["--config", str(TINY), "--no-progress", "--backend", "ray", "--ray-address", "auto"]
+    code = run_script("generate.py", generate.main, [*argv, f"data.dir={tmp_path}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert err[-1].startswith("generate.py: error: no Ray cluster at --ray-address 'auto'")
+    assert "ray start --head" in err[-1] and "leave out --ray-address" in err[-1]
+    assert not any("Traceback" in line for line in err)
