@@ -19,11 +19,11 @@ same command resumes).
 
 from __future__ import annotations
 
-import argparse
 import functools
+import sys
 from pathlib import Path
 
-from temp_gym.config import load_config
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.report import write_report
 from temp_gym.evaluation.runner import (
     EvaluationSettings,
@@ -31,6 +31,7 @@ from temp_gym.evaluation.runner import (
     attention_example,
     run_evaluation,
 )
+from temp_gym.jobs import run_script
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.registry import shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
@@ -87,18 +88,30 @@ def settings_from(
 
 def main(argv: list[str] | None = None) -> str:
     """Evaluate (resuming), write the report, print the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", default="configs/2d.yaml")
-    parser.add_argument("--checkpoint", default=None, help="default: the shipped policy")
-    parser.add_argument("--workers", type=int, default=None)
-    parser.add_argument("--backend", choices=["local", "ray"], default="local")
-    parser.add_argument("--ray-address", default=None)
-    parser.add_argument("--no-progress", action="store_true")
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument(
+        "--config", required=True, help="YAML config of the world (configs/2d.yaml, 3d, 7d)"
+    )
+    parser.add_argument(
+        "--checkpoint", default=None, help="policy to evaluate (None: the shipped one)"
+    )
+    parser.add_argument(
+        "--workers", type=int, default=None, help="processes (None: evaluation.workers)"
+    )
+    parser.add_argument(
+        "--backend", choices=["local", "ray"], default="local", help="where tasks run"
+    )
+    parser.add_argument(
+        "--ray-address",
+        default=None,
+        help="Ray cluster: an address or 'auto' (None: $RAY_ADDRESS, else a local instance)",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
-    args = parser.parse_args(argv)
+    args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     robot = config["env"]["robot"]
-    try:  # fail fast, with one line, on a missing checkpoint or one for another robot
+    try:  # fail fast, with one line, on a missing, damaged or other robot's checkpoint
         checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
         _, stored = load_checkpoint(checkpoint, robot=robot)
     except (OSError, ValueError) as error:
@@ -141,4 +154,4 @@ def main(argv: list[str] | None = None) -> str:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("evaluate.py", main))

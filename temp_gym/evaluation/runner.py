@@ -6,6 +6,9 @@ curves) is written atomically by the driver to ``{out}/tasks/{group}-{index:04d}
 rerun of the same command skips finished tasks, so a killed evaluation loses nothing and
 duplicates nothing. Tasks run on local processes or on Ray (`temp_gym.distributed`).
 
+A record holds the task's wall time (``task_time``), from which a resumed run estimates the
+rest; the output directory is locked while a run writes to it (`temp_gym.files.DirectoryLock`).
+
 Records only mix with records of the same run: ``{out}/run.json`` (the manifest) holds the
 evaluation settings, `TEST_SET_VERSION` and what the caller adds (`trainers/evaluate.py`: the
 checkpoint's weights digest and the policy settings). A rerun whose manifest differs stops
@@ -19,6 +22,8 @@ generator, so a task can be recomputed alone.
 from __future__ import annotations
 
 import json
+import sys
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -28,8 +33,8 @@ import numpy as np
 
 from temp_gym.config import differing_keys
 from temp_gym.evaluation.protocol import TAU, reach_tolerance, tolerance_target
-from temp_gym.files import read_json, remove_leftovers, write_json_atomic
-from temp_gym.jobs import JobError
+from temp_gym.files import DirectoryLock, read_json, remove_leftovers, write_json_atomic
+from temp_gym.jobs import JobError, estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Problem
 from temp_gym.worlds.generators import generate_task
@@ -148,8 +153,10 @@ def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -
     problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
     if key not in _POLICIES:  # plan() warms itself up before its first timed run
         _POLICIES[key] = make_policy()
+    started = time.perf_counter()
     record = evaluate_task(problem, _POLICIES[key], settings, index < settings.curve_tasks)
     record.update({"group": group, "difficulty": difficulty, "index": index})
+    record["task_time"] = time.perf_counter() - started
     return record
 
 
@@ -199,32 +206,65 @@ def run_evaluation(
     Raises:
         ManifestMismatchError: ``out_dir`` holds records of an evaluation with another manifest.
     """
+    out_dir = Path(out_dir)
+    lock = DirectoryLock(out_dir, "evaluating")
+    lock.acquire()  # a second run on the same directory stops, naming this one
+    try:
+        _check_manifest(
+            out_dir,
+            {
+                "test_set_version": TEST_SET_VERSION,
+                "settings": asdict(settings),
+                **(identity or {}),
+            },
+        )
+        tasks_dir = out_dir / "tasks"
+        tasks_dir.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(tasks_dir)  # records whose writer was killed
+        jobs, paths, targets = [], [], []
+        for group, (difficulty, count) in settings.groups.items():
+            slug = group.replace(" ", "_")
+            for index in range(count):
+                path = tasks_dir / f"{slug}-{index:04d}.json"
+                paths.append(path)
+                if not path.exists():
+                    jobs.append((settings, make_policy, group, difficulty, index))
+                    targets.append(path)
+        _evaluate_missing(jobs, targets, paths, workers, progress, backend, address)
+        return [read_json(path, RERUN_TASK) for path in paths]
+    finally:
+        lock.release()
+
+
+def _evaluate_missing(jobs, targets, paths, workers, progress, backend, address) -> None:
+    """Run the missing tasks; report what is done and how long the rest should take."""
     from tqdm import tqdm
 
     from temp_gym.distributed import map_units
 
-    out_dir = Path(out_dir)
-    _check_manifest(
-        out_dir,
-        {"test_set_version": TEST_SET_VERSION, "settings": asdict(settings), **(identity or {})},
-    )
-    tasks_dir = out_dir / "tasks"
-    tasks_dir.mkdir(parents=True, exist_ok=True)
-    remove_leftovers(tasks_dir)  # records whose writer was killed
-    jobs, paths, targets = [], [], []
-    for group, (difficulty, count) in settings.groups.items():
-        slug = group.replace(" ", "_")
-        for index in range(count):
-            path = tasks_dir / f"{slug}-{index:04d}.json"
-            paths.append(path)
-            if not path.exists():
-                jobs.append((settings, make_policy, group, difficulty, index))
-                targets.append(path)
-    with tqdm(total=len(jobs), desc="evaluating", disable=not progress) as bar:
-        for index, record in map_units(_run_job, jobs, backend, workers, address):
+    done = len(paths) - len(jobs)
+    report(progress_line(done, len(paths), "tasks"))
+    if not jobs:
+        return
+    missing = set(targets)
+    stored = [path for path in paths if path not in missing][-20:]
+    times = [read_json(path, RERUN_TASK).get("task_time") for path in stored]
+    times = [seconds for seconds in times if isinstance(seconds, (int, float))]
+    if len(times) >= 3:
+        basis = f"measured on {len(times)} stored tasks"
+        report(estimate_line(len(jobs), float(np.median(times)), workers, "tasks", basis))
+    bar = tqdm(total=len(paths), initial=done, desc="evaluating", disable=not progress)
+    with bar:
+        for count, (index, record) in enumerate(
+            map_units(_run_job, jobs, backend, workers, address)
+        ):
             _write_json_atomic(targets[index], record)
+            if count == 0 and len(times) < 3 and len(jobs) > 1:
+                line = estimate_line(
+                    len(jobs) - 1, record["task_time"], workers, "tasks", "measured on the first"
+                )
+                bar.write(line, file=sys.stderr)
             bar.update()
-    return [read_json(path, RERUN_TASK) for path in paths]
 
 
 def attention_example(

@@ -82,7 +82,7 @@ def _without_times(record):
         name: {k: v for k, v in figures.items() if k != "time"}
         for name, figures in record["planners"].items()
     }
-    return {**record, "planners": planners}
+    return {**{k: v for k, v in record.items() if k != "task_time"}, "planners": planners}
 
 
 def test_ray_backend_gives_the_same_records(tmp_path, monkeypatch):
@@ -131,3 +131,24 @@ def test_attention_example_reads_one_plan_and_is_plotted(tmp_path):
     assert (tmp_path / "report" / "attention.png").exists()
     stored = json.loads((tmp_path / "report" / "attention.json").read_text())
     assert stored["normalized"] == example["normalized"]
+
+
+def test_damaged_records_and_manifest_are_named_and_a_rerun_says_what_is_done(tmp_path, capsys):
+    from temp_gym.files import DirectoryLock, LockedError, StoredFileError
+
+    one = settings(groups={"2D easy": ("easy", 2)}, curve_tasks=0)
+    run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)
+    assert "starting: 2 tasks" in capsys.readouterr().err
+    records = sorted((tmp_path / "tasks").glob("*.json"))
+    records[1].write_text(records[1].read_text()[:40])  # truncated
+    with pytest.raises(StoredFileError, match=r"2D_easy-0001\.json: damaged.*delete it and rerun"):
+        run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)
+    records[1].unlink()  # what the message says to do
+    run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)
+    assert "resuming: 1/2 tasks done" in capsys.readouterr().err
+    (tmp_path / "run.json").write_text("")
+    with pytest.raises(StoredFileError, match=r"run\.json: empty"):
+        run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)
+    with DirectoryLock(tmp_path, "another evaluation"):
+        with pytest.raises(LockedError, match="another evaluation"):
+            run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)

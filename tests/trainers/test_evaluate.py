@@ -54,3 +54,13 @@ def test_evaluate_refuses_a_checkpoint_for_another_robot(tmp_path):
     with pytest.raises(SystemExit, match="evaluate.py: error: .*point3d"):
         evaluate.main(["--config", str(ROOT / "configs" / "tiny.yaml"),
                        "--checkpoint", str(tmp_path / "best.pt")])  # fmt: skip
+
+
+def test_config_is_required_and_every_flag_shows_its_default(capsys):
+    with pytest.raises(SystemExit):
+        evaluate.main([])
+    assert "--config" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        evaluate.main(["--help"])
+    text = capsys.readouterr().out
+    assert "(default: local)" in text and "(default: None)" in text
