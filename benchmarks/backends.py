@@ -10,12 +10,11 @@ a cluster is normally running already.
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
 
-from temp_gym.config import load_config
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data import generate_dataset
 from temp_gym.distributed import init_ray
 
@@ -27,13 +26,13 @@ def timed_generation(config_path, overrides, directory, backend, workers) -> flo
     return time.perf_counter() - started
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", default="configs/2d.yaml")
-    parser.add_argument("--workers", type=int, default=2)
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
+    parser.add_argument("--workers", type=int, default=2, help="processes (local) or CPUs (ray)")
     parser.add_argument("--workspaces", type=int, default=8, help="train workspaces (val: 1/4)")
     parser.add_argument("--tasks", type=int, default=50, help="tasks per workspace")
-    args = parser.parse_args()
+    args = parse_args(parser, argv)
     overrides = [
         f"data.workspaces.train={args.workspaces}",
         f"data.workspaces.val={max(1, args.workspaces // 4)}",

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from temp_gym.config import parse_args, script_parser
 from temp_gym.worlds.collision import make_checker
 from temp_gym.worlds.generators import generate_workspace
 
@@ -69,16 +70,25 @@ def bench_world(robot: str, args: argparse.Namespace) -> dict[str, float]:
     return {key: float(np.mean(value)) for key, value in rows.items()}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--states", type=int, default=100_000)
-    parser.add_argument("--edges", type=int, default=5_000)
-    parser.add_argument("--exact-states", type=int, default=2_000)
-    parser.add_argument("--exact-edges", type=int, default=200)
-    parser.add_argument("--workspaces", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--robots", nargs="+", default=["point2d", "point3d", "kuka_iiwa14"])
-    args = parser.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--states", type=int, default=100_000, help="random states per workspace")
+    parser.add_argument("--edges", type=int, default=5_000, help="random edges per workspace")
+    parser.add_argument(
+        "--exact-states", type=int, default=2_000, help="of those, for the exact checker"
+    )
+    parser.add_argument(
+        "--exact-edges", type=int, default=200, help="of those, for the exact checker"
+    )
+    parser.add_argument("--workspaces", type=int, default=3, help="generated workspaces per robot")
+    parser.add_argument("--seed", type=int, default=0, help="seed of workspaces, states, edges")
+    parser.add_argument(
+        "--robots",
+        nargs="+",
+        default=["point2d", "point3d", "kuka_iiwa14"],
+        help="robots to measure",
+    )
+    args = parse_args(parser, argv)
     for robot in args.robots:
         result = bench_world(robot, args)
         print(

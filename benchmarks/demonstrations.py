@@ -9,24 +9,27 @@ and extrapolates to the config's full dataset on ``--workers`` processes.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
 
-from temp_gym.config import load_config
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data.dataset import data_settings
 from temp_gym.data.generate import STATUS, solve_unit
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", default="configs/2d.yaml")
-    parser.add_argument("--workspaces", type=int, default=1)
-    parser.add_argument("--tasks", type=int, default=None, help="default: tasks_per_workspace")
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("overrides", nargs="*")
-    args = parser.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
+    parser.add_argument("--workspaces", type=int, default=1, help="training units to solve")
+    parser.add_argument(
+        "--tasks", type=int, default=None, help="tasks per unit (None: data.tasks_per_workspace)"
+    )
+    parser.add_argument(
+        "--workers", type=int, default=2, help="processes the extrapolation assumes"
+    )
+    parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
+    args = parse_args(parser, argv)
     settings = data_settings(load_config(args.config, args.overrides))
     full = sum(settings["workspaces"].values()) * settings["tasks_per_workspace"]
     if args.tasks:

@@ -16,13 +16,13 @@ repeats of the bare core and the env are interleaved, and both are timed the sam
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import gymnasium as gym
 import numpy as np
 
 import temp_gym  # noqa: F401  (registers the envs)
+from temp_gym.config import parse_args, script_parser
 from temp_gym.planning.samplers import GoalBiasedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.generators import generate_problem
@@ -70,14 +70,14 @@ def time_env(env, problem, actions, size):
     return chunk_times(env.step, actions, size), env.unwrapped.tree.num_nodes
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=3000)
-    parser.add_argument("--problems", type=int, default=3)
-    parser.add_argument("--repeats", type=int, default=3)
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3000, help="extensions per problem")
+    parser.add_argument("--problems", type=int, default=3, help="generated problems per world")
+    parser.add_argument("--repeats", type=int, default=3, help="interleaved timing rounds")
     parser.add_argument("--chunk", type=int, default=100, help="steps per best-of chunk")
-    parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
-    args = parser.parse_args()
+    parser.add_argument("--worlds", nargs="+", default=list(WORLDS), help="worlds to measure")
+    args = parse_args(parser, argv)
     header = ["world", "bare extend (us)", "env.step unwrapped (us)", "ratio"]
     print("| " + " | ".join(header + ["gym.make stack (us)", "ratio"]) + " |")
     print("|---|---:|---:|---:|---:|---:|")

@@ -27,7 +27,6 @@ import os
 for _variable in ("NUMBA_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")  # before numpy, numba and torch load
 
-import argparse  # noqa: E402
 import io  # noqa: E402
 import time  # noqa: E402
 
@@ -35,7 +34,7 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from temp_planner import TimedPolicy  # noqa: E402  (benchmarks/temp_planner.py)
 
-from temp_gym.config import load_config  # noqa: E402
+from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
 from temp_gym.models.fast_mpt import FastMPT  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import TEMPModel  # noqa: E402
@@ -201,20 +200,22 @@ def plan_per_node(config_path: str, problems: int, nodes: int, rounds: int) -> N
         )
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.split("\n")[0])
     parser.add_argument("--config", action="append", help="config file(s); default: all worlds")
     parser.add_argument("--threads", type=int, default=1, help="torch CPU threads")
     parser.add_argument("--repeats", type=int, default=200, help="calls per timing round")
     parser.add_argument("--plan", action="store_true", help="also time TEMP planning per node")
-    parser.add_argument("--plan-config", default="configs/2d.yaml")
-    parser.add_argument("--plan-problems", type=int, default=5)
-    parser.add_argument("--plan-nodes", type=int, default=500)
-    parser.add_argument("--plan-rounds", type=int, default=3)
+    parser.add_argument(
+        "--plan-config", default="configs/2d.yaml", help="--plan: config of the planned world"
+    )
+    parser.add_argument("--plan-problems", type=int, default=5, help="--plan: generated problems")
+    parser.add_argument("--plan-nodes", type=int, default=500, help="--plan: nodes per plan")
+    parser.add_argument("--plan-rounds", type=int, default=3, help="--plan: timing rounds")
     parser.add_argument(
         "overrides", nargs="*", help="key=value config overrides, e.g. model.token_dim=32"
     )
-    args = parser.parse_args()
+    args = parse_args(parser, argv)
     torch.set_num_threads(args.threads)
     print(
         f"torch {torch.__version__}, {args.threads} torch thread(s); NUMBA_NUM_THREADS="

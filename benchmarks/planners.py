@@ -10,12 +10,12 @@ node, and our/OMPL ratios.
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 
 import numpy as np
 
+from temp_gym.config import parse_args, script_parser
 from temp_gym.planning import plan
 
 ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
@@ -90,15 +90,34 @@ def report(world, runs, budgets):
         print("| " + " | ".join(str(x).ljust(w) for x, w in zip(row, widths)) + " |")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", nargs="+", default=["2d", "3d", "7d"], choices=list(ROBOTS))
-    parser.add_argument("--problems", type=int, default=20)
-    parser.add_argument("--budgets", type=int, nargs="+", default=[500, 1000, 2000])
-    parser.add_argument("--planners", nargs="+", default=[p for pair in PAIRS for p in pair])
-    parser.add_argument("--step-size", type=float, default=None)
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument(
+        "--worlds",
+        nargs="+",
+        default=["2d", "3d", "7d"],
+        choices=list(ROBOTS),
+        help="worlds to measure",
+    )
+    parser.add_argument("--problems", type=int, default=20, help="generated problems per world")
+    parser.add_argument(
+        "--budgets",
+        type=int,
+        nargs="+",
+        default=[500, 1000, 2000],
+        help="node budgets at which costs are compared",
+    )
+    parser.add_argument(
+        "--planners",
+        nargs="+",
+        default=[p for pair in PAIRS for p in pair],
+        help="planners to run",
+    )
+    parser.add_argument(
+        "--step-size", type=float, default=None, help="steering step (None: the default)"
+    )
     parser.add_argument("--seed", type=int, default=2024, help="problem-generation seed")
-    args = parser.parse_args()
+    args = parse_args(parser, argv)
     budgets = sorted(args.budgets)
     for world in args.worlds:
         if world == "7d":

@@ -15,13 +15,13 @@ runs interleaved, so all see the same machine load.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
 import torch
 
 from temp_gym import plan
+from temp_gym.config import parse_args, script_parser
 from temp_gym.models.registry import load_policy
 from temp_gym.worlds.generators import generate_problem
 
@@ -76,13 +76,19 @@ def rrt_star_time(problem, seed: int, max_nodes: int) -> tuple[float, int]:
     return result.time_to_first_solution or result.wall_time, result.nodes
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", nargs="+", default=list(ROBOTS), choices=list(ROBOTS))
-    parser.add_argument("--problems", type=int, default=30)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--max-nodes", type=int, default=3000)
-    args = parser.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument(
+        "--worlds",
+        nargs="+",
+        default=list(ROBOTS),
+        choices=list(ROBOTS),
+        help="robots to measure",
+    )
+    parser.add_argument("--problems", type=int, default=30, help="generated problems per world")
+    parser.add_argument("--repeats", type=int, default=3, help="timing rounds per problem")
+    parser.add_argument("--max-nodes", type=int, default=3000, help="node budget per plan")
+    args = parse_args(parser, argv)
     torch.set_num_threads(1)  # the per-sample latency a planner sees
     print(
         "| world | problems | nodes | fast path (us/node) | of which the MPT call "

@@ -19,7 +19,6 @@ results made with other weights, as the card itself would say.
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
 from pathlib import Path
@@ -28,7 +27,7 @@ from typing import Any
 import torch
 import yaml
 
-from temp_gym.config import load_config
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR, SHIPPED
@@ -173,7 +172,7 @@ def model_card(
 
 def main(argv: list[str] | None = None) -> Path:
     """Write the shipped checkpoint and its card; return the checkpoint path."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = script_parser(__doc__.splitlines()[0])
     parser.add_argument("--config", help="the config the policy was trained with")
     parser.add_argument("--checkpoint", help="a trainers/bc.py best.pt")
     parser.add_argument(
@@ -185,14 +184,18 @@ def main(argv: list[str] | None = None) -> Path:
         default=None,
         help="AP budget n; default: all of the caller's max_nodes, the budget baselines get",
     )
-    parser.add_argument("--noise-std", type=float, default=0.0)
+    parser.add_argument(
+        "--noise-std", type=float, default=0.0, help="output noise applied by load_policy"
+    )
     parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
     )
     parser.add_argument("--notes", default="", help="for the card: how training went")
-    parser.add_argument("--out-dir", default=str(CHECKPOINT_DIR))
+    parser.add_argument(
+        "--out-dir", default=str(CHECKPOINT_DIR), help="where checkpoint and card go"
+    )
     parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
-    args = parser.parse_args(argv)
+    args = parse_args(parser, argv)
     if args.refresh_evaluation:
         card = refresh_evaluation(args.refresh_evaluation, args.out_dir)
         print(f"refreshed the evaluation section of {card}")

@@ -16,7 +16,6 @@ whose attention phase solves at least ``--min-attention-success`` of the tasks;
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import sys
 from pathlib import Path
@@ -29,25 +28,42 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import utils  # noqa: E402
 from bc import plan_episode  # noqa: E402
 
-from temp_gym.config import load_config  # noqa: E402
+from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import load_checkpoint  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Print the table; return the recommended ``{"attention_nodes", "noise_std"}``."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", required=True)
-    parser.add_argument("--checkpoint", required=True)
-    parser.add_argument("--attention-nodes", type=int, nargs="+", default=[50, 100, 200, 400])
-    parser.add_argument("--noise-std", type=float, nargs="+", default=[0.0, 0.03])
-    parser.add_argument("--tasks", type=int, default=60)
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--config", required=True, help="the config the policy was trained with")
+    parser.add_argument("--checkpoint", required=True, help="the policy (a bc.py best.pt)")
+    parser.add_argument(
+        "--attention-nodes",
+        type=int,
+        nargs="+",
+        default=[50, 100, 200, 400],
+        help="attention-phase budgets n to try",
+    )
+    parser.add_argument(
+        "--noise-std",
+        type=float,
+        nargs="+",
+        default=[0.0, 0.03],
+        help="output noise levels to try",
+    )
+    parser.add_argument("--tasks", type=int, default=60, help="tasks per setting")
     parser.add_argument(
         "--split", default="val", choices=["val", "test"], help="test: the final measurement"
     )
-    parser.add_argument("--min-attention-success", type=float, default=0.9)
-    parser.add_argument("overrides", nargs="*")
-    args = parser.parse_args(argv)
+    parser.add_argument(
+        "--min-attention-success",
+        type=float,
+        default=0.9,
+        help="least share of tasks the attention phase must solve to be recommended",
+    )
+    parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
+    args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])

@@ -1,0 +1,118 @@
+"""Every trainer and benchmark flag has help and shows its default; overrides go anywhere."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = sorted(
+    [p for p in (ROOT / "trainers").glob("*.py") if p.name != "utils.py"]
+    + list((ROOT / "benchmarks").glob("*.py"))
+)
+
+# In a fresh process (the scripts set environment variables at import): load each script,
+# capture the parser its main() builds, and describe it; then parse a command line with an
+# override placed after an option that takes values.
+INSPECT = textwrap.dedent(
+    """
+    import argparse, importlib.util, json, sys
+    from pathlib import Path
+    import temp_gym.config
+
+    class Captured(Exception):
+        pass
+
+    def sample(action):
+        if action.choices:
+            return [str(next(iter(action.choices)))]
+        kind = action.type or str
+        value = {int: "1", float: "0.5"}.get(kind, "x")
+        return [value, value] if action.nargs in ("+", "*") else [value]
+
+    out = {}
+    for path in map(Path, sys.argv[1:]):
+        sys.path.insert(0, str(path.parent))
+        spec = importlib.util.spec_from_file_location(f"script_{path.stem}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        captured = {}
+
+        def capture(parser, argv=None):
+            captured["parser"] = parser
+            raise Captured
+
+        for name in ("parse_args",):
+            if hasattr(module, name):
+                setattr(module, name, capture)
+        try:
+            module.main([])
+        except Captured:
+            pass
+        parser = captured["parser"]
+        actions = [a for a in parser._actions if not isinstance(a, argparse._HelpAction)]
+        entry = {
+            "formatter": parser.formatter_class.__name__,
+            "no_help": [a.dest for a in actions if not a.help],
+        }
+        if any(a.dest == "overrides" for a in actions):
+            argv = []
+            for action in actions:
+                if action.option_strings and action.nargs != 0:
+                    argv += [action.option_strings[0], *sample(action)]
+            argv.append("train.seed=1")
+            entry["overrides"] = temp_gym.config.parse_args(parser, argv).overrides
+        out[path.name] = entry
+    print(json.dumps(out))
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def described() -> dict:
+    done = subprocess.run(
+        [sys.executable, "-c", INSPECT, *map(str, SCRIPTS)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("script", [p.name for p in SCRIPTS])
+def test_every_flag_has_help_and_shows_its_default(described, script):
+    entry = described[script]
+    assert entry["formatter"] == "ArgumentDefaultsHelpFormatter"
+    assert entry["no_help"] == []
+
+
+def test_overrides_are_accepted_after_any_option(described):
+    with_overrides = {name: entry for name, entry in described.items() if "overrides" in entry}
+    assert {"generate.py", "bc.py", "evaluate.py", "tune_planner.py", "ship.py"} <= set(
+        with_overrides
+    )
+    for name, entry in with_overrides.items():
+        assert entry["overrides"] == ["train.seed=1"], name
+
+
+def test_config_parse_args_takes_overrides_out_of_multi_value_options():
+    import argparse
+
+    from temp_gym.config import parse_args
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--noise-std", type=float, nargs="+")
+    parser.add_argument("--out", default=None)
+    parser.add_argument("overrides", nargs="*")
+    args = parse_args(
+        parser, ["a.b=1", "--noise-std", "0", "0.03", "train.seed=1", "--out=x=y", "+c.d=2"]
+    )
+    assert args.noise_std == [0.0, 0.03] and args.out == "x=y"
+    assert args.overrides == ["a.b=1", "train.seed=1", "+c.d=2"]
