@@ -24,6 +24,13 @@ from typing import Any
 
 import yaml
 
+from temp_gym.jobs import JobError
+
+
+class ConfigError(JobError, ValueError):
+    """A config file or override that cannot be used; the message names it."""
+
+
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
 
 
@@ -70,7 +77,7 @@ def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, A
     config = copy.deepcopy(config)
     for item in overrides:
         if "=" not in item:
-            raise ValueError(f"override {item!r}: expected key.sub=value")
+            raise ConfigError(f"override {item!r}: expected key.sub=value")
         key, text = item.split("=", 1)
         add = key.startswith("+")
         parts = key.lstrip("+").split(".")
@@ -78,13 +85,13 @@ def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, A
         for depth, part in enumerate(parts[:-1]):
             if part not in node or not isinstance(node[part], dict):
                 if not add:
-                    raise ValueError(
+                    raise ConfigError(
                         f"override {item!r}: no section {'.'.join(parts[: depth + 1])}"
                     )
                 node[part] = {}
             node = node[part]
         if parts[-1] not in node and not add:
-            raise ValueError(f"override {item!r}: unknown key {key} (use +{key}=... to add one)")
+            raise ConfigError(f"override {item!r}: unknown key {key} (use +{key}=... to add one)")
         node[parts[-1]] = _parse_value(text)
     return config
 
@@ -126,8 +133,13 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[st
     path = Path(path)
     if not path.exists() and (CONFIG_DIR / path.name).exists():
         path = CONFIG_DIR / path.name
-    with open(path) as handle:
-        config = yaml.safe_load(handle)
+    try:
+        with open(path) as handle:
+            config = yaml.safe_load(handle)
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the config ({error.strerror})") from None
+    except yaml.YAMLError as error:
+        raise ConfigError(f"{path}: not valid YAML ({error})") from None
     if not isinstance(config, dict):
-        raise ValueError(f"{path}: a config must be a YAML mapping")
+        raise ConfigError(f"{path}: a config must be a YAML mapping")
     return apply_overrides(config, overrides or [])

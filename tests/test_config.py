@@ -29,3 +29,20 @@ def test_shipped_configs_load(name):
         "evaluation",
         "logger",
     } <= set(config)
+
+
+def test_config_errors_are_one_line_job_errors(tmp_path, capsys):
+    from temp_gym.config import ConfigError
+    from temp_gym.jobs import run_script
+
+    def main(argv):
+        load_config(tmp_path / "missing.yaml")
+
+    assert run_script("x.py", main) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"x.py: error: {tmp_path / 'missing.yaml'}: cannot read the config (No such file or "
+        "directory)"
+    )
+    (tmp_path / "bad.yaml").write_text("a: [1, 2")
+    with pytest.raises(ConfigError, match="bad.yaml: not valid YAML"):
+        load_config(tmp_path / "bad.yaml")

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym.config import ConfigError
 from temp_gym.data.format import SPLITS
 from temp_gym.data.tables import read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
@@ -35,18 +36,18 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
     """The validated, JSON-able settings that determine the dataset's contents.
 
     Raises:
-        ValueError: For a missing or invalid ``data``/``env`` key.
+        ConfigError: For a missing or invalid ``data``/``env`` key.
     """
     env = config.get("env", {})
     data = config.get("data", {})
     robot = env.get("robot")
     if robot not in ROBOTS:
-        raise ValueError(f"env.robot: expected one of {list(ROBOTS)}, got {robot!r}")
+        raise ConfigError(f"env.robot: expected one of {list(ROBOTS)}, got {robot!r}")
     requested = data.get("workspaces") or {}
     workspaces = {split: int(requested.get(split, WORKSPACE_POOLS[split])) for split in SPLITS}
     for split, count in workspaces.items():
         if not 0 <= count <= WORKSPACE_POOLS[split]:
-            raise ValueError(
+            raise ConfigError(
                 f"data.workspaces.{split}: expected 0..{WORKSPACE_POOLS[split]}, got {count}"
             )
     settings = {
@@ -64,17 +65,17 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
         "goal_bias": float(data.get("goal_bias", 0.05)),
     }
     if settings["planner"] not in PLANNERS:
-        raise ValueError(f"data.planner: expected one of {sorted(PLANNERS)}")
+        raise ConfigError(f"data.planner: expected one of {sorted(PLANNERS)}")
     if settings["difficulty"] not in DIFFICULTIES:
-        raise ValueError(f"data.difficulty: expected one of {list(DIFFICULTIES)}")
+        raise ConfigError(f"data.difficulty: expected one of {list(DIFFICULTIES)}")
     if settings["tasks_per_workspace"] < 1:
-        raise ValueError("data.tasks_per_workspace: must be at least 1")
+        raise ConfigError("data.tasks_per_workspace: must be at least 1")
     for key in ("step_size", "planner_step_size"):
         value = settings[key]
         if value is not None and not (isinstance(value, (int, float)) and value > 0):
-            raise ValueError(f"{key}: expected a positive number or null, got {value!r}")
+            raise ConfigError(f"{key}: expected a positive number or null, got {value!r}")
     if settings["max_path_length"] < 1:
-        raise ValueError("env.max_path_length: must be at least 1")
+        raise ConfigError("env.max_path_length: must be at least 1")
     return settings
 
 

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from temp_gym.config import differing_keys
+from temp_gym.config import ConfigError, differing_keys
 from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
 from temp_gym.data.format import SPLITS
 from temp_gym.files import (
@@ -191,7 +191,7 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
         )
         if stored != settings:
             changed = differing_keys(stored, settings)
-            raise ValueError(
+            raise ConfigError(
                 f"{root} holds a dataset made with other settings ({', '.join(changed)}); "
                 "delete it or choose another data.dir"
             )
