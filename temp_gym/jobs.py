@@ -52,14 +52,19 @@ def progress_line(done: int, total: int, unit: str) -> str:
 
 
 def estimate_line(
-    remaining: int, seconds_per_unit: float, workers: int, unit: str, basis: str
+    remaining: int, seconds_per_unit: float, workers: int | None, unit: str, basis: str
 ) -> str:
-    """``estimate: ~25 min for 53 units on 2 workers (9.1 s per unit, measured on ...)``."""
-    parallel = max(1, min(workers, remaining))
+    """``estimate: ~25 min for 53 units on 2 workers (9.1 s per unit, measured on ...)``.
+
+    ``unit`` is a plural noun (``units``, ``tasks``, ``epochs``); ``workers=None`` for work
+    done one unit at a time.
+    """
+    parallel = 1 if workers is None else max(1, min(workers, remaining))
     total = remaining * seconds_per_unit / parallel
+    where = "" if workers is None else f" on {parallel} worker{'s' if parallel > 1 else ''}"
     return (
-        f"estimate: ~{format_duration(total)} for {remaining} {unit} on {parallel} "
-        f"worker{'s' if parallel > 1 else ''} ({seconds_per_unit:.3g} s per unit, {basis})"
+        f"estimate: ~{format_duration(total)} for {remaining} {unit}{where} "
+        f"({seconds_per_unit:.3g} s per {unit.removesuffix('s')}, {basis})"
     )
 
 

@@ -217,86 +217,89 @@ def train(
         desc="train",
         disable=not (progress and dist.is_main),
     )
-    while state["epoch"] < max_epochs and not state["lr_floor"]:
-        epoch = state["epoch"]
-        began = time.perf_counter()
-        model.train()
-        generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
-        keys = ("loss", "recons", "semantic", "grad_norm")
-        sums = torch.zeros(len(keys), dtype=torch.float64)
-        batches = 0
-        for index in utils.iterate_batch_indices(train_data, batch_size, generator):
-            # Random draws are made for the global batch, so every rank (and a single
-            # process) consumes the generator identically; then each rank keeps its slice.
-            symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
-            noise = (
-                torch.randn((len(index), *history_shape), generator=generator)
-                if path_noise > 0
-                else None
+    try:
+        while state["epoch"] < max_epochs and not state["lr_floor"]:
+            epoch = state["epoch"]
+            began = time.perf_counter()
+            model.train()
+            generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
+            keys = ("loss", "recons", "semantic", "grad_norm")
+            sums = torch.zeros(len(keys), dtype=torch.float64)
+            batches = 0
+            for index in utils.iterate_batch_indices(train_data, batch_size, generator):
+                # Random draws are made for the global batch, so every rank (and a single
+                # process) consumes the generator identically; then each rank keeps its slice.
+                symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
+                noise = (
+                    torch.randn((len(index), *history_shape), generator=generator)
+                    if path_noise > 0
+                    else None
+                )
+                positions, weight = dist.shard(len(index))
+                batch = train_data.batch(index[positions], device)
+                if symmetry is not None:
+                    batch = utils.augment_symmetry(batch, symmetry=symmetry)
+                if noise is not None:
+                    batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
+                terms = utils.model_step(trained, loss_module, batch)
+                optimizer.zero_grad(set_to_none=True)
+                (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
+                grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
+                optimizer.step()
+                sums += torch.tensor(
+                    [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
+                    + [float(grad_norm) / dist.world],
+                    dtype=torch.float64,
+                )
+                batches += 1
+                state["global_step"] += 1
+            sums = dict(zip(keys, dist.sum(sums).tolist()))
+            seconds = time.perf_counter() - began
+            val = validate(model, loss_module, val_data, batch_size, device, dist)
+            scheduler.step(val[monitor])
+            lr = optimizer.param_groups[0]["lr"]
+            state["epoch"] = epoch + 1
+            state["history"].append(
+                {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
+                 "lr": lr}
+            )  # fmt: skip
+            logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
+            logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
+            logger.scalars(
+                {
+                    "train/lr": lr,
+                    "time/epoch": seconds,
+                    "time/samples_per_s": len(train_data) / seconds,
+                },
+                epoch,
             )
-            positions, weight = dist.shard(len(index))
-            batch = train_data.batch(index[positions], device)
-            if symmetry is not None:
-                batch = utils.augment_symmetry(batch, symmetry=symmetry)
-            if noise is not None:
-                batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
-            terms = utils.model_step(trained, loss_module, batch)
-            optimizer.zero_grad(set_to_none=True)
-            (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
-            grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
-            optimizer.step()
-            sums += torch.tensor(
-                [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
-                + [float(grad_norm) / dist.world],
-                dtype=torch.float64,
-            )
-            batches += 1
-            state["global_step"] += 1
-        sums = dict(zip(keys, dist.sum(sums).tolist()))
-        seconds = time.perf_counter() - began
-        val = validate(model, loss_module, val_data, batch_size, device, dist)
-        scheduler.step(val[monitor])
-        lr = optimizer.param_groups[0]["lr"]
-        state["epoch"] = epoch + 1
-        state["history"].append(
-            {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
-             "lr": lr, "seconds": time.perf_counter() - began}
-        )  # fmt: skip
-        logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
-        logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
-        logger.scalars(
-            {
-                "train/lr": lr,
-                "time/epoch": seconds,
-                "time/samples_per_s": len(train_data) / seconds,
-            },
-            epoch,
-        )
-        if val[monitor] < state["best_val"]:
-            state["best_val"] = val[monitor]
+            if val[monitor] < state["best_val"]:
+                state["best_val"] = val[monitor]
+                if dist.is_main:
+                    model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
+            every = int(eval_config.get("every", 0))
+            if every and state["epoch"] % every == 0 and periodic and dist.is_main:
+                evaluate_with_figures(config, model, periodic, logger, state["epoch"])
+                model.to(device)
+            state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
+            state["history"][-1]["seconds"] = time.perf_counter() - began  # evaluation included
             if dist.is_main:
-                model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
-        every = int(eval_config.get("every", 0))
-        if every and state["epoch"] % every == 0 and periodic and dist.is_main:
-            evaluate_with_figures(config, model, periodic, logger, state["epoch"])
-            model.to(device)
-        state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
-        if dist.is_main:
-            model.save(
-                last_path,
-                optimizer=optimizer.state_dict(),
-                scheduler=scheduler.state_dict(),
-                rng=torch.get_rng_state(),
-                config=config,
-                finished=state["lr_floor"] or state["epoch"] >= max_epochs,
-                **state,
-            )
-        if epoch == 0 and dist.is_main and max_epochs > 1 and not state["lr_floor"]:
-            report(epoch_estimate(max_epochs - 1, [state["history"][-1]["seconds"]]))
-        bar.update(1)
-        bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
-    bar.close()
-    logger.close()
+                model.save(
+                    last_path,
+                    optimizer=optimizer.state_dict(),
+                    scheduler=scheduler.state_dict(),
+                    rng=torch.get_rng_state(),
+                    config=config,
+                    finished=state["lr_floor"] or state["epoch"] >= max_epochs,
+                    **state,
+                )
+            if epoch == 0 and dist.is_main and max_epochs > 1 and not state["lr_floor"]:
+                report(epoch_estimate(max_epochs - 1, [state["history"][-1]["seconds"]]))
+            bar.update(1)
+            bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
+    finally:  # also on Ctrl-C: the bar is closed before the job's last line
+        bar.close()
+        logger.close()
     return best_path
 
 
@@ -353,8 +356,8 @@ def resume_checkpoint(last_path: Path, config: dict[str, Any], robot: str) -> di
 
 def epoch_estimate(remaining: int, seconds: list[float]) -> str:
     """The time the remaining epochs should take at the measured seconds per epoch."""
-    line = estimate_line(remaining, float(np.median(seconds)), 1, "epochs", "measured")
-    return line.replace(" on 1 worker", "") + " at most: training stops early at the lr floor"
+    line = estimate_line(remaining, float(np.median(seconds)), None, "epochs", "measured")
+    return f"{line}, at most: training stops early at the lr floor"
 
 
 def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:

@@ -1,0 +1,62 @@
+"""Atomic, fsynced writes for everything a job resumes from; damage-aware reads."""
+
+import json
+
+import pytest
+
+from temp_gym import files
+from temp_gym.files import StoredFileError, atomic_write, read_json
+
+
+@pytest.fixture
+def calls(monkeypatch):
+    """Record fsync and replace in order (both still run)."""
+    seen = []
+    fsync, replace = files.os.fsync, files.os.replace
+
+    def record_fsync(descriptor):
+        seen.append("fsync")
+        fsync(descriptor)
+
+    def record_replace(source, target):
+        seen.append(("replace", str(target)))
+        replace(source, target)
+
+    monkeypatch.setattr(files.os, "fsync", record_fsync)
+    monkeypatch.setattr(files.os, "replace", record_replace)
+    return seen
+
+
+def test_checkpoints_and_evaluation_records_are_fsynced_before_their_rename(tmp_path, calls):
+    from temp_gym.evaluation.runner import _write_json_atomic
+    from temp_gym.models.temp import TEMPModel
+
+    model = TEMPModel.from_config({"num_layers": 1}, "point2d", 8, 8)
+    model.save(tmp_path / "last.pt")
+    _write_json_atomic(tmp_path / "record.json", {"a": 1})
+    for target in ("last.pt", "record.json"):
+        index = calls.index(("replace", str(tmp_path / target)))
+        assert calls[index - 1] == "fsync" and calls[index + 1] == "fsync"  # file, directory
+    assert json.loads((tmp_path / "record.json").read_text()) == {"a": 1}
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
+    path = tmp_path / "record.json"
+    path.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_write(path, "w") as handle:
+            handle.write("new, half")
+            raise RuntimeError("killed")
+    assert path.read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["record.json"]
+
+
+@pytest.mark.parametrize(
+    "content, problem", [("", "empty"), ('{"a": 1', "damaged, not valid JSON"), (None, "missing")]
+)
+def test_read_json_names_the_file_and_the_remedy(tmp_path, content, problem):
+    path = tmp_path / "run.json"
+    if content is not None:
+        path.write_text(content)
+    with pytest.raises(StoredFileError, match=rf"run\.json: {problem}.*; delete it"):
+        read_json(path, "delete it")

@@ -1,0 +1,31 @@
+"""The lines long jobs print, and what a script prints on Ctrl-C or a JobError."""
+
+from temp_gym.jobs import JobError, estimate_line, format_duration, progress_line, run_script
+
+
+def test_progress_and_estimate_lines():
+    assert progress_line(0, 133, "units") == "starting: 133 units"
+    assert progress_line(80, 133, "units") == "resuming: 80/133 units done"
+    assert progress_line(133, 133, "units") == "all 133 units done"
+    line = estimate_line(53, 9.1, 2, "units", "measured on 20 stored units")
+    assert line == (
+        "estimate: ~4 min for 53 units on 2 workers (9.1 s per unit, measured on 20 stored units)"
+    )
+    assert estimate_line(3, 60.0, None, "epochs", "measured").startswith(
+        "estimate: ~3 min for 3 epochs (60 s per epoch"
+    )
+    assert [format_duration(s) for s in (45, 600, 9000)] == ["45 s", "10 min", "2.5 h"]
+
+
+def test_run_script_turns_ctrl_c_and_job_errors_into_one_line(capsys):
+    def interrupted(argv):
+        raise KeyboardInterrupt
+
+    def refused(argv):
+        raise JobError("data/x.npy: damaged; rerun generate.py")
+
+    assert run_script("job.py", interrupted) == 130
+    assert capsys.readouterr().err == "job.py: interrupted; rerun the same command to resume\n"
+    assert run_script("job.py", refused) == 2
+    assert capsys.readouterr().err == "job.py: error: data/x.npy: damaged; rerun generate.py\n"
+    assert run_script("job.py", lambda argv: None) == 0
