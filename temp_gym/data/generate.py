@@ -232,10 +232,13 @@ def _solve_units(
             bar.update(len(arrays["status"]))
 
 
-def _estimate(root: Path, settings: dict[str, Any], jobs: list, workers: int) -> str:
+def _estimate(
+    root: Path, settings: dict[str, Any], jobs: list, workers: int, probe: bool
+) -> str | None:
     """The time the missing units should take, from units already solved, else a probe.
 
-    Stored units give the median time per plan once there are at least three of them.
+    Stored units give the median time per plan once there are at least three of them;
+    otherwise, with ``probe``, two plans are timed (None without).
     The probe plans the first two tasks of the first missing unit here (the workers plan
     them again: a unit is written whole), after the per-process warm-up of `temp_gym.plan`.
     """
@@ -246,6 +249,8 @@ def _estimate(root: Path, settings: dict[str, Any], jobs: list, workers: int) ->
         times.append(float(unit["unit_time"]) / max(len(unit["status"]), 1))
     if len(times) >= 3:  # a worker's first unit includes its warm-up: take the median
         per_plan, basis = float(np.median(times)), f"measured on {len(times)} stored units"
+    elif not probe:
+        return None
     else:
         _, split, workspace = jobs[0]
         probes = min(2, settings["tasks_per_workspace"])
@@ -329,8 +334,9 @@ def _generate(root, settings, config, workers, progress, backend, address) -> No
 
         init_ray(address, workers)  # fail fast: no planning before a missing cluster is found
     report(progress_line(resumed, total, "units"))
-    if jobs:
-        report(_estimate(root, settings, jobs, workers))
+    estimate = _estimate(root, settings, jobs, workers, probe=progress) if jobs else None
+    if estimate:  # the probe (two plans) only runs when progress is shown
+        report(estimate)
     _solve_units(
         root, jobs, workers, progress, settings["tasks_per_workspace"], resumed, backend, address
     )

@@ -34,7 +34,7 @@ def test_ctrl_c_prints_one_line_and_the_rerun_says_what_is_done(tmp_path):
     assert "Traceback" not in stderr and "leaked" not in stderr and "Error" not in stderr
     done = len(list(units.glob("*.npz")))
 
-    again = subprocess.run(command + ["--no-progress"], cwd=ROOT, capture_output=True, text=True)
+    again = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
     assert again.returncode == 0, again.stderr[-2000:]
     assert f"resuming: {done}/5 units done" in again.stderr
     assert "estimate: ~" in again.stderr
