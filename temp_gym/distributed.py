@@ -36,6 +36,20 @@ from temp_gym.jobs import JobError
 BACKENDS = ("local", "ray")
 
 
+def add_backend_arguments(parser, workers_default: str, unit: str) -> None:
+    """The flags of a script whose work units run on a backend: workers, backend, Ray."""
+    parser.add_argument(
+        "--workers", type=int, default=None, help=f"processes (None: {workers_default})"
+    )
+    parser.add_argument("--backend", choices=BACKENDS, default="local", help=f"where {unit} run")
+    parser.add_argument(
+        "--ray-address",
+        default=None,
+        help="Ray cluster: an address or 'auto' (None: $RAY_ADDRESS, else a local instance)",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
 def _check_backend(backend: str) -> None:
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {BACKENDS}, got {backend!r}")

@@ -24,6 +24,7 @@ import sys
 from pathlib import Path
 
 from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.distributed import add_backend_arguments
 from temp_gym.evaluation.report import write_report
 from temp_gym.evaluation.runner import (
     EvaluationSettings,
@@ -95,18 +96,7 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument(
         "--checkpoint", default=None, help="policy to evaluate (None: the shipped one)"
     )
-    parser.add_argument(
-        "--workers", type=int, default=None, help="processes (None: evaluation.workers)"
-    )
-    parser.add_argument(
-        "--backend", choices=["local", "ray"], default="local", help="where tasks run"
-    )
-    parser.add_argument(
-        "--ray-address",
-        default=None,
-        help="Ray cluster: an address or 'auto' (None: $RAY_ADDRESS, else a local instance)",
-    )
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_backend_arguments(parser, "evaluation.workers", "tasks")
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)

@@ -15,6 +15,7 @@ import sys
 from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data import generate_dataset
 from temp_gym.data.dataset import read_card
+from temp_gym.distributed import add_backend_arguments
 from temp_gym.jobs import run_script
 
 
@@ -22,18 +23,7 @@ def main(argv: list[str] | None = None) -> None:
     """Parse the command line, generate, print the card's totals and timing."""
     parser = script_parser(__doc__.splitlines()[0])
     parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
-    parser.add_argument(
-        "--workers", type=int, default=None, help="planning processes (None: data.workers)"
-    )
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    parser.add_argument(
-        "--backend", choices=["local", "ray"], default="local", help="where units run"
-    )
-    parser.add_argument(
-        "--ray-address",
-        default=None,
-        help="Ray cluster: an address or 'auto' (None: $RAY_ADDRESS, else a local instance)",
-    )
+    add_backend_arguments(parser, "data.workers", "units")
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)

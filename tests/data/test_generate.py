@@ -38,6 +38,23 @@ def dataset(tmp_path_factory) -> Path:
     return generate_dataset(tiny(directory), workers=1, progress=False)
 
 
+def signal_after_first_unit(command: list[str], root: Path, sig: int) -> tuple[int, str]:
+    """Run ``command`` (a generate.py run into ``root``) and send ``sig`` to its process
+    group, as a terminal would, once its first unit is on disk; return (status, stderr)."""
+    process = subprocess.Popen(
+        command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        start_new_session=True,
+    )  # fmt: skip
+    units = root / "train" / "units"
+    deadline = time.monotonic() + 120
+    while not (units.is_dir() and any(units.glob("*.npz"))) and time.monotonic() < deadline:
+        assert process.poll() is None, "the run ended before the signal"
+        time.sleep(0.01)
+    os.killpg(process.pid, sig)
+    _, stderr = process.communicate(timeout=120)
+    return process.returncode, stderr
+
+
 def split_contents(directory: Path) -> dict[str, torch.Tensor]:
     contents = {}
     for split in SPLITS:
@@ -178,17 +195,7 @@ def test_rerun_is_a_noop_and_other_settings_are_refused(dataset):
 def test_killed_run_resumes_to_the_uninterrupted_dataset(dataset, tmp_path):
     command = [sys.executable, str(SCRIPT), "--config", str(TINY), "--workers", "1"]
     command += ["--no-progress", f"data.dir={tmp_path}", "data.tasks_per_workspace=12"]
-    process = subprocess.Popen(
-        command, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    units = tmp_path / "train" / "units"
-    deadline = time.monotonic() + 60
-    while not (units.is_dir() and any(units.glob("*.npz"))) and time.monotonic() < deadline:
-        assert process.poll() is None, "the run ended before it could be killed"
-        time.sleep(0.01)
-    os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
+    signal_after_first_unit(command, tmp_path, signal.SIGKILL)
     assert not (tmp_path / "dataset_card.json").exists(), "killed too late to test resuming"
     subprocess.run(command, cwd=ROOT, check=True, capture_output=True)
     uninterrupted = tmp_path.parent / f"{tmp_path.name}-uninterrupted"

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
-import time
 
-from test_generate import ROOT, SCRIPT, TINY
+from test_generate import ROOT, SCRIPT, TINY, signal_after_first_unit
 
 
 def test_ctrl_c_prints_one_line_and_the_rerun_says_what_is_done(tmp_path):
@@ -16,19 +14,10 @@ def test_ctrl_c_prints_one_line_and_the_rerun_says_what_is_done(tmp_path):
         sys.executable, str(SCRIPT), "--config", str(TINY), "--workers", "2",
         f"data.dir={tmp_path}", "data.tasks_per_workspace=30", "data.workspaces.train=4",
     ]  # fmt: skip
-    process = subprocess.Popen(
-        command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        start_new_session=True,  # a terminal's Ctrl-C reaches the whole process group
-    )  # fmt: skip
+    status, stderr = signal_after_first_unit(command, tmp_path, signal.SIGINT)
     units = tmp_path / "train" / "units"
-    deadline = time.monotonic() + 120
-    while not (units.is_dir() and any(units.glob("*.npz"))) and time.monotonic() < deadline:
-        assert process.poll() is None, "the run ended before it could be interrupted"
-        time.sleep(0.02)
-    os.killpg(process.pid, signal.SIGINT)
-    _, stderr = process.communicate(timeout=120)
     assert not (tmp_path / "dataset_card.json").exists(), "interrupted too late to test"
-    assert process.returncode == 130
+    assert status == 130
     lines = [line for line in stderr.replace("\r", "\n").splitlines() if line.strip()]
     assert lines[-1] == "generate.py: interrupted; rerun the same command to resume"
     assert "Traceback" not in stderr and "leaked" not in stderr and "Error" not in stderr

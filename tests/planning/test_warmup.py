@@ -6,20 +6,15 @@ import json
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
 from temp_gym.planning.warmup import WARM_UP_NODES
 
+ROOT = Path(__file__).resolve().parents[2]
 PROBLEMS = {
-    "point2d": {
-        "robot": "point2d",
-        "bounds": [[0, 0], [20, 20]],
-        "obstacles": [{"center": [10, 10], "half_extents": [1, 6]}],
-        "start": [2, 2],
-        "goal": [18, 18],
-        "goal_radius": 0.5,
-    },
+    "point2d": json.loads((ROOT / "examples" / "point2d.json").read_text()),
     "kuka_iiwa14": {  # bounds: the joint limits
         "robot": "kuka_iiwa14",
         "obstacles": [{"center": [0, 0, -0.06], "half_extents": [1.5, 1.5, 0.05]}],
