@@ -188,3 +188,17 @@ def test_the_lock_of_a_killed_run_is_not_stale(tmp_path):
     holder.wait()
     with DirectoryLock(tmp_path, "second"):  # no stale lock left behind
         assert "second" in (tmp_path / ".lock").read_text()
+
+
+def test_an_old_format_dataset_is_rebuilt_by_generate_without_running_its_pickles(
+    dataset, tmp_path
+):
+    marker = tmp_path / "ran"
+    card = card_of(dataset)
+    del card["format"], card["files"]
+    (dataset / "dataset_card.json").write_text(json.dumps(card))
+    old = dataset / "train" / "buffer" / "prefetch.pkl"  # what torchrl's dumps wrote
+    old.write_bytes(pickle.dumps(Payload(marker)))
+    generate_dataset(tiny(dataset), workers=1, progress=False)
+    assert not old.exists() and not marker.exists()
+    assert card_of(dataset)["format"] == 2 and len(load_split(dataset, "train")[0]) > 0
