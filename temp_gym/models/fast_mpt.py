@@ -483,5 +483,5 @@ class FastMPT:
         path: np.ndarray,
         path_length: int,
     ) -> np.ndarray:
-        """`prefix` then `predict`: one sample's `MPT.forward`, every input given, ``(chunk, d)``."""
+        """`prefix` then `predict`: `MPT.forward` of one sample, ``(chunk, d)``."""
         return self.predict(self.prefix(sei, goal, goal_radius, start), path, path_length)
