@@ -204,11 +204,23 @@ def _linear_rows(x, weight, bias, relu):
 
 
 @numba.njit(cache=True, nogil=True)
-def _prefix_kernel(z, ln, wqkv, bqkv):
-    """Layer 0's query, key and value rows ``(S, 3w)`` of the constant prefix tokens ``z``."""
+def _prefix_kernel(sei, task, start, embeddings, position, ln, wqkv, bqkv):
+    """The prefix tokens ``z`` (S, w) of SEI, Goal and Start, and layer 0's qkv ``(S, 3w)``.
+
+    ``task`` is the goal and the goal radius; ``embeddings`` holds the three embeddings'
+    weights (in, out) and biases; ``position`` the prefix positions after the output token's.
+    """
+    sei_w, sei_b, goal_w, goal_b, start_w, start_b = embeddings
+    count = sei.shape[0]
+    z = np.empty((count + 2, sei_w.shape[1]), np.float32)
+    z[:count] = np.dot(sei, sei_w)
+    _add_bias(z[:count], sei_b, False)
+    z[count] = np.dot(task, goal_w) + goal_b
+    z[count + 1] = np.dot(start, start_w) + start_b
+    z += position
     qkv = np.dot(_layer_norm(z, ln[0, 0], ln[0, 1]), wqkv[0])
     _add_bias(qkv, bqkv[0], False)
-    return qkv
+    return z, qkv
 
 
 @numba.njit(cache=True, nogil=True)
@@ -375,9 +387,12 @@ class FastMPT:
         with torch.no_grad():
             position = mpt.position[0]  # (P, width), torch's token order
             self._position = _array(position)
-            self._sei = (_array(mpt.embed_sei.weight.T), _array(mpt.embed_sei.bias))
-            self._goal = (_array(mpt.embed_goal.weight.T), _array(mpt.embed_goal.bias))
-            self._start = (_array(mpt.embed_start.weight.T), _array(mpt.embed_start.bias))
+            self._embeddings = tuple(
+                _array(tensor)
+                for embed in (mpt.embed_sei, mpt.embed_goal, mpt.embed_start)
+                for tensor in (embed.weight.T, embed.bias)
+            )
+            self._prefix_position = np.ascontiguousarray(self._position[1:])
             ln = stack(
                 lambda layer: torch.stack(
                     [
@@ -438,16 +453,15 @@ class FastMPT:
             goal_radius: normalized goal radius.
             start: ``(d,)`` normalized start.
         """
-        sei = np.asarray(sei, np.float32).reshape(self.num_sei_tokens, self.width)
+        sei = np.ascontiguousarray(sei, np.float32).reshape(self.num_sei_tokens, self.width)
         goal = np.ascontiguousarray(goal, np.float32).reshape(self.dim)
-        start = np.asarray(start, np.float32).reshape(self.dim)
-        task = np.append(goal, np.float32(np.asarray(goal_radius).reshape(-1)[0]))
-        z = np.empty((self.num_sei_tokens + 2, self.width), np.float32)
-        z[: self.num_sei_tokens] = sei @ self._sei[0] + self._sei[1]
-        z[-2] = task @ self._goal[0] + self._goal[1]
-        z[-1] = start @ self._start[0] + self._start[1]
-        z += self._position[1:]
-        return Prefix(goal, z, _prefix_kernel(z, self._ln, self._wqkv, self._bqkv))
+        start = np.ascontiguousarray(start, np.float32).reshape(self.dim)
+        task = np.empty(self.dim + 1, np.float32)
+        task[:-1] = goal
+        task[-1] = np.asarray(goal_radius, np.float32).reshape(-1)[0]
+        z, qkv = _prefix_kernel(sei, task, start, self._embeddings, self._prefix_position,
+                                self._ln, self._wqkv, self._bqkv)  # fmt: skip
+        return Prefix(goal, z, qkv)
 
     def predict(
         self, prefix: Prefix, path: np.ndarray, path_length: int, out: np.ndarray | None = None

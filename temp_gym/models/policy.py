@@ -74,6 +74,8 @@ def _single_torch_thread(enabled: bool) -> Iterator[None]:
         torch.set_num_threads(previous)
 
 
+_UNUSED_GENERATOR = np.random.default_rng(0)
+"""Stands in for the noise generator of a noiseless policy in compiled code (never drawn)."""
 SEI_CACHE_SIZE = 256
 """Workspaces whose SEI a `PolicyCore` remembers."""
 
@@ -91,11 +93,14 @@ class PolicyCore:
         self.device = torch.device(device)
         self.model = model.to(self.device).eval()
         self.fast = FastMPT(self.model.mpt) if fast and self.device.type == "cpu" else None
-        self._sei: OrderedDict[tuple, torch.Tensor] = OrderedDict()
+        self._sei: OrderedDict[tuple, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
         self._lock = threading.Lock()
 
-    def sei(self, problem: Problem) -> torch.Tensor:
-        """The SEI ``(1, n, width)`` of the problem's workspace (EISE once per workspace)."""
+    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
+        """The SEI of the problem's workspace (EISE once per workspace): tensor and array.
+
+        The tensor is ``(1, n, width)`` on the core's device; the array a float32 CPU copy.
+        """
         key = (
             problem.robot,
             problem.bounds.tobytes(),
@@ -109,7 +114,8 @@ class PolicyCore:
                 return sei
         grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
         with torch.inference_mode(), _single_torch_thread(self.fast is not None):
-            sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+            tensor = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+        sei = (tensor, tensor.cpu().numpy()[0].astype(np.float32))
         with self._lock:
             self._sei[key] = sei
             if len(self._sei) > SEI_CACHE_SIZE:
@@ -178,7 +184,8 @@ class TEMPPolicy:
         self._out = np.empty((self.model.mpt.chunk, self.model.dim), np.float32)
         self.noise_std = float(noise_std)
         self.seed = seed
-        self.rng = np.random.default_rng(seed)
+        self._rng_seed = seed
+        self._rng: np.random.Generator | None = None
         self.record_attention = record_attention
         self.attentions: list[np.ndarray] = []
         self.problem: Problem | None = None
@@ -206,6 +213,13 @@ class TEMPPolicy:
         return self.model.robot
 
     @property
+    def rng(self) -> np.random.Generator:
+        """The noise generator (seeded by the constructor's ``seed`` or the last `reset`'s)."""
+        if self._rng is None:
+            self._rng = np.random.default_rng(self._rng_seed)
+        return self._rng
+
+    @property
     def encoding_resolution(self) -> int:
         """Cells per workspace axis of the occupancy grid the model reads."""
         return self.model.encoding_resolution
@@ -224,21 +238,19 @@ class TEMPPolicy:
         """Encode the problem's workspace (cached per workspace); re-seed the noise if asked."""
         check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
         self.problem = problem
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
+        if seed is not None:  # the generator is made when the noise first needs it
+            self._rng_seed, self._rng = seed, None
         self.attentions = []
-        self._sei = self.core.sei(problem)
-        self._task = [
-            torch.as_tensor(value, dtype=torch.float32, device=self.device).reshape(1, -1)
-            for value in (
-                normalize(problem.goal, problem.bounds),
-                [problem.goal_radius / half_range(problem.bounds).mean()],
-                normalize(problem.start, problem.bounds),
-            )
-        ]
-        if self._fast is not None:  # the same float32 inputs as the PyTorch model's
-            goal, goal_radius, start = (value.cpu().numpy()[0] for value in self._task)
-            self._prefix = self._fast.prefix(self._sei.cpu().numpy(), goal, goal_radius, start)
+        self._sei, sei_array = self.core.sei(problem)
+        # The task as the model reads it, float32; PyTorch's tensors are made when first used.
+        self._task_arrays = (
+            normalize(problem.goal, problem.bounds).astype(np.float32),
+            np.array([problem.goal_radius / half_range(problem.bounds).mean()], np.float32),
+            normalize(problem.start, problem.bounds).astype(np.float32),
+        )
+        self._task = None
+        if self._fast is not None:
+            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
 
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
         """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1]."""
@@ -289,13 +301,19 @@ class TEMPPolicy:
         if self._fast is None or self.record_attention or self._prefix is None:
             return None
         prefix = self._prefix
-        return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, self.rng,
+        noise = self.rng if self.noise_std > 0 else _UNUSED_GENERATOR
+        return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, noise,
                 self.noise_std, self.chunk, self.max_path_length)  # fmt: skip
 
     def _torch_sample(self, path: np.ndarray, length: int) -> np.ndarray:
         """The PyTorch model's chunk (float32 ``(chunk, d)``); records attention if asked."""
         if self.backend == "numba":
             raise ValueError("backend 'numba' records no attention; use 'auto' or 'torch'")
+        if self._task is None:
+            self._task = [
+                torch.from_numpy(value).reshape(1, -1).to(self.device)
+                for value in self._task_arrays
+            ]
         goal, goal_radius, start = self._task
         with torch.inference_mode():
             sample, weights = self.model.mpt(

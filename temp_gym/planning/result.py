@@ -132,7 +132,8 @@ class PlanResult:
         )
         if self.attention is not None:
             phase = self.attention
-            outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else "no solution"
+            stop = phase.get("stop", "solved" if phase["solved"] else "attention_budget")
+            outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else f"{stop}, no solution"
             line += f"; attention phase: {outcome} at {phase['nodes']} nodes, {phase['time']:.3f} s"
         return line
 
