@@ -342,9 +342,11 @@ def main() -> None:
                 print(f"| {name} | {counts['temp']} | {counts['informed_rrt_star']} |")
         if "split" in args.sections:
             figures["split"] = split = split_section(robot, sets["test"], 3, args.budget)
-            print(f"\n**{world}: per attention-phase node (us)**: compiled {split['compiled']:.1f}"
-                  f", of which the MPT {split['mpt']:.1f} ({split['calls_per_node']:.2f} calls "
-                  f"per node); Python loop {split['python']:.1f}; RRT* {split['rrt']:.1f}")
+            print(
+                f"\n**{world}: per attention-phase node (us)**: compiled {split['compiled']:.1f}"
+                f", of which the MPT {split['mpt']:.1f} ({split['calls_per_node']:.2f} calls "
+                f"per node); Python loop {split['python']:.1f}; RRT* {split['rrt']:.1f}"
+            )
         sys.stdout.flush()
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

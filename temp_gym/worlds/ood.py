@@ -5,14 +5,16 @@ of independent random boxes. A policy trained on them can learn that clutter, no
 This family is built to tell the two apart: every problem is a deliberate structure, made of
 thin walls or many small pieces, whose solution leaves the straight line by far:
 
-| name | structure | why it is hard for a learned sampler |
-|---|---|---|
-| ``bug_trap*`` | a cup around the start, open away from the goal | the way out first leads away from the goal |
-| ``zigzag*`` | walls across the world, openings at alternating ends | a long serpentine path |
-| ``narrow_gap*`` | a wall across the world with one narrow gap off-centre | a passage of about one step |
-| ``double_wall`` | two walls, gaps at opposite ends | an S-shaped detour |
-| ``long_detour`` | a wall almost across, start and goal on its two sides near the closed end | a detour many times the straight line |
-| ``forest`` | a lattice of many small pillars | many more, smaller boxes than any generated world |
+* ``bug_trap*``: a cup around the start, open away from the goal; the way out first leads
+  away from the goal.
+* ``zigzag*``: walls across the world with openings at alternating ends: a long serpentine
+  path.
+* ``narrow_gap*``: a wall across the world with one narrow gap off-centre, about a step wide.
+* ``double_wall``: two walls with their gaps at opposite ends: an S-shaped detour.
+* ``long_detour``: a wall almost across, start and goal on its two sides near the closed end:
+  a detour many times the straight line.
+* ``forest``: a lattice of many small pillars, many more and smaller boxes than any
+  generated world has.
 
 and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``pillars``,
 ``long_detour``). Point worlds are ``[0, 20]^d`` as generated ones, with the generators' goal
@@ -43,7 +45,10 @@ WALL = 0.25
 
 def _box(lower, upper) -> dict:
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
-    return {"center": ((lower + upper) / 2).tolist(), "half_extents": ((upper - lower) / 2).tolist()}
+    return {
+        "center": ((lower + upper) / 2).tolist(),
+        "half_extents": ((upper - lower) / 2).tolist(),
+    }
 
 
 def _problem(robot: str, boxes: list[dict], start, goal) -> Problem:

@@ -55,7 +55,9 @@ def test_temp_plan_default_solves_a_file_end_to_end(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("temp ")
     # The summary reports the attention phase: its solution, or why it handed over.
-    assert re.search(r"attention phase: (cost [\d.]+|stalled, no solution) at \d+ nodes", done.stdout)
+    assert re.search(
+        r"attention phase: (cost [\d.]+|stalled, no solution) at \d+ nodes", done.stdout
+    )
     result = json.loads(out.read_text())
     assert result["planner"] == "temp" and result["success"]
     assert certify_path(problem, np.asarray(result["path"]))
