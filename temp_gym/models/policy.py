@@ -18,8 +18,9 @@ deviation (in normalized units) from the policy's own seeded generator, and is c
 (the default) is deterministic.
 
 Chunks: a model with ``chunk = k`` (`temp_gym.models.mpt.MPT`) predicts the next k nodes per
-call. ``propose_chunk`` returns them all (what the ``temp`` planner uses); ``policy(obs)`` and
-``propose`` return the first, so the env steps one node per call as before.
+call. ``propose_chunk`` returns the first ``horizon`` of them (all k by default; what the
+``temp`` planner uses); ``policy(obs)`` and ``propose`` return the first, so the env steps one
+node per call as before.
 
 Sharing: what does not change between problems (the model in eval mode, its `FastMPT`
 snapshot, the SEI of each workspace seen, least recently used first out) lives in a
@@ -141,6 +142,8 @@ class TEMPPolicy:
             carry theirs (`temp_gym.load_policy`).
         core: a `PolicyCore` of ``model`` to share (None: a new one); `load_policy` passes
             the cached core of its checkpoint.
+        horizon: proposals per call, the first ``horizon`` of the model's chunk (None: all);
+            later ones continue a longer guess, so fewer can waste fewer samples.
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -155,6 +158,7 @@ class TEMPPolicy:
         backend: str = "auto",
         attention_nodes: int | None = None,
         core: PolicyCore | None = None,
+        horizon: int | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -180,8 +184,14 @@ class TEMPPolicy:
         self._fast = core.fast if wants_fast else None
         if wants_fast and self._fast is None:
             self._fast = FastMPT(self.model.mpt)
+        chunk = self.model.mpt.chunk
+        if horizon is not None and not (isinstance(horizon, int) and 1 <= horizon <= chunk):
+            raise ValueError(
+                f"horizon: expected an integer in 1..{chunk} (the chunk), got {horizon!r}"
+            )
+        self.horizon = chunk if horizon is None else horizon
         self._prefix: Prefix | None = None
-        self._out = np.empty((self.model.mpt.chunk, self.model.dim), np.float32)
+        self._out = np.empty((self.horizon, self.model.dim), np.float32)
         self.noise_std = float(noise_std)
         self.seed = seed
         self._rng_seed = seed
@@ -231,8 +241,8 @@ class TEMPPolicy:
 
     @property
     def chunk(self) -> int:
-        """Samples proposed per call of the model (`propose_chunk`)."""
-        return self.model.mpt.chunk
+        """Samples proposed per call of the model (`propose_chunk`): the ``horizon``."""
+        return self.horizon
 
     def reset(self, problem: Problem, seed: int | None = None) -> None:
         """Encode the problem's workspace (cached per workspace); re-seed the noise if asked."""
@@ -275,7 +285,7 @@ class TEMPPolicy:
         return self.propose_chunk(path, length)[0]
 
     def propose_chunk(self, path: np.ndarray, length: int) -> np.ndarray:
-        """The model's next `chunk` samples from the path so far: float32 ``(chunk, d)``.
+        """The next `chunk` samples from the path so far: float32 ``(chunk, d)``.
 
         The planner's path (`temp_gym.planning.attention`): no observation is built per
         step. Noise, when set, is drawn for the whole chunk.
@@ -329,4 +339,4 @@ class TEMPPolicy:
             )
         if self.record_attention:
             self.attentions.append(weights[0].cpu().numpy())
-        return sample[0].cpu().numpy()
+        return sample[0, : self.horizon].cpu().numpy()

@@ -125,13 +125,15 @@ def policy_from_checkpoint(
     noise_std: float | None = None,
     seed: int | None = None,
     attention_nodes: int | None = None,
+    horizon: int | None = None,
 ):
     """A `TEMPPolicy` on the cached checkpoint at ``path``, with its shipped planner settings.
 
     The checkpoint carries the planner settings it was shipped with (`trainers/ship.py`): the
-    attention-phase budget n, used unless ``attention_nodes`` is given, and the output noise,
-    used unless ``noise_std`` is given. A checkpoint without them gets n = None (all of the
-    planner's ``max_nodes``) and no noise.
+    attention-phase budget n, used unless ``attention_nodes`` is given, the output noise,
+    used unless ``noise_std`` is given, and the proposals used per MPT call (``horizon``). A
+    checkpoint without them gets n = None (all of the planner's ``max_nodes``), no noise and
+    its whole chunk.
     """
     from temp_gym.models.policy import TEMPPolicy
 
@@ -141,12 +143,15 @@ def policy_from_checkpoint(
         noise_std = float(planner.get("noise_std", 0.0))
     if attention_nodes is None:
         attention_nodes = planner.get("attention_nodes")
+    if horizon is None:
+        horizon = planner.get("horizon")
     return TEMPPolicy(
         loaded.core.model,
         noise_std=noise_std,
         seed=seed,
         attention_nodes=attention_nodes,
         core=loaded.core,
+        horizon=horizon,
     )
 
 

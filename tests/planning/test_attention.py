@@ -15,11 +15,11 @@ from temp_gym.worlds.generators import generate_problem
 SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 2, "ffn_dim": 32, "num_sei_tokens": 4}
 
 
-def _chunked_policy(robot: str, chunk: int, noise_std: float) -> TEMPPolicy:
+def _chunked_policy(robot: str, chunk: int, noise_std: float, horizon=None) -> TEMPPolicy:
     """An untrained (random) chunked model: its proposals exercise every branch of the loop."""
     torch.manual_seed(chunk)
     model = TEMPModel(robot, 8, 16, eise_hidden=16, chunk=chunk, **SMALL)
-    return TEMPPolicy(model, noise_std=noise_std)
+    return TEMPPolicy(model, noise_std=noise_std, horizon=horizon)
 
 
 def _grow(problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05):
@@ -45,7 +45,7 @@ def _assert_same_tree(a, b):
 @pytest.mark.parametrize(
     ("robot", "policy_kind", "patience"),
     [("point2d", "shipped", 0), ("point2d", "chunk3", 0), ("point3d", "shipped", 60),
-     ("point3d", "chunk2", 0)],
+     ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)
@@ -55,6 +55,8 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         for compiled_loop in (True, False):
             if policy_kind == "shipped":
                 policy = load_policy(robot, noise_std=0.05)
+            elif "horizon" in policy_kind:
+                policy = _chunked_policy(robot, 4, noise_std=0.05, horizon=2)
             else:
                 policy = _chunked_policy(robot, int(policy_kind[-1]), noise_std=0.05)
             runs.append(_grow(problem, policy, index, compiled_loop, patience))
@@ -117,3 +119,18 @@ def test_compiled_loop_cannot_be_forced_on_a_python_policy(wall):
             Tree(problem), Stuck(), np.random.default_rng(0), 0.05,
             AttentionLimits(10, 10, 100, 0), compiled_loop=True,
         )  # fmt: skip
+
+
+def test_a_horizon_uses_the_first_proposals_of_each_chunk():
+    full = _chunked_policy("point2d", 4, noise_std=0.0)
+    short = _chunked_policy("point2d", 4, noise_std=0.0, horizon=2)
+    problem = generate_problem("point2d", np.random.default_rng(0))
+    full.reset(problem)
+    short.reset(problem)
+    path = np.zeros((16, 2), np.float32)
+    path[0] = [-0.5, 0.2]
+    assert short.propose_chunk(path, 1).shape == (2, 2)
+    np.testing.assert_array_equal(short.propose_chunk(path, 1), full.propose_chunk(path, 1)[:2])
+    for bad in (0, 5, 1.5):
+        with pytest.raises(ValueError, match="horizon"):
+            _chunked_policy("point2d", 4, noise_std=0.0, horizon=bad)
