@@ -88,6 +88,7 @@ def plan(
     max_samples: int | None = None,
     policy: object = None,
     attention_nodes: int | None = None,
+    attention_patience: int | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -124,6 +125,10 @@ def plan(
         attention_nodes: ``temp`` only: tree-node budget of attention-based planning before
             classical planning takes over, the n of Algorithm 1 (None: the policy's own
             ``attention_nodes``, which shipped policies carry; else all of ``max_nodes``).
+        attention_patience: ``temp`` only: attention-phase nodes in a row without getting
+            closer to the goal before classical planning takes over (None: proportional to
+            the start-goal distance, `temp_gym.planning.attention.default_patience`; 0: never,
+            the paper's Algorithm 1).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument.
@@ -158,6 +163,8 @@ def plan(
         max_samples = _count(max_samples, "max_samples")
     if attention_nodes is not None:
         attention_nodes = _count(attention_nodes, "attention_nodes")
+    if attention_patience is not None:
+        attention_patience = _count(attention_patience, "attention_patience", minimum=0)
     if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
         raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
     if policy is not None and planner != "temp":
@@ -173,6 +180,7 @@ def plan(
         max_samples=max_samples,
         policy=policy,
         attention_nodes=attention_nodes,
+        attention_patience=attention_patience,
     )
     warm_up(problem, planner, settings, PLANNERS)  # compile before the clock starts
     return PLANNERS[planner](problem, settings)

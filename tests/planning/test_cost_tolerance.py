@@ -7,7 +7,6 @@ import types
 import numba
 import numpy as np
 import pytest
-from conftest import make_problem_2d
 
 from temp_gym.planning import _kernels
 from temp_gym.planning.samplers import GoalBiasedSampler, UniformSampler
@@ -76,9 +75,9 @@ def test_normal_scale_trees_are_identical_to_the_absolute_rule(absolute_kernels,
             assert np.array_equal(absolute.costs[:n], relative.costs[:n]), (robot, index)
 
 
-def test_a_world_1e11_times_smaller_plans_as_well(absolute_kernels, monkeypatch):
+def test_a_world_1e11_times_smaller_plans_as_well(absolute_kernels, monkeypatch, problem_2d):
     # [0, 2e-10]^2: the former absolute tolerance (1e-10) was a tenth of an edge there.
-    problem, scale = make_problem_2d(), 1e-11
+    problem, scale = problem_2d, 1e-11
     tiny = scaled(problem, scale)
     ratios, former = [], []
     for seed in range(3):
