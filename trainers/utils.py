@@ -22,7 +22,7 @@ from tensordict import TensorDict
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.temp import TEMPModel
 from temp_gym.problem import Problem
-from temp_gym.wrappers.metrics import PlanningMetrics
+from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
 
 BATCH_KEYS = ("start", "goal", "goal_radius", "path", "path_length", "target")
 
@@ -388,7 +388,7 @@ def run_episode(
 ) -> tuple[dict[str, float], dict[str, Any]]:
     """Plan ``problem`` in ``env`` with ``policy`` until the first solution or the budget.
 
-    Returns ``info["episode"]`` (`PlanningMetrics`) plus ``time`` (wall seconds, policy
+    Returns ``info["planning"]`` (`PlanningMetrics`) plus ``time`` (wall seconds, policy
     included), and the final info (with the tree still in ``env.unwrapped``).
     """
     began = time.perf_counter()
@@ -398,7 +398,7 @@ def run_episode(
         observation, _, terminated, truncated, info = env.step(policy(observation))
         if terminated or truncated:
             break
-    episode = {key: float(value) for key, value in info["episode"].items()}
+    episode = {key: float(value) for key, value in info[INFO_KEY].items()}
     episode["time"] = time.perf_counter() - began
     return episode, info
 

@@ -8,7 +8,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from temp_gym.wrappers.metrics import EPISODE_KEYS, PlanningMetrics
+from temp_gym.wrappers.metrics import EPISODE_KEYS, INFO_KEY, PlanningMetrics
 
 
 class TensorBoardMetrics(gym.Wrapper):
@@ -50,8 +50,8 @@ class TensorBoardMetrics(gym.Wrapper):
     def step(self, action):
         """Step, and log the episode when it ends."""
         observation, reward, terminated, truncated, info = super().step(action)
-        if "episode" in info:
-            episode = info["episode"]
+        if INFO_KEY in info:
+            episode = info[INFO_KEY]
             for key in EPISODE_KEYS:
                 value = float(episode[key])
                 if np.isfinite(value):

@@ -222,10 +222,10 @@ def test_vector_envs_roll_out_with_metrics(vector_cls):
     finished = 0
     for _ in range(150):
         _, _, terminated, truncated, infos = envs.step(envs.action_space.sample())
-        if "episode" in infos:
-            mask = infos["_episode"]
+        if "planning" in infos:
+            mask = infos["_planning"]
             finished += int(mask.sum())
-            assert np.all(infos["episode"]["nodes"][mask] >= 2)
+            assert np.all(infos["planning"]["nodes"][mask] >= 2)
     envs.close()
     assert finished >= 2
 

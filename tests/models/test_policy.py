@@ -38,8 +38,8 @@ def test_is_a_sampling_policy_and_plans_in_the_env(policy):
         observation, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             break
-    assert "episode" in info
-    assert len(policy.attentions) == info["episode"]["steps"]
+    assert "planning" in info
+    assert len(policy.attentions) == info["planning"]["steps"]
 
 
 def test_noise_makes_repeated_calls_differ_and_is_seeded(small_model):
