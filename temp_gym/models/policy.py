@@ -36,9 +36,10 @@ import torch
 
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
+from temp_gym.planning.observation import task_entries
+from temp_gym.policies import TASK_KEYS, task_signature
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
-from temp_gym.worlds.normalization import half_range, normalize
 from temp_gym.worlds.workspace import Workspace
 
 
@@ -120,6 +121,8 @@ class TEMPPolicy:
         self.problem: Problem | None = None
         self._sei: torch.Tensor | None = None
         self._sei_key: tuple | None = None
+        self._grid_bytes: bytes | None = None  # the occupancy grid and task last encoded
+        self._task_bytes: bytes | None = None
 
     @classmethod
     def from_checkpoint(
@@ -151,26 +154,62 @@ class TEMPPolicy:
         self.attentions = []
         key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
         if key != self._sei_key:
-            grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
-            with torch.inference_mode(), _single_torch_thread(self._fast is not None):
-                self._sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+            self._encode(occupancy_grid(Workspace.of(problem), self.model.encoding_resolution))
             self._sei_key = key
+        self._set_task(task_entries(problem))
+
+    def _encode(self, grid: np.ndarray) -> None:
+        """The SEI of an occupancy grid (EISE, one thread on the fast path)."""
+        grid = np.ascontiguousarray(grid, dtype=np.float32)
+        with torch.inference_mode(), _single_torch_thread(self._fast is not None):
+            self._sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+        self._grid_bytes = grid.tobytes()
+
+    def _set_task(self, entries: dict[str, np.ndarray]) -> None:
+        """The per-task MPT inputs (goal, goal radius, start) and the fast path's prefix."""
+        self._task_bytes = task_signature(entries, TASK_KEYS)
         self._task = [
-            torch.as_tensor(value, dtype=torch.float32, device=self.device).reshape(1, -1)
-            for value in (
-                normalize(problem.goal, problem.bounds),
-                [problem.goal_radius / half_range(problem.bounds).mean()],
-                normalize(problem.start, problem.bounds),
-            )
+            torch.as_tensor(entries[key], dtype=torch.float32, device=self.device).reshape(1, -1)
+            for key in ("goal", "goal_radius", "start")
         ]
         if self._fast is not None:  # the same float32 inputs as the PyTorch model's
             goal, goal_radius, start = (value.cpu().numpy()[0] for value in self._task)
             self._prefix = self._fast.prefix(self._sei.cpu().numpy(), goal, goal_radius, start)
 
+    def _follow(self, observation: dict[str, np.ndarray]) -> None:
+        """Plan for the observation's task when it is not the one last encoded.
+
+        The observation carries all the MPT's per-task inputs (the occupancy grid, normalized
+        start and goal, the goal radius ratio), so after an env reset the policy was not told
+        about (a vector env's automatic reset) it re-encodes instead of going stale.
+        """
+        occupancy = np.asarray(observation["occupancy"], dtype=np.float32)
+        same_task = task_signature(observation, TASK_KEYS) == self._task_bytes
+        if occupancy.shape != self.model.eise.grid_shape:
+            if same_task and self._sei_key is not None:
+                return  # an env at another resolution: the grid of reset(problem) stands
+            raise ValueError(
+                f"observation['occupancy']: expected shape {self.model.eise.grid_shape} for "
+                f"{self.model.robot} (the model's encoding_resolution "
+                f"{self.model.encoding_resolution}), got {occupancy.shape}; or call "
+                "policy.reset(problem) after each env reset"
+            )
+        same_grid = occupancy.tobytes() == self._grid_bytes
+        if same_task and same_grid:
+            return
+        if not same_grid:
+            self._encode(occupancy)
+            self._sei_key = None  # the next reset(problem) encodes its own workspace
+        self._set_task({key: observation[key] for key in TASK_KEYS})
+        self.problem = None  # the task is the observation's, not a Problem's
+
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
-        """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1]."""
-        if self._sei is None:
-            raise RuntimeError("call policy.reset(problem) before sampling")
+        """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1].
+
+        The task is read from the observation: an observation of another task than the last
+        one (e.g. after an env reset without ``policy.reset``) is followed, not ignored.
+        """
+        self._follow(observation)
         path = np.asarray(observation["path"])
         if path.ndim != 2 or path.shape[1] != self.model.dim:
             raise ValueError(

@@ -185,9 +185,8 @@ def test_target_cost_option_keeps_refining_after_first_solution(wall):
     policy = UniformPolicy(seed=1)
     first = run_policy_episode(env, policy, seed=1, problem=problem)
     target = 1.02 * 16.0 - problem.goal_radius
-    env.reset(seed=1, options={"problem": problem, "target_cost": target})
+    observation, _ = env.reset(seed=1, options={"problem": problem, "target_cost": target})
     policy.reset(problem)
-    observation = None
     while True:
         observation, _, terminated, truncated, info = env.step(policy(observation))
         if terminated or truncated:
