@@ -19,6 +19,7 @@ import torch
 import yaml
 from tensordict import TensorDict
 
+from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.temp import TEMPModel
 from temp_gym.problem import Problem
@@ -435,9 +436,7 @@ def paired_nodes(
             f"expected the same non-empty task list, got {len(episodes)} and {len(baseline)}"
         )
     difference = nodes_or_budget(episodes, max_nodes) - nodes_or_budget(baseline, max_nodes)
-    rng = np.random.default_rng(seed)
-    means = difference[rng.integers(0, len(difference), (resamples, len(difference)))].mean(1)
-    low, high = np.percentile(means, [2.5, 97.5])
+    low, high = bootstrap_interval(difference, np.mean, resamples=resamples, seed=seed)
     return {
         "fewer": float(np.mean(difference < 0)),
         "difference": float(difference.mean()),
