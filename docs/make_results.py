@@ -59,7 +59,7 @@ def _relative(path: str | None) -> str | None:
 
 
 def verdict(per_task: dict | None) -> str:
-    """ "met", "**missed**" or "undecided": TEMP faster and with fewer nodes than a baseline.
+    """Whether TEMP is faster and needs fewer nodes than a baseline: met, missed or undecided.
 
     Read on the median per-task ratios (TEMP over the baseline, tasks both solved) and their
     95% bootstrap intervals: met when both intervals lie below 1, missed when either lies

@@ -21,6 +21,7 @@ from temp_gym.data.demonstrations import resample_path, task_samples
 from temp_gym.data.format import SAMPLE_KEYS, TASK_KEYS
 from temp_gym.data.generate import STATUS, read_unit, unit_path
 from temp_gym.problem import ROBOTS
+from temp_gym.quiet import torchrl_info_silenced
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.splits import split_workspace
 
@@ -116,7 +117,8 @@ def _build(root: Path, split: str, settings: dict, units: list, paths: list) -> 
                 arrays = _unit_samples(unit, resampled, workspace, settings)
                 count = len(arrays["step"])
                 tensors = {key: torch.from_numpy(value) for key, value in arrays.items()}
-                buffer.extend(TensorDict(tensors, batch_size=[count]))
+                with torchrl_info_silenced():  # the storage announces itself on first write
+                    buffer.extend(TensorDict(tensors, batch_size=[count]))
         buffer.dumps(staging / "buffer")
         del buffer, storage
         shutil.rmtree(staging / "scratch", ignore_errors=True)

@@ -16,6 +16,7 @@ from typing import Any
 from temp_gym.data.format import SPLITS
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import ROBOTS
+from temp_gym.quiet import torchrl_info_silenced
 from temp_gym.worlds.encoding import DEFAULT_RESOLUTION
 from temp_gym.worlds.generators import DIFFICULTIES
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
@@ -137,7 +138,8 @@ def load_split(data_dir: str | Path, split: str):
     with open(buffer_dir / "storage" / "storage_metadata.json") as handle:
         size = int(json.load(handle)["len"])
     # loads() fills a storage of exactly the saved size.
-    buffer = ReplayBuffer(storage=LazyMemmapStorage(max(size, 1)), sampler=RandomSampler())
-    if size:
-        buffer.loads(buffer_dir)
+    with torchrl_info_silenced():
+        buffer = ReplayBuffer(storage=LazyMemmapStorage(max(size, 1)), sampler=RandomSampler())
+        if size:
+            buffer.loads(buffer_dir)
     return buffer, load_workspaces(root, split)

@@ -28,6 +28,8 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from temp_gym.quiet import import_pybullet, native_output_silenced
+
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
 
@@ -332,11 +334,13 @@ class IiwaRenderer:
         """The client, connected and holding ``ghosts + 2`` parked arms."""
         if self._client is not None:
             return self._client
-        import pybullet
         import pybullet_data
+
+        pybullet = import_pybullet()
         from pybullet_utils.bullet_client import BulletClient
 
-        client = BulletClient(connection_mode=pybullet.DIRECT)
+        with native_output_silenced():  # no "argv[0]=" on the user's stdout
+            client = BulletClient(connection_mode=pybullet.DIRECT)
         self._client, self._pid = client, os.getpid()
         urdf = f"{pybullet_data.getDataPath()}/kuka_iiwa/model.urdf"
         for _ in range(self.ghosts + 2):
@@ -353,7 +357,7 @@ class IiwaRenderer:
         """Replace the boxes when ``problem`` is a different object than last time."""
         if problem is self._problem:
             return
-        import pybullet
+        pybullet = import_pybullet()
 
         for body in self._boxes:
             client.removeBody(body)
@@ -430,7 +434,7 @@ class IiwaRenderer:
             raise ValueError(f"width, height: expected at least 16 pixels, got {width}x{height}")
         width, height = int(width), int(height)
         path = _check_path(problem, path)
-        import pybullet
+        pybullet = import_pybullet()
 
         client = self._connect()
         self._load_problem(client, problem)
