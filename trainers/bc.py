@@ -16,12 +16,15 @@ Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``
 (lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG: a killed run
 restarted with the same command resumes from it), ``results.yaml`` and the TensorBoard events.
 
-TensorBoard tags: ``train/loss``, ``train/recons``, ``train/semantic`` (epoch means),
-``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
+TensorBoard tags (step: epochs completed), each described on its chart
+(``utils.TAG_DESCRIPTIONS``): ``train/loss``, ``train/recons``, ``train/semantic`` (epoch
+means), ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
 ``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``eval.periodic_tasks`` test tasks,
 every ``eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention`` (figure: per-group
 attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...`` (the comparison);
-``time/epoch``, ``time/samples_per_s``; text ``hparams`` (the config as markdown).
+``time/epoch``, ``time/samples_per_s``. The config is in the HParams dashboard, and the
+custom-scalars dashboard puts each loss term's training and validation curves on one chart
+(``val/recons`` rises on unseen workspaces: the charts say why that is not divergence).
 """
 
 from __future__ import annotations
@@ -169,7 +172,7 @@ def train(
         state = {key: checkpoint.get(key, value) for key, value in state.items()}
         print(f"resuming {run_dir} at epoch {state['epoch']}")
     else:
-        logger.text("hparams", utils.config_markdown(config))
+        logger.hparams(config)
     if dist.world > 1:
         from torch.nn.parallel import DistributedDataParallel
 
@@ -246,15 +249,16 @@ def train(
             {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
              "lr": lr}
         )  # fmt: skip
-        logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
-        logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
+        step = state["epoch"]  # epochs completed: the periodic evaluation's step too
+        logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, step)
+        logger.scalars({f"val/{key}": value for key, value in val.items()}, step)
         logger.scalars(
             {
                 "train/lr": lr,
                 "time/epoch": seconds,
                 "time/samples_per_s": len(train_data) / seconds,
             },
-            epoch,
+            step,
         )
         if val[monitor] < state["best_val"]:
             state["best_val"] = val[monitor]

@@ -14,17 +14,19 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-EPISODE_KEYS = (
-    "success",
-    "nodes",
-    "cost",
-    "sampling_failures",
-    "samples",
-    "collision_checks",
-    "wall_time",
-    "steps",
-    "return",
-)
+EPISODE_DESCRIPTIONS = {
+    "success": "whether a solution was found (1.0 or 0.0)",
+    "nodes": "tree nodes at the end",
+    "cost": "best path cost (world units; inf without a solution)",
+    "sampling_failures": "samples whose extension collided",
+    "samples": "samples drawn, fallback retries included",
+    "collision_checks": "state and edge checks",
+    "wall_time": "seconds from `reset` to the last step, as the planner experiences it",
+    "steps": "env steps",
+    "return": "sum of rewards",
+}
+"""What each key of ``info[INFO_KEY]`` holds (the table in `PlanningMetrics`)."""
+EPISODE_KEYS = tuple(EPISODE_DESCRIPTIONS)
 """Keys of ``info[INFO_KEY]``, each documented in `PlanningMetrics`."""
 INFO_KEY = "planning"
 """Where `PlanningMetrics` puts an episode's statistics in ``info`` (``"episode"`` is
