@@ -7,11 +7,19 @@
 Values in overrides are parsed as YAML scalars (``3`` is an int, ``1e-3`` a float, ``null``
 None, ``[1, 2]`` a list). Overriding a key that the file does not have is an error, so a typo
 never passes silently; ``+key.sub=value`` adds a new key on purpose.
+
+The environment variable ``TEMP_GYM_OVERRIDES`` holds more overrides, separated by spaces, that
+every config load applies after the command line's: the same command then runs at another size
+(the tests run the README's commands as written, smoke-sized this way)::
+
+    TEMP_GYM_OVERRIDES="train.max_epochs=1 eval.tasks=2" python trainers/bc.py
 """
 
 from __future__ import annotations
 
 import copy
+import os
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -55,8 +63,17 @@ def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, A
     return config
 
 
+OVERRIDES_VARIABLE = "TEMP_GYM_OVERRIDES"
+"""Environment variable with overrides applied after the caller's (see the module docstring)."""
+
+
+def environment_overrides() -> list[str]:
+    """The overrides in ``$TEMP_GYM_OVERRIDES`` (shell-style words; none when unset)."""
+    return shlex.split(os.environ.get(OVERRIDES_VARIABLE, ""))
+
+
 def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[str, Any]:
-    """Load a YAML config with `yaml.safe_load` and apply overrides."""
+    """Load a YAML config with `yaml.safe_load`; apply ``overrides``, then the environment's."""
     path = Path(path)
     if not path.exists() and (CONFIG_DIR / path.name).exists():
         path = CONFIG_DIR / path.name
@@ -64,4 +81,10 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[st
         config = yaml.safe_load(handle)
     if not isinstance(config, dict):
         raise ValueError(f"{path}: a config must be a YAML mapping")
-    return apply_overrides(config, overrides or [])
+    extra = environment_overrides()
+    try:
+        return apply_overrides(config, [*(overrides or []), *extra])
+    except ValueError as error:
+        if extra and any(item in str(error) for item in extra):
+            raise ValueError(f"${OVERRIDES_VARIABLE}: {error}") from error
+        raise
