@@ -1,36 +1,18 @@
 """The trainer's TensorBoard run explains itself: descriptions, layout, HParams, aligned steps."""
 
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 from tensorboard.backend.event_processing.plugin_event_accumulator import EventAccumulator
 from tensorboard.plugins.hparams import metadata
-
-ROOT = Path(__file__).resolve().parents[2]
+from test_bc import run_bc  # the trainer in a subprocess, tiny config
 
 
 def test_dashboard_describes_tags_and_lines_up_evaluations_with_epochs(tmp_path):
-    command = [
-        sys.executable,
-        str(ROOT / "trainers" / "bc.py"),
-        "--config",
-        str(ROOT / "configs" / "tiny.yaml"),
-        "--no-progress",
-        "--skip-eval",
-        f"data.dir={tmp_path / 'data'}",
-        "data.workers=1",
-        f"logger.dir={tmp_path / 'runs'}",
+    run_bc(
+        tmp_path,
         "train.max_epochs=2",
         "eval.every=1",
         "eval.periodic_tasks=1",
-    ]
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    done = subprocess.run(
-        command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        flags=("--skip-eval",),
     )
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     events = EventAccumulator(str(tmp_path / "runs" / "TEMP-2D-v0__bc__0"))
     events.Reload()
     recons = events.SummaryMetadata("val/recons").summary_description
