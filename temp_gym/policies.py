@@ -53,6 +53,15 @@ def task_signature(observation: dict[str, np.ndarray], keys: tuple[str, ...]) ->
         ) from error
 
 
+def carries(observation: object, keys: tuple[str, ...]) -> bool:
+    """Whether ``observation`` is a dict with all of ``keys``.
+
+    A hand-built observation may hold only what a policy samples from (e.g. the path so
+    far); a policy then plans for the task given to its ``reset``.
+    """
+    return isinstance(observation, dict) and all(key in observation for key in keys)
+
+
 def problem_signature(problem: Problem, keys: tuple[str, ...]) -> bytes:
     """`task_signature` of every observation of a tree grown on ``problem`` (no occupancy)."""
     return task_signature(task_entries(problem), keys)
@@ -110,6 +119,8 @@ class UniformPolicy:
 
     def _follow(self, observation: dict[str, np.ndarray]) -> None:
         """Retarget the goal when the observation's differs from the one sampled so far."""
+        if self._task is not None and not carries(observation, ("goal",)):
+            return
         task = task_signature(observation, ("goal",))
         if task == self._task:
             return
@@ -149,7 +160,7 @@ class InformedPolicy(UniformPolicy):
                 "InformedPolicy: call policy.reset(problem) before sampling (it needs the "
                 "problem's bounds in world units)"
             )
-        if task_signature(observation, TASK_KEYS) != self._task:
+        if carries(observation, TASK_KEYS) and task_signature(observation, TASK_KEYS) != self._task:
             raise ValueError(
                 "observation: its start, goal or goal_radius differ from the problem given to "
                 "InformedPolicy.reset; call policy.reset(env.unwrapped.problem) after every env "

@@ -37,7 +37,7 @@ import torch
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
 from temp_gym.planning.observation import task_entries
-from temp_gym.policies import TASK_KEYS, task_signature
+from temp_gym.policies import TASK_KEYS, carries, task_signature
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.workspace import Workspace
@@ -183,6 +183,14 @@ class TEMPPolicy:
         start and goal, the goal radius ratio), so after an env reset the policy was not told
         about (a vector env's automatic reset) it re-encodes instead of going stale.
         """
+        keys = ("occupancy", *TASK_KEYS)
+        if not carries(observation, keys):
+            if self._task_bytes is not None:
+                return  # a path-only observation: the task given to reset(problem)
+            raise ValueError(
+                f"observation: expected the env's observation with {list(keys)}, or call "
+                "policy.reset(problem) first"
+            )
         occupancy = np.asarray(observation["occupancy"], dtype=np.float32)
         same_task = task_signature(observation, TASK_KEYS) == self._task_bytes
         if occupancy.shape != self.model.eise.grid_shape:

@@ -218,3 +218,14 @@ def test_an_env_at_another_resolution_needs_a_reset(small_model):
     reference = TEMPPolicy(small_model)
     reference.reset(PROBLEM)
     np.testing.assert_array_equal(policy(observation), reference(_task_observation(PROBLEM)))
+
+
+def test_a_path_only_observation_uses_the_reset_task(small_model):
+    full = _task_observation(PROBLEM)
+    path_only = {key: full[key] for key in ("path", "path_length")}
+    never_reset = TEMPPolicy(small_model)
+    with pytest.raises(ValueError, match=r"observation: expected .*'occupancy'"):
+        never_reset(path_only)
+    policy = TEMPPolicy(small_model)
+    policy.reset(PROBLEM)
+    np.testing.assert_array_equal(policy(path_only), policy(full))
