@@ -296,6 +296,7 @@ def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=Non
         stop_at_first=True,
         policy=policy,
         attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
+        attention_patience=eval_config.get("attention_patience") if planner == "temp" else None,
     )
     episode = {
         "success": float(result.success),

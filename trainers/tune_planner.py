@@ -1,17 +1,19 @@
-r"""Choose a policy's planner settings on validation workspaces: budget n and output noise.
+r"""Choose a policy's planner settings on validation workspaces: budget n, noise, horizon.
 
     python trainers/tune_planner.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
-        --attention-nodes 50 100 200 400 --noise-std 0 0.03 --tasks 60
+        --attention-nodes 50 100 200 400 --noise-std 0 0.03 --horizon 1 2 4 --tasks 60
 
-For every pair (n, noise) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen
-in no test; the test workspaces stay untouched until the final measurement, ``--split test``
-with the chosen setting) with the ``temp`` planner up to the first solution, and prints nodes
-to the first solution (mean and median, a failure counted as the whole budget), the share
-solved by attention-based planning within n, cost and time; and, against RRT* on the same
-tasks, the share of tasks where TEMP needed fewer nodes and the mean difference with its 95%
-paired bootstrap interval. The recommendation minimizes the mean nodes among the settings
-whose attention phase solves at least ``--min-attention-success`` of the tasks;
-``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
+For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
+chunk; 0: all) and stall patience (``--patience``; -1: the default rule) it plans ``--tasks``
+tasks drawn from the ``val`` workspaces (seen in no test; the test workspaces stay untouched
+until the final measurement, ``--split test`` with the chosen setting) with the ``temp``
+planner up to the first solution, and prints nodes to the first solution (mean and median, a
+failure counted as the whole budget), the share solved by attention-based planning within n,
+cost and time; and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer
+nodes and the mean difference with its 95% paired bootstrap interval. The recommendation
+minimizes the mean nodes among the settings whose attention phase solves at least
+``--min-attention-success`` of the tasks; ``trainers/ship.py --attention-nodes ... --noise-std
+...`` then ships it.
 """
 
 from __future__ import annotations
@@ -45,6 +47,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--split", default="val", choices=["val", "test"], help="test: the final measurement"
     )
+    parser.add_argument("--horizon", type=int, nargs="+", default=[0])
+    parser.add_argument("--patience", type=int, nargs="+", default=[-1])
     parser.add_argument("--min-attention-success", type=float, default=0.9)
     parser.add_argument("overrides", nargs="*")
     args = parser.parse_args(argv)
@@ -61,27 +65,32 @@ def main(argv: list[str] | None = None) -> dict:
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | nodes mean | median | AP solved | success | cost | time (ms) "
-        "| fewer than RRT* | mean difference [95% CI] |"
+        "| n | noise | horizon | patience | nodes mean | median | AP solved | success | cost "
+        "| time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
-    for budget, noise in itertools.product(args.attention_nodes, args.noise_std):
+    settings = itertools.product(args.attention_nodes, args.noise_std, args.horizon, args.patience)
+    for budget, noise, horizon, patience in settings:
         eval_config["attention_nodes"] = budget
-        policy = TEMPPolicy(model, noise_std=noise)
+        eval_config["attention_patience"] = None if patience < 0 else patience
+        policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = utils.summarize(runs, eval_config["max_nodes"])
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         paired = utils.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
         print(
-            f"| {budget} | {noise} | {row['nodes_mean']:.1f} | {row['nodes_median']:.0f} | "
+            f"| {budget} | {noise} | {policy.chunk} | {patience} | {row['nodes_mean']:.1f} | "
+            f"{row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
             f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
             f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
             flush=True,
         )
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
-            best, best_nodes = {"attention_nodes": budget, "noise_std": noise}, row["nodes_mean"]
+            best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
+                    "attention_patience": eval_config["attention_patience"]}  # fmt: skip
+            best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}
 

@@ -56,16 +56,45 @@ def ensure_dataset(config: dict[str, Any], progress: bool = True) -> Path:
     return Path(generate_dataset(config, workers=config["data"].get("workers"), progress=progress))
 
 
+def chunk_rows(task_id: torch.Tensor, step: torch.Tensor, chunk: int):
+    """Rows of the next ``chunk`` nodes of each sample's expert path, and which exist.
+
+    A task's samples are stored in path order (prefix ``x0..xk`` at step k, target
+    ``x(k+1)``), so sample ``i + j`` holds node ``x(k+1+j)`` when it belongs to the same
+    task at step ``k + j``. Returns ``rows`` ``(N, chunk)`` (int64; a row whose node does not
+    exist, past the end of the path, points at the sample itself) and ``mask`` ``(N, chunk)``.
+
+    Raises:
+        ValueError: ``chunk > 1`` and no sample has a next node stored after it (the samples
+            are not in path order, so chunk targets cannot be read off them).
+    """
+    count = len(task_id)
+    index = torch.arange(count)
+    offsets = torch.arange(chunk)
+    rows = (index[:, None] + offsets[None, :]).clamp(max=max(count - 1, 0))
+    mask = (task_id[rows] == task_id[:, None]) & (step[rows] == step[:, None] + offsets)
+    if chunk > 1 and count > 1 and not bool(mask[:, 1].any()):
+        raise ValueError("chunk targets: the samples are not stored in path order")
+    return torch.where(mask, rows, index[:, None]), mask
+
+
 class SplitData:
     """One split's samples and workspace table, ready for batching.
 
     The samples stay where the replay buffer keeps them (a memory map); each batch is gathered
     by index. The occupancy grids are looked up by ``workspace_id`` once per batch, and only
-    the batch's distinct workspaces are sent through the EISE.
+    the batch's distinct workspaces are sent through the EISE. A batch also holds the expert's
+    next ``chunk`` nodes (``targets``, ``target_mask``: `chunk_rows`) for a chunked MPT.
     """
 
-    def __init__(self, buffer: Any, workspaces: TensorDict) -> None:
+    def __init__(self, buffer: Any, workspaces: TensorDict, chunk: int = 1) -> None:
         self.samples = buffer.storage[: len(buffer)]
+        self.chunk_rows, self.chunk_mask = chunk_rows(
+            torch.as_tensor(self.samples["task_id"]).reshape(-1).long(),
+            torch.as_tensor(self.samples["step"]).reshape(-1).long(),
+            chunk,
+        )
+        self.targets = torch.as_tensor(self.samples["target"]).to(torch.float32).clone()
         self.lengths = torch.as_tensor(self.samples["path_length"]).reshape(-1).clone()
         ids = workspaces["workspace_id"].long()
         self.occupancy = workspaces["occupancy"].to(torch.float32).clone()
@@ -85,10 +114,12 @@ class SplitData:
         batch = {key: torch.as_tensor(part[key]).to(device) for key in BATCH_KEYS}
         batch["occupancy"] = self.occupancy[unique].to(device)
         batch["occupancy_index"] = inverse.to(device)
+        batch["targets"] = self.targets[self.chunk_rows[index]].to(device)
+        batch["target_mask"] = self.chunk_mask[index].to(device)
         return batch
 
 
-COORDINATE_KEYS = ("start", "goal", "path", "target")
+COORDINATE_KEYS = ("start", "goal", "path", "target", "targets")
 
 
 def draw_symmetry(dim: int, generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
@@ -116,7 +147,8 @@ def augment_symmetry(
     out = dict(batch)
     sign = torch.where(flips, -1.0, 1.0).to(batch["start"].device)
     for key in COORDINATE_KEYS:
-        out[key] = (batch[key] * sign)[..., order.to(batch[key].device)]
+        if key in batch:
+            out[key] = (batch[key] * sign)[..., order.to(batch[key].device)]
     grid = batch["occupancy"]
     flipped_axes = [1 + axis for axis in range(dim) if flips[axis]]
     if flipped_axes:
@@ -148,11 +180,12 @@ def perturb_path(
 
 
 def make_replay_buffer(config: dict[str, Any], split: str) -> SplitData:
-    """Load ``split`` (``train`` or ``val``) of the dataset as `SplitData`."""
+    """Load ``split`` (``train`` or ``val``) as `SplitData`, with targets for the model's chunk."""
     from temp_gym.data import load_split
 
     buffer, workspaces = load_split(config["data"]["dir"], split)
-    return SplitData(buffer, workspaces)
+    chunk = int((config.get("model") or {}).get("chunk", 1))
+    return SplitData(buffer, workspaces, chunk)
 
 
 def iterate_batches(
@@ -304,6 +337,15 @@ def model_step(
 ) -> dict[str, torch.Tensor]:
     """Forward pass and loss terms for one batch."""
     out = model(batch)
+    if "targets" in batch:  # the expert's next nodes, as many as the MPT's chunk
+        return loss_module(
+            out["recons_logits"],
+            batch["occupancy"],
+            out["samples"],
+            batch["targets"],
+            batch.get("occupancy_index"),
+            batch["target_mask"],
+        )
     return loss_module(
         out["recons_logits"],
         batch["occupancy"],

@@ -22,7 +22,7 @@ not change the result:
 Example:
     >>> fast = FastMPT(model.mpt)                               # once: copies the weights
     >>> prefix = fast.prefix(sei, goal, goal_radius, start)     # once per problem
-    >>> sample = fast.predict(prefix, path, path_length)        # every step, (d,) float32
+    >>> samples = fast.predict(prefix, path, path_length)  # every call, (chunk, d) float32
 
 The weights are a snapshot: build a new `FastMPT` after changing the model's parameters.
 """
@@ -204,11 +204,23 @@ def _linear_rows(x, weight, bias, relu):
 
 
 @numba.njit(cache=True, nogil=True)
-def _prefix_kernel(z, ln, wqkv, bqkv):
-    """Layer 0's query, key and value rows ``(S, 3w)`` of the constant prefix tokens ``z``."""
+def _prefix_kernel(sei, task, start, embeddings, position, ln, wqkv, bqkv):
+    """The prefix tokens ``z`` (S, w) of SEI, Goal and Start, and layer 0's qkv ``(S, 3w)``.
+
+    ``task`` is the goal and the goal radius; ``embeddings`` holds the three embeddings'
+    weights (in, out) and biases; ``position`` the prefix positions after the output token's.
+    """
+    sei_w, sei_b, goal_w, goal_b, start_w, start_b = embeddings
+    count = sei.shape[0]
+    z = np.empty((count + 2, sei_w.shape[1]), np.float32)
+    z[:count] = np.dot(sei, sei_w)
+    _add_bias(z[:count], sei_b, False)
+    z[count] = np.dot(task, goal_w) + goal_b
+    z[count + 1] = np.dot(start, start_w) + start_b
+    z += position
     qkv = np.dot(_layer_norm(z, ln[0, 0], ln[0, 1]), wqkv[0])
     _add_bias(qkv, bqkv[0], False)
-    return qkv
+    return z, qkv
 
 
 @numba.njit(cache=True, nogil=True)
@@ -239,13 +251,14 @@ def _forward_kernel(
     offset_scale,
     out,
 ):
-    """One MPT forward pass for one sample; writes it to ``out`` (see `FastMPT.predict`).
+    """One MPT forward pass for one sample; writes its chunk to ``out`` (see `FastMPT.predict`).
 
     Shapes (w: token width, S: prefix tokens, M layers, d), weights (in, out): ``prefix_z``
     (S, w), ``prefix_qkv`` (S, 3w), ``out_bias`` (w,), ``current_w`` (2d, w), ``path_w``
     (d, w), ``path_position`` (L, w) (path bias included), ``ln`` (M, 4, w), ``wqkv``
     (M, w, 3w), ``bqkv`` (M, 3w), ``w_split`` (M, 3, w, w) (wqkv's query, key, value parts),
-    ``wo`` (M, w, w) etc., ``final_ln`` (2, w), ``head_w`` (w, d).
+    ``wo`` (M, w, w) etc., ``final_ln`` (2, w), ``head_w`` (w, k d), ``out`` (k, d) for a
+    chunk of k samples.
     ``offset_scale > 0`` selects the ``offset`` prediction, 0 the ``absolute`` one.
     """
     prefix, width = prefix_z.shape
@@ -311,18 +324,20 @@ def _forward_kernel(
             token += np.dot(hidden, w2[layer]) + b2[layer]
 
     normed_token = _layer_norm(token.reshape(1, width), final_ln[0], final_ln[1])[0]
-    for j in range(dim):
-        v = head_b[j]
-        for c in range(width):
-            v += normed_token[c] * head_w[c, j]
-        v = np.tanh(v)
-        if offset_scale > 0:  # torch.clamp: NaN stays NaN
-            v = current[j] + np.float32(offset_scale) * v
-            if v < -_ONE:
-                v = -_ONE
-            elif v > _ONE:
-                v = _ONE
-        out[j] = v
+    for row in range(out.shape[0]):  # the chunk: each row continues from the previous one
+        for j in range(dim):
+            column = row * dim + j
+            v = head_b[column]
+            for c in range(width):
+                v += normed_token[c] * head_w[c, column]
+            v = np.tanh(v)
+            if offset_scale > 0:  # torch.clamp: NaN stays NaN
+                v = (current[j] if row == 0 else out[row - 1, j]) + np.float32(offset_scale) * v
+                if v < -_ONE:
+                    v = -_ONE
+                elif v > _ONE:
+                    v = _ONE
+            out[row, j] = v
 
 
 # ---- the model -------------------------------------------------------------------------------
@@ -361,6 +376,7 @@ class FastMPT:
         self.num_sei_tokens = mpt.num_sei_tokens
         self.max_path_length = mpt.max_path_length
         self.prediction = mpt.prediction
+        self.chunk = mpt.chunk
         layers = list(mpt.layers)
         self.num_heads = layers[0].attention.num_heads
         self.width = width = mpt.output_token.shape[-1]
@@ -371,9 +387,12 @@ class FastMPT:
         with torch.no_grad():
             position = mpt.position[0]  # (P, width), torch's token order
             self._position = _array(position)
-            self._sei = (_array(mpt.embed_sei.weight.T), _array(mpt.embed_sei.bias))
-            self._goal = (_array(mpt.embed_goal.weight.T), _array(mpt.embed_goal.bias))
-            self._start = (_array(mpt.embed_start.weight.T), _array(mpt.embed_start.bias))
+            self._embeddings = tuple(
+                _array(tensor)
+                for embed in (mpt.embed_sei, mpt.embed_goal, mpt.embed_start)
+                for tensor in (embed.weight.T, embed.bias)
+            )
+            self._prefix_position = np.ascontiguousarray(self._position[1:])
             ln = stack(
                 lambda layer: torch.stack(
                     [
@@ -418,6 +437,11 @@ class FastMPT:
             )
         self._ln, self._wqkv, self._bqkv = ln, wqkv, bqkv
 
+    @property
+    def kernel_weights(self) -> tuple:
+        """The weight arguments of the forward kernel, for compiled callers (read-only use)."""
+        return self._weights
+
     def prefix(
         self, sei: np.ndarray, goal: np.ndarray, goal_radius: float, start: np.ndarray
     ) -> Prefix:
@@ -429,28 +453,27 @@ class FastMPT:
             goal_radius: normalized goal radius.
             start: ``(d,)`` normalized start.
         """
-        sei = np.asarray(sei, np.float32).reshape(self.num_sei_tokens, self.width)
+        sei = np.ascontiguousarray(sei, np.float32).reshape(self.num_sei_tokens, self.width)
         goal = np.ascontiguousarray(goal, np.float32).reshape(self.dim)
-        start = np.asarray(start, np.float32).reshape(self.dim)
-        task = np.append(goal, np.float32(np.asarray(goal_radius).reshape(-1)[0]))
-        z = np.empty((self.num_sei_tokens + 2, self.width), np.float32)
-        z[: self.num_sei_tokens] = sei @ self._sei[0] + self._sei[1]
-        z[-2] = task @ self._goal[0] + self._goal[1]
-        z[-1] = start @ self._start[0] + self._start[1]
-        z += self._position[1:]
-        return Prefix(goal, z, _prefix_kernel(z, self._ln, self._wqkv, self._bqkv))
+        start = np.ascontiguousarray(start, np.float32).reshape(self.dim)
+        task = np.empty(self.dim + 1, np.float32)
+        task[:-1] = goal
+        task[-1] = np.asarray(goal_radius, np.float32).reshape(-1)[0]
+        z, qkv = _prefix_kernel(sei, task, start, self._embeddings, self._prefix_position,
+                                self._ln, self._wqkv, self._bqkv)  # fmt: skip
+        return Prefix(goal, z, qkv)
 
     def predict(
         self, prefix: Prefix, path: np.ndarray, path_length: int, out: np.ndarray | None = None
     ) -> np.ndarray:
-        """The next sample, float32 ``(d,)`` in [-1, 1]: `MPT.forward` for one sample.
+        """The next samples, float32 ``(chunk, d)`` in [-1, 1]: `MPT.forward` for one sample.
 
         Args:
             prefix: `prefix` of this problem.
             path: ``(>= path_length, d)`` the path so far (float32 avoids a copy); rows from
                 ``path_length`` on are ignored (padding).
             path_length: valid rows of ``path``, 1 .. L.
-            out: float32 ``(d,)`` to write the sample to (a fresh array if None).
+            out: float32 ``(chunk, d)`` to write the samples to (a fresh array if None).
         """
         path = np.ascontiguousarray(path, np.float32)
         length = int(path_length)
@@ -461,7 +484,7 @@ class FastMPT:
                 f"path_length: expected 1..{min(path.shape[0], self.max_path_length)}, got {length}"
             )
         if out is None:
-            out = np.empty(self.dim, np.float32)
+            out = np.empty((self.chunk, self.dim), np.float32)
         _forward_kernel(path, length, prefix.goal, prefix.z, prefix.qkv, *self._weights, out)
         return out
 
@@ -474,5 +497,5 @@ class FastMPT:
         path: np.ndarray,
         path_length: int,
     ) -> np.ndarray:
-        """`prefix` then `predict`: `MPT.forward` for one sample, every input given."""
+        """`prefix` then `predict`: `MPT.forward` of one sample, ``(chunk, d)``."""
         return self.predict(self.prefix(sei, goal, goal_radius, start), path, path_length)

@@ -9,7 +9,11 @@
   size-weighted mean of the losses of its parts: what makes data-parallel training equal to
   single-process training (`trainers/bc.py`).
 * ``L_semantic``: mean squared error between the expert's next node x and the MPT's sample x̂,
-  both normalized to [-1, 1]^d, averaged over samples and dimensions.
+  both normalized to [-1, 1]^d, averaged over samples and dimensions. A chunked MPT
+  (`temp_gym.models.mpt.MPT`, ``chunk = k``) is compared with the expert's next k nodes: per
+  sample, the mean over the chunk's valid entries (``target_mask``: a path that ends sooner
+  has fewer), then over samples, so it stays a per-sample mean; for k = 1 it is the MSE
+  above.
 
 λ is ``loss.recons_weight`` and η is ``loss.semantic_weight`` in the config.
 """
@@ -41,14 +45,31 @@ class TEMPLoss(nn.Module):
         sample: torch.Tensor,
         target: torch.Tensor,
         occupancy_index: torch.Tensor | None = None,
+        target_mask: torch.Tensor | None = None,
     ) -> dict[str, torch.Tensor]:
-        """Return ``loss`` (the weighted sum), ``recons`` and ``semantic`` (unweighted)."""
+        """Return ``loss`` (the weighted sum), ``recons`` and ``semantic`` (unweighted).
+
+        ``sample`` and ``target`` are ``(B, d)``, or ``(B, k, d)`` for a chunk with
+        ``target_mask`` ``(B, k)`` marking the entries to compare (all, when None).
+        """
         per_grid = (
             F.binary_cross_entropy_with_logits(recons_logits, occupancy, reduction="none")
             .flatten(1)
             .mean(dim=1)
         )
         recons = (per_grid if occupancy_index is None else per_grid[occupancy_index]).mean()
-        semantic = F.mse_loss(sample, target)
+        if sample.shape != target.shape:
+            raise ValueError(
+                f"sample, target: shapes {tuple(sample.shape)} and {tuple(target.shape)} differ"
+            )
+        if sample.dim() == 2:
+            semantic = F.mse_loss(sample, target)
+        else:
+            squared = (sample - target).pow(2).mean(dim=-1)  # (B, k)
+            if target_mask is None:
+                semantic = squared.mean()
+            else:
+                mask = target_mask.to(squared.dtype)
+                semantic = ((squared * mask).sum(dim=1) / mask.sum(dim=1).clamp(min=1.0)).mean()
         loss = self.recons_weight * recons + self.semantic_weight * semantic
         return {"loss": loss, "recons": recons, "semantic": semantic}

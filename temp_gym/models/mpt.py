@@ -30,9 +30,18 @@ tanh map the output token to the normalized configuration space [-1, 1]^d, in on
 * ``offset`` (default): ``x̂ = clip(x_c + offset_scale · tanh(head(z_out)), -1, 1)`` where x_c
   is the current node, the last valid HPD row. The next node is a step away from x_c, so a
   bounded offset is learned far more precisely than an absolute position.
-* ``absolute``: ``x̂ = tanh(head(z_out))``. The attention is written out (not
-`torch.nn.MultiheadAttention`) so that every layer's and head's softmax weights can be
-returned, ``(B, layers, heads, queries, keys)``.
+* ``absolute``: ``x̂ = tanh(head(z_out))``.
+
+**Chunks.** With ``chunk = k > 1`` the head predicts the next k nodes of the path in one call
+(action chunking, as in behaviour cloning for manipulation): ``x̂_1`` as above, then each
+``x̂_j = clip(x̂_{j-1} + offset_scale · tanh(head_j(z_out)), -1, 1)`` continues from the
+previous prediction (``absolute``: ``x̂_j = tanh(head_j(z_out))``). The planner then runs the
+MPT once per k nodes while its proposals keep extending the tree, which divides the model's
+share of a node's cost, and training on the summed loss over the chunk penalizes a policy that
+drifts (`temp_gym.models.loss.TEMPLoss`). ``chunk = 1`` is the paper's MPT.
+
+The attention is written out (not `torch.nn.MultiheadAttention`) so that every layer's and
+head's softmax weights can be returned, ``(B, layers, heads, queries, keys)``.
 """
 
 from __future__ import annotations
@@ -120,6 +129,7 @@ class MPT(nn.Module):
         dropout: dropout on attention weights and residual branches (training only).
         prediction: ``offset`` (from the current node) or ``absolute`` (module docstring).
         offset_scale: the largest offset per coordinate, normalized units (``offset`` only).
+        chunk: k, the nodes predicted per call (module docstring).
     """
 
     def __init__(
@@ -134,10 +144,14 @@ class MPT(nn.Module):
         dropout: float = 0.0,
         prediction: str = "offset",
         offset_scale: float = 0.5,
+        chunk: int = 1,
     ) -> None:
         super().__init__()
         if prediction not in ("offset", "absolute"):
             raise ValueError(f"prediction: expected 'offset' or 'absolute', got {prediction!r}")
+        if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+            raise ValueError(f"chunk: expected an integer of at least 1, got {chunk!r}")
+        self.chunk = chunk
         self.prediction = prediction
         self.offset_scale = float(offset_scale)
         self.dim = int(dim)
@@ -158,7 +172,7 @@ class MPT(nn.Module):
             MPTLayer(token_dim, num_heads, ffn_dim, dropout) for _ in range(num_layers)
         )
         self.norm = nn.LayerNorm(token_dim)
-        self.head = nn.Linear(token_dim, dim)
+        self.head = nn.Linear(token_dim, chunk * dim)
 
     @property
     def num_prefix(self) -> int:
@@ -175,7 +189,7 @@ class MPT(nn.Module):
         path_length: torch.Tensor,
         need_weights: bool = False,
     ) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """Predict the next sample.
+        """Predict the next ``chunk`` samples.
 
         Args:
             sei: ``(B, n, token_dim)`` SEI tokens.
@@ -187,7 +201,8 @@ class MPT(nn.Module):
             need_weights: also return the attention weights.
 
         Returns:
-            The sample ``(B, d)`` in [-1, 1], and the attention weights
+            The samples ``(B, chunk, d)`` in [-1, 1] (the next node first), and the attention
+            weights
             ``(B, layers, heads, T, T)`` (or None), ``T = num_prefix + L''`` where ``L''`` is
             the longest valid path of the batch (trailing padding is dropped).
         """
@@ -230,9 +245,14 @@ class MPT(nn.Module):
         for layer in self.layers:
             z, layer_weights = layer(z, key_bias, need_weights)
             weights.append(layer_weights)
-        output = torch.tanh(self.head(self.norm(z[:, 0])))
+        output = torch.tanh(self.head(self.norm(z[:, 0]))).reshape(batch, self.chunk, -1)
         if self.prediction == "offset":
-            sample = torch.clamp(current + self.offset_scale * output, -1.0, 1.0)
+            samples = []
+            previous = current
+            for j in range(self.chunk):
+                previous = torch.clamp(previous + self.offset_scale * output[:, j], -1.0, 1.0)
+                samples.append(previous)
+            sample = torch.stack(samples, dim=1)
         else:
             sample = output
         return sample, (torch.stack(weights, dim=1) if need_weights else None)

@@ -17,6 +17,17 @@ deviation (in normalized units) from the policy's own seeded generator, and is c
 [-1, 1]; so a tree that keeps returning to the same state still spreads out. ``noise_std=0``
 (the default) is deterministic.
 
+Chunks: a model with ``chunk = k`` (`temp_gym.models.mpt.MPT`) predicts the next k nodes per
+call. ``propose_chunk`` returns the first ``horizon`` of them (all k by default; what the
+``temp`` planner uses); ``policy(obs)`` and ``propose`` return the first, so the env steps one
+node per call as before.
+
+Sharing: what does not change between problems (the model in eval mode, its `FastMPT`
+snapshot, the SEI of each workspace seen, least recently used first out) lives in a
+`PolicyCore`; policies built on one core share it, so a second policy of the same checkpoint
+(`temp_gym.load_policy` caches cores per checkpoint file) costs no weight copy and no EISE run
+in a workspace already encoded.
+
 Example:
     >>> policy = TEMPPolicy.from_checkpoint("runs/.../best.pt", noise_std=0.05, seed=0)
     >>> env = gymnasium.make("TEMP-2D-v0", fallback="random")
@@ -28,6 +39,8 @@ Example:
 from __future__ import annotations
 
 import contextlib
+import threading
+from collections import OrderedDict
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -36,10 +49,10 @@ import torch
 
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
-from temp_gym.planning.observation import task_entries
-from temp_gym.policies import TASK_KEYS, carries, task_signature
+from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.normalization import half_range, normalize
 from temp_gym.worlds.workspace import Workspace
 
 
@@ -63,6 +76,55 @@ def _single_torch_thread(enabled: bool) -> Iterator[None]:
         torch.set_num_threads(previous)
 
 
+_UNUSED_GENERATOR = np.random.default_rng(0)
+"""Stands in for the noise generator of a noiseless policy in compiled code (never drawn)."""
+SEI_CACHE_SIZE = 256
+"""Workspaces whose SEI a `PolicyCore` remembers."""
+
+
+class PolicyCore:
+    """What the policies of one model share: the model, its numba MPT, the SEI per workspace.
+
+    Args:
+        model: the trained model; put in eval mode and moved to ``device``.
+        device: where the PyTorch model runs.
+        fast: whether to build the `FastMPT` snapshot (CPU only).
+    """
+
+    def __init__(self, model: TEMPModel, device: str | torch.device = "cpu", fast: bool = True):
+        self.device = torch.device(device)
+        self.model = model.to(self.device).eval()
+        self.fast = FastMPT(self.model.mpt) if fast and self.device.type == "cpu" else None
+        self._sei: OrderedDict[tuple, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
+        """The SEI of the problem's workspace (EISE once per workspace): tensor and array.
+
+        The tensor is ``(1, n, width)`` on the core's device; the array a float32 CPU copy.
+        """
+        key = (
+            problem.robot,
+            problem.bounds.tobytes(),
+            problem.obstacle_centers.tobytes(),
+            problem.obstacle_half_extents.tobytes(),
+        )
+        with self._lock:
+            sei = self._sei.get(key)
+            if sei is not None:
+                self._sei.move_to_end(key)
+                return sei
+        grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
+        with torch.inference_mode(), _single_torch_thread(self.fast is not None):
+            tensor = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
+        sei = (tensor, tensor.cpu().numpy()[0].astype(np.float32))
+        with self._lock:
+            self._sei[key] = sei
+            if len(self._sei) > SEI_CACHE_SIZE:
+                self._sei.popitem(last=False)
+        return sei
+
+
 class TEMPPolicy:
     """A `temp_gym.policies.SamplingPolicy` backed by a `TEMPModel`.
 
@@ -79,6 +141,10 @@ class TEMPPolicy:
         attention_nodes: the attention-phase budget n the ``temp`` planner uses with this
             policy when ``plan`` is given none (None: all of ``max_nodes``); shipped policies
             carry theirs (`temp_gym.load_policy`).
+        core: a `PolicyCore` of ``model`` to share (None: a new one); `load_policy` passes
+            the cached core of its checkpoint.
+        horizon: proposals per call, the first ``horizon`` of the model's chunk (None: all);
+            later ones continue a longer guess, so fewer can waste fewer samples.
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -92,6 +158,8 @@ class TEMPPolicy:
         device: str | torch.device = "cpu",
         backend: str = "auto",
         attention_nodes: int | None = None,
+        core: PolicyCore | None = None,
+        horizon: int | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -106,23 +174,35 @@ class TEMPPolicy:
                 "backend 'numba' runs on the CPU and records no attention; got device "
                 f"{self.device} and record_attention={record_attention}"
             )
-        self.model = model.to(self.device).eval()
+        wants_fast = backend != "torch" and self.device.type == "cpu"
+        if core is None:
+            core = PolicyCore(model, self.device, fast=wants_fast)
+        elif core.model is not model or core.device != self.device:
+            raise ValueError("core: a PolicyCore of another model or device")
+        self.core = core
+        self.model = core.model
         self.backend = backend
-        self._fast = (
-            FastMPT(self.model.mpt) if backend != "torch" and self.device.type == "cpu" else None
-        )
+        self._fast = core.fast if wants_fast else None
+        if wants_fast and self._fast is None:
+            self._fast = FastMPT(self.model.mpt)
+        chunk = self.model.mpt.chunk
+        if horizon is not None and not (isinstance(horizon, int) and 1 <= horizon <= chunk):
+            raise ValueError(
+                f"horizon: expected an integer in 1..{chunk} (the chunk), got {horizon!r}"
+            )
+        self.horizon = chunk if horizon is None else horizon
         self._prefix: Prefix | None = None
-        self._out = np.empty(self.model.dim, np.float32)  # the fast MPT's output row
+        self._out = np.empty((self.horizon, self.model.dim), np.float32)
         self.noise_std = float(noise_std)
         self.seed = seed
-        self.rng = np.random.default_rng(seed)
+        self._rng_seed = seed
+        self._rng: np.random.Generator | None = None
         self.record_attention = record_attention
         self.attentions: list[np.ndarray] = []
         self.problem: Problem | None = None
         self._sei: torch.Tensor | None = None
-        self._sei_key: tuple | None = None
-        self._grid_bytes: bytes | None = None  # the occupancy grid and task last encoded
-        self._task_bytes: bytes | None = None
+        self._task_bytes: bytes | None = None  # the task and grid last planned for, read
+        self._grid_bytes: bytes | None = None  # lazily from `problem` after a reset
 
     @classmethod
     def from_checkpoint(
@@ -145,56 +225,69 @@ class TEMPPolicy:
         """The robot the model was trained for."""
         return self.model.robot
 
+    @property
+    def rng(self) -> np.random.Generator:
+        """The noise generator (seeded by the constructor's ``seed`` or the last `reset`'s)."""
+        if self._rng is None:
+            self._rng = np.random.default_rng(self._rng_seed)
+        return self._rng
+
+    @property
+    def encoding_resolution(self) -> int:
+        """Cells per workspace axis of the occupancy grid the model reads."""
+        return self.model.encoding_resolution
+
+    @property
+    def max_path_length(self) -> int:
+        """L: the most path-so-far rows the model reads."""
+        return self.model.max_path_length
+
+    @property
+    def chunk(self) -> int:
+        """Samples proposed per call of the model (`propose_chunk`): the ``horizon``."""
+        return self.horizon
+
     def reset(self, problem: Problem, seed: int | None = None) -> None:
         """Encode the problem's workspace (cached per workspace); re-seed the noise if asked."""
         check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
         self.problem = problem
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
+        if seed is not None:  # the generator is made when the noise first needs it
+            self._rng_seed, self._rng = seed, None
         self.attentions = []
-        key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
-        if key != self._sei_key:
-            self._encode(occupancy_grid(Workspace.of(problem), self.model.encoding_resolution))
-            self._sei_key = key
-        self._set_task(task_entries(problem))
-
-    def _encode(self, grid: np.ndarray) -> None:
-        """The SEI of an occupancy grid (EISE, one thread on the fast path)."""
-        grid = np.ascontiguousarray(grid, dtype=np.float32)
-        with torch.inference_mode(), _single_torch_thread(self._fast is not None):
-            self._sei = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
-        self._grid_bytes = grid.tobytes()
-
-    def _set_task(self, entries: dict[str, np.ndarray]) -> None:
-        """The per-task MPT inputs (goal, goal radius, start) and the fast path's prefix."""
-        self._task_bytes = task_signature(entries, TASK_KEYS)
-        self._task = [
-            torch.as_tensor(entries[key], dtype=torch.float32, device=self.device).reshape(1, -1)
-            for key in ("goal", "goal_radius", "start")
-        ]
-        if self._fast is not None:  # the same float32 inputs as the PyTorch model's
-            goal, goal_radius, start = (value.cpu().numpy()[0] for value in self._task)
-            self._prefix = self._fast.prefix(self._sei.cpu().numpy(), goal, goal_radius, start)
+        self._sei, sei_array = self.core.sei(problem)
+        # The task as the model reads it, float32; PyTorch's tensors are made when first used.
+        self._task_arrays = (
+            normalize(problem.goal, problem.bounds).astype(np.float32),
+            np.array([problem.goal_radius / half_range(problem.bounds).mean()], np.float32),
+            normalize(problem.start, problem.bounds).astype(np.float32),
+        )
+        self._task = None
+        if self._fast is not None:
+            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+        self._task_bytes = self._grid_bytes = None  # made by `_follow` only when it is called
 
     def _follow(self, observation: dict[str, np.ndarray]) -> None:
-        """Plan for the observation's task when it is not the one last encoded.
+        """Plan for the observation's task when it is not the one last planned for.
 
         The observation carries all the MPT's per-task inputs (the occupancy grid, normalized
         start and goal, the goal radius ratio), so after an env reset the policy was not told
-        about (a vector env's automatic reset) it re-encodes instead of going stale.
+        about (a vector env's automatic reset) it re-encodes instead of going stale. An
+        observation without them (a hand-built, path-only one) keeps the task of `reset`.
         """
         keys = ("occupancy", *TASK_KEYS)
         if not carries(observation, keys):
-            if self._task_bytes is not None:
-                return  # a path-only observation: the task given to reset(problem)
+            if self._sei is not None:
+                return
             raise ValueError(
                 f"observation: expected the env's observation with {list(keys)}, or call "
                 "policy.reset(problem) first"
             )
+        if self._task_bytes is None and self.problem is not None:  # first call since reset
+            self._task_bytes = problem_signature(self.problem, TASK_KEYS)
         occupancy = np.asarray(observation["occupancy"], dtype=np.float32)
         same_task = task_signature(observation, TASK_KEYS) == self._task_bytes
         if occupancy.shape != self.model.eise.grid_shape:
-            if same_task and self._sei_key is not None:
+            if same_task and self.problem is not None:
                 return  # an env at another resolution: the grid of reset(problem) stands
             raise ValueError(
                 f"observation['occupancy']: expected shape {self.model.eise.grid_shape} for "
@@ -202,13 +295,26 @@ class TEMPPolicy:
                 f"{self.model.encoding_resolution}), got {occupancy.shape}; or call "
                 "policy.reset(problem) after each env reset"
             )
+        if self._grid_bytes is None and self.problem is not None:
+            grid = occupancy_grid(Workspace.of(self.problem), self.model.encoding_resolution)
+            self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
         same_grid = occupancy.tobytes() == self._grid_bytes
         if same_task and same_grid:
             return
         if not same_grid:
-            self._encode(occupancy)
-            self._sei_key = None  # the next reset(problem) encodes its own workspace
-        self._set_task({key: observation[key] for key in TASK_KEYS})
+            with torch.inference_mode(), _single_torch_thread(self._fast is not None):
+                grid = torch.from_numpy(np.ascontiguousarray(occupancy)).unsqueeze(0)
+                self._sei = self.model.eise(grid.to(self.device))
+            self._grid_bytes = occupancy.tobytes()
+        self._task_arrays = tuple(
+            np.asarray(observation[key], dtype=np.float32).reshape(-1)
+            for key in ("goal", "goal_radius", "start")
+        )
+        self._task = None
+        if self._fast is not None:
+            sei_array = self._sei.cpu().numpy()[0].astype(np.float32)
+            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+        self._task_bytes = task_signature(observation, TASK_KEYS)
         self.problem = None  # the task is the observation's, not a Problem's
 
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
@@ -230,12 +336,20 @@ class TEMPPolicy:
     def propose(self, path: np.ndarray, length: int) -> np.ndarray:
         """`__call__` from the path so far alone: float32 ``(d,)`` in [-1, 1].
 
-        The planner's fast path (`temp_gym.planning.temp_planner`): it hands over the
-        observer's path rows (`TreeObserver.path_so_far`) instead of a whole observation, so
-        no observation is built per step. ``path`` is ``(L, d)`` float32, normalized, with
-        ``length`` valid rows; the result is the one `__call__` gives for an observation
-        with that path.
+        ``path`` is ``(L, d)`` float32, normalized, with ``length`` valid rows (the
+        observer's rows, `TreeObserver.path_so_far`); the result is the one `__call__` gives
+        for an observation with that path: the first row of `propose_chunk`.
         """
+        return self.propose_chunk(path, length)[0]
+
+    def propose_chunk(self, path: np.ndarray, length: int) -> np.ndarray:
+        """The next `chunk` samples from the path so far: float32 ``(chunk, d)``.
+
+        The planner's path (`temp_gym.planning.attention`): no observation is built per
+        step. Noise, when set, is drawn for the whole chunk.
+        """
+        if self._sei is None:
+            raise RuntimeError("call policy.reset(problem) before sampling")
         if self._fast is not None and not self.record_attention:
             action = self._fast.predict(self._prefix, path, length, self._out)
         else:
@@ -244,10 +358,30 @@ class TEMPPolicy:
             action = action + self.rng.normal(0.0, self.noise_std, action.shape)
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
+    def compiled_proposer(self) -> tuple | None:
+        """What the compiled attention loop needs to run this policy, or None if it cannot.
+
+        ``(weights, goal, prefix tokens, prefix qkv, noise generator, noise_std, chunk, L)``
+        for `temp_gym.planning._compiled_attention`: the `FastMPT` kernel's weights and this
+        problem's prefix (so `reset` first). None on the PyTorch backend or while attention
+        is recorded, which only PyTorch can do.
+        """
+        if self._fast is None or self.record_attention or self._prefix is None:
+            return None
+        prefix = self._prefix
+        noise = self.rng if self.noise_std > 0 else _UNUSED_GENERATOR
+        return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, noise,
+                self.noise_std, self.chunk, self.max_path_length)  # fmt: skip
+
     def _torch_sample(self, path: np.ndarray, length: int) -> np.ndarray:
-        """The PyTorch model's sample (float32 ``(d,)``); records attention if asked."""
+        """The PyTorch model's chunk (float32 ``(chunk, d)``); records attention if asked."""
         if self.backend == "numba":
             raise ValueError("backend 'numba' records no attention; use 'auto' or 'torch'")
+        if self._task is None:
+            self._task = [
+                torch.from_numpy(value).reshape(1, -1).to(self.device)
+                for value in self._task_arrays
+            ]
         goal, goal_radius, start = self._task
         with torch.inference_mode():
             sample, weights = self.model.mpt(
@@ -263,4 +397,4 @@ class TEMPPolicy:
             )
         if self.record_attention:
             self.attentions.append(weights[0].cpu().numpy())
-        return sample[0].cpu().numpy()
+        return sample[0, : self.horizon].cpu().numpy()

@@ -1,13 +1,31 @@
-"""The pretrained policies shipped inside the package, and `load_policy`.
+"""The pretrained policies shipped inside the package, `load_policy`, and the loaded-policy cache.
 
 Checkpoints live in ``temp_gym/checkpoints/{2d,3d,7d}.pt`` with a model card beside each
 (``{2d,3d,7d}.md``: data, config, metrics). They are ordinary `TEMPModel` checkpoints, read with
 ``torch.load(..., weights_only=True)``.
+
+**Loaded once per process.** `load_policy` and `policy_from_checkpoint` keep what they loaded
+(the model in eval mode, its numba MPT, the SEI of each workspace seen: a `PolicyCore`) keyed
+by the checkpoint file's SHA-256 digest. A later call finds the file unchanged by its size,
+modification time and inode (one ``stat``, no read) and builds a new `TEMPPolicy` on the same
+core, so ``plan(problem)`` with the default planner reads nothing from disk after its first
+call on a robot; a file that changed is read and hashed again, and only a new digest loads new
+weights. Each call still returns its own policy (its own noise generator and problem), so
+concurrent plans do not share state beyond the read-only core.
+
+The cached models are shared: do not train them in place (their parameters have
+``requires_grad`` off to make that fail loudly). To fine-tune, load a private copy with
+`temp_gym.models.temp.load_checkpoint`.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import threading
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from temp_gym.problem import ROBOTS
 
@@ -38,23 +56,113 @@ def shipped_checkpoint(name: str) -> Path:
     return path
 
 
+@dataclass
+class LoadedCheckpoint:
+    """A checkpoint as the cache keeps it."""
+
+    core: Any
+    """The `temp_gym.models.policy.PolicyCore` of its model."""
+    meta: dict[str, Any]
+    """The checkpoint dict without its tensors (robot, planner settings, provenance)."""
+    digest: str
+    """SHA-256 of the file's bytes."""
+
+
+_BY_DIGEST: dict[str, LoadedCheckpoint] = {}
+_BY_FILE: dict[str, tuple[tuple[int, int, int], str]] = {}
+_LOCK = threading.Lock()
+
+
+def _file_stamp(path: Path) -> tuple[int, int, int]:
+    status = os.stat(path)
+    return status.st_size, status.st_mtime_ns, status.st_ino
+
+
+def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
+    """The checkpoint at ``path``, loaded once per content digest (module docstring).
+
+    Raises:
+        ValueError: not a TEMP checkpoint, or trained for another ``robot`` than asked for.
+    """
+    from temp_gym.models.policy import PolicyCore
+    from temp_gym.models.temp import check_compatible, load_checkpoint
+
+    path = Path(path).resolve()
+    key = str(path)
+    stamp = _file_stamp(path)
+    with _LOCK:
+        known = _BY_FILE.get(key)
+        loaded = _BY_DIGEST.get(known[1]) if known is not None and known[0] == stamp else None
+    if loaded is None:
+        data = path.read_bytes()
+        digest = hashlib.sha256(data).hexdigest()
+        with _LOCK:
+            loaded = _BY_DIGEST.get(digest)
+        if loaded is None:
+            model, checkpoint = load_checkpoint(path)
+            model.requires_grad_(False)
+            meta = {k: v for k, v in checkpoint.items() if k != "state_dict"}
+            loaded = LoadedCheckpoint(PolicyCore(model), meta, digest)
+        with _LOCK:
+            _BY_DIGEST[digest] = loaded
+            _BY_FILE[key] = (stamp, digest)
+    if robot is not None:
+        model = loaded.core.model
+        check_compatible(model.robot, model.dim, robot, None, source=str(path))
+    return loaded
+
+
+def clear_cache() -> None:
+    """Forget every loaded checkpoint (the next load reads its file again)."""
+    with _LOCK:
+        _BY_DIGEST.clear()
+        _BY_FILE.clear()
+
+
+def policy_from_checkpoint(
+    path: str | Path,
+    robot: str | None = None,
+    noise_std: float | None = None,
+    seed: int | None = None,
+    attention_nodes: int | None = None,
+    horizon: int | None = None,
+):
+    """A `TEMPPolicy` on the cached checkpoint at ``path``, with its shipped planner settings.
+
+    The checkpoint carries the planner settings it was shipped with (`trainers/ship.py`): the
+    attention-phase budget n, used unless ``attention_nodes`` is given, the output noise,
+    used unless ``noise_std`` is given, and the proposals used per MPT call (``horizon``). A
+    checkpoint without them gets n = None (all of the planner's ``max_nodes``), no noise and
+    its whole chunk.
+    """
+    from temp_gym.models.policy import TEMPPolicy
+
+    loaded = load_cached(path, robot)
+    planner = loaded.meta.get("planner", {})
+    if noise_std is None:
+        noise_std = float(planner.get("noise_std", 0.0))
+    if attention_nodes is None:
+        attention_nodes = planner.get("attention_nodes")
+    if horizon is None:
+        horizon = planner.get("horizon")
+    return TEMPPolicy(
+        loaded.core.model,
+        noise_std=noise_std,
+        seed=seed,
+        attention_nodes=attention_nodes,
+        core=loaded.core,
+        horizon=horizon,
+    )
+
+
 def load_policy(name: str, noise_std: float | None = None, seed: int | None = None):
     """The shipped `TEMPPolicy` for an env id or robot, e.g. ``load_policy("TEMP-7D-v0")``.
 
-    The checkpoint carries the planner settings it was shipped with (its model card says how
-    they were chosen): the attention-phase budget n of Algorithm 1, which the ``temp``
-    planner uses when ``attention_nodes`` is not given, and the output noise, used unless
-    ``noise_std`` is given.
+    Cached per process (module docstring). The checkpoint carries the planner settings it was
+    shipped with (its model card says how they were chosen): the attention-phase budget n of
+    Algorithm 1, which the ``temp`` planner uses when ``attention_nodes`` is not given, and
+    the output noise, used unless ``noise_std`` is given.
     """
-    from temp_gym.models.policy import TEMPPolicy
-    from temp_gym.models.temp import load_checkpoint
-
     env_id = _ROBOT_IDS.get(name, name)
     robot = {v: k for k, v in _ROBOT_IDS.items()}.get(env_id)
-    model, checkpoint = load_checkpoint(shipped_checkpoint(name), robot=robot)
-    planner = checkpoint.get("planner", {})
-    if noise_std is None:
-        noise_std = float(planner.get("noise_std", 0.0))
-    return TEMPPolicy(
-        model, noise_std=noise_std, seed=seed, attention_nodes=planner.get("attention_nodes")
-    )
+    return policy_from_checkpoint(shipped_checkpoint(name), robot, noise_std, seed)

@@ -21,8 +21,8 @@ Example:
     >>> model = TEMPModel.from_config({"num_layers": 2}, robot="point2d",
     ...                               encoding_resolution=32, max_path_length=64)
     >>> out = model(batch)            # batch: a dict of tensors named like the observation
-    >>> out["sample"].shape, out["recons_logits"].shape
-    (torch.Size([B, 2]), torch.Size([B, 32, 32]))
+    >>> out["samples"].shape, out["recons_logits"].shape
+    (torch.Size([B, 1, 2]), torch.Size([B, 32, 32]))
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ MODEL_DEFAULTS: dict[str, Any] = {
     "dropout": 0.0,
     "prediction": "offset",
     "offset_scale": 0.5,
+    "chunk": 1,
 }
 """Every ``model`` config key and its default."""
 
@@ -96,6 +97,7 @@ class TEMPModel(nn.Module):
             config["dropout"],
             config["prediction"],
             config["offset_scale"],
+            config["chunk"],
         )
 
     @classmethod
@@ -115,8 +117,9 @@ class TEMPModel(nn.Module):
         """Run EISE and MPT on a batch named like the observation.
 
         Keys read: ``occupancy`` ``(B, *grid)``, ``start``, ``goal``, ``goal_radius``,
-        ``path``, ``path_length``. Returns ``sample`` ``(B, d)``, ``recons_logits`` (shaped
-        like ``occupancy``) and, with ``need_weights``, ``attention`` (see `MPT.forward`).
+        ``path``, ``path_length``. Returns ``samples`` ``(B, chunk, d)`` (the MPT's chunk),
+        ``sample`` ``(B, d)`` (its first row: the next node), ``recons_logits`` (shaped like
+        ``occupancy``) and, with ``need_weights``, ``attention`` (see `MPT.forward`).
 
         With ``occupancy_index`` ``(B,)`` in the batch, ``occupancy`` holds only the distinct
         grids ``(W, *grid)`` and sample i uses grid ``occupancy_index[i]``: the EISE runs once
@@ -124,7 +127,7 @@ class TEMPModel(nn.Module):
         """
         sei = self.eise(batch["occupancy"])
         sample_sei = sei if "occupancy_index" not in batch else sei[batch["occupancy_index"]]
-        sample, weights = self.mpt(
+        samples, weights = self.mpt(
             sample_sei,
             batch["goal"],
             batch["goal_radius"],
@@ -133,7 +136,11 @@ class TEMPModel(nn.Module):
             batch["path_length"],
             need_weights=need_weights,
         )
-        out = {"sample": sample, "recons_logits": self.eise.decode(sei)}
+        out = {
+            "sample": samples[:, 0],
+            "samples": samples,
+            "recons_logits": self.eise.decode(sei),
+        }
         if need_weights:
             out["attention"] = weights
         return out

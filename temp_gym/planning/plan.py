@@ -70,6 +70,7 @@ def plan(
     max_samples: int | None = None,
     policy: object = None,
     attention_nodes: int | None = None,
+    attention_patience: int | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -98,6 +99,10 @@ def plan(
         attention_nodes: ``temp`` only: tree-node budget of attention-based planning before
             classical planning takes over, the n of Algorithm 1 (None: the policy's own
             ``attention_nodes``, which shipped policies carry; else all of ``max_nodes``).
+        attention_patience: ``temp`` only: attention-phase nodes in a row without getting
+            closer to the goal before classical planning takes over (None: proportional to
+            the start-goal distance, `temp_gym.planning.attention.default_patience`; 0: never,
+            the paper's Algorithm 1).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument.
@@ -128,6 +133,13 @@ def plan(
         raise ValueError(
             f"attention_nodes: expected an integer of at least 1, got {attention_nodes!r}"
         )
+    if attention_patience is not None and (
+        not _is_int(attention_patience) or attention_patience < 0
+    ):
+        raise ValueError(
+            f"attention_patience: expected a non-negative integer or None, got "
+            f"{attention_patience!r}"
+        )
     if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
         raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
     if policy is not None and planner != "temp":
@@ -143,5 +155,6 @@ def plan(
         max_samples=None if max_samples is None else int(max_samples),
         policy=policy,
         attention_nodes=None if attention_nodes is None else int(attention_nodes),
+        attention_patience=None if attention_patience is None else int(attention_patience),
     )
     return PLANNERS[planner](problem, settings)

@@ -41,6 +41,10 @@ class PlanSettings:
     """``temp`` planner: most tree nodes for attention-based planning, the n of Algorithm 1
     (None: the policy's ``attention_nodes`` if it has one, as shipped policies do; else
     ``max_nodes``)."""
+    attention_patience: int | None = None
+    """``temp`` planner: attention-phase nodes in a row without a closer approach to the goal
+    before classical planning takes over (None: `temp_gym.planning.attention.default_patience`;
+    0: never, Algorithm 1 as written)."""
 
     @property
     def sample_limit(self) -> int:
@@ -83,7 +87,8 @@ class PlanResult:
     attention: dict[str, Any] | None = None
     """``temp`` planner only: the attention-based phase's ``solved``, ``nodes``, ``time``,
     ``cost``, ``samples``, ``policy_samples`` and ``sampling_failures`` (what the paper
-    reports for TEMP)."""
+    reports for TEMP), ``policy_calls``, ``stop`` (why it ended,
+    `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled)."""
 
     def cost_at(self, nodes: int) -> float:
         """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""
@@ -127,7 +132,8 @@ class PlanResult:
         )
         if self.attention is not None:
             phase = self.attention
-            outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else "no solution"
+            stop = phase.get("stop", "solved" if phase["solved"] else "attention_budget")
+            outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else f"{stop}, no solution"
             line += f"; attention phase: {outcome} at {phase['nodes']} nodes, {phase['time']:.3f} s"
         return line
 

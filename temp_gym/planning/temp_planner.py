@@ -1,6 +1,7 @@
 """The TEMP planner: attention-based planning (the paper's Algorithm 1), then classical planning.
 
-**Attention-based planning (AP)**, for at most ``attention_nodes`` iterations:
+**Attention-based planning (AP)**, for at most ``attention_nodes`` nodes
+(`temp_gym.planning.attention`):
 
 1. the policy (the MPT) proposes ``x_sample`` from the observation of the tree: environment,
    start, goal and the path so far (`temp_gym.planning.observation.TreeObserver`); with
@@ -13,7 +14,15 @@
 6. the path so far becomes the root path of the new node;
 7. stop as soon as a node lies in the goal region.
 
-The goal bias is our one addition to Algorithm 1. A learned sampler imitates expert paths
+Our additions to Algorithm 1, each with a setting that turns it off: the goal bias
+(``goal_bias=0``); chunked proposals, when the policy's MPT predicts several nodes per call;
+and the stall rule (``attention_patience=0``): when the tree's closest approach to the goal
+has not improved for ``attention_patience`` nodes, the policy has lost its way and classical
+planning takes over with the budget left, so TEMP degrades towards Informed RRT* instead of
+spending a whole budget in a trap. The phase runs compiled (no Python per node) for a
+`TEMPPolicy` on the CPU and the built-in checkers.
+
+On the goal bias: A learned sampler imitates expert paths
 whose last node lies anywhere in the goal region, and its predictions near the goal average
 out short of a small region: on 30 validation tasks the 3D policy ended 0.8 world units from
 a goal of radius 0.5 and its AP solved 40% of them within 1000 nodes; sampling the goal 5% of
@@ -39,31 +48,19 @@ import time
 
 import numpy as np
 
-from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
+from temp_gym.planning.attention import AttentionLimits, default_patience, run_attention_phase
 from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
-from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
+from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
-from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
-from temp_gym.worlds.workspace import Workspace
-
-MAX_FALLBACK_TRIES = 1000
 
 
-def _policy_setting(policy, name: str):
-    """``policy.name`` or ``policy.model.name`` (a learned policy keeps it on its model)."""
-    value = getattr(policy, name, None)
-    if value is None:
-        value = getattr(getattr(policy, "model", None), name, None)
-    return value
-
-
-def _observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
-    """The observer matching what the policy was trained on (its resolution and L)."""
-    resolution = _policy_setting(policy, "encoding_resolution") or DEFAULT_RESOLUTION[problem.robot]
-    max_path_length = _policy_setting(policy, "max_path_length") or DEFAULT_MAX_PATH_LENGTH
-    occupancy = occupancy_grid(Workspace.of(problem), resolution)
-    return TreeObserver(problem, occupancy, max_path_length, max_nodes)
+def _reset_policy(policy, problem: Problem, seed: int) -> None:
+    """Reset for ``problem``; a stochastic policy also takes the seed (same seed, same plan)."""
+    if "seed" in inspect.signature(policy.reset).parameters:
+        policy.reset(problem, seed=seed)
+    else:
+        policy.reset(problem)
 
 
 def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
@@ -76,12 +73,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     started = time.perf_counter()
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
-    observer = _observer_for(problem, policy, settings.max_nodes)
-    if "seed" in inspect.signature(policy.reset).parameters:
-        policy.reset(problem, seed=settings.seed)  # a stochastic policy: same seed, same plan
-    else:
-        policy.reset(problem)
-    fallback = UniformSampler(problem.bounds)
+    _reset_policy(policy, problem, settings.seed)
     log = AnytimeLog()
     first_time: float | None = None
     first_nodes: int | None = None
@@ -91,37 +83,30 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         attention_nodes = getattr(policy, "attention_nodes", None)
     if attention_nodes is None:
         attention_nodes = settings.max_nodes
-
-    def out_of_budget() -> bool:
-        return (
-            tree.num_nodes >= settings.max_nodes
-            or tree.samples >= settings.sample_limit
-            or time.perf_counter() - started >= time_limit
-        )
+    patience = settings.attention_patience
+    if patience is None:
+        patience = default_patience(problem, tree.step_size)
 
     # ---- attention-based planning (Algorithm 1)
-    propose = getattr(policy, "propose", None)  # a TEMPPolicy reads the path so far alone
-    policy_samples = 0
-    while tree.best_node < 0 and tree.num_nodes < attention_nodes and not out_of_budget():
-        if settings.goal_bias > 0 and rng.random() < settings.goal_bias:
-            # the baselines' goal bias (module docstring)
-            tree.extend_with_fallback(problem.goal, fallback, rng, MAX_FALLBACK_TRIES)
-            continue
-        if propose is not None:
-            action = propose(*observer.path_so_far(tree))
-        else:
-            action = policy(observer.observe(tree))
-        policy_samples += 1
-        # the kernel clips the normalized action and maps it into the bounds
-        tree.extend_with_fallback(action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True)
+    limits = AttentionLimits(
+        attention_nodes=attention_nodes,
+        max_nodes=settings.max_nodes,
+        max_samples=settings.sample_limit,
+        patience=patience,
+        deadline=started + time_limit,
+    )
+    outcome = run_attention_phase(tree, policy, rng, settings.goal_bias, limits)
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,
         "time": time.perf_counter() - started,
         "cost": tree.best_cost,
         "samples": tree.samples,
-        "policy_samples": policy_samples,
+        "policy_samples": outcome.policy_samples,
+        "policy_calls": outcome.policy_calls,
         "sampling_failures": tree.sampling_failures,
+        "stop": outcome.stop,
+        "compiled": outcome.compiled,
     }
     if attention["solved"]:
         first_time, first_nodes = attention["time"], tree.num_nodes
@@ -132,6 +117,14 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     informed.set_best_cost(tree.best_cost)
     sampler = GoalBiasedSampler(informed, problem.goal, settings.goal_bias)
     target = -math.inf if settings.target_cost is None else settings.target_cost
+
+    def out_of_budget() -> bool:
+        return (
+            tree.num_nodes >= settings.max_nodes
+            or tree.samples >= settings.sample_limit
+            or time.perf_counter() - started >= time_limit
+        )
+
     while not out_of_budget():
         solved = tree.best_node >= 0
         if solved and (settings.stop_at_first or tree.best_cost <= target):

@@ -278,6 +278,39 @@ class Tree:
         """Root path of the cheapest goal node, or None before the first solution."""
         return None if self.best_node < 0 else self.path_to(self.best_node)
 
+    # ------------------------------------------------------------------ compiled loops
+    def compiled_state(self) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
+        """The tree as `temp_gym.planning._compiled_tree` takes it: arrays, counters, cost, params.
+
+        ``arrays`` are the tree's own (a compiled extension writes into them); ``counters``
+        (int64, `_compiled_tree.COUNTERS`) and ``best_cost`` (float64, one entry) are copies
+        to hand back with `load_compiled_state`; ``params`` holds the settings
+        (`_compiled_tree.PARAMETERS`). Growing the tree replaces its arrays: take the state
+        again after `grow`.
+        """
+        arrays = (self.positions, self.costs, self.links, self._goal_nodes, self._near_idx,
+                  self._near_dist, self._cand_idx, self._stack, self._new)  # fmt: skip
+        counters = np.array(
+            [self.num_nodes, self.num_goal_nodes, self.newest, self.best_node, self.samples,
+             self.sampling_failures, self.collision_checks],
+            dtype=np.int64,
+        )  # fmt: skip
+        params = np.array(
+            [self.step_size, self.gamma, self.max_radius, self._goal_radius_sq,
+             1.0 if self.neighbourhood == "k_nearest" else 0.0]
+        )  # fmt: skip
+        return arrays, counters, np.array([self.best_cost]), params
+
+    def load_compiled_state(self, counters: np.ndarray, best_cost: np.ndarray) -> None:
+        """Take back the counters a compiled extension updated (see `compiled_state`)."""
+        (self.num_nodes, self.num_goal_nodes, self.newest, self.best_node, self.samples,
+         self.sampling_failures, self.collision_checks) = (int(c) for c in counters)  # fmt: skip
+        self.best_cost = float(best_cost[0])
+
+    def grow(self) -> None:
+        """Double the node capacity now (extensions do so by themselves when full)."""
+        self._grow()
+
     # ------------------------------------------------------------------ growth
     def _grow(self) -> None:
         capacity = 2 * self.capacity

@@ -118,17 +118,23 @@ class ReferencePlanner:
         visible = self.checker.edges_free(np.broadcast_to(point, points.shape), points)
         return candidates[visible], dist[visible]
 
-    def shortcut(self, path: np.ndarray) -> np.ndarray:
-        """Greedy shortcutting: from each kept vertex jump to the farthest one it sees."""
+    def shortcut(self, path: np.ndarray, length: float = np.inf) -> np.ndarray:
+        """Greedy shortcutting: from each kept vertex jump to the farthest one it sees.
+
+        With ``length``, shortcutting stops once the kept part is that long and the rest of
+        ``path`` follows unchanged: the same start as the full shortcut, for less work.
+        """
         kept = [0]
         i = 0
-        while i < len(path) - 1:
+        covered = 0.0
+        while i < len(path) - 1 and covered < length:
             ends = path[i + 1 :]
             visible = self.checker.edges_free(np.broadcast_to(path[i], ends.shape), ends)
             j = i + 1 + int(np.flatnonzero(visible)[-1])
+            covered += float(np.linalg.norm(path[j] - path[i]))
             kept.append(j)
             i = j
-        return path[kept]
+        return np.concatenate([path[kept], path[i + 1 :]])
 
     def solve(self, start: np.ndarray, goal: np.ndarray) -> ReferencePath:
         """A collision-free path from ``start`` to ``goal`` and its cost (inf if none found)."""
@@ -159,3 +165,60 @@ class ReferencePlanner:
         path = self.shortcut(np.vstack([start, lattice_path, goal]))
         cost = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
         return ReferencePath(path, cost)
+
+
+class GoalField:
+    """Shortest paths to one goal from anywhere in a workspace: the expert of on-policy labels.
+
+    One Dijkstra from the goal over the lattice of a `ReferencePlanner` gives every lattice
+    point its cost to the goal; a query state joins the lattice through the points it sees,
+    follows the predecessors to the goal and is shortcut, as `ReferencePlanner.solve` does.
+    Many queries in one task cost one Dijkstra. On-policy correction
+    (`temp_gym.data.correction`) asks it where the expert would go from the states a learned
+    policy actually reaches.
+
+    Args:
+        reference: the workspace's lattice.
+        goal: the goal state.
+    """
+
+    def __init__(self, reference: ReferencePlanner, goal: np.ndarray) -> None:
+        self.reference = reference
+        self.goal = np.asarray(goal, dtype=np.float64)
+        goal_nodes, goal_dist = reference._attach(self.goal)
+        self._reachable = len(goal_nodes) > 0
+        if self._reachable:
+            dist, predecessors, sources = dijkstra(
+                reference._graph, indices=goal_nodes, return_predecessors=True, min_only=True
+            )
+            # Each lattice point's cost to the goal through the goal node its tree hangs from.
+            offsets = np.full(len(dist), np.inf)
+            reached = np.isfinite(dist)
+            offset_of = dict(zip(goal_nodes.tolist(), goal_dist.tolist()))
+            offsets[reached] = [offset_of[int(s)] for s in sources[reached]]
+            self._cost = dist + offsets
+            self._predecessors = predecessors
+
+    def path(self, state: np.ndarray, length: float = np.inf) -> np.ndarray | None:
+        """A collision-free path ``(K, d)`` from ``state`` to the goal, or None if there is none.
+
+        ``length``: only the path's first ``length`` need be shortcut (`ReferencePlanner.shortcut`).
+        """
+        state = np.asarray(state, dtype=np.float64)
+        checker = self.reference.checker
+        if checker.edge_free(state, self.goal):
+            return np.stack([state, self.goal])
+        if not self._reachable:
+            return None
+        nodes, dist = self.reference._attach(state)
+        if len(nodes) == 0:
+            return None
+        totals = dist + self._cost[nodes]
+        best = int(np.argmin(totals))
+        if not np.isfinite(totals[best]):
+            return None
+        chain = [int(nodes[best])]
+        while self._predecessors[chain[-1]] >= 0:
+            chain.append(int(self._predecessors[chain[-1]]))
+        points = self.reference._points[chain]
+        return self.reference.shortcut(np.vstack([state, points, self.goal]), length)

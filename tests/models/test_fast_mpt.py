@@ -49,10 +49,12 @@ def _torch_sample(mpt, sei, goal, radius, start, path, length):
 
 @pytest.mark.parametrize("prediction", ["offset", "absolute"])
 @pytest.mark.parametrize(
-    ("robot", "layers"), [("point2d", 1), ("point2d", 3), ("point3d", 2), ("kuka_iiwa14", 2)]
-)
-def test_matches_torch_for_every_path_length(robot, layers, prediction):
-    model = _model(robot, prediction, num_layers=layers)
+    ("robot", "layers", "chunk"),
+    [("point2d", 1, 1), ("point2d", 3, 1), ("point2d", 2, 4), ("point3d", 2, 1),
+     ("point3d", 2, 3), ("kuka_iiwa14", 2, 1), ("kuka_iiwa14", 1, 2)],
+)  # fmt: skip
+def test_matches_torch_for_every_path_length(robot, layers, chunk, prediction):
+    model = _model(robot, prediction, num_layers=layers, chunk=chunk)
     mpt = model.mpt
     fast = FastMPT(mpt)
     rng = np.random.default_rng(layers)
@@ -62,7 +64,7 @@ def test_matches_torch_for_every_path_length(robot, layers, prediction):
     for length in range(1, mpt.max_path_length + 1):
         expected = _torch_sample(mpt, sei, goal, radius, start, path, length)
         got = fast.predict(prefix, path.numpy(), length)  # rows after `length`: ignored
-        assert got.dtype == np.float32 and got.shape == (mpt.dim,)
+        assert got.dtype == np.float32 and got.shape == (chunk, mpt.dim)
         np.testing.assert_allclose(got, expected, rtol=0, atol=TOLERANCE, err_msg=f"{length}")
         trimmed = fast.forward(sei, goal, radius, start, path[:length].numpy(), length)
         np.testing.assert_allclose(trimmed, expected, rtol=0, atol=TOLERANCE)
@@ -97,9 +99,23 @@ def test_saturated_offsets_are_clipped_like_torch():
     sei, goal, radius, start = _inputs(model.mpt, rng)
     path = torch.full((3, 2), 0.9)
     got = fast.forward(sei, goal, radius, start, path.numpy(), 3)
-    np.testing.assert_array_equal(got, [1.0, 1.0])
+    np.testing.assert_array_equal(got, [[1.0, 1.0]])
     np.testing.assert_allclose(
         got, _torch_sample(model.mpt, sei, goal, radius, start, path, 3), atol=TOLERANCE
+    )
+
+
+def test_chunk_rows_continue_from_one_another_and_saturate_like_torch():
+    model = _model("point2d", chunk=3)
+    with torch.no_grad():
+        model.mpt.head.bias.copy_(torch.tensor([50.0, -50.0] * 3))  # +0.5, -0.5 per row
+    fast = FastMPT(model.mpt)
+    sei, goal, radius, start = _inputs(model.mpt, np.random.default_rng(0))
+    path = torch.tensor([[0.2, -0.1]])
+    got = fast.forward(sei, goal, radius, start, path.numpy(), 1)
+    np.testing.assert_allclose(got, [[0.7, -0.6], [1.0, -1.0], [1.0, -1.0]], atol=1e-6)
+    np.testing.assert_allclose(
+        got, _torch_sample(model.mpt, sei, goal, radius, start, path, 1), atol=TOLERANCE
     )
 
 
@@ -137,7 +153,8 @@ class Recorder:
 
     def __init__(self, policy):
         self.policy = policy
-        self.model = policy.model  # the planner reads the resolution and L off the model
+        self.encoding_resolution = policy.encoding_resolution  # what the planner encodes
+        self.max_path_length = policy.max_path_length
         self.samples = []
 
     def reset(self, problem, seed=None):

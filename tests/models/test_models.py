@@ -102,3 +102,20 @@ def test_overfits_64_samples(make_batch, small_config):
 def test_unknown_model_key_is_an_error():
     with pytest.raises(ValueError, match="unknown keys"):
         TEMPModel("point2d", 16, 16, token_dims=3)
+
+
+def test_chunk_loss_is_a_per_sample_mean_over_the_valid_entries():
+    loss = TEMPLoss(recons_weight=0.0, semantic_weight=1.0)
+    logits, grid = torch.zeros(2, 4, 4), torch.zeros(2, 4, 4)
+    sample = torch.zeros(2, 3, 2)
+    target = torch.tensor(
+        [[[1.0, 1.0], [2.0, 2.0], [9.0, 9.0]], [[3.0, 3.0], [9.0, 9.0], [9.0, 9.0]]]
+    )
+    mask = torch.tensor([[True, True, False], [True, False, False]])
+    terms = loss(logits, grid, sample, target, None, mask)
+    assert float(terms["semantic"]) == pytest.approx(((1 + 4) / 2 + 9) / 2)
+    # One entry per sample: the plain MSE.
+    single = loss(logits, grid, sample[:, :1], target[:, :1])
+    assert float(single["semantic"]) == pytest.approx(float(torch.mean(target[:, 0] ** 2)))
+    with pytest.raises(ValueError, match="shapes"):
+        loss(logits, grid, sample, target[:, :2], None, mask)

@@ -1,6 +1,7 @@
 """The pretrained policies shipped in the package: size, card, loading and planning."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -52,7 +53,11 @@ def test_temp_plan_default_solves_a_file_end_to_end(tmp_path):
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    assert done.stdout.startswith("temp ") and "attention phase: cost" in done.stdout
+    assert done.stdout.startswith("temp ")
+    # The summary reports the attention phase: its solution, or why it handed over.
+    assert re.search(
+        r"attention phase: (cost [\d.]+|stalled, no solution) at \d+ nodes", done.stdout
+    )
     result = json.loads(out.read_text())
     assert result["planner"] == "temp" and result["success"]
     assert certify_path(problem, np.asarray(result["path"]))

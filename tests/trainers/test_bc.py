@@ -107,3 +107,38 @@ def test_paired_nodes_compares_task_by_task_with_failures_at_the_budget():
     assert shifted == {"fewer": 1.0, "difference": -5.0, "low": -5.0, "high": -5.0}
     with pytest.raises(ValueError, match="same non-empty task list"):
         utils.paired_nodes(temp, rrt[:2], max_nodes=100)
+
+
+def test_chunk_targets_are_the_next_nodes_of_the_same_path():
+    sys.path.insert(0, str(ROOT / "trainers"))
+    import utils
+
+    # Two tasks of 3 and 2 samples, stored in path order.
+    task_id = torch.tensor([0, 0, 0, 1, 1])
+    step = torch.tensor([0, 1, 2, 0, 1])
+    rows, mask = utils.chunk_rows(task_id, step, 3)
+    assert rows.tolist() == [[0, 1, 2], [1, 2, 1], [2, 2, 2], [3, 4, 3], [4, 4, 4]]
+    assert mask.tolist() == [
+        [True, True, True], [True, True, False], [True, False, False],
+        [True, True, False], [True, False, False],
+    ]  # fmt: skip
+    single, single_mask = utils.chunk_rows(task_id, step, 1)
+    assert single.tolist() == [[0], [1], [2], [3], [4]] and bool(single_mask.all())
+    with pytest.raises(ValueError, match="path order"):
+        utils.chunk_rows(torch.tensor([0, 1, 0, 1]), torch.tensor([0, 0, 1, 1]), 2)
+
+
+def test_trains_a_chunked_mpt_that_plans(tmp_path):
+    from temp_gym import plan
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.worlds.generators import generate_problem
+
+    run_bc(tmp_path, "train.max_epochs=1", "model.chunk=3", "logger.backend=", "eval.every=0",
+           flags=("--skip-eval",))  # fmt: skip
+    best = tmp_path / "runs" / "TEMP-2D-v0__bc__0" / "best.pt"
+    policy = TEMPPolicy.from_checkpoint(best)
+    assert policy.chunk == 3
+    problem = generate_problem("point2d", __import__("numpy").random.default_rng(0), "easy")
+    result = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True)
+    assert result.success and result.attention["compiled"]
+    assert result.attention["policy_calls"] <= result.attention["policy_samples"]

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from temp_gym.worlds.collision.compiled import register_motion_kernel
+
 _PARALLEL_EPS = 1e-15
 
 
@@ -70,6 +72,13 @@ def _segment_free(start, end, lower_bounds, upper_bounds, box_lower, box_upper) 
 
 
 @numba.njit(cache=True, nogil=True)
+def _context_segment_free(context, start, end) -> bool:
+    """`_segment_free` for the compiled context of `PointBoxChecker.compiled_context`."""
+    lower_bounds, upper_bounds, box_lower, box_upper = context
+    return _segment_free(start, end, lower_bounds, upper_bounds, box_lower, box_upper)
+
+
+@numba.njit(cache=True, nogil=True)
 def _states_free(states, lower_bounds, upper_bounds, box_lower, box_upper):
     out = np.empty(states.shape[0], dtype=np.bool_)
     for i in range(states.shape[0]):
@@ -114,6 +123,12 @@ class PointBoxChecker:
         self._box_lower = np.ascontiguousarray(box_lower, dtype=np.float64).reshape(-1, self.dim)
         self._box_upper = np.ascontiguousarray(box_upper, dtype=np.float64).reshape(-1, self.dim)
         self.description = f"analytic segment-vs-box test, {len(self._box_lower)} boxes"
+
+    def compiled_context(self) -> tuple[np.ndarray, ...]:
+        """Bounds and boxes for `temp_gym.worlds.collision.compiled.motion_free`."""
+        context = (self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper)
+        register_motion_kernel(context, _context_segment_free)
+        return context
 
     def _as_states(self, states: np.ndarray) -> np.ndarray:
         states = np.ascontiguousarray(states, dtype=np.float64)

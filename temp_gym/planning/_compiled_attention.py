@@ -1,0 +1,133 @@
+"""TEMP's attention phase as one compiled loop: no Python round trip per node.
+
+`temp_gym.planning.attention` runs the attention phase (the paper's Algorithm 1, with the
+additions its docstring lists) either from Python, for any policy and checker, or here, when
+the policy is a `TEMPPolicy` on its numba MPT (`TEMPPolicy.compiled_proposer`) and the checker
+has a compiled path (`temp_gym.worlds.collision.compiled`). Each iteration of `attention_slice`
+is one iteration of the Python loop, written against the same kernels and drawing the same
+random numbers in the same order, so both grow the same tree (tested node for node):
+
+1. goal bias: with probability ``goal_bias`` the goal is the sample (the chunk is dropped);
+2. otherwise the next proposal of the current chunk, or, when none is left, a new MPT call
+   on the path so far (`temp_gym.models.fast_mpt`), with the policy's output noise;
+3. `temp_gym.planning._compiled_tree.extend_with_fallback`: nearest, steer, the random
+   fallback while the edge collides, choose-parent, insert, rewire; a fallback or a failed
+   extension drops the rest of the chunk (its proposals continued the path it predicted);
+4. progress: the tree's closest approach to the goal; ``patience`` nodes in a row without a
+   closer one stall the phase (0: never).
+
+The loop runs at most ``max_iterations`` iterations per call and returns a status, so the
+caller can check the wall clock, grow the tree's arrays, and call again.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from temp_gym.models.fast_mpt import _forward_kernel
+from temp_gym.planning._compiled_tree import (
+    BAD_ACTION,
+    BEST_NODE,
+    NEWEST,
+    NUM_NODES,
+    SAMPLES,
+    extend_with_fallback,
+    normalized_root_path,
+    squared_distance,
+)
+
+STATE = ("pending", "next_row", "calls", "proposals", "stalled")
+"""The loop's int64 state, kept between calls: proposals left in the chunk and the next one,
+MPT calls and proposals used so far, nodes since the closest approach improved."""
+PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED = range(len(STATE))
+LIMITS = ("attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries")
+"""The int64 budgets of the phase."""
+ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES = range(len(LIMITS))
+
+RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE = range(7)
+"""Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
+used up; no progress for ``patience`` nodes; the tree's arrays are full (grow them and call
+again); the policy proposed NaN or inf."""
+
+
+@numba.njit(cache=True, nogil=True)
+def attention_slice(
+    arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
+    goal_bias, weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, proposals,
+    chunk_out, noise, path_rows, state, closest_sq, limits, max_iterations,
+):  # fmt: skip
+    """Run up to ``max_iterations`` attention-phase iterations; return a status.
+
+    The arguments, in groups:
+
+        arrays, counters, best_cost, params: the tree (`Tree.compiled_state`).
+        goal, bounds: the problem's goal (world units) and ``(2, d)`` bounds.
+        context: the checker's compiled context.
+        rng, buffer, cursor: the planner's generator and the uniform fallback's batch.
+        goal_bias: probability of sampling the goal.
+        weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std: the policy
+            (`TEMPPolicy.compiled_proposer`).
+        proposals: float64 ``(k, d)`` the current chunk; ``chunk_out`` float32 ``(k, d)``,
+            ``noise`` float64 ``(k, d)`` (zeros, and left so when ``noise_std`` is 0) and
+            ``path_rows`` float32 ``(L, d)`` are scratch.
+        state, closest_sq, limits: the loop's state (`STATE`), the squared closest approach
+            to the goal (an array of one) and budgets (`LIMITS`).
+    """
+    positions, _, links = arrays[0], arrays[1], arrays[2]
+    capacity = positions.shape[0]
+    chunk, dim = proposals.shape
+    for _ in range(max_iterations):
+        if counters[BEST_NODE] >= 0:
+            return SOLVED
+        if counters[NUM_NODES] >= limits[ATTENTION_NODES]:
+            return ATTENTION_BUDGET
+        if counters[NUM_NODES] >= limits[MAX_NODES] or counters[SAMPLES] >= limits[MAX_SAMPLES]:
+            return BUDGET
+        if counters[NUM_NODES] >= capacity:
+            return FULL
+        if goal_bias > 0.0 and rng.random() < goal_bias:
+            state[PENDING] = 0
+            node, samples = extend_with_fallback(
+                arrays, counters, best_cost, params, goal, bounds, context, goal, False, rng,
+                buffer, cursor, limits[MAX_TRIES],
+            )  # fmt: skip
+        else:
+            if state[PENDING] == 0:
+                length = normalized_root_path(links, positions, counters[NEWEST], bounds,
+                                              path_rows)  # fmt: skip
+                _forward_kernel(path_rows, length, prefix_goal, prefix_z, prefix_qkv, *weights,
+                                chunk_out)  # fmt: skip
+                if noise_std > 0.0:
+                    noise[:] = policy_rng.normal(0.0, noise_std, (chunk, dim))
+                for row in range(chunk):
+                    for k in range(dim):
+                        value = np.float64(chunk_out[row, k]) + noise[row, k]
+                        if value != value:  # NaN: the model is broken
+                            return NOT_FINITE
+                        proposals[row, k] = np.float64(np.float32(min(max(value, -1.0), 1.0)))
+                state[PENDING] = chunk
+                state[NEXT_ROW] = 0
+                state[CALLS] += 1
+            row = state[NEXT_ROW]
+            state[NEXT_ROW] += 1
+            state[PENDING] -= 1
+            state[PROPOSALS] += 1
+            node, samples = extend_with_fallback(
+                arrays, counters, best_cost, params, goal, bounds, context, proposals[row], True,
+                rng, buffer, cursor, limits[MAX_TRIES],
+            )  # fmt: skip
+            if node == BAD_ACTION:
+                return NOT_FINITE
+            if node < 0 or samples > 1:
+                state[PENDING] = 0
+        if node >= 0:
+            distance_sq = squared_distance(positions[node], goal)
+            if distance_sq < closest_sq[0]:
+                closest_sq[0] = distance_sq
+                state[STALLED] = 0
+            else:
+                state[STALLED] += 1
+                if limits[PATIENCE] > 0 and state[STALLED] >= limits[PATIENCE]:
+                    return STALLED_OUT
+    return RUNNING

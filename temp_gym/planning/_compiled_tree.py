@@ -1,0 +1,192 @@
+"""`Tree.extend` and `Tree.extend_with_fallback` as numba functions, for compiled planner loops.
+
+`temp_gym.planning.tree.Tree` drives its kernels from Python and hands collision checks to any
+checker; a loop that runs many extensions in compiled code (TEMP's attention phase,
+`temp_gym.planning._compiled_attention`) needs the extension itself compiled, with the motion
+checks of a checker's compiled path (`temp_gym.worlds.collision.compiled.motion_free`).
+
+These functions take the tree's arrays and counters (`Tree.compiled_state`) and grow the same
+tree, node for node, as the Python methods given the same samples: the same kernels decide
+nearest, steer, near set, parent candidates, insertion and rewiring (tests compare whole trees).
+One difference, by design: the parent candidates are checked one at a time up to the first free
+one, where `Tree.extend` checks them in chunks, so ``collision_checks`` counts fewer checks for
+the same tree.
+
+Counters (`COUNTERS`) live in one int64 array and the best cost in a float64 array of one, so
+the Python `Tree` reads them back after a compiled run (`Tree.load_compiled_state`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from temp_gym.planning._kernels import (
+    PARENT,
+    action_nearest_and_steer,
+    apply_rewires,
+    insert_node,
+    near_and_parent_candidates,
+    nearest_and_steer,
+)
+from temp_gym.worlds.collision.compiled import motion_free
+
+COUNTERS = ("num_nodes", "num_goal_nodes", "newest", "best_node", "samples", "failures", "checks")
+"""The tree's counters, in the order of the int64 array compiled code updates."""
+NUM_NODES, NUM_GOAL, NEWEST, BEST_NODE, SAMPLES, FAILURES, CHECKS = range(len(COUNTERS))
+PARAMETERS = ("step_size", "gamma", "max_radius", "goal_radius_sq", "k_nearest")
+"""The tree's settings, in the order of the float64 array (``k_nearest``: 1.0 or 0.0)."""
+STEP, GAMMA, MAX_RADIUS, GOAL_RADIUS_SQ, K_NEAREST = range(len(PARAMETERS))
+
+FALLBACK_BATCH = 128
+"""Uniform fallback samples drawn per batch, as `temp_gym.planning.samplers.UniformSampler`."""
+
+NO_NODE = -1
+BAD_ACTION = -2
+"""`extend` results besides a node index: nothing added, or a NaN/inf normalized action."""
+
+
+@numba.njit(cache=True, nogil=True)
+def squared_distance(a, b) -> float:
+    """``|a - b|^2`` of two ``(d,)`` arrays, summed in coordinate order."""
+    total = 0.0
+    for k in range(a.shape[0]):
+        diff = a[k] - b[k]
+        total += diff * diff
+    return total
+
+
+@numba.njit(cache=True, nogil=True)
+def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized):
+    """`Tree.extend` on a tree's arrays: returns the new node, `NO_NODE` or `BAD_ACTION`.
+
+    ``arrays`` is ``(positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx,
+    stack, new)``; the caller guarantees room for one more node.
+    """
+    positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx, stack, new = arrays
+    count = counters[NUM_NODES]
+    step = params[STEP]
+    if normalized:
+        nearest, distance = action_nearest_and_steer(positions, count, sample, bounds, step, new)
+        if nearest < 0:
+            return BAD_ACTION
+    else:
+        nearest, distance = nearest_and_steer(positions, count, sample, step, new)
+    counters[SAMPLES] += 1
+    if not distance > 0.0:
+        counters[FAILURES] += 1
+        return NO_NODE
+    counters[CHECKS] += 1
+    if not motion_free(context, positions[nearest], new):
+        counters[FAILURES] += 1
+        return NO_NODE
+    dim = positions.shape[1]
+    radius = 0.0
+    k = 0
+    if params[K_NEAREST] > 0.0:
+        k = max(1, math.ceil(params[GAMMA] * math.log(count + 1)))
+    else:
+        n = count + 1
+        radius = min(params[GAMMA] * (math.log(n) / n) ** (1.0 / dim), params[MAX_RADIUS])
+    num_near, num_cand = near_and_parent_candidates(
+        positions, costs, count, new, nearest, radius, k, near_idx, near_dist, cand_idx
+    )
+    parent = nearest
+    for j in range(num_cand):
+        counters[CHECKS] += 1
+        if motion_free(context, positions[cand_idx[j]], new):
+            parent = cand_idx[j]
+            break
+    node = count
+    cost, reached_goal, num_rewire = insert_node(
+        positions, costs, links, node, new, parent, goal, params[GOAL_RADIUS_SQ], near_idx,
+        near_dist, num_near, cand_idx,
+    )  # fmt: skip
+    counters[NUM_NODES] = count + 1
+    counters[NEWEST] = node
+    if reached_goal:
+        goal_nodes[counters[NUM_GOAL]] = node
+        counters[NUM_GOAL] += 1
+        if cost < best_cost[0]:
+            counters[BEST_NODE] = node
+            best_cost[0] = cost
+    if num_rewire > 0:
+        free = np.empty(num_rewire, dtype=np.bool_)
+        for j in range(num_rewire):
+            free[j] = motion_free(context, new, positions[cand_idx[j]])
+        counters[CHECKS] += num_rewire
+        rewired, best = apply_rewires(
+            positions, costs, links, node, cand_idx[:num_rewire], free, num_rewire, stack,
+            goal_nodes, counters[NUM_GOAL], counters[BEST_NODE],
+        )  # fmt: skip
+        if rewired > 0 and best >= 0:
+            counters[BEST_NODE] = best
+            best_cost[0] = costs[best]
+    return node
+
+
+@numba.njit(cache=True, nogil=True)
+def fallback_sample(rng, low, high, buffer, cursor):
+    """The next uniform sample in ``[low, high]``: a row of ``buffer``, refilled when used up.
+
+    Draws what `temp_gym.planning.samplers.UniformSampler` draws from the same generator
+    (``rng.uniform(low, high, (FALLBACK_BATCH, d))``), so compiled and Python loops stay in
+    step. ``cursor[0]`` is the next row (``FALLBACK_BATCH`` when the buffer is empty).
+    """
+    if cursor[0] >= buffer.shape[0]:
+        draws = rng.random(buffer.shape)
+        for i in range(buffer.shape[0]):
+            for k in range(buffer.shape[1]):
+                buffer[i, k] = low[k] + (high[k] - low[k]) * draws[i, k]
+        cursor[0] = 0
+    row = buffer[cursor[0]]
+    cursor[0] += 1
+    return row
+
+
+@numba.njit(cache=True, nogil=True)
+def extend_with_fallback(
+    arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, rng,
+    buffer, cursor, max_tries,
+):  # fmt: skip
+    """`Tree.extend_with_fallback` with a uniform fallback sampler: ``(node, samples)``.
+
+    ``node`` is the added node, `NO_NODE` when ``max_tries`` replacements all failed, or
+    `BAD_ACTION`; ``samples`` is how many samples this call used.
+    """
+    node = extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized)
+    if node == BAD_ACTION:
+        return node, 0
+    samples = 1
+    tries = 0
+    while node < 0 and tries < max_tries:
+        replacement = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
+        node = extend(arrays, counters, best_cost, params, goal, bounds, context, replacement,
+                      False)  # fmt: skip
+        tries += 1
+        samples += 1
+    return node, samples
+
+
+@numba.njit(cache=True, nogil=True)
+def normalized_root_path(links, positions, node, bounds, out) -> int:
+    """The last ``len(out)`` nodes of ``node``'s root path, normalized, oldest first.
+
+    Writes float32 rows into ``out`` (L, d) exactly as `TreeObserver.path_so_far` holds them
+    and returns their count; rows past it are left as they were.
+    """
+    max_length = out.shape[0]
+    length = 0
+    probe = node
+    while probe >= 0 and length < max_length:
+        length += 1
+        probe = links[probe, PARENT]
+    dim = positions.shape[1]
+    for row in range(length - 1, -1, -1):
+        for k in range(dim):
+            low = bounds[0, k]
+            out[row, k] = 2.0 * (positions[node, k] - low) / (bounds[1, k] - low) - 1.0
+        node = links[node, PARENT]
+    return length

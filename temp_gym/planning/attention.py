@@ -1,0 +1,278 @@
+"""TEMP's attention-based planning phase (AP): the paper's Algorithm 1 on the shared tree.
+
+Each iteration:
+
+1. with probability ``goal_bias`` the goal is the sample (the baselines' goal bias: a learned
+   sampler alone stops short of small goal regions, see `temp_gym.planning.temp_planner`);
+2. otherwise the policy proposes the sample from the path so far. A chunked policy
+   (`temp_gym.models.mpt.MPT` with ``chunk = k``) proposes k samples per call, used in turn
+   while each one extends the tree at its first try: a fallback, a failed extension or a
+   goal-bias step drops the rest, since they continued a path the tree did not take;
+3. `Tree.extend_with_fallback`: nearest and steer; while the edge collides, uniform random
+   samples replace the proposal (Algorithm 1, lines 5-10); choose-parent, insert, rewire;
+4. stop at the first solution, at the attention budget n, or when the phase stalls: the
+   tree's closest approach to the goal has not improved for ``patience`` nodes in a row
+   (``patience = 0`` never stalls: Algorithm 1 as written).
+
+The stall rule is how TEMP degrades gracefully: a policy that keeps steering into a trap it
+has not seen in training hands the rest of the budget to classical planning (Informed RRT*
+on the same tree) instead of spending it all. `default_patience` sets it from the problem.
+
+Two implementations grow the same tree from the same seed (tested node for node): the
+compiled loop (`temp_gym.planning._compiled_attention`), used when the policy offers a
+compiled proposer (`TEMPPolicy.compiled_proposer`: the numba MPT) and the checker a compiled
+path (`temp_gym.worlds.collision.compiled`); and a Python loop for any other policy or
+checker, which also serves as the reference.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from temp_gym.planning import _compiled_attention as compiled
+from temp_gym.planning._compiled_tree import FALLBACK_BATCH, squared_distance
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
+from temp_gym.planning.samplers import UniformSampler
+from temp_gym.planning.tree import Tree
+from temp_gym.problem import Problem
+from temp_gym.worlds.collision.compiled import compiled_context_of
+from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
+from temp_gym.worlds.workspace import Workspace
+
+MAX_FALLBACK_TRIES = 1000
+"""Most random replacements per proposal, so that a walled-in tree cannot loop forever."""
+PATIENCE_PER_STEP = 10.0
+"""`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
+MIN_PATIENCE = 200
+"""`default_patience` never allows fewer nodes than this."""
+_SLICE = 256
+"""Compiled iterations between two looks at the wall clock."""
+STOPS = ("solved", "attention_budget", "budget", "stalled", "time")
+"""Why the phase ended: a solution; the attention budget n; the planner's node or sample
+budget; no progress for ``patience`` nodes; the time limit."""
+
+
+def default_patience(problem: Problem, step_size: float) -> int:
+    """The stall patience for ``problem``: proportional to its start-goal distance in steps.
+
+    A policy on course reaches the goal in about ``distance / step_size`` nodes, and most of
+    its nodes bring the tree closer; ``PATIENCE_PER_STEP`` times that many nodes in a row
+    without a closer node means it has lost its way.
+    """
+    steps = float(np.linalg.norm(problem.goal - problem.start)) / step_size
+    return max(MIN_PATIENCE, math.ceil(PATIENCE_PER_STEP * steps))
+
+
+@dataclass(frozen=True)
+class AttentionLimits:
+    """The budgets of one attention phase."""
+
+    attention_nodes: int
+    """n: the phase ends once the tree has this many nodes."""
+    max_nodes: int
+    """The planner's node budget."""
+    max_samples: int
+    """The planner's sample budget."""
+    patience: int
+    """Nodes in a row without a closer approach to the goal before the phase stalls (0: never)."""
+    deadline: float = math.inf
+    """``time.perf_counter()`` value at which the phase stops."""
+
+
+@dataclass
+class AttentionOutcome:
+    """What one attention phase did (besides growing the tree)."""
+
+    stop: str
+    """One of `STOPS`."""
+    policy_calls: int
+    """Calls of the policy (a chunked policy proposes several samples per call)."""
+    policy_samples: int
+    """Proposals of the policy used as samples."""
+    compiled: bool
+    """Whether the compiled loop ran it."""
+
+
+def observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
+    """The observer matching what the policy was trained on (its resolution and L)."""
+    resolution = getattr(policy, "encoding_resolution", None) or DEFAULT_RESOLUTION[problem.robot]
+    max_path_length = getattr(policy, "max_path_length", None) or DEFAULT_MAX_PATH_LENGTH
+    occupancy = occupancy_grid(Workspace.of(problem), resolution)
+    return TreeObserver(problem, occupancy, max_path_length, max_nodes)
+
+
+def run_attention_phase(
+    tree: Tree,
+    policy,
+    rng: np.random.Generator,
+    goal_bias: float,
+    limits: AttentionLimits,
+    compiled_loop: bool | None = None,
+) -> AttentionOutcome:
+    """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
+
+    Args:
+        tree: the planner's tree (its root is the problem's start).
+        policy: a reset `temp_gym.policies.SamplingPolicy`.
+        rng: the planner's generator (goal bias and fallback samples).
+        goal_bias: probability of sampling the goal.
+        limits: the budgets.
+        compiled_loop: force the compiled loop (True; an error when it cannot run) or the
+            Python loop (False); None picks the compiled one whenever it can run.
+    """
+    proposer = getattr(policy, "compiled_proposer", lambda: None)()
+    context = compiled_context_of(tree.checker)
+    can_compile = proposer is not None and context is not None
+    if compiled_loop and not can_compile:
+        raise ValueError(
+            "compiled_loop: needs a policy with a compiled proposer (a TEMPPolicy on its numba "
+            "MPT) and a checker with a compiled path"
+        )
+    if can_compile and compiled_loop is not False:
+        return _run_compiled(tree, proposer, context, rng, goal_bias, limits)
+    return _run_python(tree, policy, rng, goal_bias, limits)
+
+
+def _run_python(
+    tree: Tree, policy, rng: np.random.Generator, goal_bias: float, limits: AttentionLimits
+) -> AttentionOutcome:
+    """The reference loop: any policy, any checker."""
+    problem = tree.problem
+    observer = observer_for(problem, policy, limits.max_nodes)
+    fallback = UniformSampler(problem.bounds)
+    goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
+    if hasattr(policy, "propose_chunk"):
+
+        def propose() -> np.ndarray:
+            return policy.propose_chunk(*observer.path_so_far(tree))
+
+    elif hasattr(policy, "propose"):
+
+        def propose() -> np.ndarray:
+            return policy.propose(*observer.path_so_far(tree))[None]
+
+    else:
+
+        def propose() -> np.ndarray:
+            return np.asarray(policy(observer.observe(tree)))[None]
+
+    closest_sq = squared_distance(problem.start, goal)
+    stalled = calls = proposals_used = 0
+    chunk: np.ndarray | None = None
+    next_row = 0
+    while True:
+        if tree.best_node >= 0:
+            stop = "solved"
+            break
+        if tree.num_nodes >= limits.attention_nodes:
+            stop = "attention_budget"
+            break
+        if tree.num_nodes >= limits.max_nodes or tree.samples >= limits.max_samples:
+            stop = "budget"
+            break
+        if time.perf_counter() >= limits.deadline:
+            stop = "time"
+            break
+        if goal_bias > 0 and rng.random() < goal_bias:
+            chunk = None
+            result = tree.extend_with_fallback(goal, fallback, rng, MAX_FALLBACK_TRIES)
+        else:
+            if chunk is None:
+                chunk = np.asarray(propose())
+                next_row = 0
+                calls += 1
+            action = chunk[next_row]
+            next_row += 1
+            proposals_used += 1
+            if next_row == len(chunk):
+                chunk = None
+            result = tree.extend_with_fallback(
+                action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True
+            )
+            if result.node < 0 or result.samples > 1:
+                chunk = None
+        if result.node >= 0:
+            distance_sq = squared_distance(tree.positions[result.node], goal)
+            if distance_sq < closest_sq:
+                closest_sq, stalled = distance_sq, 0
+            else:
+                stalled += 1
+                if limits.patience > 0 and stalled >= limits.patience:
+                    stop = "stalled"
+                    break
+    return AttentionOutcome(stop, calls, proposals_used, compiled=False)
+
+
+_COMPILED_STOPS = {
+    compiled.SOLVED: "solved",
+    compiled.ATTENTION_BUDGET: "attention_budget",
+    compiled.BUDGET: "budget",
+    compiled.STALLED_OUT: "stalled",
+}
+
+
+def _run_compiled(
+    tree: Tree,
+    proposer: tuple,
+    context: tuple,
+    rng: np.random.Generator,
+    goal_bias: float,
+    limits: AttentionLimits,
+) -> AttentionOutcome:
+    """The compiled loop, in slices of `_SLICE` iterations between looks at the clock."""
+    weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, chunk, max_path_length = (
+        proposer
+    )
+    problem = tree.problem
+    dim = problem.dim
+    goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
+    bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
+    buffer = np.empty((FALLBACK_BATCH, dim))
+    cursor = np.array([FALLBACK_BATCH], dtype=np.int64)
+    proposals = np.empty((chunk, dim))
+    chunk_out = np.empty((chunk, dim), np.float32)
+    noise = np.zeros((chunk, dim))
+    path_rows = np.zeros((max_path_length, dim), np.float32)
+    state = np.zeros(len(compiled.STATE), dtype=np.int64)
+    closest_sq = np.array([squared_distance(problem.start, goal)])
+    budget = np.array(
+        [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
+         MAX_FALLBACK_TRIES],
+        dtype=np.int64,
+    )  # fmt: skip
+    while True:
+        if time.perf_counter() >= limits.deadline:
+            stop = "time"
+            break
+        arrays, counters, best_cost, params = tree.compiled_state()
+        status = compiled.attention_slice(
+            arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
+            float(goal_bias), weights, prefix_goal, prefix_z, prefix_qkv, policy_rng,
+            float(noise_std), proposals, chunk_out, noise, path_rows, state, closest_sq, budget,
+            _SLICE,
+        )  # fmt: skip
+        tree.load_compiled_state(counters, best_cost)
+        if status == compiled.FULL:
+            tree.grow()
+        elif status == compiled.NOT_FINITE:
+            raise ValueError("action: the policy proposed a sample that is not finite")
+        elif status != compiled.RUNNING:
+            stop = _COMPILED_STOPS[status]
+            break
+    calls, used = int(state[compiled.CALLS]), int(state[compiled.PROPOSALS])
+    return AttentionOutcome(stop, calls, used, compiled=True)
+
+
+__all__ = [
+    "AttentionLimits",
+    "AttentionOutcome",
+    "MAX_FALLBACK_TRIES",
+    "STOPS",
+    "default_patience",
+    "observer_for",
+    "run_attention_phase",
+]

@@ -1,0 +1,257 @@
+"""Hand-made out-of-distribution problems: structures the task generators never draw.
+
+The generators (`temp_gym.worlds.generators`, `temp_gym.worlds.iiwa_world`) scatter a handful
+of independent random boxes. A policy trained on them can learn that clutter, not planning.
+This family is built to tell the two apart: every problem is a deliberate structure, made of
+thin walls or many small pieces, whose solution leaves the straight line by far:
+
+* ``bug_trap*``: a cup around the start, open away from the goal; the way out first leads
+  away from the goal.
+* ``zigzag*``: walls across the world with openings at alternating ends: a long serpentine
+  path.
+* ``narrow_gap*``: a wall across the world with one narrow gap off-centre, about a step wide.
+* ``double_wall``: two walls with their gaps at opposite ends: an S-shaped detour.
+* ``long_detour``: a wall almost across, start and goal on its two sides near the closed end:
+  a detour many times the straight line.
+* ``forest``: a lattice of many small pillars, many more and smaller boxes than any
+  generated world has.
+
+and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``pillars``,
+``long_detour``). Point worlds are ``[0, 20]^d`` as generated ones, with the generators' goal
+radius, so only the structure differs. No training generator produces these layouts.
+
+The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
+``python -m temp_gym.worlds.ood`` rewrites those files from the builders here, and the tests
+check that the two agree. `load_ood_family` reads them.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym.problem import Problem
+from temp_gym.worlds.generators import DEFAULT_GOAL_RADIUS, POINT_WORLD_SIZE
+
+EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples" / "ood"
+WORLD_DIRS = {"point2d": "2d", "point3d": "3d"}
+"""Robot -> folder of its family under `EXAMPLES_DIR`."""
+WALL = 0.25
+"""Half thickness of a wall (world units): half a steering step."""
+
+
+def _box(lower, upper) -> dict:
+    lower, upper = np.asarray(lower, float), np.asarray(upper, float)
+    return {
+        "center": ((lower + upper) / 2).tolist(),
+        "half_extents": ((upper - lower) / 2).tolist(),
+    }
+
+
+def _problem(robot: str, boxes: list[dict], start, goal) -> Problem:
+    dim = 2 if robot == "point2d" else 3
+    return Problem.from_dict(
+        {
+            "robot": robot,
+            "bounds": [[0.0] * dim, [POINT_WORLD_SIZE] * dim],
+            "obstacles": boxes,
+            "start": [float(v) for v in start],
+            "goal": [float(v) for v in goal],
+            "goal_radius": DEFAULT_GOAL_RADIUS[robot],
+        }
+    )
+
+
+# ---- 2D ---------------------------------------------------------------------------------------
+def _bug_trap_2d(opening: str) -> Problem:
+    """A cup of three walls around the start; the goal lies behind its closed end."""
+    w, lo, hi = WALL, 6.5, 13.5
+    left = _box([lo - w, lo], [lo + w, hi])
+    right = _box([hi - w, lo], [hi + w, hi])
+    top = _box([lo - w, hi - w], [hi + w, hi + w])
+    if opening == "down":  # open at the bottom, goal above
+        return _problem("point2d", [left, right, top], [10, 10], [10, 18.5])
+    # open to the left, goal to the right: the cup turned by a quarter
+    bottom = _box([lo, lo - w], [hi, lo + w])
+    right_wall = _box([hi - w, lo - w], [hi + w, hi + w])
+    return _problem("point2d", [_box([lo, hi - w], [hi, hi + w]), bottom, right_wall],
+                    [10, 10], [18.5, 10])  # fmt: skip
+
+
+def _zigzag_2d(walls: int) -> Problem:
+    """``walls`` horizontal walls whose 4-unit openings alternate between the two sides."""
+    boxes = []
+    for i in range(walls):
+        y = POINT_WORLD_SIZE * (i + 1) / (walls + 1)
+        x0, x1 = (0.0, 16.0) if i % 2 == 0 else (4.0, POINT_WORLD_SIZE)
+        boxes.append(_box([x0, y - WALL], [x1, y + WALL]))
+    return _problem("point2d", boxes, [2, 1], [2, 19])
+
+
+def _narrow_gap_2d(width: float) -> Problem:
+    """A wall across the world at x = 10 with one gap of ``width`` around y = 4."""
+    gap_low, gap_high = 4.0 - width / 2, 4.0 + width / 2
+    boxes = [
+        _box([10 - WALL, 0.0], [10 + WALL, gap_low]),
+        _box([10 - WALL, gap_high], [10 + WALL, POINT_WORLD_SIZE]),
+    ]
+    return _problem("point2d", boxes, [3, 16], [17, 16])
+
+
+def _double_wall_2d() -> Problem:
+    """Two walls with their gaps at opposite ends: an S-shaped detour."""
+    boxes = [
+        _box([7 - WALL, 0.0], [7 + WALL, 17.0]),
+        _box([13 - WALL, 3.0], [13 + WALL, POINT_WORLD_SIZE]),
+    ]
+    return _problem("point2d", boxes, [2, 2], [18, 18])
+
+
+def _long_detour_2d() -> Problem:
+    """A wall from the left edge almost across; start and goal sit on its two sides."""
+    return _problem("point2d", [_box([0.0, 10 - WALL], [17.5, 10 + WALL])], [2, 8], [2, 12])
+
+
+def _forest_2d() -> Problem:
+    """A lattice of 0.8-wide pillars every 2.2 units, rows shifted: many small boxes."""
+    boxes = []
+    for row in range(9):
+        for col in range(9):
+            x = 1.7 + 2.2 * col + (1.1 if row % 2 else 0.0)
+            y = 1.7 + 2.2 * row
+            if x < 19.6:
+                boxes.append(_box([x - 0.4, y - 0.4], [x + 0.4, y + 0.4]))
+    return _problem("point2d", boxes, [0.5, 0.5], [18.2, 19.3])
+
+
+# ---- 3D ---------------------------------------------------------------------------------------
+def _cup_3d() -> Problem:
+    """A box around the start, open at the bottom; the goal lies above its lid."""
+    w, lo, hi = WALL, 7.0, 13.0
+    boxes = [
+        _box([lo - w, lo, lo], [lo + w, hi, hi]),
+        _box([hi - w, lo, lo], [hi + w, hi, hi]),
+        _box([lo, lo - w, lo], [hi, lo + w, hi]),
+        _box([lo, hi - w, lo], [hi, hi + w, hi]),
+        _box([lo - w, lo - w, hi - w], [hi + w, hi + w, hi + w]),
+    ]
+    return _problem("point3d", boxes, [10, 10, 10], [10, 10, 18.5])
+
+
+def _wall_with_hole(x: float, hole_center, half: float) -> list[dict]:
+    """A wall across the world at ``x`` with a square hole of side ``2 half`` at (y, z)."""
+    y, z = hole_center
+    s = POINT_WORLD_SIZE
+    return [
+        _box([x - WALL, 0.0, 0.0], [x + WALL, y - half, s]),
+        _box([x - WALL, y + half, 0.0], [x + WALL, s, s]),
+        _box([x - WALL, y - half, 0.0], [x + WALL, y + half, z - half]),
+        _box([x - WALL, y - half, z + half], [x + WALL, y + half, s]),
+    ]
+
+
+def _window_3d() -> Problem:
+    """A wall across the world with a 2 x 2 window in a far corner."""
+    return _problem("point3d", _wall_with_hole(10.0, (4.0, 16.0), 1.0), [3, 16, 4], [17, 16, 4])
+
+
+def _double_window_3d() -> Problem:
+    """Two walls whose windows sit in opposite corners."""
+    boxes = _wall_with_hole(7.0, (4.0, 4.0), 1.25) + _wall_with_hole(13.0, (16.0, 16.0), 1.25)
+    return _problem("point3d", boxes, [2, 10, 10], [18, 10, 10])
+
+
+def _floors_3d() -> Problem:
+    """Three floors, each with a 3 x 3 hole, the holes in alternating corners."""
+    boxes = []
+    s = POINT_WORLD_SIZE
+    for i, z in enumerate((5.0, 10.0, 15.0)):
+        hx, hy = (3.0, 3.0) if i % 2 == 0 else (17.0, 17.0)
+        h = 1.5
+        boxes += [
+            _box([0.0, 0.0, z - WALL], [hx - h, s, z + WALL]),
+            _box([hx + h, 0.0, z - WALL], [s, s, z + WALL]),
+            _box([hx - h, 0.0, z - WALL], [hx + h, hy - h, z + WALL]),
+            _box([hx - h, hy + h, z - WALL], [hx + h, s, z + WALL]),
+        ]
+    boxes = [b for b in boxes if min(b["half_extents"]) > 0]
+    return _problem("point3d", boxes, [10, 10, 1.5], [10, 10, 18.5])
+
+
+def _pillars_3d() -> Problem:
+    """A lattice of 0.8-wide vertical pillars every 2.5 units, floor to ceiling."""
+    boxes = []
+    for i in range(8):
+        for j in range(8):
+            x, y = 1.75 + 2.5 * i, 1.75 + 2.5 * j
+            boxes.append(_box([x - 0.4, y - 0.4, 0.0], [x + 0.4, y + 0.4, POINT_WORLD_SIZE]))
+    return _problem("point3d", boxes, [0.5, 0.5, 10], [18.0, 18.0, 10])
+
+
+def _long_detour_3d() -> Problem:
+    """A wall across all but a 2.5-unit strip at the far end; start and goal on its sides."""
+    s = POINT_WORLD_SIZE
+    return _problem("point3d", [_box([0.0, 0.0, 10 - WALL], [17.5, s, 10 + WALL])],
+                    [2, 10, 8], [2, 10, 12])  # fmt: skip
+
+
+BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
+    "point2d": {
+        "bug_trap": lambda: _bug_trap_2d("down"),
+        "bug_trap_side": lambda: _bug_trap_2d("left"),
+        "zigzag_3": lambda: _zigzag_2d(3),
+        "zigzag_5": lambda: _zigzag_2d(5),
+        "narrow_gap": lambda: _narrow_gap_2d(1.0),
+        "narrow_gap_tight": lambda: _narrow_gap_2d(0.7),
+        "double_wall": _double_wall_2d,
+        "long_detour": _long_detour_2d,
+        "forest": _forest_2d,
+    },
+    "point3d": {
+        "cup": _cup_3d,
+        "window": _window_3d,
+        "double_window": _double_window_3d,
+        "floors": _floors_3d,
+        "pillars": _pillars_3d,
+        "long_detour": _long_detour_3d,
+    },
+}
+"""Robot -> name -> builder of each problem of the family."""
+
+
+def build_ood_family(robot: str) -> dict[str, Problem]:
+    """The family of ``robot``, built from code (what the stored files must equal)."""
+    if robot not in BUILDERS:
+        raise ValueError(f"robot: no out-of-distribution family for {robot!r}")
+    return {name: build() for name, build in BUILDERS[robot].items()}
+
+
+def load_ood_family(robot: str, directory: str | Path | None = None) -> dict[str, Problem]:
+    """The stored family of ``robot`` (``examples/ood/{2d,3d}/*.json``), by name."""
+    if robot not in WORLD_DIRS:
+        raise ValueError(f"robot: no out-of-distribution family for {robot!r}")
+    folder = Path(directory) if directory is not None else EXAMPLES_DIR / WORLD_DIRS[robot]
+    files = sorted(folder.glob("*.json"))
+    if not files:
+        raise FileNotFoundError(f"{folder}: no problems (python -m temp_gym.worlds.ood)")
+    return {path.stem: Problem.load(path) for path in files}
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Write every family's problems to ``examples/ood``."""
+    parser = argparse.ArgumentParser(description="Write the out-of-distribution problems.")
+    parser.add_argument("--out", type=Path, default=EXAMPLES_DIR, help="folder of the families")
+    args = parser.parse_args(argv)
+    for robot, folder in WORLD_DIRS.items():
+        target = args.out / folder
+        target.mkdir(parents=True, exist_ok=True)
+        for name, problem in build_ood_family(robot).items():
+            problem.save(target / f"{name}.json")
+        print(f"{target}: {len(BUILDERS[robot])} problems")
+
+
+if __name__ == "__main__":
+    main()

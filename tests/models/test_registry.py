@@ -1,0 +1,69 @@
+"""The loaded-policy cache: one load per checkpoint content, shared cores, fresh policies."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from temp_gym import Problem, plan
+from temp_gym.models import registry
+from temp_gym.models.registry import load_cached, load_policy, policy_from_checkpoint
+
+PROBLEM = Problem.load("examples/point2d.json")
+
+
+@pytest.fixture
+def count_reads(monkeypatch):
+    """Counts checkpoint file reads (both the digest's and torch.load's)."""
+    reads = {"bytes": 0, "torch": 0}
+    read_bytes, torch_load = Path.read_bytes, torch.load
+
+    def counted_read_bytes(self):
+        reads["bytes"] += 1
+        return read_bytes(self)
+
+    def counted_torch_load(*args, **kwargs):
+        reads["torch"] += 1
+        return torch_load(*args, **kwargs)
+
+    monkeypatch.setattr(Path, "read_bytes", counted_read_bytes)
+    monkeypatch.setattr(torch, "load", counted_torch_load)
+    registry.clear_cache()
+    yield reads
+    registry.clear_cache()
+
+
+def test_a_second_plan_reads_nothing_from_disk(count_reads):
+    first = plan(PROBLEM, seed=0, stop_at_first=True)
+    assert count_reads == {"bytes": 1, "torch": 1}
+    second = plan(PROBLEM, seed=0, stop_at_first=True)
+    assert count_reads == {"bytes": 1, "torch": 1}
+    np.testing.assert_array_equal(first.path, second.path)  # fresh policy state per call
+
+
+def test_policies_share_the_core_but_not_their_state(count_reads):
+    a, b = load_policy("point2d", seed=1), load_policy("TEMP-2D-v0", seed=1)
+    assert a is not b and a.core is b.core and a.rng is not b.rng
+    assert not any(p.requires_grad for p in a.model.parameters())  # shared: not trainable
+
+
+def test_a_changed_file_is_reloaded_an_identical_one_is_not(count_reads, tmp_path):
+    path = tmp_path / "policy.pt"
+    shutil.copy(registry.shipped_checkpoint("point2d"), path)
+    first = load_cached(path)
+    path.touch()  # new modification time, same bytes: hashed again, not loaded again
+    again = load_cached(path)
+    assert again is first and count_reads == {"bytes": 2, "torch": 1}
+    shutil.copy(registry.shipped_checkpoint("point3d"), path)  # new content
+    other = load_cached(path)
+    assert other is not first and other.core.model.robot == "point3d"
+    assert count_reads["torch"] == 2
+
+
+def test_shipped_settings_apply_and_a_wrong_robot_is_refused(count_reads):
+    policy = policy_from_checkpoint(registry.shipped_checkpoint("point2d"), noise_std=0.2)
+    assert policy.noise_std == 0.2
+    with pytest.raises(ValueError, match="point3d"):
+        policy_from_checkpoint(registry.shipped_checkpoint("point2d"), robot="point3d")
