@@ -1,13 +1,14 @@
-"""Make the README pictures ``docs/images/render_2d.png`` and ``docs/images/render_7d.png``.
+"""Make the README pictures ``docs/images/render_{2d,3d,7d}.png``.
 
 Run from the repository root::
 
-    python docs/make_images.py            # both pictures
+    python docs/make_images.py            # all three pictures
     python docs/make_images.py --only 2d  # one of them
 
-The 2D picture grows an RRT* tree of 1500 nodes with uniform samples on a seeded challenging
-``point2d`` problem; the 7D one plans a seeded challenging iiwa task with ``rrt_star`` and draws
-the arm along the path. Everything is seeded, so reruns give the same pictures.
+The 2D and 3D pictures grow an RRT* tree of 1500 nodes with uniform samples on a seeded
+challenging point problem and draw its solution; the 7D one plans a seeded challenging iiwa
+task with ``rrt_star`` and draws the arm along the path, from the camera the renderer chooses
+for the scene. Everything is seeded, so reruns give the same pictures.
 """
 
 from __future__ import annotations
@@ -20,20 +21,21 @@ from pathlib import Path
 import numpy as np
 from matplotlib.image import imsave
 
-from temp_gym.envs.render import IiwaRenderer, render_point_world
+from temp_gym.envs.render import IiwaRenderer, plan_title, render_point_world
 
 IMAGES = Path(__file__).resolve().parent / "images"
 SEED_2D = 1
+SEED_3D = 3
 SEED_7D = 0
 NODES = 1500
 
 
-def make_2d(out: Path) -> None:
-    """A challenging point2d problem, its RRT* tree and the best path."""
+def make_point(robot: str, seed: int, out: Path) -> None:
+    """A challenging point problem, its RRT* tree and the best path."""
     from temp_gym.planning.tree import Tree
     from temp_gym.worlds.generators import generate_problem
 
-    problem = generate_problem("point2d", np.random.default_rng(SEED_2D), "challenging")
+    problem = generate_problem(robot, np.random.default_rng(seed), "challenging")
     tree = Tree(problem)
     rng = np.random.default_rng(0)
     low, high = problem.bounds
@@ -51,35 +53,40 @@ def make_2d(out: Path) -> None:
     imsave(out, image)
 
 
+def make_2d(out: Path) -> None:
+    """The point2d picture."""
+    make_point("point2d", SEED_2D, out)
+
+
+def make_3d(out: Path) -> None:
+    """The point3d picture."""
+    make_point("point3d", SEED_3D, out)
+
+
 def make_7d(out: Path) -> None:
     """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
+    from temp_gym.planning.plan import plan
     from temp_gym.worlds.iiwa_world import generate_iiwa_task, generate_iiwa_workspace
 
     rng = np.random.default_rng(SEED_7D)
     workspace = generate_iiwa_workspace(rng)
     problem = generate_iiwa_task(workspace, rng, difficulty="challenging")
-    path = None
-    try:
-        from temp_gym.planning.plan import plan
-    except ImportError as error:
-        print(f"  temp_gym.planning.plan unavailable ({error}); drawing start and goal only")
-    else:
-        result = plan(problem, planner="rrt_star", seed=0, max_nodes=NODES)
-        print(f"  {result.summary()}")
-        path = result.path
+    result = plan(problem, planner="rrt_star", seed=0, max_nodes=NODES)
+    print(f"  {result.summary()}")
     with IiwaRenderer() as renderer:
-        image = renderer.render(problem, path=path, width=560, height=560)
+        title = plan_title(problem, result.nodes, result.path)
+        image = renderer.render(problem, path=result.path, width=560, height=560, title=title)
     imsave(out, image)
 
 
 def main() -> int:
     """Make the pictures; return the number that failed."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", choices=("2d", "7d"), help="make only this picture")
+    parser.add_argument("--only", choices=("2d", "3d", "7d"), help="make only this picture")
     args = parser.parse_args()
     IMAGES.mkdir(parents=True, exist_ok=True)
     failed = 0
-    for name, make in (("2d", make_2d), ("7d", make_7d)):
+    for name, make in (("2d", make_2d), ("3d", make_3d), ("7d", make_7d)):
         if args.only not in (None, name):
             continue
         out = IMAGES / f"render_{name}.png"

@@ -10,13 +10,21 @@ never passes silently; ``+key.sub=value`` adds a new key on purpose.
 
 Scripts parse their command line with `parse_args`: overrides may stand anywhere, also
 after an option flag that takes several values (``--noise-std 0 0.03 train.seed=1``).
+
+The environment variable ``TEMP_GYM_OVERRIDES`` holds more overrides, separated by spaces, that
+every config load applies after the command line's: the same command then runs at another size
+(the tests run the README's commands as written, smoke-sized this way)::
+
+    TEMP_GYM_OVERRIDES="train.max_epochs=1 eval.tasks=2" python trainers/bc.py
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import os
 import re
+import shlex
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -128,8 +136,17 @@ def differing_keys(
     )
 
 
+OVERRIDES_VARIABLE = "TEMP_GYM_OVERRIDES"
+"""Environment variable with overrides applied after the caller's (see the module docstring)."""
+
+
+def environment_overrides() -> list[str]:
+    """The overrides in ``$TEMP_GYM_OVERRIDES`` (shell-style words; none when unset)."""
+    return shlex.split(os.environ.get(OVERRIDES_VARIABLE, ""))
+
+
 def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[str, Any]:
-    """Load a YAML config with `yaml.safe_load` and apply overrides."""
+    """Load a YAML config with `yaml.safe_load`; apply ``overrides``, then the environment's."""
     path = Path(path)
     if not path.exists() and (CONFIG_DIR / path.name).exists():
         path = CONFIG_DIR / path.name
@@ -142,4 +159,10 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[st
         raise ConfigError(f"{path}: not valid YAML ({error})") from None
     if not isinstance(config, dict):
         raise ConfigError(f"{path}: a config must be a YAML mapping")
-    return apply_overrides(config, overrides or [])
+    extra = environment_overrides()
+    try:
+        return apply_overrides(config, [*(overrides or []), *extra])
+    except ConfigError as error:
+        if extra and any(item in str(error) for item in extra):
+            raise ConfigError(f"${OVERRIDES_VARIABLE}: {error}") from error
+        raise

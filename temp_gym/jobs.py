@@ -77,9 +77,20 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
     try:
         main(argv)
     except KeyboardInterrupt:
+        _close_progress_bars()
         report(f"{name}: interrupted; rerun the same command to resume")
         return INTERRUPTED
     except JobError as error:
         report(f"{name}: error: {error}")
         return BAD_INPUT
     return 0
+
+
+def _close_progress_bars() -> None:
+    """Close the progress bars an interruption left open, so none redraws after the last line."""
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return
+    for bar in list(getattr(tqdm, "_instances", ())):
+        bar.close()

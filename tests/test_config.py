@@ -46,3 +46,17 @@ def test_config_errors_are_one_line_job_errors(tmp_path, capsys):
     (tmp_path / "bad.yaml").write_text("a: [1, 2")
     with pytest.raises(ConfigError, match="bad.yaml: not valid YAML"):
         load_config(tmp_path / "bad.yaml")
+
+
+def test_environment_overrides_apply_after_the_callers(monkeypatch):
+    monkeypatch.setenv(
+        "TEMP_GYM_OVERRIDES", "train.max_epochs=1 'data.workspaces={train: 2, val: 1}'"
+    )
+    config = load_config("configs/2d.yaml", ["train.max_epochs=5", "data.seed=7"])
+    assert config["train"]["max_epochs"] == 1 and config["data"]["seed"] == 7
+    assert config["data"]["workspaces"] == {"train": 2, "val": 1}
+    monkeypatch.setenv("TEMP_GYM_OVERRIDES", "train.max_epoch=1")
+    with pytest.raises(ValueError, match=r"\$TEMP_GYM_OVERRIDES: .*unknown key train.max_epoch"):
+        load_config("configs/2d.yaml")
+    monkeypatch.delenv("TEMP_GYM_OVERRIDES")
+    assert load_config("configs/2d.yaml")["train"]["max_epochs"] > 1

@@ -20,12 +20,15 @@ refused, naming the keys. Reproducibility: with a fixed ``train.threads`` (the m
 1) a run, and a resumed run, give bit-identical weights; with ``null`` torch takes one thread
 per core, so the weights depend on the machine (float sums are ordered by the thread count).
 
-TensorBoard tags: ``train/loss``, ``train/recons``, ``train/semantic`` (epoch means),
-``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
+TensorBoard tags (step: epochs completed), each described on its chart
+(``utils.TAG_DESCRIPTIONS``): ``train/loss``, ``train/recons``, ``train/semantic`` (epoch
+means), ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
 ``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``eval.periodic_tasks`` test tasks,
 every ``eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention`` (figure: per-group
 attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...`` (the comparison);
-``time/epoch``, ``time/samples_per_s``; text ``hparams`` (the config as markdown).
+``time/epoch``, ``time/samples_per_s``. The config is in the HParams dashboard, and the
+custom-scalars dashboard puts each loss term's training and validation curves on one chart
+(``val/recons`` rises on unseen workspaces: the charts say why that is not divergence).
 """
 
 from __future__ import annotations
@@ -186,7 +189,7 @@ def train(
             if seconds and state["epoch"] < max_epochs and not state["lr_floor"]:
                 report(epoch_estimate(max_epochs - state["epoch"], seconds))
     else:
-        logger.text("hparams", utils.config_markdown(config))
+        logger.hparams(config)
     if dist.world > 1:
         from torch.nn.parallel import DistributedDataParallel
 
@@ -217,89 +220,88 @@ def train(
         desc="train",
         disable=not (progress and dist.is_main),
     )
-    try:
-        while state["epoch"] < max_epochs and not state["lr_floor"]:
-            epoch = state["epoch"]
-            began = time.perf_counter()
-            model.train()
-            generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
-            keys = ("loss", "recons", "semantic", "grad_norm")
-            sums = torch.zeros(len(keys), dtype=torch.float64)
-            batches = 0
-            for index in utils.iterate_batch_indices(train_data, batch_size, generator):
-                # Random draws are made for the global batch, so every rank (and a single
-                # process) consumes the generator identically; then each rank keeps its slice.
-                symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
-                noise = (
-                    torch.randn((len(index), *history_shape), generator=generator)
-                    if path_noise > 0
-                    else None
-                )
-                positions, weight = dist.shard(len(index))
-                batch = train_data.batch(index[positions], device)
-                if symmetry is not None:
-                    batch = utils.augment_symmetry(batch, symmetry=symmetry)
-                if noise is not None:
-                    batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
-                terms = utils.model_step(trained, loss_module, batch)
-                optimizer.zero_grad(set_to_none=True)
-                (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
-                grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
-                optimizer.step()
-                sums += torch.tensor(
-                    [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
-                    + [float(grad_norm) / dist.world],
-                    dtype=torch.float64,
-                )
-                batches += 1
-                state["global_step"] += 1
-            sums = dict(zip(keys, dist.sum(sums).tolist()))
-            seconds = time.perf_counter() - began
-            val = validate(model, loss_module, val_data, batch_size, device, dist)
-            scheduler.step(val[monitor])
-            lr = optimizer.param_groups[0]["lr"]
-            state["epoch"] = epoch + 1
-            state["history"].append(
-                {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
-                 "lr": lr}
-            )  # fmt: skip
-            logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, epoch)
-            logger.scalars({f"val/{key}": value for key, value in val.items()}, epoch)
-            logger.scalars(
-                {
-                    "train/lr": lr,
-                    "time/epoch": seconds,
-                    "time/samples_per_s": len(train_data) / seconds,
-                },
-                epoch,
+    while state["epoch"] < max_epochs and not state["lr_floor"]:
+        epoch = state["epoch"]
+        began = time.perf_counter()
+        model.train()
+        generator = torch.Generator().manual_seed(seed * 100_003 + epoch)
+        keys = ("loss", "recons", "semantic", "grad_norm")
+        sums = torch.zeros(len(keys), dtype=torch.float64)
+        batches = 0
+        for index in utils.iterate_batch_indices(train_data, batch_size, generator):
+            # Random draws are made for the global batch, so every rank (and a single
+            # process) consumes the generator identically; then each rank keeps its slice.
+            symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
+            noise = (
+                torch.randn((len(index), *history_shape), generator=generator)
+                if path_noise > 0
+                else None
             )
-            if val[monitor] < state["best_val"]:
-                state["best_val"] = val[monitor]
-                if dist.is_main:
-                    model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
-            every = int(eval_config.get("every", 0))
-            if every and state["epoch"] % every == 0 and periodic and dist.is_main:
-                evaluate_with_figures(config, model, periodic, logger, state["epoch"])
-                model.to(device)
-            state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
-            state["history"][-1]["seconds"] = time.perf_counter() - began  # evaluation included
+            positions, weight = dist.shard(len(index))
+            batch = train_data.batch(index[positions], device)
+            if symmetry is not None:
+                batch = utils.augment_symmetry(batch, symmetry=symmetry)
+            if noise is not None:
+                batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
+            terms = utils.model_step(trained, loss_module, batch)
+            optimizer.zero_grad(set_to_none=True)
+            (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
+            grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
+            optimizer.step()
+            sums += torch.tensor(
+                [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
+                + [float(grad_norm) / dist.world],
+                dtype=torch.float64,
+            )
+            batches += 1
+            state["global_step"] += 1
+        sums = dict(zip(keys, dist.sum(sums).tolist()))
+        seconds = time.perf_counter() - began
+        val = validate(model, loss_module, val_data, batch_size, device, dist)
+        scheduler.step(val[monitor])
+        lr = optimizer.param_groups[0]["lr"]
+        state["epoch"] = epoch + 1
+        state["history"].append(
+            {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
+             "lr": lr}
+        )  # fmt: skip
+        step = state["epoch"]  # epochs completed: the periodic evaluation's step too
+        logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, step)
+        logger.scalars({f"val/{key}": value for key, value in val.items()}, step)
+        logger.scalars(
+            {
+                "train/lr": lr,
+                "time/epoch": seconds,
+                "time/samples_per_s": len(train_data) / seconds,
+            },
+            step,
+        )
+        if val[monitor] < state["best_val"]:
+            state["best_val"] = val[monitor]
             if dist.is_main:
-                model.save(
-                    last_path,
-                    optimizer=optimizer.state_dict(),
-                    scheduler=scheduler.state_dict(),
-                    rng=torch.get_rng_state(),
-                    config=config,
-                    finished=state["lr_floor"] or state["epoch"] >= max_epochs,
-                    **state,
-                )
-            if epoch == 0 and dist.is_main and max_epochs > 1 and not state["lr_floor"]:
-                report(epoch_estimate(max_epochs - 1, [state["history"][-1]["seconds"]]))
-            bar.update(1)
-            bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
-    finally:  # also on Ctrl-C: the bar is closed before the job's last line
-        bar.close()
-        logger.close()
+                model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
+        every = int(eval_config.get("every", 0))
+        if every and state["epoch"] % every == 0 and periodic and dist.is_main:
+            evaluate_with_figures(config, model, periodic, logger, state["epoch"])
+            model.to(device)
+        state["lr_floor"] = lr <= min_lr * (1 + 1e-6)
+        state["history"][-1]["seconds"] = time.perf_counter() - began  # evaluation included
+        if dist.is_main:
+            model.save(
+                last_path,
+                optimizer=optimizer.state_dict(),
+                scheduler=scheduler.state_dict(),
+                rng=torch.get_rng_state(),
+                config=config,
+                finished=state["lr_floor"] or state["epoch"] >= max_epochs,
+                **state,
+            )
+        if epoch == 0 and dist.is_main and max_epochs > 1 and not state["lr_floor"]:
+            report(epoch_estimate(max_epochs - 1, [state["history"][-1]["seconds"]]))
+        bar.update(1)
+        bar.set_postfix(loss=f"{sums['loss'] / batches:.4f}", val=f"{val['loss']:.4f}", lr=lr)
+    bar.close()
+    logger.close()
     return best_path
 
 

@@ -19,6 +19,7 @@ from temp_gym.data.tables import read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import ROBOTS
+from temp_gym.quiet import torchrl_info_silenced
 from temp_gym.worlds.encoding import DEFAULT_RESOLUTION
 from temp_gym.worlds.generators import DIFFICULTIES
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
@@ -201,5 +202,6 @@ def load_split(data_dir: str | Path, split: str):
 
     root = Path(data_dir)
     samples = _tensordict(_table(root, split, "buffer"))
-    buffer = ReplayBuffer(storage=TensorStorage(samples), sampler=RandomSampler())
+    with torchrl_info_silenced():
+        buffer = ReplayBuffer(storage=TensorStorage(samples), sampler=RandomSampler())
     return buffer, load_workspaces(root, split)

@@ -365,17 +365,24 @@ class PlanningEnv(gym.Env):
         from temp_gym.envs import render
 
         tree = self.tree
-        path = tree.best_path() if tree.best_node >= 0 else tree.path_so_far()
+        # A solution, or else the path so far (drawn and titled as such).
+        solution = tree.best_path()
+        paths = {
+            "path": solution,
+            "path_so_far": None if solution is not None else tree.path_so_far(),
+        }
         if self.robot == "kuka_iiwa14":
             if self._renderer is None:
                 self._renderer = render.IiwaRenderer()
-            return self._renderer.render(self.problem, path=path)
+            shown = "orange arm" if solution is None and tree.num_nodes > 1 else ""
+            title = render.plan_title(self.problem, tree.num_nodes, solution, shown)
+            return self._renderer.render(self.problem, title=title, **paths)
         return render.render_point_world(
             self.problem,
             positions=tree.positions[: tree.num_nodes],
             parents=tree.parents,
-            path=path,
             num_nodes=tree.num_nodes,
+            **paths,
         )
 
     def _show(self, image: np.ndarray) -> None:

@@ -15,6 +15,14 @@ success rate beside them; mean sampling failures; success rate against time
 (`success_curve`); and average cost against nodes (`cost_curve`), where a task not yet solved
 at a node count is charged 1.5 times the largest cost any planner recorded on that task.
 
+Medians and means with bootstrap intervals (`distribution_rows`, and the per-task ratios of
+`paired_ratio_statistics`) sit beside the means: planning times have heavy tails on a shared
+machine, and an interval tells a difference from a stall.
+
+"Success" means two things here, and labels say which (`success_label`): TEMP *solved* the
+task (its attention phase reached the goal region); a baseline *reached (1 + tau) J*, TEMP's
+cost within the tolerance, which is harder than solving it.
+
 Records are plain dictionaries (JSON-able, one per task and planner), so evaluation can be
 resumed and merged across processes or machines.
 """
@@ -26,6 +34,8 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
+
+from temp_gym.evaluation.statistics import describe, format_interval
 
 TAU = 0.05
 """Cost tolerance of the paper's Eq. 6."""
@@ -86,6 +96,27 @@ def aggregate_rows(records: Iterable[dict[str, Any]]) -> dict[str, dict[str, flo
     return rows
 
 
+def distribution_rows(records: Iterable[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per planner: `temp_gym.evaluation.statistics.describe` of time and of nodes.
+
+    Over the records each planner solved (as the means of `aggregate_rows`): medians and
+    means with 95% bootstrap intervals.
+    """
+    rows = {}
+    for planner, group in _by_planner(records).items():
+        solved = [r for r in group if r["success"]]
+        rows[planner] = {
+            "time": describe([r["time"] for r in solved]),
+            "nodes": describe([r["nodes"] for r in solved]),
+        }
+    return rows
+
+
+def success_label(planner: str, tau: float = TAU) -> str:
+    """What "success" means for ``planner``: TEMP solved the task, a baseline reached 1.05 J."""
+    return "solved" if planner == "temp" else f"reached {1.0 + tau:g}·J_TEMP"
+
+
 def success_curve(records: Iterable[dict[str, Any]], times: np.ndarray) -> dict[str, np.ndarray]:
     """Per planner, the fraction of its tasks solved (within tolerance) by each time."""
     curves = {}
@@ -140,12 +171,7 @@ def paired_ratios(
     when one planner fails often; pairing compares the same tasks. Returns ``time``, ``nodes``
     and ``tasks`` (the number of pairs), or None when no task was solved by both.
     """
-    pairs = [
-        (r["planners"][planner], r["planners"][baseline])
-        for r in records
-        if r["planners"].get(planner, {}).get("success")
-        and r["planners"].get(baseline, {}).get("success")
-    ]
+    pairs = _pairs(records, planner, baseline)
     if not pairs:
         return None
     return {
@@ -155,16 +181,48 @@ def paired_ratios(
     }
 
 
+def paired_ratio_statistics(
+    records: Iterable[dict[str, Any]], planner: str, baseline: str
+) -> dict[str, dict[str, float]] | None:
+    """Per-task ratios ``planner / baseline`` of time and nodes on the tasks both solved.
+
+    Returns `temp_gym.evaluation.statistics.describe` of each (``time``, ``nodes``): the
+    median ratio with its 95% bootstrap interval is the figure that survives a stall, which
+    moves a ratio of sums (`paired_ratios`) as much as it moves a mean. None when no task was
+    solved by both.
+    """
+    pairs = [(a, b) for a, b in _pairs(records, planner, baseline) if b["time"] > 0]
+    if not pairs:
+        return None
+    return {
+        "time": describe([a["time"] / b["time"] for a, b in pairs]),
+        "nodes": describe([a["nodes"] / b["nodes"] for a, b in pairs]),
+    }
+
+
+def _pairs(
+    records: Iterable[dict[str, Any]], planner: str, baseline: str
+) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """The two planners' figures on each task that both solved."""
+    return [
+        (r["planners"][planner], r["planners"][baseline])
+        for r in records
+        if r["planners"].get(planner, {}).get("success")
+        and r["planners"].get(baseline, {}).get("success")
+    ]
+
+
 def markdown_table(
     rows_by_group: dict[str, dict[str, dict[str, float]]], planners: list[str]
 ) -> str:
     """The paper's Table 1 layout: one row per task group, time and nodes per planner.
 
     ``rows_by_group`` maps a group name (e.g. ``"2D easy"``) to `aggregate_rows` output.
-    Success rates are given beside each planner's nodes.
+    Success rates are given beside each planner's nodes, labelled with what they count
+    (`success_label`). Times and nodes are means; `distribution_table` has the medians.
     """
     header = "| Planning tasks | " + " | ".join(
-        f"{p} time (s) | {p} nodes | {p} success" for p in planners
+        f"{p} time (s) | {p} nodes | {p} {success_label(p)}" for p in planners
     )
     rule = "|---|" + "---:|---:|---:|" * len(planners)
     lines = [header + " |", rule]
@@ -181,4 +239,30 @@ def markdown_table(
                 f"{100 * row['success_rate']:.0f}%",
             ]
         lines.append(f"| {group} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def distribution_table(
+    distributions_by_group: dict[str, dict[str, dict[str, Any]]], planners: list[str]
+) -> str:
+    """Medians and means of time and nodes with 95% bootstrap intervals, one row per planner.
+
+    ``distributions_by_group`` maps a group name to `distribution_rows` output.
+    """
+    lines = [
+        "| Planning tasks | planner | tasks counted | time median (s) [95%] | time mean (s) [95%] "
+        "| nodes median [95%] | nodes mean [95%] |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for group, rows in distributions_by_group.items():
+        for planner in planners:
+            row = rows.get(planner)
+            if row is None:
+                continue
+            time, nodes = row["time"], row["nodes"]
+            lines.append(
+                f"| {group} | {planner} | {time['n']} | {format_interval(time, 'median')} | "
+                f"{format_interval(time, 'mean')} | {format_interval(nodes, 'median', 0)} | "
+                f"{format_interval(nodes, 'mean', 0)} |"
+            )
     return "\n".join(lines)

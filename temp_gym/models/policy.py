@@ -49,6 +49,7 @@ import torch
 
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
+from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import half_range, normalize
@@ -200,6 +201,8 @@ class TEMPPolicy:
         self.attentions: list[np.ndarray] = []
         self.problem: Problem | None = None
         self._sei: torch.Tensor | None = None
+        self._task_bytes: bytes | None = None  # the task and grid last planned for, read
+        self._grid_bytes: bytes | None = None  # lazily from `problem` after a reset
 
     @classmethod
     def from_checkpoint(
@@ -261,11 +264,66 @@ class TEMPPolicy:
         self._task = None
         if self._fast is not None:
             self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+        self._task_bytes = self._grid_bytes = None  # made by `_follow` only when it is called
+
+    def _follow(self, observation: dict[str, np.ndarray]) -> None:
+        """Plan for the observation's task when it is not the one last planned for.
+
+        The observation carries all the MPT's per-task inputs (the occupancy grid, normalized
+        start and goal, the goal radius ratio), so after an env reset the policy was not told
+        about (a vector env's automatic reset) it re-encodes instead of going stale. An
+        observation without them (a hand-built, path-only one) keeps the task of `reset`.
+        """
+        keys = ("occupancy", *TASK_KEYS)
+        if not carries(observation, keys):
+            if self._sei is not None:
+                return
+            raise ValueError(
+                f"observation: expected the env's observation with {list(keys)}, or call "
+                "policy.reset(problem) first"
+            )
+        if self._task_bytes is None and self.problem is not None:  # first call since reset
+            self._task_bytes = problem_signature(self.problem, TASK_KEYS)
+        occupancy = np.asarray(observation["occupancy"], dtype=np.float32)
+        same_task = task_signature(observation, TASK_KEYS) == self._task_bytes
+        if occupancy.shape != self.model.eise.grid_shape:
+            if same_task and self.problem is not None:
+                return  # an env at another resolution: the grid of reset(problem) stands
+            raise ValueError(
+                f"observation['occupancy']: expected shape {self.model.eise.grid_shape} for "
+                f"{self.model.robot} (the model's encoding_resolution "
+                f"{self.model.encoding_resolution}), got {occupancy.shape}; or call "
+                "policy.reset(problem) after each env reset"
+            )
+        if self._grid_bytes is None and self.problem is not None:
+            grid = occupancy_grid(Workspace.of(self.problem), self.model.encoding_resolution)
+            self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
+        same_grid = occupancy.tobytes() == self._grid_bytes
+        if same_task and same_grid:
+            return
+        if not same_grid:
+            with torch.inference_mode(), _single_torch_thread(self._fast is not None):
+                grid = torch.from_numpy(np.ascontiguousarray(occupancy)).unsqueeze(0)
+                self._sei = self.model.eise(grid.to(self.device))
+            self._grid_bytes = occupancy.tobytes()
+        self._task_arrays = tuple(
+            np.asarray(observation[key], dtype=np.float32).reshape(-1)
+            for key in ("goal", "goal_radius", "start")
+        )
+        self._task = None
+        if self._fast is not None:
+            sei_array = self._sei.cpu().numpy()[0].astype(np.float32)
+            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+        self._task_bytes = task_signature(observation, TASK_KEYS)
+        self.problem = None  # the task is the observation's, not a Problem's
 
     def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
-        """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1]."""
-        if self._sei is None:
-            raise RuntimeError("call policy.reset(problem) before sampling")
+        """Run the MPT once; return the next sample, float32 ``(d,)`` in [-1, 1].
+
+        The task is read from the observation: an observation of another task than the last
+        one (e.g. after an env reset without ``policy.reset``) is followed, not ignored.
+        """
+        self._follow(observation)
         path = np.asarray(observation["path"])
         if path.ndim != 2 or path.shape[1] != self.model.dim:
             raise ValueError(

@@ -67,6 +67,20 @@ def update_observation(
     path_length[0] = length
 
 
+def task_entries(problem: Problem) -> dict[str, np.ndarray]:
+    """The observation's task entries: ``start``, ``goal`` and ``goal_radius``, float32.
+
+    What every observation of a tree grown on ``problem`` carries, so a policy can tell from an
+    observation which task it belongs to (`temp_gym.policies.task_signature`).
+    """
+    radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
+    return {
+        "start": normalize(problem.start, problem.bounds).astype(np.float32),
+        "goal": normalize(problem.goal, problem.bounds).astype(np.float32),
+        "goal_radius": np.array([radius], np.float32),
+    }
+
+
 class TreeObserver:
     """Builds observations of trees grown on one problem.
 
@@ -84,7 +98,6 @@ class TreeObserver:
         self.max_path_length = int(max_path_length)
         self.max_nodes = int(max_nodes)
         self.distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
-        radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
         self._params = np.concatenate(
             [[self.distance, self.max_nodes, self.max_path_length], np.ravel(problem.bounds)]
         )
@@ -96,13 +109,7 @@ class TreeObserver:
         self._slices = tuple(slice(b, e) for b, e in zip([0] + ends[:-1], ends))
         self._path_shape = (self.max_path_length, dim)
         self._state = np.zeros(ends[-1], np.float32)
-        self._state[: ends[2]] = np.concatenate(
-            [
-                normalize(problem.start, problem.bounds),
-                normalize(problem.goal, problem.bounds),
-                [radius],
-            ]
-        )
+        self._state[: ends[2]] = np.concatenate(list(task_entries(problem).values()))
         # What `observe` reads, in one attribute. The state block and path length are
         # updated in place and copied into every observation.
         self._tree: Tree | None = None

@@ -1,6 +1,6 @@
 """Wrappers that measure planning episodes: `PlanningMetrics` and `TensorBoardMetrics`."""
 
-from temp_gym.wrappers.metrics import EPISODE_KEYS, PlanningMetrics
+from temp_gym.wrappers.metrics import EPISODE_KEYS, INFO_KEY, PlanningMetrics
 from temp_gym.wrappers.tensorboard import TensorBoardMetrics
 
-__all__ = ["EPISODE_KEYS", "PlanningMetrics", "TensorBoardMetrics"]
+__all__ = ["EPISODE_KEYS", "INFO_KEY", "PlanningMetrics", "TensorBoardMetrics"]

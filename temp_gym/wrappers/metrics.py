@@ -1,4 +1,9 @@
-"""`PlanningMetrics`: per-episode planning statistics, in the style of RecordEpisodeStatistics."""
+"""`PlanningMetrics`: per-episode planning statistics, in the style of RecordEpisodeStatistics.
+
+The statistics go under their own key, ``info["planning"]``, not Gymnasium's
+``info["episode"]``: `gymnasium.wrappers.RecordEpisodeStatistics` owns that key (it asserts
+that nobody else wrote it), so both wrappers stack in either order.
+"""
 
 from __future__ import annotations
 
@@ -9,24 +14,29 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-EPISODE_KEYS = (
-    "success",
-    "nodes",
-    "cost",
-    "sampling_failures",
-    "samples",
-    "collision_checks",
-    "wall_time",
-    "steps",
-    "return",
-)
-"""Keys of ``info["episode"]``, each documented in `PlanningMetrics`."""
+EPISODE_DESCRIPTIONS = {
+    "success": "whether a solution was found (1.0 or 0.0)",
+    "nodes": "tree nodes at the end",
+    "cost": "best path cost (world units; inf without a solution)",
+    "sampling_failures": "samples whose extension collided",
+    "samples": "samples drawn, fallback retries included",
+    "collision_checks": "state and edge checks",
+    "wall_time": "seconds from `reset` to the last step, as the planner experiences it",
+    "steps": "env steps",
+    "return": "sum of rewards",
+}
+"""What each key of ``info[INFO_KEY]`` holds (the table in `PlanningMetrics`)."""
+EPISODE_KEYS = tuple(EPISODE_DESCRIPTIONS)
+"""Keys of ``info[INFO_KEY]``, each documented in `PlanningMetrics`."""
+INFO_KEY = "planning"
+"""Where `PlanningMetrics` puts an episode's statistics in ``info`` (``"episode"`` is
+Gymnasium's `RecordEpisodeStatistics`')."""
 
 
 class PlanningMetrics(gym.Wrapper):
-    """Put a planning episode's statistics in ``info["episode"]`` when it ends.
+    """Put a planning episode's statistics in ``info["planning"]`` when it ends.
 
-    At the step that terminates or truncates an episode, ``info["episode"]`` holds:
+    At the step that terminates or truncates an episode, ``info["planning"]`` holds:
 
     | key | meaning |
     |---|---|
@@ -41,8 +51,15 @@ class PlanningMetrics(gym.Wrapper):
     | ``return`` | sum of rewards |
 
     Like `gymnasium.wrappers.RecordEpisodeStatistics` it works inside vector envs (the vector
-    env stacks the entries and adds the ``_episode`` mask) and keeps the last ``buffer_length``
-    episodes in ``episode_queues``.
+    env stacks the entries and adds the ``_planning`` mask) and keeps the last
+    ``buffer_length`` episodes in ``episode_queues``. It stacks with
+    `RecordEpisodeStatistics` in either order: that wrapper's ``r``, ``l``, ``t`` stay in
+    ``info["episode"]``.
+
+    Example:
+        >>> env = PlanningMetrics(RecordEpisodeStatistics(gymnasium.make("TEMP-2D-v0")))
+        >>> ...  # at the last step of an episode:
+        >>> info["planning"]["nodes"], info["episode"]["l"]
     """
 
     def __init__(self, env: gym.Env, buffer_length: int = 100) -> None:
@@ -63,13 +80,16 @@ class PlanningMetrics(gym.Wrapper):
         return observation, info
 
     def step(self, action):
-        """Step, and at the episode's end add ``info["episode"]``."""
+        """Step, and at the episode's end add ``info["planning"]``."""
         observation, reward, terminated, truncated, info = super().step(action)
         self._steps += 1
         self._return += float(reward)
         if terminated or truncated:
-            if "episode" in info:
-                raise ValueError("info already has an 'episode' key; PlanningMetrics twice?")
+            if INFO_KEY in info:
+                raise ValueError(
+                    f"info already has a {INFO_KEY!r} key: is the env wrapped in "
+                    "PlanningMetrics twice?"
+                )
             episode = {
                 "success": float(info["success"]),
                 "nodes": float(info["nodes"]),
@@ -81,7 +101,7 @@ class PlanningMetrics(gym.Wrapper):
                 "steps": float(self._steps),
                 "return": self._return,
             }
-            info["episode"] = {key: np.float64(value) for key, value in episode.items()}
+            info[INFO_KEY] = {key: np.float64(value) for key, value in episode.items()}
             for key, value in episode.items():
                 self.episode_queues[key].append(value)
         return observation, reward, terminated, truncated, info

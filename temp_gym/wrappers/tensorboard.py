@@ -8,14 +8,16 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from temp_gym.wrappers.metrics import EPISODE_KEYS, PlanningMetrics
+from temp_gym.tensorboard_summaries import add_scalar
+from temp_gym.wrappers.metrics import EPISODE_DESCRIPTIONS, EPISODE_KEYS, INFO_KEY, PlanningMetrics
 
 
 class TensorBoardMetrics(gym.Wrapper):
     """Write ``{prefix}/{key}`` scalars for every finished episode (keys: `EPISODE_KEYS`).
 
     Wraps the env in `PlanningMetrics` unless it already is. The step of each scalar is the
-    episode index. ``cost`` is logged only for successful episodes (inf does not plot).
+    episode index. ``cost`` is logged only for successful episodes (inf does not plot). Each
+    tag carries its description (`EPISODE_DESCRIPTIONS`), shown beside its chart.
 
     Args:
         env: the env to measure.
@@ -46,16 +48,25 @@ class TensorBoardMetrics(gym.Wrapper):
         self.writer = writer
         self.prefix = prefix
         self.episodes = 0
+        self._described: set[str] = set()
 
     def step(self, action):
         """Step, and log the episode when it ends."""
         observation, reward, terminated, truncated, info = super().step(action)
-        if "episode" in info:
-            episode = info["episode"]
+        if INFO_KEY in info:
+            episode = info[INFO_KEY]
             for key in EPISODE_KEYS:
                 value = float(episode[key])
                 if np.isfinite(value):
-                    self.writer.add_scalar(f"{self.prefix}/{key}", value, self.episodes)
+                    tag = f"{self.prefix}/{key}"
+                    first = tag not in self._described
+                    description = (
+                        f"Per planning episode (step: episode index): {EPISODE_DESCRIPTIONS[key]}."
+                    )
+                    add_scalar(
+                        self.writer, tag, value, self.episodes, description if first else None
+                    )
+                    self._described.add(tag)
             self.episodes += 1
         return observation, reward, terminated, truncated, info
 

@@ -185,9 +185,8 @@ def test_target_cost_option_keeps_refining_after_first_solution(wall):
     policy = UniformPolicy(seed=1)
     first = run_policy_episode(env, policy, seed=1, problem=problem)
     target = 1.02 * 16.0 - problem.goal_radius
-    env.reset(seed=1, options={"problem": problem, "target_cost": target})
+    observation, _ = env.reset(seed=1, options={"problem": problem, "target_cost": target})
     policy.reset(problem)
-    observation = None
     while True:
         observation, _, terminated, truncated, info = env.step(policy(observation))
         if terminated or truncated:
@@ -222,10 +221,10 @@ def test_vector_envs_roll_out_with_metrics(vector_cls):
     finished = 0
     for _ in range(150):
         _, _, terminated, truncated, infos = envs.step(envs.action_space.sample())
-        if "episode" in infos:
-            mask = infos["_episode"]
+        if "planning" in infos:
+            mask = infos["_planning"]
             finished += int(mask.sum())
-            assert np.all(infos["episode"]["nodes"][mask] >= 2)
+            assert np.all(infos["planning"]["nodes"][mask] >= 2)
     envs.close()
     assert finished >= 2
 

@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
 
-from temp_gym.envs.render import IiwaRenderer, render_point_world
+from temp_gym.envs.render import (
+    MAX_3D_EDGES,
+    IiwaRenderer,
+    arm_poses,
+    plan_title,
+    render_point_world,
+)
 from temp_gym.problem import Problem
 
 POINT2D = {
@@ -55,6 +61,11 @@ def distinct_colours(image: np.ndarray) -> int:
 def red_pixels(image: np.ndarray) -> int:
     r, g, b = (image[..., k].astype(int) for k in range(3))
     return int(np.sum((r > 180) & (g < 80) & (b < 80)))
+
+
+def orange_pixels(image: np.ndarray) -> int:
+    r, g, b = (image[..., k].astype(int) for k in range(3))
+    return int(np.sum((r > 200) & (g > 110) & (g < 170) & (b < 90)))
 
 
 def check_image(image: np.ndarray, height: int, width: int) -> None:
@@ -165,3 +176,104 @@ def test_renderers_reject_the_wrong_robot(iiwa_problems):
         IiwaRenderer().render(Problem.from_dict(POINT2D))
     with pytest.raises(ValueError, match="path"):
         IiwaRenderer().render(iiwa_problems[0], path=np.zeros((3, 6)))
+
+
+# ---------------------------------------------------------------------- solution vs path so far
+def test_titles_tell_a_solution_from_none_yet():
+    problem = Problem.from_dict(POINT2D)
+    assert plan_title(problem, 1, None) == "point2d: 1 node, no solution yet"
+    shown = plan_title(problem, 21, None, "orange dashed")
+    assert shown == "point2d: 21 nodes, no solution yet (orange dashed: path to the newest node)"
+    path = np.array([problem.start, [2, 18], problem.goal])
+    assert plan_title(problem, 812, path) == "point2d: 812 nodes, solution cost 32.00"
+
+
+def test_path_so_far_is_drawn_unlike_a_solution():
+    problem = Problem.from_dict(POINT2D)
+    path = np.array([problem.start, [8, 18], [12, 18]])
+    so_far = render_point_world(problem, path_so_far=path)
+    solution = render_point_world(problem, path=path)
+    assert red_pixels(so_far) == 0 and orange_pixels(so_far) > 100
+    assert red_pixels(solution) > 200 and orange_pixels(solution) == 0
+    with pytest.raises(ValueError, match="not both"):
+        render_point_world(problem, path=path, path_so_far=path)
+    with pytest.raises(ValueError, match="path_so_far"):
+        render_point_world(problem, path_so_far=np.zeros((2, 3)))
+
+
+@pytest.mark.parametrize("env_id", ["TEMP-2D-v0", "TEMP-3D-v0"])
+def test_env_draws_no_solution_before_one_exists(env_id):
+    import gymnasium as gym
+
+    env = gym.make(env_id, render_mode="rgb_array", fallback="none")
+    empty = Problem.from_dict({**(POINT2D if "2D" in env_id else POINT3D), "obstacles": []})
+    observation, _ = env.reset(seed=0, options={"problem": empty})
+    assert red_pixels(env.render()) == 0  # at reset: the start alone, nothing bold red
+    goal = observation["goal"]
+    away = -goal
+    away[0] = goal[0]  # a corner of the box that is neither start nor goal
+    for _ in range(3):  # a few steps there: a path so far, no solution
+        env.step(away)
+    assert not env.unwrapped.tree.best_node >= 0
+    assert red_pixels(env.render()) == 0 and orange_pixels(env.render()) > 0
+    for _ in range(200):
+        _, _, terminated, _, _ = env.step(goal)
+        if terminated:
+            break
+    assert terminated and red_pixels(env.render()) > 50
+    env.close()
+
+
+def test_3d_draws_few_edges_and_keeps_the_path_on_top_of_boxes():
+    problem = Problem.from_dict(POINT3D)
+    path = np.array([problem.start, [2, 18, 10], problem.goal])
+    clear = render_point_world(Problem.from_dict({**POINT3D, "obstacles": []}), path=path)
+    # Boxes all around the path's middle leg, between it and the camera.
+    boxed = Problem.from_dict(
+        {**POINT3D, "obstacles": [{"center": [4, 12, 10], "half_extents": [2.5, 6, 9]}]}
+    )
+    hidden = render_point_world(boxed, path=path)
+    assert red_pixels(hidden) >= 0.9 * red_pixels(clear)
+    positions, parents = random_tree(problem, 3 * MAX_3D_EDGES)
+    from temp_gym.envs.render_points import _tree_segments
+
+    assert len(_tree_segments(positions, parents, MAX_3D_EDGES)) == MAX_3D_EDGES
+    check_image(render_point_world(problem, positions, parents, path=path), 480, 480)
+
+
+def test_arm_poses_draw_each_configuration_once(iiwa_problems):
+    problem = iiwa_problems[0]
+    reset = arm_poses(problem, path_so_far=problem.start[None])  # the env's reset frame
+    assert [list(config) for config, _ in reset] == [list(problem.start), list(problem.goal)]
+    so_far = np.linspace(problem.start, problem.start + 0.5, 4)
+    poses = arm_poses(problem, path_so_far=so_far, ghosts=2)
+    assert len(poses) == 3 + 2  # start, goal, newest node, two ghosts
+    np.testing.assert_array_equal(poses[2][0], so_far[-1])
+    looped = arm_poses(problem, path=np.stack([problem.start, problem.goal, problem.start]))
+    configs = [config.tobytes() for config, _ in looped]
+    assert len(configs) == len(set(configs))
+
+
+def test_camera_is_chosen_to_show_the_arm(iiwa_problems):
+    # A tall block between the arm and the old fixed camera (yaw 50, pitch -28) hides the arm.
+    walled = Problem.from_dict(
+        {**IIWA, "obstacles": [{"center": [1.1, -0.9, 1.0], "half_extents": [0.45, 0.45, 1.0]}]}
+    )
+    with IiwaRenderer() as renderer:
+        assert renderer.visible_arm_pixels(walled, (50.0, -28.0)) < 10
+        renderer.render(walled, width=64, height=64)
+        assert renderer.visible_arm_pixels(walled, renderer.view) > 200
+        first_view = renderer.view
+        renderer.render(walled, path_so_far=np.stack([walled.start, walled.goal]))
+        assert renderer.view == first_view  # one view per problem: frames do not jump
+    with IiwaRenderer(yaw=50.0, pitch=-28.0) as fixed:
+        fixed.render(walled, width=64, height=64)
+        assert fixed.view == (50.0, -28.0)
+
+
+def test_iiwa_title_band(iiwa_problems, renderer):
+    plain = renderer.render(iiwa_problems[0], width=200, height=160)
+    titled = renderer.render(iiwa_problems[0], width=200, height=160, title="kuka: 1 node")
+    assert titled.shape == plain.shape
+    assert not np.array_equal(titled[:20], plain[:20])
+    np.testing.assert_array_equal(titled[60:], plain[60:])

@@ -38,8 +38,8 @@ def test_is_a_sampling_policy_and_plans_in_the_env(policy):
         observation, _, terminated, truncated, info = env.step(action)
         if terminated or truncated:
             break
-    assert "episode" in info
-    assert len(policy.attentions) == info["episode"]["steps"]
+    assert "planning" in info
+    assert len(policy.attentions) == info["planning"]["steps"]
 
 
 def test_noise_makes_repeated_calls_differ_and_is_seeded(small_model):
@@ -102,8 +102,8 @@ def test_wrong_robot_or_dimension_is_a_clear_error(small_model, tmp_path):
     iiwa_env.reset(seed=0)
     with pytest.raises(ValueError, match="trained for point2d"):
         policy.reset(iiwa_env.unwrapped.problem)
-    with pytest.raises(RuntimeError, match="reset"):
-        policy(_observation())
+    with pytest.raises(ValueError, match=r"observation\['occupancy'\]: expected shape \(16, 16\)"):
+        policy(iiwa_env.reset(seed=0)[0])
 
 
 def test_not_a_checkpoint_is_an_error(tmp_path):
@@ -173,3 +173,59 @@ def test_attention_nodes_is_a_checked_setting(small_model):
     assert TEMPPolicy(small_model).attention_nodes is None
     with pytest.raises(ValueError, match="attention_nodes"):
         TEMPPolicy(small_model, attention_nodes=0)
+
+
+def _task_observation(problem, resolution=16):
+    env = gym.make("TEMP-2D-v0", encoding_resolution=resolution, max_path_length=16)
+    observation, _ = env.reset(seed=0, options={"problem": problem})
+    return observation
+
+
+@pytest.mark.parametrize("backend", ["numba", "torch"])
+def test_follows_the_observation_after_an_untold_reset(small_model, backend):
+    other = Problem.from_dict(
+        {
+            **PROBLEM.to_dict(),
+            "obstacles": [{"center": [6, 12], "half_extents": [2, 2]}],
+            "start": [3, 17],
+            "goal": [17, 3],
+        }
+    )
+    same_task_other_walls = Problem.from_dict(
+        {**PROBLEM.to_dict(), "obstacles": [{"center": [10, 4], "half_extents": [3, 1]}]}
+    )
+    stale = TEMPPolicy(small_model, backend=backend)
+    stale.reset(PROBLEM)
+    first = stale(_task_observation(PROBLEM))
+    for problem in (other, same_task_other_walls, PROBLEM):
+        observation = _task_observation(problem)
+        fresh = TEMPPolicy(small_model, backend=backend)
+        fresh.reset(problem)
+        expected = fresh(observation)
+        np.testing.assert_array_equal(stale(observation), expected)
+        assert (problem is PROBLEM) == np.array_equal(expected, first)  # a stale one would not
+    np.testing.assert_array_equal(stale(_task_observation(PROBLEM)), first)
+    never_reset = TEMPPolicy(small_model, backend=backend)
+    np.testing.assert_array_equal(never_reset(_task_observation(PROBLEM)), first)
+
+
+def test_an_env_at_another_resolution_needs_a_reset(small_model):
+    observation = _task_observation(PROBLEM, resolution=32)
+    policy = TEMPPolicy(small_model)
+    with pytest.raises(ValueError, match="observation\\['occupancy'\\]"):
+        policy(observation)
+    policy.reset(PROBLEM)  # the problem's own grid at the model's resolution
+    reference = TEMPPolicy(small_model)
+    reference.reset(PROBLEM)
+    np.testing.assert_array_equal(policy(observation), reference(_task_observation(PROBLEM)))
+
+
+def test_a_path_only_observation_uses_the_reset_task(small_model):
+    full = _task_observation(PROBLEM)
+    path_only = {key: full[key] for key in ("path", "path_length")}
+    never_reset = TEMPPolicy(small_model)
+    with pytest.raises(ValueError, match=r"observation: expected .*'occupancy'"):
+        never_reset(path_only)
+    policy = TEMPPolicy(small_model)
+    policy.reset(PROBLEM)
+    np.testing.assert_array_equal(policy(path_only), policy(full))

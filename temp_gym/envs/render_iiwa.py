@@ -1,0 +1,338 @@
+"""`IiwaRenderer`: a ``kuka_iiwa14`` problem drawn with pybullet's software renderer.
+
+The arm is drawn at a few configurations in its own ``DIRECT`` client, with the boxes:
+
+* a solution: the start (green), pale ghosts along the path, the end (blue);
+* before a solution: the start (green), the goal (blue) and the newest node of the path so
+  far (orange), with pale ghosts between start and newest node;
+* neither: the start and the goal.
+
+A configuration is drawn once: two arms at the same pose would fight over every pixel
+(a speckled picture), so repeated poses are dropped.
+
+The camera is chosen per scene (unless fixed by the arguments): among a ring of views around
+the arm, the one that shows the most of the start and goal arms, measured on small
+segmentation renders, so furniture between the camera and the arm does not hide it. The
+choice is made once per problem, so the frames of an episode share one view.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from temp_gym.envs.render_common import caption, check_paths, check_size
+from temp_gym.quiet import import_pybullet, native_output_silenced
+
+if TYPE_CHECKING:
+    from temp_gym.problem import Problem
+
+START_RGBA = np.array([0.20, 0.72, 0.30, 1.0])
+GOAL_RGBA = np.array([0.18, 0.38, 0.90, 1.0])
+NEWEST_RGBA = np.array([0.95, 0.55, 0.10, 1.0])
+_GHOST_LIGHTEN = 0.55
+"""Ghosts are their tint blended this far towards white (the tiny renderer ignores alpha, so
+paleness stands in for transparency)."""
+_OBSTACLE_RGBA = [0.78, 0.58, 0.38, 1.0]
+_FLOOR_RGBA = [0.80, 0.80, 0.80, 1.0]
+_GROUND_RGBA = [0.93, 0.93, 0.93, 1.0]
+_BASE_RGBA = [0.35, 0.35, 0.38, 1.0]
+_PARKED = (0.0, 0.0, -100.0)
+"""Where unused arm bodies wait, far outside the camera's view."""
+CANDIDATE_YAWS = tuple(range(0, 360, 45))
+"""Camera yaws (degrees) tried per scene."""
+CANDIDATE_PITCHES = (-28.0, -50.0)
+"""Camera pitches (degrees) tried per scene: the usual view and a steeper one over furniture."""
+_PROBE_SIZE = 96
+"""Side in pixels of the segmentation renders that score a view."""
+
+
+def _path_samples(path: np.ndarray, count: int) -> np.ndarray:
+    """``count`` configurations evenly spaced by joint-space arc length strictly inside path."""
+    lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(lengths)])
+    if count <= 0 or arc[-1] <= 0:
+        return np.empty((0, path.shape[1]))
+    targets = arc[-1] * np.arange(1, count + 1) / (count + 1)
+    return np.stack([np.interp(targets, arc, path[:, j]) for j in range(path.shape[1])], axis=1)
+
+
+def _pale(rgba: np.ndarray) -> np.ndarray:
+    return (1 - _GHOST_LIGHTEN) * rgba + _GHOST_LIGHTEN * np.ones(4)
+
+
+def arm_poses(
+    problem: Problem,
+    path: np.ndarray | None = None,
+    path_so_far: np.ndarray | None = None,
+    ghosts: int = 5,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The ``(configuration, rgba)`` pairs a render draws, solid arms first, no pose twice.
+
+    See the module docstring for what each case shows. Ghosts are tinted along the way from
+    the first arm's colour to the last's, and paled.
+    """
+    if path is not None:
+        first, last, last_rgba, along = path[0], path[-1], GOAL_RGBA, path
+        solid = [(first, START_RGBA), (last, last_rgba)]
+    elif path_so_far is not None and len(path_so_far) > 1:
+        first, last, last_rgba, along = path_so_far[0], path_so_far[-1], NEWEST_RGBA, path_so_far
+        solid = [(first, START_RGBA), (problem.goal, GOAL_RGBA), (last, last_rgba)]
+    else:
+        first, along = problem.start, None
+        solid = [(problem.start, START_RGBA), (problem.goal, GOAL_RGBA)]
+    poses: list[tuple[np.ndarray, np.ndarray]] = []
+    for config, rgba in solid:
+        if not any(np.array_equal(config, seen) for seen, _ in poses):
+            poses.append((np.asarray(config, dtype=np.float64), rgba))
+    if along is not None:
+        middle = _path_samples(along, ghosts)
+        for k, config in enumerate(middle):
+            fraction = (k + 1) / (len(middle) + 1)
+            tint = (1 - fraction) * START_RGBA + fraction * last_rgba
+            if not any(np.array_equal(config, seen) for seen, _ in poses):
+                poses.append((config, _pale(tint)))
+    return poses
+
+
+class IiwaRenderer:
+    """Draws ``kuka_iiwa14`` problems with pybullet's tiny (CPU) renderer.
+
+    The renderer owns its own ``DIRECT`` pybullet client, created at the first `render`, and
+    keeps the arm bodies loaded; the boxes (and the camera, when chosen per scene) change only
+    when a different problem object is rendered. Call `close` (or use it as a context
+    manager) to free the client; closing twice is harmless, and a closed renderer reconnects
+    on the next `render`.
+
+    Args:
+        ghosts: Most intermediate configurations drawn along a path.
+        yaw: Camera yaw around the vertical axis, degrees; None: chosen per scene (with
+            ``pitch``) to show the most of the arm.
+        pitch: Camera pitch, degrees (negative looks down); None: chosen per scene.
+        distance: Camera distance from ``target``, metres.
+        target: Point the camera looks at, metres.
+        fov: Vertical field of view, degrees.
+        shadow: Whether the renderer casts shadows (about 3x slower).
+
+    Example:
+        >>> renderer = IiwaRenderer()
+        >>> image = renderer.render(problem, path=result.path)  # (480, 480, 3) uint8
+        >>> renderer.close()
+    """
+
+    def __init__(
+        self,
+        ghosts: int = 5,
+        yaw: float | None = None,
+        pitch: float | None = None,
+        distance: float = 3.3,
+        target: tuple[float, float, float] = (0.0, 0.0, 0.4),
+        fov: float = 45.0,
+        shadow: bool = False,
+    ) -> None:
+        if ghosts < 0:
+            raise ValueError(f"ghosts: expected a non-negative count, got {ghosts}")
+        self.ghosts = int(ghosts)
+        self.yaw = None if yaw is None else float(yaw)
+        self.pitch = None if pitch is None else float(pitch)
+        self.distance = float(distance)
+        self.target = tuple(float(x) for x in target)
+        self.fov = float(fov)
+        self.shadow = bool(shadow)
+        self.view: tuple[float, float] | None = None
+        """The (yaw, pitch) of the last render."""
+        self._client = None
+        self._arms: list[int] = []
+        self._joints: list[int] = []
+        self._links: list[int] = []
+        self._boxes: list[int] = []
+        self._problem: Problem | None = None
+        self._pid = os.getpid()
+
+    # ------------------------------------------------------------------ lifecycle
+    def __enter__(self) -> IiwaRenderer:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Disconnect the pybullet client (idempotent)."""
+        client, self._client = self._client, None
+        self._arms, self._boxes, self._problem = [], [], None
+        # A forked child must not disconnect the parent's client.
+        if client is not None and self._pid == os.getpid():
+            try:
+                client.disconnect()
+            except Exception:  # already gone (e.g. at interpreter exit)
+                pass
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # never raise from a finalizer
+            pass
+
+    def _connect(self):
+        """The client, connected and holding ``ghosts + 3`` parked arms."""
+        if self._client is not None:
+            return self._client
+        import pybullet_data
+
+        pybullet = import_pybullet()
+        from pybullet_utils.bullet_client import BulletClient
+
+        with native_output_silenced():  # no "argv[0]=" on the user's stdout
+            client = BulletClient(connection_mode=pybullet.DIRECT)
+        self._client, self._pid = client, os.getpid()
+        urdf = f"{pybullet_data.getDataPath()}/kuka_iiwa/model.urdf"
+        for _ in range(self.ghosts + 3):
+            self._arms.append(client.loadURDF(urdf, basePosition=_PARKED, useFixedBase=True))
+        arm = self._arms[0]
+        count = client.getNumJoints(arm)
+        self._joints = [
+            j for j in range(count) if client.getJointInfo(arm, j)[2] == pybullet.JOINT_REVOLUTE
+        ]
+        self._links = [-1, *range(count)]
+        return client
+
+    def _load_problem(self, client, problem: Problem) -> bool:
+        """Replace the boxes when ``problem`` is a different object; True when it was."""
+        if problem is self._problem:
+            return False
+        pybullet = import_pybullet()
+        for body in self._boxes:
+            client.removeBody(body)
+        self._boxes = []
+        lower, upper = problem.obstacle_lower, problem.obstacle_upper
+        ground_z = min(0.0, float(lower[:, 2].min())) if len(lower) else 0.0
+        boxes = list(zip(problem.obstacle_centers, problem.obstacle_half_extents))
+        # A pale visual-only ground under everything, so the scene does not float.
+        ground = (np.array([0.0, 0.0, ground_z - 0.006]), np.array([1.6, 1.6, 0.005]))
+        for index, (center, half) in enumerate([ground, *boxes]):
+            if index == 0:
+                rgba, collision = _GROUND_RGBA, -1
+            else:
+                # Thin slabs below the base (the generators' floor) get a neutral colour.
+                is_floor = upper[index - 1, 2] <= 0.0 and half[2] < 0.1
+                rgba = _FLOOR_RGBA if is_floor else _OBSTACLE_RGBA
+                collision = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
+            visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=rgba)
+            body = client.createMultiBody(
+                baseMass=0.0,
+                baseCollisionShapeIndex=collision,
+                baseVisualShapeIndex=visual,
+                basePosition=center.tolist(),
+            )
+            self._boxes.append(body)
+        self._problem = problem
+        return True
+
+    def _pose_arms(self, client, poses: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Show the first arms at ``poses``; park the rest."""
+        for index, arm in enumerate(self._arms):
+            if index >= len(poses):
+                client.resetBasePositionAndOrientation(arm, _PARKED, (0, 0, 0, 1))
+                continue
+            config, rgba = poses[index]
+            client.resetBasePositionAndOrientation(arm, (0, 0, 0), (0, 0, 0, 1))
+            for joint, angle in zip(self._joints, config):
+                client.resetJointState(arm, joint, float(angle))
+            for link in self._links:
+                # The fixed base is the same for every arm: one neutral colour avoids z-fighting.
+                colour = _BASE_RGBA if link == -1 else rgba.tolist()
+                client.changeVisualShape(arm, link, rgbaColor=colour)
+
+    def _camera_image(self, client, view: tuple[float, float], width: int, height: int, seg: bool):
+        pybullet = import_pybullet()
+        matrix = client.computeViewMatrixFromYawPitchRoll(
+            cameraTargetPosition=self.target,
+            distance=self.distance,
+            yaw=view[0],
+            pitch=view[1],
+            roll=0.0,
+            upAxisIndex=2,
+        )
+        projection = client.computeProjectionMatrixFOV(
+            fov=self.fov, aspect=width / height, nearVal=0.05, farVal=20.0
+        )
+        return client.getCameraImage(
+            width,
+            height,
+            matrix,
+            projection,
+            shadow=int(self.shadow and not seg),
+            lightDirection=[1.0, 0.6, 2.0],
+            renderer=pybullet.ER_TINY_RENDERER,
+            flags=0 if seg else pybullet.ER_NO_SEGMENTATION_MASK,
+        )
+
+    def visible_arm_pixels(self, problem: Problem, view: tuple[float, float]) -> int:
+        """Pixels of the start and goal arms seen from ``view`` = (yaw, pitch), small render."""
+        client = self._connect()
+        if self._load_problem(client, problem):
+            self.view = None  # chosen again for this problem at the next render
+        self._pose_arms(client, arm_poses(problem, ghosts=0))
+        return self._count_arm_pixels(client, view, 2)
+
+    def _count_arm_pixels(self, client, view: tuple[float, float], arms: int) -> int:
+        mask = np.asarray(self._camera_image(client, view, _PROBE_SIZE, _PROBE_SIZE, True)[4])
+        return int(np.isin(mask, self._arms[:arms]).sum())
+
+    def _choose_view(self, client, problem: Problem) -> tuple[float, float]:
+        """The fixed view, or the candidate that shows the most of the start and goal arms."""
+        yaws = CANDIDATE_YAWS if self.yaw is None else (self.yaw,)
+        pitches = CANDIDATE_PITCHES if self.pitch is None else (self.pitch,)
+        if len(yaws) * len(pitches) == 1:
+            return yaws[0], pitches[0]
+        self._pose_arms(client, arm_poses(problem, ghosts=0))
+        scores = {
+            (yaw, pitch): self._count_arm_pixels(client, (yaw, pitch), 2)
+            for pitch in pitches
+            for yaw in yaws
+        }
+        return max(scores, key=scores.get)  # first of the best: the order above breaks ties
+
+    # ------------------------------------------------------------------ drawing
+    def render(
+        self,
+        problem: Problem,
+        path: np.ndarray | None = None,
+        width: int = 480,
+        height: int = 480,
+        path_so_far: np.ndarray | None = None,
+        title: str | None = None,
+    ) -> np.ndarray:
+        """Draw ``problem`` with the arm along a solution, a path so far, or at start and goal.
+
+        Args:
+            problem: A ``kuka_iiwa14`` problem.
+            path: Joint configurations ``(K, 7)`` of a solution, or None.
+            width: Image width in pixels.
+            height: Image height in pixels.
+            path_so_far: Joint configurations ``(K, 7)`` of a path that does not reach the
+                goal yet (the root path of the newest node), or None.
+            title: Text on a white band across the top, or None for none.
+
+        Returns:
+            A fresh ``uint8`` array of shape ``(height, width, 3)``.
+
+        Raises:
+            ValueError: For another robot, a badly shaped path, or both kinds of path.
+        """
+        if problem.robot != "kuka_iiwa14":
+            raise ValueError(
+                f"problem: IiwaRenderer draws kuka_iiwa14, got {problem.robot!r}; "
+                "use render_point_world for point robots"
+            )
+        width, height = check_size(width, height)
+        path, path_so_far = check_paths(problem, path, path_so_far)
+        client = self._connect()
+        if self._load_problem(client, problem) or self.view is None:
+            self.view = self._choose_view(client, problem)
+        self._pose_arms(client, arm_poses(problem, path, path_so_far, self.ghosts))
+        rgba = self._camera_image(client, self.view, width, height, False)[2]
+        image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        return image if title is None else caption(image, title)

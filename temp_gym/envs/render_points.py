@@ -1,0 +1,226 @@
+"""`render_point_world`: a ``point2d`` or ``point3d`` problem, tree and path, with matplotlib.
+
+It builds its own `Figure` on an Agg canvas (never pyplot's global state), so it is headless
+and safe in threads and subprocesses.
+
+3D pictures are kept readable: the boxes are pale and drawn first, at most
+`MAX_3D_EDGES` tree edges are drawn (the oldest ones: the tree's early skeleton, which shows
+how it spread), and the path, start and goal are drawn last, on top of everything, with the
+start and goal labelled.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection, PolyCollection
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+
+from temp_gym.envs.render_common import (
+    DPI,
+    GOAL_COLOR,
+    PATH_SO_FAR_COLOR,
+    SOLUTION_COLOR,
+    START_COLOR,
+    canvas_to_array,
+    check_paths,
+    check_size,
+    plan_title,
+)
+
+if TYPE_CHECKING:
+    from temp_gym.problem import Problem
+
+MAX_3D_EDGES = 400
+"""Most tree edges drawn in 3D, where more turn the picture into a thicket."""
+_BOX_COLOR = "#8c8c8c"
+_EDGE_COLOR = "#4a7ab5"
+_NODE_COLOR = "#23395d"
+
+
+def _check_tree(
+    problem: Problem,
+    positions: np.ndarray | None,
+    parents: np.ndarray | None,
+    num_nodes: int | None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Validate the tree arguments; return ``(positions[:n], parents[:n] or None)``."""
+    if positions is None:
+        if parents is not None:
+            raise ValueError("parents: given without positions")
+        return np.empty((0, problem.dim)), None
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim != 2 or positions.shape[1] != problem.dim:
+        raise ValueError(f"positions: expected shape (N, {problem.dim}), got {positions.shape}")
+    count = len(positions) if parents is None else min(len(positions), len(parents))
+    if num_nodes is not None:
+        if not 0 <= num_nodes <= count:
+            raise ValueError(f"num_nodes: expected 0..{count}, got {num_nodes}")
+        count = int(num_nodes)
+    if parents is None:
+        return positions[:count], None
+    parents = np.asarray(parents, dtype=np.int64)[:count]
+    if np.any(parents >= count):
+        raise ValueError("parents: an index points past num_nodes")
+    return positions[:count], parents
+
+
+def _tree_segments(
+    positions: np.ndarray, parents: np.ndarray | None, limit: int | None = None
+) -> np.ndarray:
+    """Edges ``(E, 2, d)`` from each non-root node to its parent; the oldest ``limit`` only."""
+    if parents is None or len(parents) < 2:
+        return np.empty((0, 2, positions.shape[1]))
+    children = np.flatnonzero(parents >= 0)[:limit]
+    return np.stack([positions[children], positions[parents[children]]], axis=1)
+
+
+def _path_style(solution: bool) -> dict:
+    if solution:
+        return {"color": SOLUTION_COLOR, "linewidth": 2.5, "solid_capstyle": "round"}
+    return {"color": PATH_SO_FAR_COLOR, "linewidth": 1.6, "linestyle": (0, (4, 2))}
+
+
+def _box_faces(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The six quadrilateral faces ``(6, 4, 3)`` of the box ``[lower, upper]``."""
+    corners = np.array(
+        [[(upper if (k >> axis) & 1 else lower)[axis] for axis in range(3)] for k in range(8)]
+    )
+    # Corner k has bit `axis` set when it sits on the upper side of that axis.
+    quads = [(0, 2, 6, 4), (1, 3, 7, 5), (0, 1, 5, 4), (2, 3, 7, 6), (0, 1, 3, 2), (4, 5, 7, 6)]
+    return corners[np.array(quads)]
+
+
+def _draw_2d(figure, problem, positions, parents, path, solution):
+    axes = figure.add_subplot()
+    lower, upper = problem.obstacle_lower, problem.obstacle_upper
+    rectangles = [
+        [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
+        for lo, hi in zip(lower, upper)
+    ]
+    axes.add_collection(
+        PolyCollection(rectangles, facecolors=_BOX_COLOR, edgecolors="#555555", linewidths=0.6)
+    )
+    segments = _tree_segments(positions, parents)
+    if len(segments):
+        axes.add_collection(LineCollection(segments, colors=_EDGE_COLOR, linewidths=0.5))
+    if len(positions):
+        axes.plot(*positions.T, linestyle="none", marker=".", markersize=2.0, color=_NODE_COLOR)
+    goal = Circle(problem.goal, problem.goal_radius, facecolor=GOAL_COLOR, alpha=0.35)
+    axes.add_patch(goal)
+    axes.add_patch(Circle(problem.goal, problem.goal_radius, fill=False, color=GOAL_COLOR))
+    axes.plot(*problem.goal, marker="*", markersize=9, color=GOAL_COLOR, linestyle="none")
+    if path is not None and len(path) > 1:
+        axes.plot(*path.T, **_path_style(solution))
+    axes.plot(*problem.start, marker="o", markersize=8, color=START_COLOR, linestyle="none")
+    axes.set_xlim(problem.bounds[0, 0], problem.bounds[1, 0])
+    axes.set_ylim(problem.bounds[0, 1], problem.bounds[1, 1])
+    axes.set_aspect("equal")
+    axes.tick_params(labelsize=7)
+    return axes
+
+
+def _draw_3d(figure, problem, positions, parents, path, solution):
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+
+    # Drawn in zorder, not by depth: the path, start and goal stay in front of the boxes.
+    axes = figure.add_subplot(projection="3d", computed_zorder=False)
+    if problem.num_obstacles:
+        faces = np.concatenate(
+            [_box_faces(lo, hi) for lo, hi in zip(problem.obstacle_lower, problem.obstacle_upper)]
+        )
+        boxes = Poly3DCollection(
+            faces, facecolors=_BOX_COLOR, edgecolors="#9a9a9a", linewidths=0.25, alpha=0.1
+        )
+        boxes.set_zorder(1)
+        axes.add_collection3d(boxes)
+    segments = _tree_segments(positions, parents, MAX_3D_EDGES)
+    if len(segments):
+        edges = Line3DCollection(segments, colors=_EDGE_COLOR, linewidths=0.5, alpha=0.6)
+        edges.set_zorder(2)
+        axes.add_collection3d(edges)
+    # The goal ball as a coarse wireframe sphere.
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+    ball = [problem.goal[i] + problem.goal_radius * f for i, f in enumerate(_sphere(u, v))]
+    axes.plot_wireframe(*ball, color=GOAL_COLOR, linewidth=0.6, alpha=0.8, zorder=3)
+    if path is not None and len(path) > 1:
+        axes.plot(*path.T, zorder=4, **_path_style(solution))
+    for point, color, marker, label in (
+        (problem.start, START_COLOR, "o", "start"),
+        (problem.goal, GOAL_COLOR, "*", "goal"),
+    ):
+        axes.plot(*point, marker=marker, markersize=9, color=color, linestyle="none", zorder=5)
+        axes.text(*point, f"  {label}", color=color, fontsize=8, fontweight="bold", zorder=5)
+    low, high = problem.bounds
+    axes.set_xlim(low[0], high[0])
+    axes.set_ylim(low[1], high[1])
+    axes.set_zlim(low[2], high[2])
+    axes.set_box_aspect(high - low, zoom=0.88)
+    axes.view_init(elev=28, azim=-55)
+    axes.tick_params(labelsize=6)
+    return axes
+
+
+def _sphere(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)
+
+
+def render_point_world(
+    problem: Problem,
+    positions: np.ndarray | None = None,
+    parents: np.ndarray | None = None,
+    path: np.ndarray | None = None,
+    num_nodes: int | None = None,
+    width: int = 480,
+    height: int = 480,
+    path_so_far: np.ndarray | None = None,
+) -> np.ndarray:
+    """Draw a point-robot problem, optionally with a tree and a path.
+
+    Boxes are grey, tree edges thin blue lines (in 3D at most `MAX_3D_EDGES`, the oldest),
+    tree nodes small dots (2D), the start a green dot and the goal region a blue disc (2D) or
+    wire sphere (3D). A solution ``path`` is a thick red polyline, titled with its cost; a
+    ``path_so_far`` (before any solution: the root path of the newest node) a dashed orange
+    one, titled "no solution yet". The axes span ``problem.bounds`` with equal aspect.
+
+    Args:
+        problem: A ``point2d`` or ``point3d`` problem.
+        positions: Tree node states ``(N, d)``; rows past ``num_nodes`` are ignored.
+        parents: Parent index per node (``-1`` for the root), length at least ``num_nodes``.
+        path: States ``(K, d)`` of a solution.
+        num_nodes: Nodes to draw; defaults to all of ``positions`` (and ``parents``).
+        width: Image width in pixels.
+        height: Image height in pixels.
+        path_so_far: States ``(K, d)`` of a path that does not reach the goal yet.
+
+    Returns:
+        A fresh ``uint8`` array of shape ``(height, width, 3)``.
+
+    Raises:
+        ValueError: For another robot, badly shaped arguments, or both kinds of path.
+    """
+    if problem.robot not in ("point2d", "point3d"):
+        raise ValueError(
+            f"problem: render_point_world draws point2d and point3d, got {problem.robot!r}; "
+            "use IiwaRenderer for kuka_iiwa14"
+        )
+    width, height = check_size(width, height)
+    positions, parents = _check_tree(problem, positions, parents, num_nodes)
+    path, path_so_far = check_paths(problem, path, path_so_far)
+    figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
+    canvas = FigureCanvasAgg(figure)
+    draw = _draw_2d if problem.dim == 2 else _draw_3d
+    solution = path is not None
+    axes = draw(figure, problem, positions, parents, path if solution else path_so_far, solution)
+    shown = (
+        "orange dashed" if not solution and path_so_far is not None and len(path_so_far) > 1 else ""
+    )
+    axes.set_title(plan_title(problem, len(positions), path, shown), fontsize=8)
+    if problem.dim == 2:
+        figure.subplots_adjust(left=0.08, right=0.97, bottom=0.06, top=0.93)
+    else:
+        figure.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.95)
+    return canvas_to_array(canvas, width, height)

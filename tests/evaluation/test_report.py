@@ -1,0 +1,92 @@
+"""The report on small fake records: labels that say what they count, medians with intervals."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from temp_gym.evaluation.report import summarize, write_report
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def fake_records(stall: float | None = None, tasks: int = 30, seed: int = 0) -> list[dict]:
+    """TEMP about twice as fast as RRT* on every task; RRT* reaches 1.05 J on 80% of them."""
+    rng = np.random.default_rng(seed)
+    records = []
+    for index in range(tasks):
+        base = float(rng.uniform(0.01, 0.02))
+        temp_time = base if stall is None or index != 0 else stall
+        reached = index % 5 != 4
+        records.append(
+            {
+                "group": "2D easy",
+                "index": index,
+                "planners": {
+                    "temp": {"success": True, "time": temp_time, "nodes": 40 + index,
+                             "sampling_failures": 3},
+                    "rrt_star": {"success": reached, "time": 2 * base if reached else None,
+                                 "nodes": 200 + index if reached else None,
+                                 "sampling_failures": 30},
+                },
+            }
+        )  # fmt: skip
+    return records
+
+
+def test_results_carry_medians_with_intervals_and_truthful_labels(tmp_path):
+    write_report(fake_records(), tmp_path, tensorboard=False)
+    text = (tmp_path / "results.md").read_text()
+    assert "temp solved" in text and "rrt_star reached 1.05·J_TEMP" in text
+    assert "success |" not in text  # no bare "success" column
+    assert "time median (s) [95%]" in text and "time, median per task [95%]" in text
+    summary = json.loads((tmp_path / "results.json").read_text())["summary"]
+    group = summary["groups"]["2D easy"]
+    temp = group["distributions"]["temp"]["time"]
+    assert temp["n"] == 30 and temp["median_low"] <= temp["median"] <= temp["median_high"]
+    assert group["distributions"]["rrt_star"]["nodes"]["n"] == 24  # only the tasks it reached
+    per_task = group["temp_over"]["rrt_star"]["per_task"]
+    assert per_task["time"]["median"] == pytest.approx(0.5)  # TEMP takes half the time
+    assert per_task["nodes"]["median_high"] < 1
+
+
+def test_one_stall_moves_the_ratio_of_sums_but_not_the_median_ratio():
+    quiet = summarize(fake_records())["groups"]["2D easy"]["temp_over"]["rrt_star"]
+    loaded = summarize(fake_records(stall=1.0))["groups"]["2D easy"]["temp_over"]["rrt_star"]
+    assert quiet["paired"]["time"] < 1 < loaded["paired"]["time"]  # the mean-based claim flips
+    assert loaded["per_task"]["time"]["median"] == pytest.approx(0.5)
+    assert loaded["per_task"]["time"]["median_high"] < 1  # the median-based one does not
+
+
+def test_plots_are_labelled_and_empty_panels_do_not_warn(tmp_path, recwarn):
+    write_report(fake_records(tasks=6), tmp_path, tensorboard=False)  # no cost curves
+    assert not [w for w in recwarn.list if "legend" in str(w.message).lower()]
+    for name in ("success_vs_time.png", "cost_vs_nodes.png", "sampling_failures.png"):
+        assert (tmp_path / name).stat().st_size > 0
+
+
+def load_make_results():
+    spec = importlib.util.spec_from_file_location("make_results", ROOT / "docs/make_results.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_make_results_reads_verdicts_off_the_intervals(tmp_path, monkeypatch):
+    make_results = load_make_results()
+    monkeypatch.chdir(tmp_path)
+    write_report(fake_records(stall=1.0), tmp_path / "results" / "TEMP-2D-v0", tensorboard=False)
+    page = make_results.main(
+        ["--worlds", "2d", "--skip-evaluation", "--docs-dir", str(tmp_path / "docs")]
+    ).read_text()
+    assert "rrt_star: met (median per-task time ratio 0.500 [" in page
+    assert "ours (median per task [95%])" in page
+    assert "time median (s) [95%]" in page
+    slower = {"time": {"median": 1.5, "median_low": 1.2, "median_high": 1.9},
+              "nodes": {"median": 0.5, "median_low": 0.4, "median_high": 0.6}}  # fmt: skip
+    assert make_results.verdict(slower) == "**missed**"
+    slower["time"].update(median_low=0.8)
+    assert make_results.verdict(slower) == "undecided"
+    assert make_results.verdict(None) == "**missed**"

@@ -1,0 +1,89 @@
+"""The shipped example problems: valid, solvable, with clearance, and kept so for the iiwa.
+
+The 7D example must stay valid once the iiwa's self-collision is checked: its poses are
+plain and unfolded, away from the joint limits, and pybullet's own self-collision test (the
+mesh model, non-adjacent links) finds the links well apart.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from temp_gym import Problem, plan
+from temp_gym.worlds.collision import make_checker
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+FILES = sorted(EXAMPLES.glob("*.json"))
+
+
+def test_there_is_an_example_per_robot():
+    from temp_gym.problem import ROBOTS
+
+    assert {Problem.load(path).robot for path in FILES} == set(ROBOTS)
+
+
+@pytest.mark.parametrize("path", FILES, ids=[path.stem for path in FILES])
+def test_example_is_valid_and_solvable(path):
+    problem = Problem.load(path)  # validates: bounds, collisions, goal radius
+    result = plan(problem, planner="rrt_star", seed=0, max_nodes=5000, stop_at_first=True)
+    assert result.success  # plan() certifies the path with the exact checker
+    if problem.robot != "point2d":  # the pictures and snippets show a detour, not a line
+        assert not make_checker(problem).edge_free(problem.start, problem.goal)
+
+
+def _iiwa():
+    return Problem.load(EXAMPLES / "kuka_iiwa14.json")
+
+
+def test_iiwa_example_keeps_away_from_limits_and_furniture():
+    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+
+    problem = _iiwa()
+    configs = np.stack([problem.start, problem.goal])
+    low, high = problem.bounds
+    assert np.all(configs - low >= 0.3) and np.all(high - configs >= 0.3)
+    furniture = problem.obstacle_upper[:, 2] > 0.0  # all but the floor slab
+    margin = 0.05
+    grown = IiwaSphereChecker(
+        problem.bounds,
+        problem.obstacle_lower[furniture] - margin,
+        problem.obstacle_upper[furniture] + margin,
+    )
+    assert grown.states_free(configs).all()
+
+
+def test_iiwa_example_is_no_more_folded_than_the_straight_arm():
+    # pybullet's mesh model with self-collision on: every pair of non-adjacent links is as far
+    # apart as in the straight, zero pose (the wrist's link_5 and link_7 are 3 cm apart there),
+    # up to 5 cm and a 5 mm tolerance.
+    import pybullet
+    from pybullet_utils.bullet_client import BulletClient
+
+    from temp_gym.worlds.robots.iiwa14 import urdf_path
+
+    problem = _iiwa()
+    client = BulletClient(connection_mode=pybullet.DIRECT)
+    try:
+        arm = client.loadURDF(
+            str(urdf_path()), useFixedBase=True, flags=pybullet.URDF_USE_SELF_COLLISION
+        )
+        links = client.getNumJoints(arm)
+        pairs = [(a, b) for a in range(-1, links) for b in range(a + 2, links)]
+
+        def distances(config):
+            for joint, angle in enumerate(config):
+                client.resetJointState(arm, joint, float(angle))
+            return {
+                pair: min(
+                    [p[8] for p in client.getClosestPoints(arm, arm, 0.05, *pair)], default=0.05
+                )
+                for pair in pairs
+            }
+
+        straight = distances(np.zeros(7))
+        for config in (problem.start, problem.goal):
+            for pair, distance in distances(config).items():
+                assert distance >= min(straight[pair], 0.05) - 0.005, (config, pair, distance)
+    finally:
+        client.disconnect()
