@@ -73,7 +73,13 @@ def _local(function, arguments, workers: int) -> Iterator[tuple[int, Any]]:
         return
     # spawn: workers import only what the unit needs, never a forked torch or Ray state.
     context = multiprocessing.get_context("spawn")
-    pool = context.Pool(min(workers, len(packed)), initializer=_ignore_interrupts)
+    # Workers are born ignoring SIGINT (an ignored signal stays ignored across exec), so a
+    # Ctrl-C while one is still starting up prints no traceback; the initializer makes sure.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        pool = context.Pool(min(workers, len(packed)), initializer=_ignore_interrupts)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     try:
         yield from pool.imap_unordered(_call, packed, chunksize=1)
         pool.close()
