@@ -33,8 +33,7 @@ from temp_gym.evaluation.runner import (
     run_evaluation,
 )
 from temp_gym.jobs import run_script
-from temp_gym.models.policy import TEMPPolicy
-from temp_gym.models.registry import shipped_checkpoint
+from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
 
 GROUPS = {
@@ -51,6 +50,8 @@ DEFAULTS = {
     "curve_tasks": 10,
     "curve_nodes": 3000,
     "noise_std": None,
+    "horizon": None,
+    "attention_patience": None,
     "seed": 0,
     "workers": 2,
     "out": None,
@@ -62,13 +63,15 @@ def settings_from(
 ) -> tuple[EvaluationSettings, dict]:
     """The evaluation settings of a config's ``evaluation`` section (defaults above).
 
-    ``attention_nodes`` and ``noise_std`` left null take the checkpoint's own planner settings
-    (``planner_defaults``, what `temp_gym.load_policy` applies to a shipped policy), else
-    all of ``max_nodes`` and no noise.
+    ``attention_nodes``, ``noise_std``, ``horizon`` and ``attention_patience`` left null take
+    the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
+    applies to a shipped policy), else all of ``max_nodes``, no noise, the model's whole chunk
+    and the default stall rule.
     """
     robot = config["env"]["robot"]
     section = {**DEFAULTS, **(config.get("evaluation") or {})}
-    for key, fallback in (("attention_nodes", None), ("noise_std", 0.0)):
+    for key, fallback in (("attention_nodes", None), ("noise_std", 0.0), ("horizon", None),
+                          ("attention_patience", None)):  # fmt: skip
         if section[key] is None:
             section[key] = (planner_defaults or {}).get(key, fallback)
     tasks = int(section.get("tasks") or DEFAULT_TASKS[robot])
@@ -80,6 +83,7 @@ def settings_from(
         max_nodes=int(section["max_nodes"]),
         time_limit=float(section["time_limit"]),
         attention_nodes=section["attention_nodes"],
+        attention_patience=section["attention_patience"],
         curve_tasks=int(section["curve_tasks"]),
         curve_nodes=int(section["curve_nodes"]),
         seed=int(section["seed"]),
@@ -108,11 +112,12 @@ def main(argv: list[str] | None = None) -> str:
         raise SystemExit(f"evaluate.py: error: {error}") from None
     settings, section = settings_from(config, stored.get("planner"))
     make_policy = functools.partial(
-        TEMPPolicy.from_checkpoint,
+        policy_from_checkpoint,
         str(checkpoint),
         robot=settings.robot,
         noise_std=float(section["noise_std"]),
         seed=settings.seed,
+        horizon=section["horizon"],
     )
     out = Path(section["out"] or Path("results") / config["env"]["id"])
     digest = weights_digest(stored["state_dict"])
@@ -125,7 +130,11 @@ def main(argv: list[str] | None = None) -> str:
             progress=not args.no_progress,
             backend=args.backend,
             address=args.ray_address,
-            identity={"checkpoint_digest": digest, "noise_std": float(section["noise_std"])},
+            identity={
+                "checkpoint_digest": digest,
+                "noise_std": float(section["noise_std"]),
+                "horizon": section["horizon"],
+            },
         )
     except ManifestMismatchError as error:  # another checkpoint's or settings' records
         raise SystemExit(f"evaluate.py: error: {error}") from None

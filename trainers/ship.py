@@ -1,7 +1,8 @@
 r"""Ship a trained policy inside the package: a slim checkpoint plus its model card.
 
     python trainers/ship.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
-        [--attention-nodes N] --noise-std 0.03 [key=value overrides used in training]
+        [--attention-nodes N] --noise-std 0.03 [--horizon K] [--attention-patience P] \\
+        [key=value overrides used in training]
 
 Writes ``temp_gym/checkpoints/{2d,3d,7d}.pt`` (the model weights and sizes, the planner
 settings `temp_gym.load_policy` applies, and where the weights came from; no optimizer state,
@@ -147,6 +148,16 @@ def model_card(
             )
             + "; then classical planning (Informed RRT*).",
             f"- Output noise: {planner['noise_std']} (normalized units).",
+            f"- Proposals per MPT call (horizon): "
+            f"{planner.get('horizon') or checkpoint['model_config'].get('chunk', 1)} of the "
+            f"model's chunk of {checkpoint['model_config'].get('chunk', 1)}.",
+            "- Stall patience of the attention phase: "
+            + (
+                "the planner's default rule (`temp_gym.planning.attention.default_patience`)"
+                if planner.get("attention_patience") is None
+                else f"{planner['attention_patience']} nodes"
+            )
+            + ".",
             f"- How they were chosen: {planner['chosen_by']}.",
             "",
             "## Data",
@@ -188,6 +199,15 @@ def main(argv: list[str] | None = None) -> Path:
         "--noise-std", type=float, default=0.0, help="output noise applied by load_policy"
     )
     parser.add_argument(
+        "--horizon", type=int, default=None, help="proposals per MPT call; default: the chunk"
+    )
+    parser.add_argument(
+        "--attention-patience",
+        type=int,
+        default=None,
+        help="stall patience of the attention phase; default: the planner's rule",
+    )
+    parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
     )
     parser.add_argument("--notes", default="", help="for the card: how training went")
@@ -204,12 +224,20 @@ def main(argv: list[str] | None = None) -> Path:
         parser.error("--config and --checkpoint are required (or --refresh-evaluation)")
     if (args.attention_nodes is not None and args.attention_nodes < 1) or args.noise_std < 0:
         raise SystemExit("--attention-nodes must be >= 1 and --noise-std >= 0")
+    if (args.horizon is not None and args.horizon < 1) or (
+        args.attention_patience is not None and args.attention_patience < 0
+    ):
+        raise SystemExit("--horizon must be >= 1 and --attention-patience >= 0")
     config = load_config(args.config, args.overrides)
     env_id = config["env"]["id"]
     model, source = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
+    if args.horizon is not None and args.horizon > model.mpt.chunk:
+        raise SystemExit(f"--horizon {args.horizon}: the model predicts {model.mpt.chunk} per call")
     planner = {
         "attention_nodes": args.attention_nodes,
         "noise_std": args.noise_std,
+        "horizon": args.horizon,
+        "attention_patience": args.attention_patience,
         "chosen_by": args.chosen_by,
     }
     provenance = {

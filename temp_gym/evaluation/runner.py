@@ -64,6 +64,8 @@ class EvaluationSettings:
     """Seconds per run."""
     attention_nodes: int | None = None
     """TEMP's attention-phase node budget (None: all of ``max_nodes``)."""
+    attention_patience: int | None = None
+    """TEMP's stall patience (None: `temp_gym.planning.attention.default_patience`)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -95,6 +97,7 @@ def evaluate_task(
     temp = plan(
         problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
+        attention_patience=settings.attention_patience,
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
@@ -119,7 +122,11 @@ def evaluate_task(
     if with_curves:
         record["curves"] = {}
         for name in ("temp", *settings.baselines):
-            kwargs = {"policy": policy} if name == "temp" else {}
+            kwargs = (
+                {"policy": policy, "attention_patience": settings.attention_patience}
+                if name == "temp"
+                else {}
+            )
             result = plan(
                 problem, planner=name, seed=seed, max_nodes=settings.curve_nodes,
                 time_limit=settings.time_limit, **kwargs,
@@ -287,6 +294,7 @@ def attention_example(
     result = plan(
         problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
+        attention_patience=settings.attention_patience,
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.model.mpt.num_sei_tokens)
     return {

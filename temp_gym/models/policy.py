@@ -145,6 +145,8 @@ class TEMPPolicy:
             the cached core of its checkpoint.
         horizon: proposals per call, the first ``horizon`` of the model's chunk (None: all);
             later ones continue a longer guess, so fewer can waste fewer samples.
+        attention_patience: the stall patience the ``temp`` planner uses with this policy when
+            ``plan`` is given none (None: the planner's default rule).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -160,6 +162,7 @@ class TEMPPolicy:
         attention_nodes: int | None = None,
         core: PolicyCore | None = None,
         horizon: int | None = None,
+        attention_patience: int | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -168,6 +171,9 @@ class TEMPPolicy:
         if attention_nodes is not None and int(attention_nodes) < 1:
             raise ValueError(f"attention_nodes: expected >= 1 or None, got {attention_nodes}")
         self.attention_nodes = None if attention_nodes is None else int(attention_nodes)
+        if attention_patience is not None and int(attention_patience) < 0:
+            raise ValueError(f"attention_patience: expected >= 0 or None, got {attention_patience}")
+        self.attention_patience = None if attention_patience is None else int(attention_patience)
         self.device = torch.device(device)
         if backend == "numba" and (self.device.type != "cpu" or record_attention):
             raise ValueError(

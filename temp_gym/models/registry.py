@@ -131,9 +131,9 @@ def policy_from_checkpoint(
 
     The checkpoint carries the planner settings it was shipped with (`trainers/ship.py`): the
     attention-phase budget n, used unless ``attention_nodes`` is given, the output noise,
-    used unless ``noise_std`` is given, and the proposals used per MPT call (``horizon``). A
-    checkpoint without them gets n = None (all of the planner's ``max_nodes``), no noise and
-    its whole chunk.
+    used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``) and the
+    stall patience. A checkpoint without them gets n = None (all of the planner's
+    ``max_nodes``), no noise, its whole chunk and the planner's default patience.
     """
     from temp_gym.models.policy import TEMPPolicy
 
@@ -152,6 +152,7 @@ def policy_from_checkpoint(
         attention_nodes=attention_nodes,
         core=loaded.core,
         horizon=horizon,
+        attention_patience=planner.get("attention_patience"),
     )
 
 

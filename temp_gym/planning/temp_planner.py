@@ -84,6 +84,8 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     if attention_nodes is None:
         attention_nodes = settings.max_nodes
     patience = settings.attention_patience
+    if patience is None:  # the policy's own (a shipped one may carry it), else the rule
+        patience = getattr(policy, "attention_patience", None)
     if patience is None:
         patience = default_patience(problem, tree.step_size)
 
