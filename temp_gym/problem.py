@@ -158,7 +158,7 @@ class Problem:
             reason = (
                 "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
                 if pairs
-                else "in collision"
+                else "collision"
             )
             raise ValueError(f"{name}: {point.tolist()} is in {reason} ({checker.description})")
 
