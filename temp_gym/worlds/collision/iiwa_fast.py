@@ -169,10 +169,13 @@ def _states_free(states, bounds, kinematics, spheres, boxes, self_model, clearan
     sphere_pairs, table_pairs, table_grid, table_bounds, table_motion = self_model
     num, dim = states.shape
     out = np.zeros(num, dtype=np.bool_)
-    table_growth = np.full(table_pairs.shape[0], 2.0 * clearance)  # both links grow
+    # `clearance` between the links of a pair: all of it on one side. The base never moves
+    # (an edge check never grows it either), so a pair with the base grows its other link only.
+    table_growth = np.full(table_pairs.shape[0], clearance)
     poses = _identity_poses(dim + 1)
     link_bounds = bound_centers.copy()  # row 0 stays: the base never moves
     inflation = np.full(dim + 1, clearance)
+    inflation[0] = 0.0
     flat = states.reshape(-1)
     sines = np.empty(_BLOCK * dim)
     cosines = np.empty(_BLOCK * dim)
@@ -468,12 +471,13 @@ class IiwaSphereChecker:
     def states_free(self, states: np.ndarray, clearance: float = 0.0) -> np.ndarray:
         """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free.
 
-        With ``clearance`` > 0 a state only counts as free when every sphere, grown by that
-        many metres, still misses every box and every sphere of the links it is checked
-        against. ``clearance = resolution / 2`` is what task generators ask of a start and a
-        goal: an edge check grows the spheres of its end states by up to ``resolution / 2``
-        (module docstring), so a state closer to a box, or with two links closer to each
-        other, than that is free but no edge of planning length can leave it.
+        With ``clearance`` > 0 a state only counts as free when every moving link's spheres,
+        grown by that many metres, still miss every box, and the links of every checked pair
+        keep that much more than their collision gap between them (the base's spheres are not
+        grown: it never moves). ``clearance = resolution / 2`` is what task generators ask of
+        a start and a goal: an edge check grows the spheres of its end states, and a pair's
+        distance, by up to ``resolution / 2`` (module docstring), so a state closer than that
+        to a box, or to itself, is free but no edge of planning length can leave it.
 
         Raises:
             ValueError: ``clearance`` negative, not finite or above ``resolution / 2`` (the
