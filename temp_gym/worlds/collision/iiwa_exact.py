@@ -97,6 +97,8 @@ class IiwaExactChecker:
         box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
         box_upper: ``(M, 3)`` upper box corners.
         max_steps: largest number of certification steps per edge before giving up.
+        self_collision: test the enabled link pairs against each other. Only switched off to
+            measure what self-collision costs; `certify_path` always tests it.
 
     Example:
         >>> checker = IiwaExactChecker(joint_limits(), [[0.5, -1, 0]], [[0.6, 1, 1]])
@@ -110,12 +112,13 @@ class IiwaExactChecker:
         box_lower: np.ndarray,
         box_upper: np.ndarray,
         max_steps: int = 20_000,
+        self_collision: bool = True,
     ) -> None:
         self.dim = 7
         self.max_steps = int(max_steps)
         self._bounds = as_bounds(bounds)
         self._limits = joint_limits()
-        self._hulls = LinkHulls(enabled_pairs())
+        self._hulls = LinkHulls(enabled_pairs() if self_collision else np.zeros((0, 2)))
         lower, upper = as_boxes(box_lower, box_upper)
         self._box_center = (lower + upper) / 2
         self._box_half = (upper - lower) / 2

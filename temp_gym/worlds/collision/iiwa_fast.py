@@ -21,8 +21,10 @@ of thousands of states); the converse fails on a few percent of states, where on
 bulge touches a box or another link's sphere.
 
 **Self-collision.** Only the pairs enabled by `temp_gym.worlds.robots.acm` are tested (adjacent
-pairs and pairs that never come close are not), sphere against sphere, after the boxes: a
-state that hits a box stops before.
+pairs and pairs that never come close are not): link_5 - link_7 by a lookup in its joint-space
+table before the kinematics, the base against the forearm and wrist sphere against sphere
+after the boxes, behind a test of the links' bounding spheres whose world centers the box
+broad phase has just computed (`iiwa_fast_self`).
 
 **Invalid states.** A state outside the bounds or the URDF joint limits (bounds wider than the
 limits are cut to them), or with a NaN or inf coordinate, is not free (no exception); wrongly
@@ -394,6 +396,9 @@ class IiwaSphereChecker:
         resolution: largest workspace motion (m) of any link point between two checked states
             of an edge; checked states use spheres grown by half of it, so edges are certified
             against the sphere model.
+        self_collision: test the enabled link pairs against each other. Only switched off to
+            measure what self-collision costs (``benchmarks/collision.py``); `make_checker`,
+            the planners and the generators always test it.
 
     Example:
         >>> checker = IiwaSphereChecker(joint_limits(), [[0.5, -1, 0]], [[0.6, 1, 1]])
@@ -407,6 +412,7 @@ class IiwaSphereChecker:
         box_lower: np.ndarray,
         box_upper: np.ndarray,
         resolution: float = DEFAULT_RESOLUTION,
+        self_collision: bool = True,
     ) -> None:
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
             raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
@@ -421,7 +427,9 @@ class IiwaSphereChecker:
         self._kinematics = tuple(array.copy() for array in kinematics)
         self._spheres = tuple(array.copy() for array in spheres)
         self._motion_radii = mesh_motion.copy()
-        self._self_model = tuple(array.copy() for array in self_model)
+        self._self_model = tuple(
+            array.copy() if self_collision else array[:0].copy() for array in self_model
+        )
         self._scratch = scratch_for(self._spheres[2])
         lower, upper = self._boxes
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))

@@ -6,7 +6,7 @@ when the distance between the hulls is at most ``2 * SELF_COLLISION_PADDING``
 matrix enables are tested (`temp_gym.worlds.robots.acm`).
 
 **Distances are lower bounds.** fcl's GJK distance between two hulls can exceed the true
-distance by a little (up to 1.5e-6 m on these hulls, checked against a quadratic program), so
+distance by a little (by about 1e-6 m on these hulls, against a quadratic program's), so
 `DISTANCE_TOLERANCE` is subtracted from every distance: a pair is in collision when its
 distance minus the tolerance is at most the padding gap. fcl reports ``-1`` for intersecting
 hulls, which reads as collision. A pair whose hulls' bounding spheres are farther apart than

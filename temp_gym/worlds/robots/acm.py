@@ -14,9 +14,8 @@ hulls padded like pybullet's). Every pair of the 8 links (link_0 is the base) ge
 * ``never``: no collision in ``samples`` uniform random configurations (MoveIt's sampling; its
   default is 10,000), nor in a local search from the pair's closest samples, and the closest
   approach found stays above `NEVER_CLEARANCE`. Not checked. The search and the clearance are
-  ours: uniform samples rarely reach the folded corners of the joint box where far links meet
-  (in a trial, link_0-link_7 touched in the search but not in 5,000 samples), and a margin
-  keeps a pair that merely came close checked.
+  ours: uniform samples rarely reach the folded corners of the joint box where far links meet,
+  and a margin keeps a pair that merely came close checked.
 * ``enabled``: everything else; these pairs are checked, by both checkers.
 
 Each entry also records the number of colliding samples, the closest approach found and the

@@ -2,9 +2,10 @@
 
 pybullet (like Bullet in general) collides a URDF's STL meshes as their convex hulls, each
 grown by a collision margin of 1 mm. Two links of the iiwa then touch where their meshes do
-not: link_5's mesh has a cut-out, and its hull (61% more volume than the mesh) closes it, so
-with joint 6 near its limits link_7 enters link_5's hull without touching its mesh. We check
-self-collision on the same geometry as pybullet, the hulls grown by `SELF_COLLISION_PADDING`:
+not: link_5's mesh has a cut-out, and its hull closes it, so with joint 6 near its limits
+link_7 enters link_5's hull without touching its mesh (the README has the measurements). We
+check self-collision on the same geometry as pybullet, the hulls grown by
+`SELF_COLLISION_PADDING`:
 
 * it is conservative with respect to the meshes (a hull contains its mesh), so a pose we call
   free is free for every other reading of the URDF;
