@@ -6,7 +6,10 @@ For each world (2D, 3D, 7D) it draws generated workspaces, times ``states_free``
 configurations and ``edges_free`` on random edges (edge length ~ the planners' step size), for
 the fast checker and the exact one, and prints states/s, edges/s and the fast/exact ratio.
 Point robots have one checker that is both fast and exact (analytic), so their ratio is 1.
-Single-threaded: numba kernels run on one core; set NUMBA_NUM_THREADS=1 to be sure.
+For the iiwa it also times both checkers without self-collision (``self_collision=False``),
+alternating with the full checkers on the same states and edges, so the cost of
+self-collision is measured side by side. Single-threaded: numba kernels run on one core; set
+NUMBA_NUM_THREADS=1 to be sure.
 """
 
 from __future__ import annotations
@@ -23,16 +26,19 @@ from temp_gym.worlds.generators import generate_workspace
 STEP = {"point2d": 1.0, "point3d": 1.0, "kuka_iiwa14": 0.5}
 
 
-def _rate(function, *args, repeats: int = 3) -> float:
-    """Calls per second of ``function(*args)``, counted in rows of the first argument."""
+def _rates(functions, *args, repeats: int = 3) -> list[float]:
+    """Calls per second of each ``function(*args)`` (rows of the first argument), best of
+    ``repeats``, the functions timed in turn so that machine drift hits them alike."""
     count = len(args[0])
-    function(*args)  # warm-up: numba compilation, caches
-    best = float("inf")
+    best = [float("inf")] * len(functions)
+    for function in functions:
+        function(*args)  # warm-up: numba compilation, caches
     for _ in range(repeats):
-        start = time.perf_counter()
-        function(*args)
-        best = min(best, time.perf_counter() - start)
-    return count / best
+        for k, function in enumerate(functions):
+            start = time.perf_counter()
+            function(*args)
+            best[k] = min(best[k], time.perf_counter() - start)
+    return [count / seconds for seconds in best]
 
 
 def _random_edges(rng, bounds, step, count):
@@ -43,30 +49,44 @@ def _random_edges(rng, bounds, step, count):
     return starts, ends
 
 
+def _variants(workspace) -> dict[str, tuple]:
+    """``{name: (fast, exact)}``: the checkers, and for the iiwa the same without self-collision."""
+    variants = {"": (make_checker(workspace), make_checker(workspace, exact=True))}
+    if workspace.robot == "kuka_iiwa14":
+        from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
+        from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+
+        args = (workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+        variants[", no self-collision"] = (
+            IiwaSphereChecker(*args, self_collision=False),
+            IiwaExactChecker(*args, self_collision=False),
+        )
+    return variants
+
+
 def bench_world(robot: str, args: argparse.Namespace) -> dict[str, float]:
     rng = np.random.default_rng(args.seed)
-    rows = {
-        "fast_states": [],
-        "fast_edges": [],
-        "exact_states": [],
-        "exact_edges": [],
-        "free_fraction": [],
-    }
+    rows: dict[str, list[float]] = {}
     for _ in range(args.workspaces):
         workspace = generate_workspace(robot, rng)
         bounds = workspace.bounds
         states = rng.uniform(bounds[0], bounds[1], size=(args.states, workspace.dim))
         starts, ends = _random_edges(rng, bounds, STEP[robot], args.edges)
-        fast = make_checker(workspace)
-        exact = make_checker(workspace, exact=True)
-        rows["free_fraction"].append(fast.states_free(states).mean())
-        rows["fast_states"].append(_rate(fast.states_free, states))
-        rows["fast_edges"].append(_rate(fast.edges_free, starts, ends))
         few_starts, few_ends = starts[: args.exact_edges], ends[: args.exact_edges]
-        rows["exact_states"].append(
-            _rate(exact.states_free, states[: args.exact_states], repeats=1)
-        )
-        rows["exact_edges"].append(_rate(exact.edges_free, few_starts, few_ends, repeats=1))
+        variants = _variants(workspace)
+        fast, exact = zip(*variants.values())
+        measured = {
+            "fast_states": _rates([c.states_free for c in fast], states),
+            "fast_edges": _rates([c.edges_free for c in fast], starts, ends),
+            "exact_states": _rates(
+                [c.states_free for c in exact], states[: args.exact_states], repeats=1
+            ),
+            "exact_edges": _rates([c.edges_free for c in exact], few_starts, few_ends, repeats=1),
+            "free_fraction": [c.states_free(states).mean() for c in fast],
+        }
+        for key, values in measured.items():
+            for variant, value in zip(variants, values):
+                rows.setdefault(key + variant, []).append(value)
     return {key: float(np.mean(value)) for key, value in rows.items()}
 
 
@@ -97,9 +117,23 @@ def main(argv: list[str] | None = None) -> None:
         )
         print("| check | fast (/s) | exact (/s) | fast / exact |")
         print("|---|---:|---:|---:|")
-        for kind in ("states", "edges"):
-            fast, exact = result[f"fast_{kind}"], result[f"exact_{kind}"]
-            print(f"| {kind} | {fast:,.0f} | {exact:,.0f} | {fast / exact:,.1f}x |")
+        variants = sorted({key.removeprefix("fast_states") for key in result if
+                           key.startswith("fast_states")})  # fmt: skip
+        for variant in variants:
+            for kind in ("states", "edges"):
+                fast, exact = result[f"fast_{kind}{variant}"], result[f"exact_{kind}{variant}"]
+                print(f"| {kind}{variant} | {fast:,.0f} | {exact:,.0f} | {fast / exact:,.1f}x |")
+        if len(variants) > 1:
+            cost = {
+                kind: result[kind] / result[kind + ", no self-collision"]
+                for kind in ("fast_states", "fast_edges", "exact_states", "exact_edges")
+            }
+            print(
+                "\nwith / without self-collision (throughput): "
+                + ", ".join(f"{kind.replace('_', ' ')} {ratio:.2f}" for kind, ratio in cost.items())
+                + f"; free states {100 * result['free_fraction, no self-collision']:.0f}% "
+                "without it"
+            )
 
 
 if __name__ == "__main__":

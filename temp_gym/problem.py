@@ -9,13 +9,15 @@ The JSON format is fixed, because users and our own test sets are written agains
 
 * ``robot`` is ``point2d``, ``point3d`` or ``kuka_iiwa14``.
 * ``bounds`` is the configuration space as ``[lower, upper]``. For ``kuka_iiwa14`` it may be
-  left out and then defaults to the URDF joint limits.
+  left out and then defaults to the URDF joint limits; it may be narrower, never wider.
 * ``obstacles`` are axis-aligned boxes in workspace coordinates (2 numbers each for
   ``point2d``, 3 otherwise). The iiwa's base sits at the origin with z up.
 * ``goal_radius`` is the radius of the goal region, a ball around ``goal`` in configuration
   space (radians for the iiwa).
 
-Every violation raises a `ValueError` that names the field and the reason.
+Start and goal must be free: inside the bounds, clear of the boxes and, for the arm, of
+itself (a self-collision error names the link pair). Every violation raises a `ValueError`
+that names the field and the reason.
 """
 
 from __future__ import annotations
@@ -66,6 +68,15 @@ def _as_float(value: Any, name: str) -> float:
 def _short(value: Any) -> str:
     text = str(value)
     return text if len(text) <= 24 else f"{text[:10]}...({len(text)} digits)"
+
+
+def _joint_limits(robot: str) -> np.ndarray | None:
+    """The robot's own ``(2, dim)`` joint limits, which ``bounds`` must lie within, if any."""
+    if robot == "kuka_iiwa14":
+        from temp_gym.worlds.robots.iiwa14 import joint_limits
+
+        return joint_limits()
+    return None
 
 
 def _float_vector(value: Any, name: str, length: int) -> np.ndarray:
@@ -175,6 +186,14 @@ class Problem:
             )
         if np.any(bounds[1] - bounds[0] < MIN_LENGTH):
             raise ValueError(f"bounds: every side must be at least {MIN_LENGTH:g} long")
+        limits = _joint_limits(self.robot)
+        if limits is not None and (np.any(bounds[0] < limits[0]) or np.any(bounds[1] > limits[1])):
+            joint = int(np.argmax((bounds[0] < limits[0]) | (bounds[1] > limits[1])))
+            raise ValueError(
+                f"bounds: wider than the {self.robot} joint limits at joint {joint + 1}: "
+                f"[{bounds[0, joint]}, {bounds[1, joint]}] is not within "
+                f"[{limits[0, joint]}, {limits[1, joint]}] (the URDF's limits, radians)"
+            )
         centers = _float_array(self.obstacle_centers, "obstacles: center").reshape(-1, wdim)
         halves = _float_array(self.obstacle_half_extents, "obstacles: half_extents")
         halves = halves.reshape(-1, wdim)
@@ -210,14 +229,23 @@ class Problem:
         self._check_collisions()
 
     def _check_collisions(self) -> None:
-        from temp_gym.worlds.collision import make_checker
+        from temp_gym.worlds.collision import SelfCollisionChecker, make_checker
 
         checker = make_checker(self)
         free = checker.states_free(np.stack([self.start, self.goal]))
         for name, ok in zip(("start", "goal"), free):
-            if not ok:
-                point = getattr(self, name).tolist()
-                raise ValueError(f"{name}: {point} is in collision ({checker.description})")
+            if ok:
+                continue
+            point = getattr(self, name)
+            pairs = (
+                checker.self_collisions(point) if isinstance(checker, SelfCollisionChecker) else []
+            )
+            reason = (
+                "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
+                if pairs
+                else "collision"
+            )
+            raise ValueError(f"{name}: {point.tolist()} is in {reason} ({checker.description})")
 
     # ------------------------------------------------------------------ properties
     @property
@@ -282,10 +310,8 @@ class Problem:
             bounds = np.stack(
                 [_float_vector(raw[0], "bounds[0]", dim), _float_vector(raw[1], "bounds[1]", dim)]
             )
-        elif robot == "kuka_iiwa14":
-            from temp_gym.worlds.robots.iiwa14 import joint_limits
-
-            bounds = joint_limits()
+        elif _joint_limits(robot) is not None:
+            bounds = _joint_limits(robot)
         else:
             raise ValueError("bounds: missing required key (only kuka_iiwa14 may leave it out)")
         obstacles = data["obstacles"]

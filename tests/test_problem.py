@@ -215,3 +215,43 @@ def test_a_utf8_bom_is_accepted(tmp_path):
 def test_deep_nesting_is_a_value_error_not_a_recursion_error(tmp_path):
     with pytest.raises(ValueError, match="nests JSON too deeply"):
         Problem.load(write(tmp_path, b"[" * 200_000 + b"]" * 200_000))
+
+
+IIWA = {
+    "robot": "kuka_iiwa14",
+    "obstacles": [{"center": [0.8, 0, 0.5], "half_extents": [0.05, 0.5, 0.5]}],
+    "start": [0, 0, 0, 0, 0, 0, 0],
+    "goal": [0.5, 0.3, 0, -0.4, 0, 0.5, 0],
+    "goal_radius": 0.1,
+}
+
+
+@pytest.mark.parametrize("field", ["start", "goal"])
+def test_iiwa_start_or_goal_in_self_collision_names_the_links(field):
+    folded = [0, 0, 0, 0, 0, 2.08, 0]  # joint 6 at its limit: link_7 against link_5
+    with pytest.raises(ValueError) as error:
+        Problem.from_dict({**IIWA, field: folded})
+    message = str(error.value)
+    assert message.startswith(f"{field}: "), message
+    assert "self-collision between link_5 and link_7" in message, message
+    into_the_base = [0, 2.0, 0, -2.0, 0, 0, 0]  # shoulder and elbow folded down
+    with pytest.raises(ValueError, match=f"^{field}: .* self-collision between link_0 and link_5"):
+        Problem.from_dict({**IIWA, field: into_the_base})
+
+
+def test_iiwa_box_collision_keeps_its_message():
+    with pytest.raises(ValueError, match=r"^goal: .* is in collision \(iiwa sphere model"):
+        Problem.from_dict({**IIWA, "goal": [0, 1.2, 0, 0, 0, 0, 0]})
+
+
+def test_iiwa_bounds_must_lie_within_the_joint_limits():
+    from temp_gym.worlds.robots.iiwa14 import joint_limits
+
+    limits = joint_limits()
+    inside = Problem.from_dict({**IIWA, "bounds": (limits * 0.9).tolist()})
+    np.testing.assert_array_equal(inside.bounds, limits * 0.9)
+    np.testing.assert_array_equal(Problem.from_dict(IIWA).bounds, limits)
+    wide = limits.copy()
+    wide[1, 3] += 0.31
+    with pytest.raises(ValueError, match="^bounds: wider than the kuka_iiwa14 joint limits at j"):
+        Problem.from_dict({**IIWA, "bounds": wide.tolist()})

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-import pybullet
 import pytest
-from pybullet_utils.bullet_client import BulletClient
 
 from temp_gym.worlds.collision import CollisionChecker
 from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa
 from temp_gym.worlds.iiwa_world import generate_iiwa_workspace
-from temp_gym.worlds.robots.iiwa14 import joint_limits, urdf_path
+from temp_gym.worlds.robots.iiwa14 import joint_limits
 
 LIMITS = joint_limits()
 # A 2 mm wall in the plane y = 0, in front of the robot: swinging joint 1 across it collides.
@@ -57,28 +56,12 @@ def test_fast_never_frees_what_exact_rejects(workspaces):
 def test_pybullet_free_implies_exact_free(workspaces):
     workspace = workspaces[0]
     exact = _checkers(workspace)[1]
-    client = BulletClient(connection_mode=pybullet.DIRECT)
-    try:
-        robot = client.loadURDF(str(urdf_path()), [0, 0, 0], useFixedBase=True)
-        boxes = [
-            client.createMultiBody(
-                0, client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half), -1, center
-            )
-            for center, half in zip(workspace.obstacle_centers, workspace.obstacle_half_extents)
-        ]
-        states = np.random.default_rng(11).uniform(LIMITS[0], LIMITS[1], size=(300, 7))
-        bullet_free = np.empty(len(states), dtype=bool)
-        for k, q in enumerate(states):
-            for j in range(7):
-                client.resetJointState(robot, j, q[j])
-            client.performCollisionDetection()
-            bullet_free[k] = not any(
-                client.getClosestPoints(robot, box, distance=0.0) for box in boxes
-            )
-    finally:
-        client.disconnect()
+    states = np.random.default_rng(11).uniform(LIMITS[0], LIMITS[1], size=(300, 7))
+    with PybulletIiwa(workspace) as bullet:
+        bullet_free = bullet.states_free(states)
     exact_free = exact.states_free(states)
-    # pybullet uses the meshes' convex hulls, which contain the meshes.
+    # pybullet uses the meshes' convex hulls, which contain the meshes (boxes), and the same
+    # padded hulls as the exact checker for self-collision.
     assert not np.any(bullet_free & ~exact_free)
     assert np.mean(bullet_free == exact_free) > 0.85
 
@@ -158,12 +141,16 @@ def test_base_link_against_floor_is_exact():
     assert not IiwaExactChecker(LIMITS, *touching).states_free(np.zeros(7))[0]
 
 
-def test_no_boxes_everything_in_bounds_is_free():
+def test_without_boxes_only_self_collision_blocks():
     empty = (np.zeros((0, 3)), np.zeros((0, 3)))
-    states = np.random.default_rng(13).uniform(LIMITS[0], LIMITS[1], size=(50, 7))
+    # In the middle half of every joint's range the arm cannot fold into itself.
+    states = np.random.default_rng(13).uniform(LIMITS[0] / 2, LIMITS[1] / 2, size=(50, 7))
+    wrist_folded = np.zeros(7)
+    wrist_folded[5] = 2.08  # link_7 against link_5
     for checker in (IiwaSphereChecker(LIMITS, *empty), IiwaExactChecker(LIMITS, *empty)):
         assert checker.states_free(states).all()
         assert checker.edge_free(states[0], states[1])
+        assert not checker.states_free(wrist_folded)[0]
 
 
 def _ceiling_height_where_upright_arm_collides(clearance):

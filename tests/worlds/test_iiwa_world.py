@@ -9,6 +9,7 @@ from temp_gym.problem import Problem
 from temp_gym.worlds.collision import make_checker
 from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa
 from temp_gym.worlds.iiwa_world import generate_iiwa_task, generate_iiwa_workspace
 from temp_gym.worlds.robots.iiwa14 import joint_limits
 from temp_gym.worlds.workspace import Workspace
@@ -84,3 +85,20 @@ def test_impossible_task_gives_up():
     blocked = Workspace("kuka_iiwa14", joint_limits(), [[0.0, 0.0, 0.3]], [[0.2, 0.2, 0.05]])
     with pytest.raises(RuntimeError, match="no 'any' start-goal pair in 100 tries"):
         generate_iiwa_task(blocked, np.random.default_rng(0), max_tries=100)
+
+
+def test_tasks_never_start_or_end_in_self_collision():
+    # About 8% of random configurations self-collide, so 80 unchecked states would almost
+    # surely include some; pybullet, independent of our checkers, is the referee.
+    rng = np.random.default_rng(9)
+    ends = []
+    for _ in range(4):
+        workspace = generate_iiwa_workspace(rng)
+        for _ in range(10):
+            problem = generate_iiwa_task(workspace, rng)
+            ends += [problem.start, problem.goal]
+    ends = np.array(ends)
+    with PybulletIiwa() as bullet:
+        assert bullet.self_collision_free(ends).all()
+    exact = IiwaExactChecker(joint_limits(), np.zeros((0, 3)), np.zeros((0, 3)))
+    assert exact.states_free(ends).all()

@@ -3,9 +3,11 @@
 * The **fast** checker is what planners call in their hot loop: batched states ``(N, d)`` to
   ``bool[N]`` and edges to ``bool``. Point robots use an exact analytic segment-versus-box
   test. The iiwa uses forward kinematics and a sphere model of its links that covers the
-  collision meshes, so it is conservative: it never calls a state free that is in collision.
+  collision meshes, and tests the link pairs its allowed-collision matrix enables against each
+  other, so it is conservative: it never calls a state free that is in collision.
 * The **exact** checker certifies the paths a planner returns. Point robots: the same analytic
-  test, which is exact. The iiwa: python-fcl on the links' collision meshes.
+  test, which is exact. The iiwa: python-fcl on the links' collision meshes against the boxes
+  and on their (padded) convex hulls against each other, within the URDF joint limits.
 
 ``True`` always means *free* (OMPL's "valid"), so ``checker.states_free(x)`` reads as it says.
 """
@@ -46,6 +48,15 @@ class CollisionChecker(Protocol):
         ...
 
 
+@runtime_checkable
+class SelfCollisionChecker(Protocol):
+    """A checker of a robot that can collide with itself (the iiwa's both checkers)."""
+
+    def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
+        """The link pairs of one ``state`` that collide with each other, by link name."""
+        ...
+
+
 def make_checker(problem: Problem, exact: bool = False) -> CollisionChecker:
     """Build the fast (default) or the exact collision checker for ``problem``.
 
@@ -70,11 +81,14 @@ def make_checker(problem: Problem, exact: bool = False) -> CollisionChecker:
 
 
 def certify_path(problem: Problem, path: np.ndarray) -> bool:
-    """Certify ``path`` with the exact checker: every state and motion is collision-free."""
+    """Certify ``path`` with the exact checker: every state and motion is collision-free.
+
+    For the iiwa that includes self-collision and the URDF joint limits at every waypoint.
+    """
     path = np.asarray(path, dtype=np.float64)
     if path.ndim != 2 or path.shape[1] != problem.dim or len(path) == 0:
         raise ValueError(f"path: expected shape (K, {problem.dim}), got {path.shape}")
     return bool(make_checker(problem, exact=True).path_free(path))
 
 
-__all__ = ["CollisionChecker", "certify_path", "make_checker"]
+__all__ = ["CollisionChecker", "SelfCollisionChecker", "certify_path", "make_checker"]

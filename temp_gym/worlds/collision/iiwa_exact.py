@@ -1,26 +1,35 @@
-"""Exact collision checking for the KUKA iiwa 14 on its collision meshes (python-fcl).
+"""Exact collision checking for the KUKA iiwa 14 (python-fcl): boxes and self-collision.
 
 This is the checker that certifies every path a planner returns. Each link's collision mesh
 (pybullet_data's ``kuka_iiwa/meshes/link_*.stl``) is an fcl ``BVHModel`` (OBBRSS), posed by
 the forward kinematics of `temp_gym.worlds.robots.iiwa14` and tested against ``fcl.Box``
-obstacles. Self-collision is not checked (see `temp_gym.worlds.collision.iiwa_fast`).
+obstacles. Self-collision is tested on the links' convex hulls, padded like pybullet's, for the
+pairs the allowed-collision matrix enables (`temp_gym.worlds.collision.iiwa_self`).
 
 **States.** A cheap broad phase (each link's mesh AABB, posed as an oriented box, enlarged to
-a world AABB) drops the link-box pairs that cannot touch; fcl's narrow phase decides the rest.
-A state outside the joint limits or with NaN/inf coordinates is not free. fcl tests the mesh
-*surface*: an obstacle entirely inside a link's hull without touching a triangle is missed,
-which needs a box smaller than a link and is not produced by the world generators.
+a world AABB) drops the link-box pairs that cannot touch; fcl's narrow phase decides the rest,
+then the enabled link pairs are tested (bounding spheres, then GJK on the hulls). A state
+outside the bounds or the URDF joint limits, whatever the bounds say, or with NaN/inf
+coordinates, is not free. fcl tests the mesh *surface* against boxes: an obstacle entirely
+inside a link's hull without touching a triangle is missed, which needs a box smaller than a
+link and is not produced by the world generators.
 
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``,
 a point of link ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
 ``W_j = sum_i |b_i - a_i| R[i, j]`` and ``R[i, j]`` bounds the distance of link ``j``'s mesh from
 joint ``i``'s axis (`temp_gym.worlds.robots.iiwa14.motion_radii`). If ``d_j`` is a lower bound
 on link ``j``'s distance to every box at ``q(t)``, nothing can touch while ``t`` advances by
-less than ``min_j d_j / W_j``. The checker walks the segment with steps of ``0.9`` times that;
-``d_j`` is the fcl mesh-box distance, or, for boxes farther than ``EXACT_DISTANCE_BELOW``, the
-(cheaper, smaller) distance from the link's oriented bounding box. It gives up, returning
-*not free*, when a clearance drops to ``MIN_CLEARANCE`` or after ``max_steps`` steps: the
-answer is then "not certified", which is what a certifier must say when unsure.
+less than ``min_j d_j / W_j``. Likewise, the distance between links ``a < b`` changes only
+through the joints between them (the others move both links as one rigid body), at most at
+rate ``W_ab = sum_{a <= i < b} |b_i - a_i| R[i, b]`` (at most ``W_a + W_b``), so a pair with
+padded clearance ``d_ab`` cannot touch while ``t`` advances by less than ``d_ab / W_ab``
+(`temp_gym.worlds.robots.iiwa14.relative_motion_radii`). The checker walks
+the segment with steps of ``0.9`` times the smallest of these; ``d_j`` is the fcl mesh-box
+distance, or, for boxes farther than ``EXACT_DISTANCE_BELOW``, the (cheaper, smaller) distance
+from the link's oriented bounding box, and ``d_ab`` the hull distance or, for far pairs, the
+distance between the hulls' bounding spheres. It gives up, returning *not free*, when a
+clearance drops to ``MIN_CLEARANCE`` or after ``max_steps`` steps: the answer is then "not
+certified", which is what a certifier must say when unsure.
 """
 
 from __future__ import annotations
@@ -30,12 +39,16 @@ import functools
 import fcl
 import numpy as np
 
-from temp_gym.worlds.collision.iiwa_fast import _as_bounds, _as_boxes, _as_state, _as_states
+from temp_gym.worlds.collision.iiwa_inputs import as_bounds, as_boxes, as_state, as_states
+from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
+from temp_gym.worlds.robots.acm import enabled_pairs, link_name
 from temp_gym.worlds.robots.iiwa14 import (
     NUM_LINKS,
     forward_kinematics,
+    joint_limits,
     link_meshes,
     motion_radii,
+    relative_motion_radii,
 )
 
 MIN_CLEARANCE = 1e-9
@@ -76,13 +89,16 @@ def base_link_collides(box_params: np.ndarray) -> bool:
 
 
 class IiwaExactChecker:
-    """Exact iiwa checker: fcl on the link meshes, with certified motion checks.
+    """Exact iiwa checker: fcl on the link meshes and hulls, with certified motion checks.
 
     Args:
-        bounds: ``(2, 7)`` joint limits; states outside are not free.
+        bounds: ``(2, 7)`` joint bounds; states outside them or the URDF joint limits are
+            not free.
         box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
         box_upper: ``(M, 3)`` upper box corners.
         max_steps: largest number of certification steps per edge before giving up.
+        self_collision: test the enabled link pairs against each other. Only switched off to
+            measure what self-collision costs; `certify_path` always tests it.
 
     Example:
         >>> checker = IiwaExactChecker(joint_limits(), [[0.5, -1, 0]], [[0.6, 1, 1]])
@@ -96,33 +112,38 @@ class IiwaExactChecker:
         box_lower: np.ndarray,
         box_upper: np.ndarray,
         max_steps: int = 20_000,
+        self_collision: bool = True,
     ) -> None:
         self.dim = 7
         self.max_steps = int(max_steps)
-        self._bounds = _as_bounds(bounds)
-        lower, upper = _as_boxes(box_lower, box_upper)
+        self._bounds = as_bounds(bounds)
+        self._limits = joint_limits()
+        self._hulls = LinkHulls(enabled_pairs() if self_collision else np.zeros((0, 2)))
+        lower, upper = as_boxes(box_lower, box_upper)
         self._box_center = (lower + upper) / 2
         self._box_half = (upper - lower) / 2
         self._boxes = [
             fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(c))
             for c, h in zip(self._box_center, self._box_half)
         ]
-        self._links, self._hulls = [], []
+        self._links, self._link_boxes = [], []
         local_center, local_half = [], []
         for vertices, faces in link_meshes():
             self._links.append(_mesh_object(vertices, faces))
             lo, hi = vertices.min(axis=0), vertices.max(axis=0)
             local_center.append((lo + hi) / 2)
             local_half.append((hi - lo) / 2)
-            self._hulls.append(fcl.CollisionObject(fcl.Box(*(hi - lo)), fcl.Transform()))
+            self._link_boxes.append(fcl.CollisionObject(fcl.Box(*(hi - lo)), fcl.Transform()))
         self._local_center = np.array(local_center)
         self._local_half = np.array(local_half)
         mesh_radii = np.array([np.linalg.norm(v, axis=1).max() for v, _ in link_meshes()])
         self._motion_radii = motion_radii(mesh_radii)
+        self._pair_motion = relative_motion_radii(self._motion_radii, self._hulls.pairs)
         # link_0 never moves (its pose is the identity): test it once.
         self.base_free = not any(self._pair_collides(0, b) for b in range(len(self._boxes)))
         self.description = (
-            f"fcl on the iiwa collision meshes, {len(self._boxes)} boxes, certified motions"
+            f"fcl on the iiwa collision meshes, {len(self._boxes)} boxes, self-collision of "
+            f"{len(self._hulls.pairs)} link pairs (padded hulls), certified motions"
             + ("" if self.base_free else ", base link in collision")
         )
 
@@ -151,15 +172,18 @@ class IiwaExactChecker:
         return True
 
     def _in_bounds(self, states: np.ndarray) -> np.ndarray:
+        """Within the bounds and, whatever the bounds say, within the URDF joint limits."""
         with np.errstate(invalid="ignore"):
-            return np.all((states >= self._bounds[0]) & (states <= self._bounds[1]), axis=1)
+            inside = (states >= self._bounds[0]) & (states <= self._bounds[1])
+            inside &= (states >= self._limits[0]) & (states <= self._limits[1])
+        return np.all(inside, axis=1)
 
     def _clearances(self, poses: np.ndarray, links: np.ndarray) -> np.ndarray:
         """Lower bounds on each link's distance to the nearest box (``inf`` without boxes)."""
         clearance = np.full(NUM_LINKS, np.inf)
         request = fcl.DistanceRequest()
         for j in links:
-            hull = self._hulls[j]
+            hull = self._link_boxes[j]
             pose = poses[j].copy()
             pose[:3, 3] += pose[:3, :3] @ self._local_center[j]
             hull.setTransform(_transform(pose))
@@ -187,52 +211,73 @@ class IiwaExactChecker:
     # ------------------------------------------------------------------ protocol
     def states_free(self, states: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free."""
-        states = _as_states(states)
+        states = as_states(states)
         free = self._in_bounds(states)
         if not self.base_free:
             return np.zeros(len(states), dtype=bool)
-        if not self._boxes or not free.any():
+        if not free.any():
             return free
         index = np.flatnonzero(free)
         poses = forward_kinematics(states[index])
-        candidates = self._candidate_pairs(poses)
-        for k in np.flatnonzero(candidates[:, 1:].any(axis=(1, 2))):
-            free[index[k]] = self._pose_free(poses[k], candidates[k])
+        if self._boxes:
+            candidates = self._candidate_pairs(poses)
+            for k in np.flatnonzero(candidates[:, 1:].any(axis=(1, 2))):
+                free[index[k]] = self._pose_free(poses[k], candidates[k])
+        # Self-collision of the states still free; pairs whose bounding spheres are apart skip GJK.
+        near = self._hulls.sphere_gaps(poses) <= SELF_COLLISION_GAP
+        for k, p in zip(*np.nonzero(near)):
+            if free[index[k]]:
+                a, b = self._hulls.pairs[p]
+                free[index[k]] = self._hulls.distance(poses[k], a, b) > SELF_COLLISION_GAP
         return free
+
+    def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
+        """The enabled link pairs of ``state`` (7,) that collide: ``[("link_5", "link_7")]``."""
+        poses = forward_kinematics(as_state(state, "state"))[0]
+        colliding = self._hulls.colliding(poses)
+        return [(link_name(a), link_name(b)) for a, b in self._hulls.pairs[colliding]]
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """Certify the straight joint-space motion ``start -> end`` (see the module docstring)."""
-        start = _as_state(start, "start")
-        end = _as_state(end, "end")
+        start = as_state(start, "start")
+        end = as_state(end, "end")
         if not np.all(self.states_free(np.stack([start, end]))):
             return False
         delta = end - start
         sweep = np.abs(delta) @ self._motion_radii  # W_j: link j's motion bound per unit t
-        moving = np.flatnonzero(sweep > 0)
-        if not self._boxes or len(moving) == 0:
+        moving = np.flatnonzero(sweep > 0) if self._boxes else np.zeros(0, dtype=np.int64)
+        pair_sweep = self._pair_motion @ np.abs(delta)  # W_ab: relative motion per unit t
+        moving_pairs = np.flatnonzero(pair_sweep > 0)
+        if len(moving) == 0 and len(moving_pairs) == 0:
             return True
         t = 0.0
         for _ in range(self.max_steps):
             poses = forward_kinematics(start + t * delta)[0]
-            clearance = self._clearances(poses, moving)
-            if clearance[moving].min() <= MIN_CLEARANCE:
+            clearance = self._clearances(poses, moving)[moving]
+            pair_clearance = self._hulls.clearances(poses, EXACT_DISTANCE_BELOW)[moving_pairs]
+            closest = min(clearance.min(initial=np.inf), pair_clearance.min(initial=np.inf))
+            if closest <= MIN_CLEARANCE:
                 return False
-            t += STEP_SAFETY * float(np.min(clearance[moving] / sweep[moving]))
+            advance = min(
+                np.min(clearance / sweep[moving], initial=np.inf),
+                np.min(pair_clearance / pair_sweep[moving_pairs], initial=np.inf),
+            )
+            t += STEP_SAFETY * float(advance)
             if t >= 1.0:
                 return True
         return False
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: `edge_free` for each row pair of ``starts`` and ``ends``."""
-        starts = _as_states(starts, "starts")
-        ends = _as_states(ends, "ends")
+        starts = as_states(starts, "starts")
+        ends = as_states(ends, "ends")
         if starts.shape != ends.shape:
             raise ValueError(f"starts, ends: shapes {starts.shape} and {ends.shape} do not match")
         return np.array([self.edge_free(a, b) for a, b in zip(starts, ends)], dtype=bool)
 
     def path_free(self, path: np.ndarray) -> bool:
         """Certify every edge of the polyline ``path`` (K x 7); one state: that state."""
-        path = _as_states(path, "path")
+        path = as_states(path, "path")
         if len(path) == 0:
             raise ValueError("path: expected at least one state")
         if len(path) == 1:

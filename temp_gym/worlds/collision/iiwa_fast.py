@@ -1,10 +1,12 @@
-"""Fast, conservative collision checking for the KUKA iiwa 14 among axis-aligned boxes.
+"""Fast, conservative collision checking for the KUKA iiwa 14: boxes and self-collision.
 
 The planners' hot loop. One numba kernel does forward kinematics and tests the sphere model
-of `temp_gym.worlds.robots.sphere_fit` (spheres that provably cover each link's collision
-mesh) against the boxes, with early exit. A link's spheres are only tested against a box when
-the link's bounding sphere touches it (the broad phase, SIMD over boxes), and link_0, which never
-moves, is tested once in ``__init__``. Boxes are closed: touching counts as a collision.
+of `temp_gym.worlds.robots.sphere_fit` (spheres that provably cover each link's solid convex
+hull, hence its collision mesh) against the boxes, with early exit, then the link pairs that
+the allowed-collision matrix enables against each other (`iiwa_fast_self`). A link's spheres
+are only tested against a box when the link's bounding sphere touches it (the broad phase, SIMD
+over boxes), and link_0, which never moves, is tested against the boxes once in ``__init__``.
+Boxes are closed: touching counts as a collision.
 
 **Speed.** Sines and cosines are computed a block of states at a time by a vectorized
 polynomial (`temp_gym.worlds.robots.iiwa14.sincos_into`), FK uses 3x4 poses and the URDF's
@@ -12,19 +14,21 @@ signed-permutation joint origins (`joint_step_into`), and the kernels take their
 unpacked and index them whole: tuple unpacking and row views cost atomic reference counts.
 That FK is within `FAST_FK_MARGIN` (10 nm) of the exact one, so every sphere is grown by it.
 
-**Conservative.** Spheres cover the meshes, so a state this checker calls free is free for
-`IiwaExactChecker` too (the tests check it on tens of thousands of states); the converse
-fails on a few percent of states, where only a sphere's bulge touches a box.
+**Conservative.** Spheres cover the meshes (which the exact checker tests against boxes) and
+the padded hulls (which it tests against each other, `iiwa_fast_self` has the proof), so a
+state this checker calls free is free for `IiwaExactChecker` too (the tests check it on tens
+of thousands of states); the converse fails on a few percent of states, where only a sphere's
+bulge touches a box or another link's sphere.
 
-**Self-collision is not checked, by either checker.** The pybullet model the benchmarks
-mirror loads without ``URDF_USE_SELF_COLLISION``, the task definition is about obstacles, and
-the joint limits already keep adjacent links apart. A sphere test of non-adjacent pairs would
-reject folded but legal poses because sphere bulges overlap near the joints, while the
-exact checker would need 21 extra mesh-mesh pairs per state. Leaving it out of both keeps the
-guarantee "fast never calls free what exact calls colliding" trivially true for it.
+**Self-collision.** Only the pairs enabled by `temp_gym.worlds.robots.acm` are tested (adjacent
+pairs and pairs that never come close are not): link_5 - link_7 by a lookup in its joint-space
+table before the kinematics, the base against the forearm and wrist sphere against sphere
+after the boxes, behind a test of the links' bounding spheres whose world centers the box
+broad phase has just computed (`iiwa_fast_self`).
 
-**Invalid states.** A state outside the joint limits, or with a NaN or inf coordinate, is
-not free (no exception); wrongly shaped input raises `ValueError`.
+**Invalid states.** A state outside the bounds or the URDF joint limits (bounds wider than the
+limits are cut to them), or with a NaN or inf coordinate, is not free (no exception); wrongly
+shaped input raises `ValueError`.
 
 **Motion validity (resolution).** An edge is the straight joint-space segment. Rotating joint
 ``i`` by ``dq_i`` moves any point of link ``j`` by at most ``|dq_i| R[i, j]`` (see
@@ -34,7 +38,8 @@ equal steps (``resolution`` = 0.02 m of workspace motion by default) and each of
 ``n + 1`` states, endpoints included, is checked with link ``j``'s spheres grown by
 ``W_j / (2 n)``. Every intermediate pose is within half a step of a checked one, so this
 certifies the whole motion against the sphere model, thin boxes included, rather than sampling
-it. States are checked in bisection order so that blocked edges fail early.
+it; the same grown spheres certify the relative motion of every enabled link pair
+(`iiwa_fast_self`). States are checked in bisection order so that blocked edges fail early.
 """
 
 from __future__ import annotations
@@ -42,227 +47,37 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
 
+from temp_gym.worlds.collision.iiwa_fast_kernels import (
+    colliding_pairs_kernel,
+    edges_free_kernel,
+    sphere_hits_box,
+    states_free_kernel,
+)
+from temp_gym.worlds.collision.iiwa_fast_self import scratch_for
+from temp_gym.worlds.collision.iiwa_inputs import (
+    as_bounds,
+    as_boxes,
+    as_state,
+    as_states,
+    within_joint_limits,
+)
+from temp_gym.worlds.robots.acm import enabled_pairs, link_name
 from temp_gym.worlds.robots.iiwa14 import (
     FAST_FK_MARGIN,
     NUM_JOINTS,
     NUM_LINKS,
-    joint_step_into,
     load_model,
     motion_radii,
     origin_permutations,
-    sincos_into,
+    relative_motion_radii,
 )
+from temp_gym.worlds.robots.pair_tables import load_pair_tables
 from temp_gym.worlds.robots.sphere_fit import load_mesh_radii, load_sphere_model
 
 DEFAULT_RESOLUTION = 0.02
 """Largest workspace displacement (m) of any link point between two checked states."""
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
-    """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
-    gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
-    gy = max(abs(y - box_params[b, 1]) - box_params[b, 4], 0.0)
-    gz = max(abs(z - box_params[b, 2]) - box_params[b, 5], 0.0)
-    return gx * gx + gy * gy + gz * gz <= radius * radius
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _in_bounds(states, i, bounds) -> bool:
-    """Whether ``states[i]`` is within ``bounds`` (indexed whole: row views cost refcounts)."""
-    for k in range(states.shape[1]):
-        # Written so that NaN fails the test.
-        if not (states[i, k] >= bounds[0, k] and states[i, k] <= bounds[1, k]):
-            return False
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _pose_free(sines, cosines, base, perm, sign, shift, centers, radii, link_start,
-               bound_centers, bound_radii, box_params, link_boxes, link_box_count, link_lower,
-               link_upper, inflation, poses) -> bool:  # fmt: skip
-    """Whether the moving links' spheres (grown by ``inflation[j]``) miss every box.
-
-    ``sines[base + i]``, ``cosines[base + i]`` are joint ``i``'s; ``poses`` (8, 3, 4) is
-    scratch whose first entry is the identity. Arrays come unpacked and are indexed whole,
-    never sliced: tuple unpacking and views cost atomic reference counting per call.
-    """
-    for j in range(perm.shape[0]):
-        joint_step_into(poses, j, perm, sign, shift, cosines[base + j], sines[base + j])
-    # Distal links first: they sweep the most space, so collisions are found sooner.
-    for j in range(poses.shape[0] - 1, 0, -1):
-        count = link_box_count[j]
-        grow = inflation[j]
-        c0, c1, c2 = bound_centers[j, 0], bound_centers[j, 1], bound_centers[j, 2]
-        bx = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
-        by = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
-        bz = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
-        bound = bound_radii[j] + grow
-        # Broad phase, branch-free so that LLVM makes it SIMD over the link's candidates.
-        hits = 0
-        for n in range(count):
-            gx = max(max(link_lower[j, 0, n] - bx, bx - link_upper[j, 0, n]), 0.0)
-            gy = max(max(link_lower[j, 1, n] - by, by - link_upper[j, 1, n]), 0.0)
-            gz = max(max(link_lower[j, 2, n] - bz, bz - link_upper[j, 2, n]), 0.0)
-            hits += gx * gx + gy * gy + gz * gz <= bound * bound
-        if hits == 0:
-            continue
-        for n in range(count):
-            b = link_boxes[j, n]
-            if not _sphere_hits_box(bx, by, bz, bound, box_params, b):
-                continue
-            for k in range(link_start[j], link_start[j + 1]):
-                c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
-                x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
-                y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
-                z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
-                if _sphere_hits_box(x, y, z, radii[k] + grow, box_params, b):
-                    return False
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _identity_poses(count):
-    poses = np.zeros((count, 3, 4))
-    for r in range(3):
-        poses[0, r, r] = 1.0
-    return poses
-
-
-_BLOCK = 256
-"""States per block: sines and cosines are computed a block at a time, vectorized."""
-
-
-@numba.njit(cache=True, nogil=True)
-def _states_free(states, bounds, kinematics, spheres, boxes, clearance):
-    perm, sign, shift = kinematics
-    centers, radii, link_start, bound_centers, bound_radii = spheres
-    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
-    num, dim = states.shape
-    out = np.zeros(num, dtype=np.bool_)
-    poses = _identity_poses(dim + 1)
-    inflation = np.full(dim + 1, clearance)
-    flat = states.reshape(-1)
-    sines = np.empty(_BLOCK * dim)
-    cosines = np.empty(_BLOCK * dim)
-    for first in range(0, num, _BLOCK):
-        last = min(first + _BLOCK, num)
-        sincos_into(flat[first * dim : last * dim], sines, cosines)
-        for i in range(first, last):
-            if _in_bounds(states, i, bounds):
-                out[i] = _pose_free(sines, cosines, (i - first) * dim, perm, sign, shift,
-                                    centers, radii, link_start, bound_centers, bound_radii,
-                                    box_params, link_boxes, link_box_count, link_lower,
-                                    link_upper, inflation, poses)  # fmt: skip
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _edge_free(starts, ends, e, bounds, perm, sign, shift, centers, radii, link_start,
-               bound_centers, bound_radii, box_params, link_boxes, link_box_count, link_lower,
-               link_upper, motion, resolution, poses, inflation, q, sines,
-               cosines) -> bool:  # fmt: skip
-    """Whether edge ``starts[e] -> ends[e]`` is free (arrays unpacked, as in `_pose_free`)."""
-    # The configuration space is a box: a segment with both ends in bounds stays in bounds.
-    if not (_in_bounds(starts, e, bounds) and _in_bounds(ends, e, bounds)):
-        return False
-    dim = starts.shape[1]
-    worst = 0.0
-    for j in range(inflation.shape[0]):
-        sweep = 0.0
-        for i in range(dim):
-            sweep += abs(ends[e, i] - starts[e, i]) * motion[i, j]
-        inflation[j] = sweep
-        worst = max(worst, sweep)
-    steps = max(1, int(math.ceil(worst / resolution)))
-    for j in range(inflation.shape[0]):
-        inflation[j] /= 2.0 * steps
-    # Endpoints first, then bisection order: k = stride * odd visits each 0 < k < steps once.
-    order = np.empty(steps + 1, dtype=np.int64)
-    order[0], order[1] = 0, steps
-    count = 2
-    stride = 1
-    while stride < steps:
-        stride *= 2
-    stride //= 2
-    while stride >= 1:
-        for k in range(stride, steps, 2 * stride):
-            order[count] = k
-            count += 1
-        stride //= 2
-    for k in order:
-        t = k / steps
-        for i in range(dim):
-            q[i] = starts[e, i] + t * (ends[e, i] - starts[e, i])
-        sincos_into(q, sines, cosines)
-        if not _pose_free(sines, cosines, 0, perm, sign, shift, centers, radii, link_start,
-                          bound_centers, bound_radii, box_params, link_boxes, link_box_count,
-                          link_lower, link_upper, inflation, poses):  # fmt: skip
-            return False
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _edges_free(starts, ends, bounds, kinematics, spheres, boxes, motion, resolution):
-    perm, sign, shift = kinematics
-    centers, radii, link_start, bound_centers, bound_radii = spheres
-    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
-    dim = starts.shape[1]
-    poses = _identity_poses(dim + 1)
-    inflation = np.empty(dim + 1)
-    q, sines, cosines = np.empty(dim), np.empty(dim), np.empty(dim)
-    out = np.empty(starts.shape[0], dtype=np.bool_)
-    for e in range(starts.shape[0]):
-        out[e] = _edge_free(starts, ends, e, bounds, perm, sign, shift, centers, radii,
-                            link_start, bound_centers, bound_radii, box_params, link_boxes,
-                            link_box_count, link_lower, link_upper, motion, resolution, poses,
-                            inflation, q, sines, cosines)  # fmt: skip
-    return out
-
-
-def _as_boxes(box_lower: np.ndarray, box_upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Validated ``(M, 3)`` float64 box corners."""
-    lower = np.ascontiguousarray(box_lower, dtype=np.float64)
-    upper = np.ascontiguousarray(box_upper, dtype=np.float64)
-    if lower.size == 0 and upper.size == 0:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    if lower.ndim != 2 or lower.shape[1] != 3 or lower.shape != upper.shape:
-        raise ValueError(
-            f"box_lower, box_upper: expected two (M, 3) arrays, got {lower.shape}, {upper.shape}"
-        )
-    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
-        raise ValueError("box_lower, box_upper: contain NaN or inf")
-    if np.any(lower > upper):
-        raise ValueError("box_lower, box_upper: a lower corner is above its upper corner")
-    return lower, upper
-
-
-def _as_bounds(bounds: np.ndarray) -> np.ndarray:
-    bounds = np.ascontiguousarray(bounds, dtype=np.float64)
-    if bounds.shape != (2, NUM_JOINTS):
-        raise ValueError(f"bounds: expected shape (2, {NUM_JOINTS}), got {bounds.shape}")
-    if not np.all(np.isfinite(bounds)) or np.any(bounds[0] > bounds[1]):
-        raise ValueError("bounds: must be finite with lower <= upper")
-    return bounds
-
-
-def _as_states(states: np.ndarray, name: str = "states") -> np.ndarray:
-    states = np.ascontiguousarray(states, dtype=np.float64)
-    if states.ndim == 1:
-        states = states.reshape(1, -1)
-    if states.ndim != 2 or states.shape[1] != NUM_JOINTS:
-        raise ValueError(f"{name}: expected shape (N, {NUM_JOINTS}), got {states.shape}")
-    return states
-
-
-def _as_state(state: np.ndarray, name: str) -> np.ndarray:
-    state = np.ascontiguousarray(state, dtype=np.float64)
-    if state.shape != (NUM_JOINTS,):
-        raise ValueError(f"{name}: expected shape ({NUM_JOINTS},), got {state.shape}")
-    return state
 
 
 def _base_free(box_params: np.ndarray, centers: np.ndarray, radii: np.ndarray) -> bool:
@@ -275,7 +90,7 @@ def _base_free(box_params: np.ndarray, centers: np.ndarray, radii: np.ndarray) -
     suspects = [
         box_params[b]
         for b in range(len(box_params))
-        if any(_sphere_hits_box(*c, r, box_params, b) for c, r in zip(centers, radii))
+        if any(sphere_hits_box(*c, r, box_params, b) for c, r in zip(centers, radii))
     ]
     if not suspects:
         return True
@@ -304,10 +119,14 @@ def _bounding_center(centers: np.ndarray, radii: np.ndarray, iterations: int = 3
 def _robot_geometry():
     """The robot's part of a checker, computed once per process (~40 ms, mostly the bounds).
 
-    Returns ``(model, kinematics, link_spheres, spheres, motion_radii)``: the kinematic model
-    and its origin permutations, the sphere model per link, the kernel's sphere arrays
-    ``(centers, radii, link_start, bound_centers, bound_radii)`` with the radii grown by
-    `FAST_FK_MARGIN`, and the per-joint motion radii of the meshes. Callers copy the arrays.
+    Returns ``(model, kinematics, link_spheres, spheres, motion_radii, self_model)``: the
+    kinematic model and its origin permutations, the sphere model per link, the kernel's sphere
+    arrays ``(centers, radii, link_start, bound_centers, bound_radii)`` with the radii grown by
+    `FAST_FK_MARGIN`, the per-joint motion radii of the meshes, and the self-collision model
+    ``(sphere_pairs, table_pairs, table_grid, table_bounds, table_motion)``: the enabled link
+    pairs tested sphere against sphere, those with a joint-space table, and how fast each
+    tabulated pair's links move relative to each other per radian of each joint
+    (`relative_motion_radii`). Callers copy the arrays.
     """
     model = load_model()
     kinematics = origin_permutations(model.joint_origins)
@@ -326,19 +145,29 @@ def _robot_geometry():
     spheres = (centers, radii + FAST_FK_MARGIN, link_start, bound_centers,
                bound_radii + FAST_FK_MARGIN)  # fmt: skip
     mesh_motion = np.ascontiguousarray(motion_radii(load_mesh_radii()))
-    return model, kinematics, link_spheres, spheres, mesh_motion
+    table_pairs, table_grid, table_bounds = load_pair_tables()
+    pairs = enabled_pairs()
+    tabulated = (pairs[:, None, :] == table_pairs[None, :, :]).all(axis=2).any(axis=1)
+    table_motion = relative_motion_radii(mesh_motion, table_pairs)
+    self_model = (np.ascontiguousarray(pairs[~tabulated]), table_pairs, table_grid, table_bounds,
+                  table_motion)  # fmt: skip
+    return model, kinematics, link_spheres, spheres, mesh_motion, self_model
 
 
 class IiwaSphereChecker:
-    """Fast, conservative iiwa checker: sphere-covered links against axis-aligned boxes.
+    """Fast, conservative iiwa checker: sphere-covered links against boxes and each other.
 
     Args:
-        bounds: ``(2, 7)`` joint limits; states outside are not free.
+        bounds: ``(2, 7)`` joint bounds; states outside them or the URDF joint limits are
+            not free.
         box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
         box_upper: ``(M, 3)`` upper box corners.
         resolution: largest workspace motion (m) of any link point between two checked states
             of an edge; checked states use spheres grown by half of it, so edges are certified
             against the sphere model.
+        self_collision: test the enabled link pairs against each other. Only switched off to
+            measure what self-collision costs (``benchmarks/collision.py``); `make_checker`,
+            the planners and the generators always test it.
 
     Example:
         >>> checker = IiwaSphereChecker(joint_limits(), [[0.5, -1, 0]], [[0.6, 1, 1]])
@@ -352,6 +181,7 @@ class IiwaSphereChecker:
         box_lower: np.ndarray,
         box_upper: np.ndarray,
         resolution: float = DEFAULT_RESOLUTION,
+        self_collision: bool = True,
     ) -> None:
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
             raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
@@ -359,13 +189,17 @@ class IiwaSphereChecker:
             raise ValueError(f"resolution: must be positive, got {resolution}")
         self.dim = NUM_JOINTS
         self.resolution = float(resolution)
-        self._bounds = _as_bounds(bounds)
-        self._boxes = _as_boxes(box_lower, box_upper)
-        model, kinematics, link_spheres, spheres, mesh_motion = _robot_geometry()
+        self._bounds = within_joint_limits(as_bounds(bounds))
+        self._boxes = as_boxes(box_lower, box_upper)
+        model, kinematics, link_spheres, spheres, mesh_motion, self_model = _robot_geometry()
         # Private copies: the cached originals stay as computed whatever a checker does.
         self._kinematics = tuple(array.copy() for array in kinematics)
         self._spheres = tuple(array.copy() for array in spheres)
         self._motion_radii = mesh_motion.copy()
+        self._self_model = tuple(
+            array.copy() if self_collision else array[:0].copy() for array in self_model
+        )
+        self._scratch = scratch_for(self._spheres[2])
         lower, upper = self._boxes
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
         self.base_free = _base_free(box_params, *link_spheres[0])
@@ -397,9 +231,14 @@ class IiwaSphereChecker:
         self._num_boxes = len(box_params)
         self.description = (
             f"iiwa sphere model ({self.num_spheres} spheres), {self._num_boxes} boxes, "
-            f"edge resolution {self.resolution} m"
-            + ("" if self.base_free else ", base link in collision")
+            f"self-collision of {self.num_self_pairs} link pairs, edge resolution "
+            f"{self.resolution} m" + ("" if self.base_free else ", base link in collision")
         )
+
+    @property
+    def num_self_pairs(self) -> int:
+        """Number of link pairs tested for self-collision (spheres and tables)."""
+        return len(self._self_model[0]) + len(self._self_model[1])
 
     @property
     def num_spheres(self) -> int:
@@ -409,11 +248,13 @@ class IiwaSphereChecker:
     def states_free(self, states: np.ndarray, clearance: float = 0.0) -> np.ndarray:
         """Return ``bool[N]``: each state of ``states`` (N x 7) is in bounds and collision-free.
 
-        With ``clearance`` > 0 a state only counts as free when every sphere, grown by that
-        many metres, still misses every box. ``clearance = resolution / 2`` is what task
-        generators ask of a start and a goal: an edge check grows the spheres of its end
-        states by up to ``resolution / 2`` (module docstring), so a state closer to a box than
-        that is free but no edge of planning length can leave it.
+        With ``clearance`` > 0 a state only counts as free when every moving link's spheres,
+        grown by that many metres, still miss every box, and the links of every checked pair
+        keep that much more than their collision gap between them (the base's spheres are not
+        grown: it never moves). ``clearance = resolution / 2`` is what task generators ask of
+        a start and a goal: an edge check grows the spheres of its end states, and a pair's
+        distance, by up to ``resolution / 2`` (module docstring), so a state closer than that
+        to a box, or to itself, is free but no edge of planning length can leave it.
 
         Raises:
             ValueError: ``clearance`` negative, not finite or above ``resolution / 2`` (the
@@ -424,16 +265,30 @@ class IiwaSphereChecker:
                 f"clearance: expected a number in [0, resolution / 2 = {self.resolution / 2}], "
                 f"got {clearance!r}"
             )
-        states = _as_states(states)
+        states = as_states(states)
         if not self.base_free:
             return np.zeros(len(states), dtype=bool)
-        return _states_free(states, self._bounds, self._kinematics, self._spheres, self._boxes,
-                            float(clearance))  # fmt: skip
+        return states_free_kernel(states, self._bounds, self._kinematics, self._spheres,
+                                  self._boxes, self._self_model, float(clearance),
+                                  self._scratch)  # fmt: skip
+
+    def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
+        """The link pairs of ``state`` (7,) whose spheres touch, e.g. ``[("link_5", "link_7")]``.
+
+        Empty when the arm is free of self-collision. Tests the same spheres as `states_free`,
+        so a state that it rejects for self-collision alone names at least one pair here.
+        """
+        state = as_state(state, "state")
+        spheres_hit, tables_hit = colliding_pairs_kernel(state, self._kinematics, self._spheres,
+                                                   self._self_model, self._scratch)  # fmt: skip
+        sphere_pairs, table_pairs = self._self_model[:2]
+        hits = np.concatenate([sphere_pairs[spheres_hit], table_pairs[tables_hit]])
+        return [(link_name(a), link_name(b)) for a, b in sorted(hits.tolist())]
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: whether each joint-space segment ``starts[i] -> ends[i]`` is free."""
-        starts = _as_states(starts, "starts")
-        ends = _as_states(ends, "ends")
+        starts = as_states(starts, "starts")
+        ends = as_states(ends, "ends")
         if starts.shape != ends.shape:
             try:
                 starts, ends = (np.ascontiguousarray(a) for a in np.broadcast_arrays(starts, ends))
@@ -443,18 +298,19 @@ class IiwaSphereChecker:
                 ) from None
         if not self.base_free:
             return np.zeros(len(starts), dtype=bool)
-        return _edges_free(starts, ends, self._bounds, self._kinematics, self._spheres, self._boxes,
-                           self._motion_radii, self.resolution)  # fmt: skip
+        return edges_free_kernel(starts, ends, self._bounds, self._kinematics, self._spheres,
+                                 self._boxes, self._self_model, self._motion_radii,
+                                 self.resolution, self._scratch)  # fmt: skip
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """Whether the straight joint-space motion ``start -> end`` is free, endpoints included."""
-        start = _as_state(start, "start")
-        end = _as_state(end, "end")
+        start = as_state(start, "start")
+        end = as_state(end, "end")
         return bool(self.edges_free(start[None], end[None])[0])
 
     def path_free(self, path: np.ndarray) -> bool:
         """Whether every edge of the polyline ``path`` (K x 7) is free (one state: that state)."""
-        path = _as_states(path, "path")
+        path = as_states(path, "path")
         if len(path) == 0:
             raise ValueError("path: expected at least one state")
         if len(path) == 1:

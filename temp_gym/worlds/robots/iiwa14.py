@@ -366,6 +366,20 @@ def motion_radii(link_radii: np.ndarray) -> np.ndarray:
     return radii
 
 
+def relative_motion_radii(radii: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """``(P, 7)`` bounds on how fast link ``b`` moves relative to link ``a``, per pair ``(a, b)``.
+
+    Entry ``[p, i]`` is ``radii[i, b]`` (`motion_radii`) for the joints between the two links
+    (``a <= i < b``) and 0 for the others: joints before link ``a`` move both links as one
+    rigid body, which changes no distance between them. So along a joint-space segment the
+    distance between the links changes at most by ``|dq| @ result[p]``.
+    """
+    out = np.zeros((len(pairs), radii.shape[0]))
+    for p, (a, b) in enumerate(np.asarray(pairs, dtype=np.int64)):
+        out[p, a:b] = radii[a:b, b]
+    return out
+
+
 __all__ = [
     "NUM_JOINTS",
     "NUM_LINKS",
@@ -382,5 +396,6 @@ __all__ = [
     "load_model",
     "motion_radii",
     "read_stl",
+    "relative_motion_radii",
     "urdf_path",
 ]

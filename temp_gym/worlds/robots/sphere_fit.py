@@ -1,4 +1,4 @@
-"""A few spheres per iiwa link that provably cover the link's collision mesh.
+"""A few spheres per iiwa link that provably cover the link's solid convex hull.
 
 Run ``python -m temp_gym.worlds.robots.sphere_fit`` to regenerate ``iiwa14_spheres.json``
 next to this file; the fast collision checker only loads that JSON (`load_sphere_model`), so
@@ -8,23 +8,30 @@ Meshes are read with the small numpy binary-STL reader in `temp_gym.worlds.robot
 rather than trimesh: the runtime (the exact checker needs the meshes too) then depends on no
 mesh library, and nothing here needs more than vertices and triangles.
 
+What is covered: the *solid* convex hull of each link's collision mesh
+(`temp_gym.worlds.robots.convex_hulls`). It contains the mesh, so the spheres cover the mesh
+that the exact checker tests against boxes, and it is the geometry the exact checker uses for
+self-collision (a hull is a solid, so the cover must be one too: a link inside another's hull
+is a collision).
+
 Why the cover is exact, not sampled:
 
-1. Every triangle is split into four (edge midpoints) until its longest edge is at most
-   ``max_edge``. The small triangles tile the original surface exactly.
-2. Each small triangle is assigned to one sphere, and that sphere's radius is the largest
-   distance from its center to any corner of its assigned triangles.
-3. A ball is convex, so a triangle whose three corners lie in the ball lies in it entirely.
-   Hence every point of every triangle, not just the samples, is inside a sphere of its link.
+1. The solid hull is tiled exactly by tetrahedra, its centroid joined to each face.
+2. A tetrahedron whose four corners lie in one sphere lies in it entirely (a ball is convex).
+   Every tetrahedron that no single sphere holds is bisected at the midpoint of its longest
+   edge (the halves tile it exactly), and so on until its longest edge is at most
+   ``max_edge``; a piece still held by no sphere then grows the sphere that needs the least
+   growth to hold it. So every point of the solid, not just samples, is inside a sphere.
+3. Only the centers come from a fit: every hull face is split into four (edge midpoints)
+   until its longest edge is at most ``max_edge``; area-weighted k-means on the small
+   triangles' centroids, refined by alternating "move each center to its cluster's
+   (approximate) minimal enclosing ball center" and "give each triangle to the sphere whose
+   radius it grows least", places the spheres and sizes them to cover the surface; step 2
+   then makes them cover the inside as well. The best of a few seeded restarts (smallest
+   total sphere volume) is kept.
 
 A margin of ``1e-4`` m is added on top, only to absorb floating-point error (the meshes are
-float32). Subdividing does not change what is covered; it only lets nearby surface go to the
-sphere that covers it most cheaply, which keeps the radii small.
-
-The centers come from area-weighted k-means on the small triangles' centroids, refined by
-alternating "move each center to its cluster's (approximate) minimal enclosing ball center"
-and "give each triangle to the sphere whose radius it grows least"; the best of a few seeded
-restarts (smallest total sphere volume) is kept.
+float32).
 """
 
 from __future__ import annotations
@@ -66,11 +73,55 @@ def _farthest_corner(triangles: np.ndarray, centers: np.ndarray) -> np.ndarray:
 
 def _enclosing_center(points: np.ndarray, iterations: int = 200) -> np.ndarray:
     """Approximate minimal-enclosing-ball center (Badoiu-Clarkson steps toward the farthest)."""
+    points = np.unique(points, axis=0)  # triangles share corners: each counts once
     center = points.mean(axis=0)
     for step in range(1, iterations + 1):
         far = points[np.argmax(((points - center) ** 2).sum(axis=1))]
         center = center + (far - center) / (step + 1)
     return center
+
+
+def _bisect_longest_edge(cells: np.ndarray) -> np.ndarray:
+    """Split tetrahedra ``(T, 4, 3)`` in two at their longest edge's midpoint: ``(2T, 4, 3)``."""
+    first, second = np.array(_TETRA_EDGES).T
+    lengths = np.linalg.norm(cells[:, first] - cells[:, second], axis=2)
+    longest = np.argmax(lengths, axis=1)
+    i, j = first[longest], second[longest]
+    rows = np.arange(len(cells))
+    middle = (cells[rows, i] + cells[rows, j]) / 2
+    low, high = cells.copy(), cells.copy()
+    low[rows, i] = middle  # the half on j's side
+    high[rows, j] = middle  # the half on i's side
+    return np.concatenate([low, high])
+
+
+_TETRA_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def cover_solid(
+    tetrahedra: np.ndarray, centers: np.ndarray, radii: np.ndarray, max_edge: float
+) -> np.ndarray:
+    """Radii, grown where needed, such that the spheres hold every tetrahedron ``(T, 4, 3)``.
+
+    Tetrahedra held by no single sphere are bisected until their longest edge is at most
+    ``max_edge``; a piece that small still held by none grows the sphere that needs the least
+    growth (module docstring, step 2).
+    """
+    radii = radii.astype(np.float64).copy()
+    pending = tetrahedra
+    while len(pending):
+        reach = _farthest_corner(pending, centers)
+        held = np.any(reach <= radii[None], axis=1)
+        pending, reach = pending[~held], reach[~held]
+        first, second = np.array(_TETRA_EDGES).T
+        longest = np.linalg.norm(pending[:, first] - pending[:, second], axis=2).max(axis=1)
+        small = longest <= max_edge
+        if small.any():
+            reach_small = reach[small]
+            cheapest = np.argmin(reach_small - radii[None], axis=1)
+            np.maximum.at(radii, cheapest, reach_small[np.arange(len(cheapest)), cheapest])
+        pending = _bisect_longest_edge(pending[~small])
+    return radii
 
 
 def fit_link(
@@ -81,7 +132,13 @@ def fit_link(
     max_edge: float = MAX_EDGE,
     restarts: int = 4,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Fit ``count`` spheres covering the mesh; returns ``(centers (K, 3), radii (K,))``."""
+    """Fit ``count`` spheres covering a solid convex hull ``(vertices, faces)``.
+
+    Returns ``(centers (K, 3), radii (K,))``, the margin included.
+    """
+    from temp_gym.worlds.robots.convex_hulls import hull_tetrahedra
+
+    tetrahedra = hull_tetrahedra(vertices, faces)
     triangles = subdivide(vertices, faces, max_edge)
     centroids = triangles.mean(axis=1)
     areas = 0.5 * np.linalg.norm(
@@ -116,7 +173,8 @@ def fit_link(
             [reach[labels == k, k].max() if np.any(labels == k) else 0.0 for k in range(count)]
         )
         used = radii > 0
-        centers, radii = centers[used], radii[used] + MARGIN
+        centers = centers[used]
+        radii = cover_solid(tetrahedra, centers, radii[used], max_edge) + MARGIN
         volume = float((radii**3).sum())
         if best is None or volume < best[0]:
             best = (volume, centers.copy(), radii.copy())
@@ -125,12 +183,13 @@ def fit_link(
 
 
 def fit_model(seed: int = 0) -> dict:
-    """Fit every link and return the JSON-ready sphere model."""
-    from temp_gym.worlds.robots.iiwa14 import link_meshes, load_model
+    """Fit every link's solid hull and return the JSON-ready sphere model."""
+    from temp_gym.worlds.robots.convex_hulls import link_hulls
+    from temp_gym.worlds.robots.iiwa14 import load_model
 
     rng = np.random.default_rng(seed)
     links = []
-    for j, (vertices, faces) in enumerate(link_meshes()):
+    for j, (vertices, faces) in enumerate(link_hulls()):
         centers, radii = fit_link(vertices, faces, SPHERES_PER_LINK[j], rng)
         links.append(
             {
@@ -144,7 +203,10 @@ def fit_model(seed: int = 0) -> dict:
     return {
         "robot": "kuka_iiwa14",
         "frame": "link frame (URDF joint frame); meters",
-        "method": f"exact triangle cover, max_edge={MAX_EDGE}, margin={MARGIN}, seed={seed}",
+        "method": (
+            f"exact cover of the solid convex hull, max_edge={MAX_EDGE}, margin={MARGIN}, "
+            f"seed={seed}"
+        ),
         "links": links,
     }
 
