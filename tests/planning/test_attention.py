@@ -45,7 +45,8 @@ def _assert_same_tree(a, b):
 @pytest.mark.parametrize(
     ("robot", "policy_kind", "patience"),
     [("point2d", "shipped", 0), ("point2d", "chunk3", 0), ("point3d", "shipped", 60),
-     ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0)],
+     ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0),
+     ("kuka_iiwa14", "shipped", 0)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)

@@ -49,9 +49,12 @@ import math
 
 import numpy as np
 
+from temp_gym.worlds.collision.compiled import register_motion_kernel
 from temp_gym.worlds.collision.iiwa_fast_kernels import (
+    _identity_poses,
     colliding_pairs_kernel,
     edges_free_kernel,
+    motion_free_kernel,
     sphere_hits_box,
     states_free_kernel,
 )
@@ -284,6 +287,24 @@ class IiwaSphereChecker:
         sphere_pairs, table_pairs = self._self_model[:2]
         hits = np.concatenate([sphere_pairs[spheres_hit], table_pairs[tables_hit]])
         return [(link_name(a), link_name(b)) for a, b in sorted(hits.tolist())]
+
+    def compiled_context(self) -> tuple:
+        """This checker for `temp_gym.worlds.collision.compiled.motion_free` (compiled loops).
+
+        The same arrays `edges_free` uses, plus private scratch space: one context per loop.
+        """
+        dim = self.dim
+        work = (
+            np.empty((1, dim)), np.empty((1, dim)), _identity_poses(dim + 1),
+            self._spheres[3].copy(), np.empty(dim + 1), np.empty(len(self._self_model[1])),
+            np.empty(dim), np.empty(dim), np.empty(dim),
+        )  # fmt: skip
+        settings = np.array([1.0 if self.base_free else 0.0, self.resolution])
+        context = (settings, self._bounds, self._kinematics, self._spheres, self._boxes,
+                   self._self_model, self._motion_radii, scratch_for(self._spheres[2]),
+                   work)  # fmt: skip
+        register_motion_kernel(context, motion_free_kernel)
+        return context
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: whether each joint-space segment ``starts[i] -> ends[i]`` is free."""

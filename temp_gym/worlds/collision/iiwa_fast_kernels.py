@@ -233,6 +233,31 @@ def edges_free_kernel(starts, ends, bounds, kinematics, spheres, boxes, self_mod
 
 
 @numba.njit(cache=True, nogil=True)
+def motion_free_kernel(context, start, end) -> bool:
+    """One motion ``start -> end`` (float64 ``(7,)``) by `_edge_free`, for compiled callers.
+
+    ``context`` is `IiwaSphereChecker.compiled_context`: the checker's arrays plus the scratch
+    space `edges_free_kernel` would allocate, so a call allocates nothing.
+    """
+    settings, bounds, kinematics, spheres, boxes, self_model, motion, scratch, work = context
+    if settings[0] == 0.0:  # the base link collides: nothing is free
+        return False
+    perm, sign, shift = kinematics
+    centers, radii, link_start, bound_centers, bound_radii = spheres
+    box_params, link_boxes, link_box_count, link_lower, link_upper = boxes
+    sphere_pairs, table_pairs, table_grid, table_bounds, table_motion = self_model
+    starts, ends, poses, link_bounds, inflation, table_growth, q, sines, cosines = work
+    for i in range(start.shape[0]):
+        starts[0, i] = start[i]
+        ends[0, i] = end[i]
+    return _edge_free(starts, ends, 0, bounds, perm, sign, shift, centers, radii, link_start,
+                      bound_centers, bound_radii, box_params, link_boxes, link_box_count,
+                      link_lower, link_upper, sphere_pairs, table_grid, table_bounds,
+                      table_motion, motion, settings[1], poses, link_bounds, inflation,
+                      table_growth, q, sines, cosines, scratch)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
 def colliding_pairs_kernel(state, kinematics, spheres, self_model, scratch):
     """``(sphere pairs hit, table pairs hit)``: which pairs of one state ``(7,)`` collide."""
     perm, sign, shift = kinematics
@@ -257,4 +282,10 @@ def colliding_pairs_kernel(state, kinematics, spheres, self_model, scratch):
     return spheres_hit, tables_hit
 
 
-__all__ = ["colliding_pairs_kernel", "edges_free_kernel", "sphere_hits_box", "states_free_kernel"]
+__all__ = [
+    "colliding_pairs_kernel",
+    "edges_free_kernel",
+    "motion_free_kernel",
+    "sphere_hits_box",
+    "states_free_kernel",
+]
