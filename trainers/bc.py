@@ -189,6 +189,10 @@ def train(
             if seconds and state["epoch"] < max_epochs and not state["lr_floor"]:
                 report(epoch_estimate(max_epochs - state["epoch"], seconds))
     else:
+        init_from = train_config.get("init_from")
+        if init_from:  # fine-tuning (e.g. after a correction round): start from these weights
+            source, _ = load_checkpoint(init_from, robot=model.robot)
+            model.load_state_dict(source.state_dict())
         logger.hparams(config)
     if dist.world > 1:
         from torch.nn.parallel import DistributedDataParallel

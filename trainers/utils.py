@@ -105,14 +105,40 @@ class SplitData:
     next ``chunk`` nodes (``targets``, ``target_mask``: `chunk_rows`) for a chunked MPT.
     """
 
-    def __init__(self, buffer: Any, workspaces: TensorDict, chunk: int = 1) -> None:
-        self.samples = buffer.storage[: len(buffer)]
-        self.chunk_rows, self.chunk_mask = chunk_rows(
-            torch.as_tensor(self.samples["task_id"]).reshape(-1).long(),
-            torch.as_tensor(self.samples["step"]).reshape(-1).long(),
+    def __init__(
+        self,
+        buffer: Any,
+        workspaces: TensorDict,
+        chunk: int = 1,
+        corrections: list[dict[str, np.ndarray]] = (),
+    ) -> None:
+        samples = buffer.storage[: len(buffer)]
+        rows, mask = chunk_rows(
+            torch.as_tensor(samples["task_id"]).reshape(-1).long(),
+            torch.as_tensor(samples["step"]).reshape(-1).long(),
             chunk,
         )
-        self.targets = torch.as_tensor(self.samples["target"]).to(torch.float32).clone()
+        targets = torch.as_tensor(samples["target"]).to(torch.float32)
+        self.chunk_targets = targets[rows]  # (N, chunk, d): the expert's next nodes
+        self.chunk_mask = mask
+        if corrections:  # on-policy samples (temp_gym.data.correction) carry their targets
+            keys = [key for key in BATCH_KEYS if key != "target"] + ["workspace_id"]
+            parts = [samples.select(*keys).to_dict()]
+            targets, masks = [self.chunk_targets], [mask]
+            for columns in corrections:
+                if columns["targets"].shape[1] < chunk:
+                    raise ValueError(
+                        f"corrections: labelled with {columns['targets'].shape[1]} targets, "
+                        f"the model predicts {chunk}"
+                    )
+                parts.append({key: torch.from_numpy(np.asarray(columns[key])) for key in keys})
+                targets.append(torch.from_numpy(np.asarray(columns["targets"][:, :chunk])))
+                masks.append(torch.from_numpy(np.asarray(columns["target_mask"][:, :chunk])))
+            merged = {key: torch.cat([part[key] for part in parts]) for key in keys}
+            samples = TensorDict(merged, batch_size=[len(merged["path"])])
+            self.chunk_targets = torch.cat(targets).to(torch.float32)
+            self.chunk_mask = torch.cat(masks)
+        self.samples = samples
         self.lengths = torch.as_tensor(self.samples["path_length"]).reshape(-1).clone()
         ids = workspaces["workspace_id"].long()
         self.occupancy = workspaces["occupancy"].to(torch.float32).clone()
@@ -129,11 +155,14 @@ class SplitData:
         if bool((rows < 0).any()):
             raise ValueError("a sample refers to a workspace_id missing from the table")
         unique, inverse = torch.unique(rows, return_inverse=True)
-        batch = {key: torch.as_tensor(part[key]).to(device) for key in BATCH_KEYS}
+        batch = {
+            key: torch.as_tensor(part[key]).to(device) for key in BATCH_KEYS if key != "target"
+        }
         batch["occupancy"] = self.occupancy[unique].to(device)
         batch["occupancy_index"] = inverse.to(device)
-        batch["targets"] = self.targets[self.chunk_rows[index]].to(device)
+        batch["targets"] = self.chunk_targets[index].to(device)
         batch["target_mask"] = self.chunk_mask[index].to(device)
+        batch["target"] = batch["targets"][:, 0]
         return batch
 
 
@@ -200,10 +229,12 @@ def perturb_path(
 def make_replay_buffer(config: dict[str, Any], split: str) -> SplitData:
     """Load ``split`` (``train`` or ``val``) as `SplitData`, with targets for the model's chunk."""
     from temp_gym.data import load_split
+    from temp_gym.data.correction import load_corrections
 
     buffer, workspaces = load_split(config["data"]["dir"], split)
     chunk = int((config.get("model") or {}).get("chunk", 1))
-    return SplitData(buffer, workspaces, chunk)
+    rounds = (config["data"].get("corrections") or []) if split == "train" else []
+    return SplitData(buffer, workspaces, chunk, [load_corrections(path) for path in rounds])
 
 
 def iterate_batches(

@@ -13,9 +13,24 @@ the goal from any state, shortcut, resampled at the steering step like the demon
 path so far, normalized, exactly as the planner handed it over) and, as targets, the expert's
 next ``chunk`` nodes from the path's last node, with a mask where the expert's path ends
 sooner.
+
+**Rounds on disk.** `collect_corrections` runs one round over the training workspaces of a
+config: per workspace (a unit, written atomically to ``{out}/units/{workspace:03d}.npz`` and
+skipped on a rerun, so a killed round resumes), ``tasks_per_workspace`` new tasks drawn from
+``SeedSequence([data.seed, CORRECTION_CODE, round, workspace, task])`` (never the
+demonstrations' tasks), planned with the policy and labelled. When every unit is there, the
+samples are assembled, in workspace and task order, into one table of columns
+(`temp_gym.data.tables`) listed with sizes and SHA-256 in ``correction_card.json``; the card
+also records the checkpoint's digest and the settings. `load_corrections` reads a round back,
+verified, and the trainer adds the rounds listed in ``data.corrections`` to the training
+split (`trainers/utils.make_replay_buffer`).
 """
 
 from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -126,3 +141,184 @@ def correction_samples(
     radius = normalized_goal_radius(problem.goal_radius, problem.bounds)
     out["goal_radius"] = np.full((count, 1), radius, dtype=np.float32)
     return out
+
+
+CORRECTION_CODE = 7
+"""Seed-sequence code of correction tasks (the demonstrations use their split's code)."""
+CARD_NAME = "correction_card.json"
+TABLE = "samples"
+"""The table of a round: sample columns (`temp_gym.data.format.SAMPLE_KEYS` plus ``targets``
+and ``target_mask``)."""
+
+
+def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.ndarray]:
+    """Plan and label ``settings["tasks_per_workspace"]`` new tasks of one training workspace."""
+    from temp_gym.models.registry import policy_from_checkpoint
+    from temp_gym.worlds.generators import generate_task
+    from temp_gym.worlds.reference import ReferencePlanner
+    from temp_gym.worlds.splits import split_workspace
+
+    started = time.perf_counter()
+    space = split_workspace(settings["robot"], "train", workspace)
+    reference = ReferencePlanner(space)
+    policy = policy_from_checkpoint(
+        settings["checkpoint"], settings["robot"], noise_std=settings["noise_std"],
+        horizon=settings["horizon"],
+    )  # fmt: skip
+    parts = []
+    count = settings["tasks_per_workspace"]
+    for task in range(count):
+        sequence = np.random.SeedSequence(
+            [settings["seed"], CORRECTION_CODE, settings["round"], workspace, task]
+        )
+        task_sequence, plan_sequence = sequence.spawn(2)
+        try:
+            problem = generate_task(space, np.random.default_rng(task_sequence), "any")
+        except RuntimeError:
+            continue
+        plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
+        samples = correction_samples(
+            policy, problem, GoalField(reference, problem.goal), plan_seed,
+            settings["max_nodes"], settings["samples_per_task"], settings["chunk"],
+        )  # fmt: skip
+        rows = len(samples["step"])
+        samples["workspace_id"] = np.full(rows, workspace, dtype=np.int64)
+        samples["task_id"] = np.full(rows, workspace * count + task, dtype=np.int64)
+        parts.append(samples)
+    unit = {key: np.concatenate([part[key] for part in parts]) for key in parts[0]} if parts else {}
+    unit["unit_time"] = np.array(time.perf_counter() - started)
+    return unit
+
+
+def _unit_job(job: tuple[dict[str, Any], int]) -> dict[str, np.ndarray]:
+    return correction_unit(*job)
+
+
+def correction_settings(
+    config: dict[str, Any],
+    checkpoint: str | Path,
+    round_index: int,
+    tasks_per_workspace: int,
+    samples_per_task: int,
+    max_nodes: int,
+) -> dict[str, Any]:
+    """The JSON-able settings of one round (the card records them; a rerun must match)."""
+    from temp_gym.data.dataset import data_settings
+    from temp_gym.models.registry import load_cached
+
+    loaded = load_cached(checkpoint, config["env"]["robot"])
+    planner = loaded.meta.get("planner", {})
+    eval_config = config.get("eval") or {}
+    noise = eval_config.get("noise_std")
+    return {
+        "robot": config["env"]["robot"],
+        "seed": int(config["data"].get("seed", 0)),
+        "round": int(round_index),
+        "workspaces": data_settings(config)["workspaces"]["train"],
+        "tasks_per_workspace": int(tasks_per_workspace),
+        "samples_per_task": int(samples_per_task),
+        "max_nodes": int(max_nodes),
+        "chunk": int(loaded.core.model.mpt.chunk),
+        "horizon": planner.get("horizon"),
+        "noise_std": float(planner.get("noise_std", noise or 0.0) if noise is None else noise),
+        "checkpoint": str(Path(checkpoint).resolve()),
+        "checkpoint_digest": loaded.digest,
+    }
+
+
+def collect_corrections(
+    settings: dict[str, Any], out_dir: str | Path, workers: int = 1, progress: bool = True
+) -> Path:
+    """Run (or finish) one correction round into ``out_dir``; return it (module docstring).
+
+    Raises:
+        temp_gym.config.ConfigError: ``out_dir`` holds a round made with other settings.
+        temp_gym.files.LockedError: another run holds ``out_dir``.
+    """
+    from tqdm import tqdm
+
+    from temp_gym.config import ConfigError
+    from temp_gym.data.generate import write_unit
+    from temp_gym.data.tables import close_table, create_table, file_manifest
+    from temp_gym.distributed import map_units
+    from temp_gym.files import (
+        DirectoryLock,
+        read_json,
+        remove_leftovers,
+        write_json_atomic,
+    )
+
+    root = Path(out_dir)
+    units = root / "units"
+    units.mkdir(parents=True, exist_ok=True)
+    lock = DirectoryLock(root, "collecting corrections")
+    lock.acquire()
+    try:
+        settings_path = root / "settings.json"
+        if settings_path.is_file():
+            stored = read_json(settings_path, "delete the round directory and rerun")
+            if stored != settings:
+                changed = sorted(k for k in stored.keys() | settings.keys()
+                                 if stored.get(k) != settings.get(k))  # fmt: skip
+                raise ConfigError(f"{root} holds a round made with other settings ({changed})")
+        else:
+            write_json_atomic(settings_path, settings)
+        if (root / CARD_NAME).is_file():
+            return root
+        remove_leftovers(units)
+        paths = [units / f"{w:03d}.npz" for w in range(settings["workspaces"])]
+        jobs = [(settings, w) for w, path in enumerate(paths) if not path.is_file()]
+        done = len(paths) - len(jobs)
+        with tqdm(total=len(paths), initial=done, desc="corrections", unit="workspace",
+                  disable=not progress) as bar:  # fmt: skip
+            for index, arrays in map_units(_unit_job, jobs, "local", workers):
+                write_unit(paths[jobs[index][1]], arrays)
+                bar.update()
+        parts = [_read_unit(path) for path in paths]
+        parts = [part for part in parts if len(part.get("step", ())) > 0]
+        total = sum(len(part["step"]) for part in parts)
+        columns = {
+            key: (value.dtype, (total, *value.shape[1:]))
+            for key, value in parts[0].items()
+            if key != "unit_time"
+        }
+        table = root / TABLE
+        arrays = create_table(table, columns)
+        row = 0
+        for part in parts:
+            rows = len(part["step"])
+            for key in columns:
+                arrays[key][row : row + rows] = part[key]
+            row += rows
+        close_table(table, arrays)
+        card = {
+            "settings": settings,
+            "samples": total,
+            "unit_time_s": float(sum(float(part["unit_time"]) for part in parts)),
+            "files": file_manifest(root, [table]),
+        }
+        write_json_atomic(root / CARD_NAME, card)
+    finally:
+        lock.release()
+    return root
+
+
+def _read_unit(path: Path) -> dict[str, np.ndarray]:
+    from temp_gym.files import StoredFileError
+
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            return {key: stored[key] for key in stored.files}
+    except (OSError, ValueError, EOFError) as error:
+        raise StoredFileError(path, f"damaged ({error})", "delete it and rerun") from None
+
+
+def load_corrections(directory: str | Path) -> dict[str, np.ndarray]:
+    """The verified sample columns of a finished round (memory-mapped, never unpickled)."""
+    from temp_gym.data.tables import read_table, verify_table
+    from temp_gym.files import read_json
+
+    root = Path(directory)
+    card = read_json(root / CARD_NAME, f"no finished correction round in {root}: rerun it")
+    verify_table(root, TABLE, card["files"])
+    return read_table(root / TABLE)

@@ -37,7 +37,7 @@ from temp_gym.problem import Problem
 from temp_gym.worlds.generators import DEFAULT_GOAL_RADIUS, POINT_WORLD_SIZE
 
 EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples" / "ood"
-WORLD_DIRS = {"point2d": "2d", "point3d": "3d"}
+WORLD_DIRS = {"point2d": "2d", "point3d": "3d", "kuka_iiwa14": "7d"}
 """Robot -> folder of its family under `EXAMPLES_DIR`."""
 WALL = 0.25
 """Half thickness of a wall (world units): half a steering step."""
@@ -198,6 +198,124 @@ def _long_detour_3d() -> Problem:
                     [2, 10, 8], [2, 10, 12])  # fmt: skip
 
 
+# ---- 7D (the iiwa) ----------------------------------------------------------------------------
+FLOOR = _box([-1.5, -1.5, -0.11], [1.5, 1.5, -0.01])
+"""The generated worlds' floor slab, kept so that only the furniture differs."""
+PLATE = 0.01
+"""Half thickness of a plate (m)."""
+
+
+def _iiwa_problem(boxes: list[dict], start_near, goal_near, seed: int) -> Problem:
+    """A task in a fixed iiwa scene: start and goal with the end effector in given regions.
+
+    ``start_near`` and ``goal_near`` are predicates on the end effector's position (link_7's
+    origin). Configurations are drawn from a fixed seed; a pair is kept when both are free
+    with the generators' clearance, the straight motion between them is blocked, and Informed
+    RRT* (seed 0, `FEASIBILITY_NODES` nodes) connects them, so the task is known to be
+    solvable. Deterministic: the same scene and seed give the same task.
+    """
+    from temp_gym.planning.plan import plan
+    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+    from temp_gym.worlds.robots.iiwa14 import forward_kinematics, joint_limits
+
+    limits = joint_limits()
+    lower = np.array([np.subtract(b["center"], b["half_extents"]) for b in boxes])
+    upper = np.array([np.add(b["center"], b["half_extents"]) for b in boxes])
+    checker = IiwaSphereChecker(limits, lower, upper)
+    rng = np.random.default_rng(seed)
+    candidates: dict[str, list[np.ndarray]] = {"start": [], "goal": []}
+    for _ in range(400):
+        states = rng.uniform(limits[0], limits[1], size=(512, 7))
+        free = checker.states_free(states, checker.resolution / 2)
+        effector = forward_kinematics(states)[:, -1, :3, 3]
+        for name, near in (("start", start_near), ("goal", goal_near)):
+            hits = np.flatnonzero(free & np.array([bool(near(p)) for p in effector]))
+            candidates[name].extend(states[hits[:4]])
+        pairs = min(len(candidates["start"]), len(candidates["goal"]))
+        for start, goal in zip(candidates["start"][:pairs], candidates["goal"][:pairs]):
+            if checker.edge_free(start, goal):
+                continue
+            problem = Problem.from_dict(
+                {
+                    "robot": "kuka_iiwa14",
+                    "obstacles": boxes,
+                    "start": start.tolist(),
+                    "goal": goal.tolist(),
+                    "goal_radius": DEFAULT_GOAL_RADIUS["kuka_iiwa14"],
+                }
+            )
+            result = plan(problem, planner="informed_rrt_star", seed=0,
+                          max_nodes=FEASIBILITY_NODES, stop_at_first=True)  # fmt: skip
+            if result.success:
+                return problem
+        candidates = {name: found[pairs:] for name, found in candidates.items()}
+    raise RuntimeError("no solvable start and goal found for this scene")
+
+
+FEASIBILITY_NODES = 5_000
+"""Node budget of the Informed RRT* run that shows a 7D task is solvable."""
+
+
+def _window_7d() -> Problem:
+    """A wide wall in front of the robot with a 50 x 50 cm window; the goal reaches through."""
+    x, w = 0.55, PLATE
+    boxes = [
+        FLOOR,
+        _box([x - w, -0.9, -0.01], [x + w, -0.25, 1.2]),
+        _box([x - w, 0.25, -0.01], [x + w, 0.9, 1.2]),
+        _box([x - w, -0.25, -0.01], [x + w, 0.25, 0.3]),
+        _box([x - w, -0.25, 0.8], [x + w, 0.25, 1.2]),
+    ]
+    return _iiwa_problem(boxes, lambda p: p[0] < -0.2,
+                         lambda p: p[0] > x + 0.05 and abs(p[1]) < 0.2 and 0.35 < p[2] < 0.75,
+                         seed=1)  # fmt: skip
+
+
+def _low_ceiling_7d() -> Problem:
+    """A ceiling over the whole reach at 0.85 m: the arm must stay folded to swing around."""
+    boxes = [FLOOR, _box([-1.2, -1.2, 0.85], [1.2, 1.2, 0.87])]
+    return _iiwa_problem(boxes, lambda p: p[0] > 0.4, lambda p: p[0] < -0.4, seed=2)
+
+
+def _slot_7d() -> Problem:
+    """Two tall plates 30 cm apart beside the robot; the goal has the hand inside the slot."""
+    boxes = [
+        FLOOR,
+        _box([0.25, 0.4 - PLATE, -0.01], [0.9, 0.4 + PLATE, 1.0]),
+        _box([0.25, 0.7 - PLATE, -0.01], [0.9, 0.7 + PLATE, 1.0]),
+    ]
+    return _iiwa_problem(boxes, lambda p: p[1] < -0.3,
+                         lambda p: 0.45 < p[1] < 0.65 and p[0] > 0.3, seed=3)  # fmt: skip
+
+
+def _cubby_7d() -> Problem:
+    """A closed box open towards the robot, on a stand behind it; the goal is inside."""
+    x0, x1, y0, y1, z0, z1 = -0.95, -0.5, -0.25, 0.25, 0.3, 0.75
+    boxes = [
+        FLOOR,
+        _box([x0, y0, z0 - 2 * PLATE], [x1, y1, z0]),  # floor of the cubby
+        _box([x0, y0, z1], [x1, y1, z1 + 2 * PLATE]),  # top
+        _box([x0, y0 - 2 * PLATE, z0], [x1, y0, z1]),  # sides
+        _box([x0, y1, z0], [x1, y1 + 2 * PLATE, z1]),
+        _box([x0 - 2 * PLATE, y0, z0], [x0, y1, z1]),  # back
+        _box([-0.85, -0.2, -0.01], [-0.6, 0.2, z0 - 2 * PLATE]),  # stand
+    ]
+    return _iiwa_problem(boxes, lambda p: p[0] > 0.3,
+                         lambda p: x0 + 0.05 < p[0] < x1 and y0 + 0.05 < p[1] < y1 - 0.05
+                         and z0 + 0.05 < p[2] < z1 - 0.05, seed=4)  # fmt: skip
+
+
+def _pillar_ring_7d() -> Problem:
+    """Eight pillars in a ring around the robot: many narrow gaps."""
+    boxes = [FLOOR]
+    for k in range(8):
+        angle = 2 * np.pi * k / 8 + np.pi / 8
+        x, y = 0.55 * np.cos(angle), 0.55 * np.sin(angle)
+        boxes.append(_box([x - 0.05, y - 0.05, -0.01], [x + 0.05, y + 0.05, 1.1]))
+    return _iiwa_problem(boxes, lambda p: np.hypot(p[0], p[1]) > 0.7 and p[0] > 0.3,
+                         lambda p: np.hypot(p[0], p[1]) > 0.7 and p[0] < -0.3, seed=5)  # fmt: skip
+
+
 BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
     "point2d": {
         "bug_trap": lambda: _bug_trap_2d("down"),
@@ -217,6 +335,13 @@ BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
         "floors": _floors_3d,
         "pillars": _pillars_3d,
         "long_detour": _long_detour_3d,
+    },
+    "kuka_iiwa14": {
+        "window": _window_7d,
+        "low_ceiling": _low_ceiling_7d,
+        "slot": _slot_7d,
+        "cubby": _cubby_7d,
+        "pillar_ring": _pillar_ring_7d,
     },
 }
 """Robot -> name -> builder of each problem of the family."""

@@ -1,0 +1,137 @@
+"""On-policy correction: the lattice expert's labels, rounds on disk, and training on them."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from temp_gym import Problem
+from temp_gym.data.correction import (
+    CARD_NAME,
+    collect_corrections,
+    correction_samples,
+    correction_settings,
+    expert_next_nodes,
+    load_corrections,
+)
+from temp_gym.files import StoredFileError
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.temp import TEMPModel
+from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.normalization import denormalize
+from temp_gym.worlds.reference import GoalField, ReferencePlanner
+from temp_gym.worlds.workspace import Workspace
+
+ROOT = Path(__file__).resolve().parents[2]
+SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 4}
+
+
+def _field(problem: Problem) -> GoalField:
+    return GoalField(ReferencePlanner(Workspace.of(problem)), problem.goal)
+
+
+def test_the_expert_walks_the_shortest_path_a_step_at_a_time(wall):
+    problem = Problem.from_dict(wall)
+    field = _field(problem)
+    path = field.path(problem.start)
+    assert certify_path(problem, path)
+    reference = ReferencePlanner(Workspace.of(problem)).solve(problem.start, problem.goal)
+    cost = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
+    assert cost == pytest.approx(reference.cost, rel=0.02)
+    nodes, mask = expert_next_nodes(field, problem.start, 1.0, 3)
+    assert mask.all()
+    steps = np.linalg.norm(np.diff(np.vstack([problem.start, nodes]), axis=0), axis=1)
+    assert np.all(steps <= 1.0 + 1e-9) and np.all(steps > 0.5)
+    # Next to the goal the expert's path ends sooner: the rest is masked.
+    near_goal = problem.goal - np.array([1.5, 0.0])
+    nodes, mask = expert_next_nodes(field, near_goal, 1.0, 4)
+    assert mask.tolist() == [True, True, False, False]
+    np.testing.assert_array_equal(nodes[1], problem.goal)
+    np.testing.assert_array_equal(nodes[2:], nodes[1:2].repeat(2, 0))
+
+
+def test_samples_hold_the_policys_own_inputs_and_the_experts_targets(wall):
+    problem = Problem.from_dict(wall)
+    torch.manual_seed(0)
+    policy = TEMPPolicy(TEMPModel("point2d", 8, 16, eise_hidden=16, chunk=2, **SMALL))
+    samples = correction_samples(policy, problem, _field(problem), seed=0, max_nodes=200,
+                                 max_samples=30, chunk=2)  # fmt: skip
+    count = len(samples["step"])
+    assert 0 < count <= 30
+    assert samples["targets"].shape == (count, 2, 2) and samples["target_mask"][:, 0].all()
+    np.testing.assert_array_equal(samples["target"], samples["targets"][:, 0])
+    for path, length, target in zip(samples["path"], samples["path_length"][:, 0],
+                                    samples["targets"]):  # fmt: skip
+        state = denormalize(path[length - 1], problem.bounds)
+        step = np.linalg.norm(denormalize(target[0], problem.bounds) - state)
+        assert 0 < step <= 1.0 + 1e-4  # the expert's next node, one step on
+        assert np.all(path[length:] == 0)  # padding as the planner hands it over
+
+
+@pytest.fixture
+def tiny_round(tmp_path):
+    """A tiny config, a small random chunked checkpoint and a round's settings."""
+    from temp_gym.config import load_config
+
+    config = load_config(ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path / 'data'}"])
+    config["data"]["workspaces"]["train"] = 2
+    torch.manual_seed(0)
+    env = config["env"]
+    model = TEMPModel("point2d", env["encoding_resolution"], env["max_path_length"],
+                      eise_hidden=16, chunk=2, **SMALL)  # fmt: skip
+    checkpoint = tmp_path / "policy.pt"
+    model.save(checkpoint)
+    settings = correction_settings(config, checkpoint, 1, tasks_per_workspace=2,
+                                   samples_per_task=20, max_nodes=150)  # fmt: skip
+    return config, settings, tmp_path / "round1"
+
+
+def test_a_round_resumes_and_is_verified_on_load(tiny_round):
+    _, settings, out = tiny_round
+    collect_corrections(settings, out, progress=False)
+    columns = load_corrections(out)
+    assert columns["targets"].shape[1:] == (2, 2) and len(columns["step"]) > 0
+    assert set(np.unique(columns["workspace_id"])) <= {0, 1}
+    # A killed round: the card and one unit gone; the rerun redoes that unit alone, the same.
+    first = dict(columns)
+    (out / CARD_NAME).unlink()
+    (out / "units" / "001.npz").unlink()
+    collect_corrections(settings, out, progress=False)
+    again = load_corrections(out)
+    for key, value in first.items():
+        np.testing.assert_array_equal(again[key], value)
+    # Other settings never mix into a round; a damaged column is refused by name.
+    with pytest.raises(ValueError, match="other settings"):
+        collect_corrections({**settings, "max_nodes": 99}, out, progress=False)
+    target = out / "samples" / "targets.npy"
+    data = bytearray(target.read_bytes())
+    data[-1] ^= 0xFF
+    target.write_bytes(bytes(data))
+    with pytest.raises(StoredFileError, match="targets.npy"):
+        load_corrections(out)
+
+
+def test_training_batches_mix_demonstrations_and_corrections(tiny_round):
+    config, settings, out = tiny_round
+    sys.path.insert(0, str(ROOT / "trainers"))
+    import utils
+
+    from temp_gym.data import generate_dataset, load_split
+
+    config["model"] = {**config.get("model", {}), "chunk": 2}
+    generate_dataset(config, workers=1, progress=False)
+    collect_corrections(settings, out, progress=False)
+    buffer, workspaces = load_split(config["data"]["dir"], "train")
+    corrections = load_corrections(out)
+    data = utils.SplitData(buffer, workspaces, 2, [corrections])
+    demonstrations = len(buffer)
+    assert len(data) == demonstrations + len(corrections["step"])
+    index = torch.arange(demonstrations, len(data))
+    batch = data.batch(index, torch.device("cpu"))
+    np.testing.assert_array_equal(batch["targets"].numpy(), corrections["targets"])
+    np.testing.assert_array_equal(batch["path"].numpy(), corrections["path"])
+    np.testing.assert_array_equal(batch["target"].numpy(), corrections["targets"][:, 0])
+    with pytest.raises(ValueError, match="labelled with 2 targets"):
+        utils.SplitData(buffer, workspaces, 3, [corrections])

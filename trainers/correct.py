@@ -1,0 +1,56 @@
+r"""On-policy correction (DAgger): label the states a trained policy reaches, for more training.
+
+    python trainers/correct.py --config configs/2d.yaml --checkpoint runs/.../best.pt --round 1
+    python trainers/bc.py --config configs/2d.yaml \\
+        data.corrections=[datasets/2d/corrections/round1] train.exp_name=dagger1
+
+Plans new tasks in the config's training workspaces with the policy (attention phase only,
+its shipped noise and horizon), asks the lattice expert where to go from the end of every
+path the policy was handed (`temp_gym.data.correction`), and stores the samples as a round in
+``{data.dir}/corrections/round{N}`` (``--out`` to choose). The trainer adds the rounds listed
+in ``data.corrections`` to the demonstrations. Point robots only (the expert is a lattice).
+Resumable: rerun the same command after an interruption.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.data.correction import CARD_NAME, collect_corrections, correction_settings
+from temp_gym.files import read_json
+from temp_gym.jobs import run_script
+
+
+def main(argv: list[str] | None = None) -> Path:
+    """Parse the command line, run the round, print its card's totals."""
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--config", required=True, help="the config the policy was trained with")
+    parser.add_argument("--checkpoint", required=True, help="the policy to correct")
+    parser.add_argument("--round", type=int, required=True, help="round number (seeds its tasks)")
+    parser.add_argument("--tasks-per-workspace", type=int, default=10, help="tasks per workspace")
+    parser.add_argument("--samples-per-task", type=int, default=100, help="most samples per task")
+    parser.add_argument("--max-nodes", type=int, default=2000, help="attention-phase budget")
+    parser.add_argument("--workers", type=int, default=None, help="processes (None: data.workers)")
+    parser.add_argument("--out", default=None, help="round dir (None: {data.dir}/corrections/)")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
+    args = parse_args(parser, argv)
+    config = load_config(args.config, args.overrides)
+    settings = correction_settings(
+        config, args.checkpoint, args.round, args.tasks_per_workspace, args.samples_per_task,
+        args.max_nodes,
+    )  # fmt: skip
+    out = Path(args.out or Path(config["data"]["dir"]) / "corrections" / f"round{args.round}")
+    workers = int(args.workers or config["data"].get("workers") or 1)
+    root = collect_corrections(settings, out, workers, progress=not args.no_progress)
+    card = read_json(root / CARD_NAME, "rerun the same command")
+    print(json.dumps({"dir": str(root), "samples": card["samples"],
+                      "unit_time_s": card["unit_time_s"]}, indent=2))  # fmt: skip
+    return root
+
+
+if __name__ == "__main__":
+    sys.exit(run_script("correct.py", main))
