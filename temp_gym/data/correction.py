@@ -129,7 +129,9 @@ def correction_samples(
         rows["step"].append(int(index))
     count, dim = len(rows["path"]), problem.dim
     out = {
-        "path": np.array(rows["path"], dtype=np.float32).reshape(count, -1, dim),
+        "path": np.array(rows["path"], dtype=np.float32).reshape(
+            count, recorder.max_path_length, dim
+        ),
         "path_length": np.array(rows["path_length"], dtype=np.int64).reshape(count, 1),
         "targets": np.array(rows["targets"], dtype=np.float32).reshape(count, chunk, dim),
         "target_mask": np.array(rows["target_mask"], dtype=bool).reshape(count, chunk),

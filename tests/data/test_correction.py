@@ -135,3 +135,11 @@ def test_training_batches_mix_demonstrations_and_corrections(tiny_round):
     np.testing.assert_array_equal(batch["target"].numpy(), corrections["targets"][:, 0])
     with pytest.raises(ValueError, match="labelled with 2 targets"):
         utils.SplitData(buffer, workspaces, 3, [corrections])
+
+
+def test_a_task_solved_without_asking_the_policy_gives_no_samples(wall):
+    problem = Problem.from_dict({**wall, "obstacles": [], "goal": [2.3, 10.2]})
+    torch.manual_seed(0)
+    policy = TEMPPolicy(TEMPModel("point2d", 8, 16, eise_hidden=16, chunk=2, **SMALL))
+    samples = correction_samples(policy, problem, _field(problem), 0, 100, 10, chunk=2)
+    assert samples["path"].shape == (0, 16, 2) and samples["targets"].shape == (0, 2, 2)
