@@ -65,6 +65,11 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
         "planner_step_size": data.get("planner_step_size"),
         "goal_bias": float(data.get("goal_bias", 0.05)),
     }
+    attempts = int(data.get("attempts", 1))
+    if attempts < 1:
+        raise ConfigError(f"data.attempts: must be at least 1, got {attempts}")
+    if attempts > 1:  # absent means 1: datasets made before the key existed keep their settings
+        settings["attempts"] = attempts
     if settings["planner"] not in PLANNERS:
         raise ConfigError(f"data.planner: expected one of {sorted(PLANNERS)}")
     if settings["difficulty"] not in DIFFICULTIES:

@@ -57,6 +57,8 @@ from temp_gym.worlds.generators import generate_task
 from temp_gym.worlds.splits import split_workspace
 
 SPLIT_CODES = {split: code for code, split in enumerate(SPLITS)}
+RETRY_SEED_STRIDE = 1_000_003
+"""Attempt a of a task plans with the task's seed plus a times this (``data.attempts``)."""
 STATUS = {"ok": 0, "no_solution": 1, "no_task": 2}
 """Per-task outcome codes stored in each unit."""
 
@@ -103,15 +105,19 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
             continue
         starts[task], goals[task], radii[task] = problem.start, problem.goal, problem.goal_radius
         steps[task] = settings["step_size"] or default_step_size(problem)
-        result = plan(
-            problem,
-            planner=settings["planner"],
-            seed=int(plan_seeds[task]),
-            max_nodes=settings["max_nodes"],
-            step_size=settings["planner_step_size"] or steps[task],
-            goal_bias=settings["goal_bias"],
-        )
-        nodes[task], times[task] = result.nodes, result.wall_time
+        for attempt in range(settings.get("attempts", 1)):  # a new seed when one fails
+            result = plan(
+                problem,
+                planner=settings["planner"],
+                seed=(int(plan_seeds[task]) + RETRY_SEED_STRIDE * attempt) % 2**32,
+                max_nodes=settings["max_nodes"],
+                step_size=settings["planner_step_size"] or steps[task],
+                goal_bias=settings["goal_bias"],
+            )
+            times[task] += result.wall_time
+            if result.success:
+                break
+        nodes[task] = result.nodes
         if result.nodes_to_first_solution is not None:
             first[task] = result.nodes_to_first_solution
         if not result.success or result.path is None:

@@ -211,3 +211,40 @@ def test_same_seed_same_dataset_other_seed_other_dataset(dataset, tmp_path):
     other = generate_dataset(tiny(tmp_path / "b", "data.seed=1"), workers=1, progress=False)
     first, second = load_split(dataset, "train")[0], load_split(other, "train")[0]
     assert len(first) != len(second) or not torch.equal(first[:]["target"], second[:]["target"])
+
+
+def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch):
+    import temp_gym.data.generate as generate
+    from temp_gym.data.dataset import data_settings
+
+    config = load_config(ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path}"])
+    config["data"]["tasks_per_workspace"] = 2
+    settings = data_settings(config)
+    assert (
+        "attempts" not in settings
+    )  # 1, the default, leaves older datasets' settings as they were
+    seeds = []
+    real_plan = generate.plan
+
+    tried: set[tuple] = set()
+
+    def flaky(problem, **kwargs):  # the first attempt at every task fails
+        seeds.append(kwargs["seed"])
+        result = real_plan(problem, **kwargs)
+        task = tuple(problem.start)
+        if task not in tried:
+            tried.add(task)
+            result.success, result.path = False, None
+        return result
+
+    monkeypatch.setattr(generate, "plan", flaky)
+    once = solve_unit(settings, "train", 0)
+    assert list(once["status"]) == [1, 1] and len(seeds) == 2
+    seeds.clear()
+    tried.clear()
+    config["data"]["attempts"] = 3
+    retried = solve_unit(data_settings(config), "train", 0)
+    assert list(retried["status"]) == [0, 0] and len(seeds) == 4  # one retry per task
+    assert seeds[1] == (seeds[0] + generate.RETRY_SEED_STRIDE) % 2**32
+    with pytest.raises(ValueError, match="data.attempts"):
+        data_settings({**config, "data": {**config["data"], "attempts": 0}})
