@@ -19,6 +19,7 @@ import functools
 import importlib.util
 import time
 
+from temp_gym.config import parse_args, script_parser
 from temp_gym.distributed import map_units
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.planning import plan
@@ -45,15 +46,15 @@ def referee_task(index: int, planners: list[str], args: argparse.Namespace) -> d
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tasks", type=int, default=200)
-    parser.add_argument("--max-nodes", type=int, default=5000)
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--tasks", type=int, default=200, help="7D test tasks")
+    parser.add_argument("--max-nodes", type=int, default=5000, help="node budget per plan")
     parser.add_argument("--time-limit", type=float, default=20.0, help="seconds per plan")
     parser.add_argument("--max-step", type=float, default=0.01, help="radians between checks")
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--planners", nargs="+", default=PLANNERS)
-    args = parser.parse_args()
+    parser.add_argument("--workers", type=int, default=2, help="processes")
+    parser.add_argument("--planners", nargs="+", default=PLANNERS, help="planners to check")
+    args = parse_args(parser, argv)
     planners = [
         name
         for name in args.planners
