@@ -16,7 +16,9 @@ single task, can be recomputed alone. Workspaces are the fixed pools of
 
 The expert is ``data.planner`` (default Informed RRT*: RRT* whose samples, once a solution
 exists, come from the prolate hyperspheroid of the best cost, so it refines to near-optimal
-paths in fewer nodes) run for exactly ``data.max_nodes`` tree nodes, steering with
+paths in fewer nodes) run for exactly ``data.max_nodes`` tree nodes (with ``data.attempts``
+above 1, a task it fails is planned again with a new seed and `RETRY_BUDGET_GROWTH` times the
+budget, up to that many attempts), steering with
 ``data.planner_step_size`` (null: the env's step). `temp_gym.plan` certifies every returned
 path with the exact checker; a plan without a certified path counts as failed and is not
 stored.
@@ -59,6 +61,9 @@ from temp_gym.worlds.splits import split_workspace
 SPLIT_CODES = {split: code for code, split in enumerate(SPLITS)}
 RETRY_SEED_STRIDE = 1_000_003
 """Attempt a of a task plans with the task's seed plus a times this (``data.attempts``)."""
+RETRY_BUDGET_GROWTH = 4
+"""Attempt a of a task gets ``data.max_nodes`` times this to the power a: a task the expert
+failed is hard, and a new seed alone rarely solves it."""
 STATUS = {"ok": 0, "no_solution": 1, "no_task": 2}
 """Per-task outcome codes stored in each unit."""
 
@@ -105,12 +110,12 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
             continue
         starts[task], goals[task], radii[task] = problem.start, problem.goal, problem.goal_radius
         steps[task] = settings["step_size"] or default_step_size(problem)
-        for attempt in range(settings.get("attempts", 1)):  # a new seed when one fails
+        for attempt in range(settings.get("attempts", 1)):  # a new seed and a larger budget
             result = plan(
                 problem,
                 planner=settings["planner"],
                 seed=(int(plan_seeds[task]) + RETRY_SEED_STRIDE * attempt) % 2**32,
-                max_nodes=settings["max_nodes"],
+                max_nodes=settings["max_nodes"] * RETRY_BUDGET_GROWTH**attempt,
                 step_size=settings["planner_step_size"] or steps[task],
                 goal_bias=settings["goal_bias"],
             )

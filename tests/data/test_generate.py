@@ -223,13 +223,14 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
     assert (
         "attempts" not in settings
     )  # 1, the default, leaves older datasets' settings as they were
-    seeds = []
+    seeds, budgets = [], []
     real_plan = generate.plan
 
     tried: set[tuple] = set()
 
     def flaky(problem, **kwargs):  # the first attempt at every task fails
         seeds.append(kwargs["seed"])
+        budgets.append(kwargs["max_nodes"])
         result = real_plan(problem, **kwargs)
         task = tuple(problem.start)
         if task not in tried:
@@ -241,10 +242,12 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
     once = solve_unit(settings, "train", 0)
     assert list(once["status"]) == [1, 1] and len(seeds) == 2
     seeds.clear()
+    budgets.clear()
     tried.clear()
     config["data"]["attempts"] = 3
     retried = solve_unit(data_settings(config), "train", 0)
     assert list(retried["status"]) == [0, 0] and len(seeds) == 4  # one retry per task
     assert seeds[1] == (seeds[0] + generate.RETRY_SEED_STRIDE) % 2**32
+    assert budgets[1] == generate.RETRY_BUDGET_GROWTH * budgets[0]
     with pytest.raises(ValueError, match="data.attempts"):
         data_settings({**config, "data": {**config["data"], "attempts": 0}})
