@@ -377,6 +377,7 @@ def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=Non
         policy=policy,
         attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
         attention_patience=eval_config.get("attention_patience") if planner == "temp" else None,
+        attention_uniform=eval_config.get("attention_uniform") if planner == "temp" else None,
     )
     episode = {
         "success": float(result.success),

@@ -33,6 +33,7 @@ from bc import plan_episode  # noqa: E402
 from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import load_checkpoint  # noqa: E402
+from temp_gym.worlds.ood import load_ood_family  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -56,7 +57,11 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument("--tasks", type=int, default=60, help="tasks per setting")
     parser.add_argument(
-        "--split", default="val", choices=["val", "test"], help="test: the final measurement"
+        "--split",
+        default="val",
+        choices=["val", "test", "ood"],
+        help="test: the final measurement; ood: the out-of-distribution family, --tasks runs "
+        "spread over its problems and seeds",
     )
     parser.add_argument(
         "--horizon",
@@ -73,6 +78,13 @@ def main(argv: list[str] | None = None) -> dict:
         help="attention-phase stall patience to try (-1: the default rule)",
     )
     parser.add_argument(
+        "--uniform",
+        type=float,
+        nargs="+",
+        default=[0.0],
+        help="shares of uniform samples in the attention phase to try",
+    )
+    parser.add_argument(
         "--min-attention-success",
         type=float,
         default=0.9,
@@ -84,7 +96,11 @@ def main(argv: list[str] | None = None) -> dict:
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
     eval_config = dict(config["eval"])
-    problems = utils.draw_problems(config, args.split, args.tasks, eval_config["seed"] + 20_000)
+    if args.split == "ood":
+        family = list(load_ood_family(config["env"]["robot"]).values())
+        problems = [family[index % len(family)] for index in range(args.tasks)]
+    else:
+        problems = utils.draw_problems(config, args.split, args.tasks, eval_config["seed"] + 20_000)
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
     rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
     rrt = utils.summarize(rrt_runs, eval_config["max_nodes"])
@@ -93,22 +109,26 @@ def main(argv: list[str] | None = None) -> dict:
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | nodes mean | median | AP solved | success | cost "
-        "| time (ms) | fewer than RRT* | mean difference [95% CI] |"
+        "| n | noise | horizon | patience | uniform | nodes mean | median | AP solved | success "
+        "| cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
-    settings = itertools.product(args.attention_nodes, args.noise_std, args.horizon, args.patience)
-    for budget, noise, horizon, patience in settings:
+    settings = itertools.product(
+        args.attention_nodes, args.noise_std, args.horizon, args.patience, args.uniform
+    )
+    for budget, noise, horizon, patience, uniform in settings:
         eval_config["attention_nodes"] = budget
         eval_config["attention_patience"] = None if patience < 0 else patience
+        eval_config["attention_uniform"] = uniform
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = utils.summarize(runs, eval_config["max_nodes"])
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         paired = utils.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
         print(
-            f"| {budget} | {noise} | {policy.chunk} | {patience} | {row['nodes_mean']:.1f} | "
+            f"| {budget} | {noise} | {policy.chunk} | {patience} | {uniform} | "
+            f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
             f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
@@ -117,7 +137,8 @@ def main(argv: list[str] | None = None) -> dict:
         )
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
-                    "attention_patience": eval_config["attention_patience"]}  # fmt: skip
+                    "attention_patience": eval_config["attention_patience"],
+                    "attention_uniform": uniform}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

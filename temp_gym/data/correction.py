@@ -96,10 +96,13 @@ def correction_samples(
 
     Every policy call's path so far becomes a sample (at most ``max_samples``, evenly spread
     over the calls) whose targets are the expert's next ``chunk`` nodes from the path's last
-    node. Keys: ``path`` (m, L, d), ``path_length`` (m, 1), ``start``, ``goal`` (m, d),
-    ``goal_radius`` (m, 1), ``targets`` (m, chunk, d), ``target_mask`` (m, chunk), ``target``
-    (m, d, the first target) and ``step`` (m,, the call's index), float32 and normalized like
-    the demonstrations (`temp_gym.data.format`).
+    node, unless the expert's next node turns back to a node of the path (within half a
+    step): the tree already holds that way, so in a tree planner the label would only make
+    the policy propose nodes it has (the random fallback, not the policy, leaves a dead
+    end). Keys: ``path`` (m, L, d), ``path_length`` (m, 1), ``start``, ``goal`` (m, d),
+    ``goal_radius`` (m, 1), ``targets`` (m, chunk, d), ``target_mask`` (m, chunk),
+    ``target`` (m, d, the first target) and ``step`` (m,, the call's index), float32 and
+    normalized like the demonstrations (`temp_gym.data.format`).
     """
     recorder = _Recorder(policy)
     recorder.reset(problem, seed=seed)
@@ -117,11 +120,13 @@ def correction_samples(
     rows: dict[str, list] = {key: [] for key in ("path", "path_length", "targets", "target_mask",
                                                   "step")}  # fmt: skip
     for index, (path, length) in zip(indices, calls):
-        state = denormalize(path[length - 1], problem.bounds)
-        labelled = expert_next_nodes(field, state, step, chunk)
+        visited = denormalize(path[:length], problem.bounds)
+        labelled = expert_next_nodes(field, visited[-1], step, chunk)
         if labelled is None:
             continue
         nodes, mask = labelled
+        if length > 1 and np.min(np.linalg.norm(visited[:-1] - nodes[0], axis=1)) < step / 2:
+            continue  # the expert turns back along the path: the tree already holds that part
         rows["path"].append(path)
         rows["path_length"].append([length])
         rows["targets"].append(normalize(nodes, problem.bounds).astype(np.float32))

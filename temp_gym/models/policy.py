@@ -147,6 +147,8 @@ class TEMPPolicy:
             later ones continue a longer guess, so fewer can waste fewer samples.
         attention_patience: the stall patience the ``temp`` planner uses with this policy when
             ``plan`` is given none (None: the planner's default rule).
+        attention_uniform: the share of uniform samples the ``temp`` planner mixes into the
+            attention phase with this policy when ``plan`` is given none (None: none).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -163,6 +165,7 @@ class TEMPPolicy:
         core: PolicyCore | None = None,
         horizon: int | None = None,
         attention_patience: int | None = None,
+        attention_uniform: float | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -174,6 +177,11 @@ class TEMPPolicy:
         if attention_patience is not None and int(attention_patience) < 0:
             raise ValueError(f"attention_patience: expected >= 0 or None, got {attention_patience}")
         self.attention_patience = None if attention_patience is None else int(attention_patience)
+        if attention_uniform is not None and not 0.0 <= float(attention_uniform) <= 1.0:
+            raise ValueError(
+                f"attention_uniform: expected a number in [0, 1], got {attention_uniform}"
+            )
+        self.attention_uniform = None if attention_uniform is None else float(attention_uniform)
         self.device = torch.device(device)
         if backend == "numba" and (self.device.type != "cpu" or record_attention):
             raise ValueError(
@@ -230,6 +238,15 @@ class TEMPPolicy:
     def robot(self) -> str:
         """The robot the model was trained for."""
         return self.model.robot
+
+    def fresh(self) -> TEMPPolicy:
+        """A policy of the same model and settings with its own state (noise, problem)."""
+        return TEMPPolicy(
+            self.model, noise_std=self.noise_std, seed=self.seed,
+            record_attention=self.record_attention, device=self.device, backend=self.backend,
+            attention_nodes=self.attention_nodes, core=self.core, horizon=self.horizon,
+            attention_patience=self.attention_patience, attention_uniform=self.attention_uniform,
+        )  # fmt: skip
 
     @property
     def rng(self) -> np.random.Generator:

@@ -153,6 +153,7 @@ def policy_from_checkpoint(
         core=loaded.core,
         horizon=horizon,
         attention_patience=planner.get("attention_patience"),
+        attention_uniform=planner.get("attention_uniform"),
     )
 
 

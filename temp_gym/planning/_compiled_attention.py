@@ -8,6 +8,7 @@ is one iteration of the Python loop, written against the same kernels and drawin
 random numbers in the same order, so both grow the same tree (tested node for node):
 
 1. goal bias: with probability ``goal_bias`` the goal is the sample (the chunk is dropped);
+   else, with probability ``uniform``, a uniform sample (from the fallback's batch);
 2. otherwise the next proposal of the current chunk, or, when none is left, a new MPT call
    on the path so far (`temp_gym.models.fast_mpt`), with the policy's output noise;
 3. `temp_gym.planning._compiled_tree.extend_with_fallback`: nearest, steer, the random
@@ -33,6 +34,7 @@ from temp_gym.planning._compiled_tree import (
     NUM_NODES,
     SAMPLES,
     extend_with_fallback,
+    fallback_sample,
     normalized_root_path,
     squared_distance,
 )
@@ -54,8 +56,8 @@ again); the policy proposed NaN or inf."""
 @numba.njit(cache=True, nogil=True)
 def attention_slice(
     arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
-    goal_bias, weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, proposals,
-    chunk_out, noise, path_rows, state, closest_sq, limits, max_iterations,
+    goal_bias, uniform, weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std,
+    proposals, chunk_out, noise, path_rows, state, closest_sq, limits, max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
 
@@ -66,6 +68,7 @@ def attention_slice(
         context: the checker's compiled context.
         rng, buffer, cursor: the planner's generator and the uniform fallback's batch.
         goal_bias: probability of sampling the goal.
+        uniform: probability of a uniform sample instead of the policy's.
         weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std: the policy
             (`TEMPPolicy.compiled_proposer`).
         proposals: float64 ``(k, d)`` the current chunk; ``chunk_out`` float32 ``(k, d)``,
@@ -90,6 +93,13 @@ def attention_slice(
             state[PENDING] = 0
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, goal, False, rng,
+                buffer, cursor, limits[MAX_TRIES],
+            )  # fmt: skip
+        elif uniform > 0.0 and rng.random() < uniform:
+            state[PENDING] = 0
+            sample = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
+            node, samples = extend_with_fallback(
+                arrays, counters, best_cost, params, goal, bounds, context, sample, False, rng,
                 buffer, cursor, limits[MAX_TRIES],
             )  # fmt: skip
         else:

@@ -4,6 +4,8 @@ Each iteration:
 
 1. with probability ``goal_bias`` the goal is the sample (the baselines' goal bias: a learned
    sampler alone stops short of small goal regions, see `temp_gym.planning.temp_planner`);
+   otherwise, with probability ``uniform``, a uniform sample (exploration the policy does not
+   direct; 0 by default);
 2. otherwise the policy proposes the sample from the path so far. A chunked policy
    (`temp_gym.models.mpt.MPT` with ``chunk = k``) proposes k samples per call, used in turn
    while each one extends the tree at its first try: a fallback, a failed extension or a
@@ -112,6 +114,7 @@ def run_attention_phase(
     goal_bias: float,
     limits: AttentionLimits,
     compiled_loop: bool | None = None,
+    uniform: float = 0.0,
 ) -> AttentionOutcome:
     """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
 
@@ -123,6 +126,7 @@ def run_attention_phase(
         limits: the budgets.
         compiled_loop: force the compiled loop (True; an error when it cannot run) or the
             Python loop (False); None picks the compiled one whenever it can run.
+        uniform: probability of a uniform sample instead of the policy's (after goal bias).
     """
     proposer = getattr(policy, "compiled_proposer", lambda: None)()
     context = compiled_context_of(tree.checker)
@@ -133,12 +137,17 @@ def run_attention_phase(
             "MPT) and a checker with a compiled path"
         )
     if can_compile and compiled_loop is not False:
-        return _run_compiled(tree, proposer, context, rng, goal_bias, limits)
-    return _run_python(tree, policy, rng, goal_bias, limits)
+        return _run_compiled(tree, proposer, context, rng, goal_bias, uniform, limits)
+    return _run_python(tree, policy, rng, goal_bias, uniform, limits)
 
 
 def _run_python(
-    tree: Tree, policy, rng: np.random.Generator, goal_bias: float, limits: AttentionLimits
+    tree: Tree,
+    policy,
+    rng: np.random.Generator,
+    goal_bias: float,
+    uniform: float,
+    limits: AttentionLimits,
 ) -> AttentionOutcome:
     """The reference loop: any policy, any checker."""
     problem = tree.problem
@@ -180,6 +189,11 @@ def _run_python(
         if goal_bias > 0 and rng.random() < goal_bias:
             chunk = None
             result = tree.extend_with_fallback(goal, fallback, rng, MAX_FALLBACK_TRIES)
+        elif uniform > 0 and rng.random() < uniform:
+            chunk = None
+            result = tree.extend_with_fallback(
+                fallback.sample(rng), fallback, rng, MAX_FALLBACK_TRIES
+            )
         else:
             if chunk is None:
                 chunk = np.asarray(propose())
@@ -221,6 +235,7 @@ def _run_compiled(
     context: tuple,
     rng: np.random.Generator,
     goal_bias: float,
+    uniform: float,
     limits: AttentionLimits,
 ) -> AttentionOutcome:
     """The compiled loop, in slices of `_SLICE` iterations between looks at the clock."""
@@ -251,9 +266,9 @@ def _run_compiled(
         arrays, counters, best_cost, params = tree.compiled_state()
         status = compiled.attention_slice(
             arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
-            float(goal_bias), weights, prefix_goal, prefix_z, prefix_qkv, policy_rng,
-            float(noise_std), proposals, chunk_out, noise, path_rows, state, closest_sq, budget,
-            _SLICE,
+            float(goal_bias), float(uniform), weights, prefix_goal, prefix_z, prefix_qkv,
+            policy_rng, float(noise_std), proposals, chunk_out, noise, path_rows, state,
+            closest_sq, budget, _SLICE,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
         if status == compiled.FULL:

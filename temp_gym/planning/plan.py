@@ -89,6 +89,7 @@ def plan(
     policy: object = None,
     attention_nodes: int | None = None,
     attention_patience: int | None = None,
+    attention_uniform: float | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -129,6 +130,8 @@ def plan(
             closer to the goal before classical planning takes over (None: proportional to
             the start-goal distance, `temp_gym.planning.attention.default_patience`; 0: never,
             the paper's Algorithm 1).
+        attention_uniform: ``temp`` only: probability, in the attention phase, of a uniform
+            sample instead of the policy's (None: the policy's own setting, else 0).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument.
@@ -165,6 +168,12 @@ def plan(
         attention_nodes = _count(attention_nodes, "attention_nodes")
     if attention_patience is not None:
         attention_patience = _count(attention_patience, "attention_patience", minimum=0)
+    if attention_uniform is not None:
+        attention_uniform = _real(attention_uniform, "attention_uniform", "a number in [0, 1]")
+        if not 0.0 <= attention_uniform <= 1.0:
+            raise ValueError(
+                f"attention_uniform: expected a number in [0, 1], got {attention_uniform!r}"
+            )
     if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
         raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
     if policy is not None and planner != "temp":
@@ -181,6 +190,7 @@ def plan(
         policy=policy,
         attention_nodes=attention_nodes,
         attention_patience=attention_patience,
+        attention_uniform=attention_uniform,
     )
     warm_up(problem, planner, settings, PLANNERS)  # compile before the clock starts
     return PLANNERS[planner](problem, settings)

@@ -41,6 +41,9 @@ class PlanSettings:
     """``temp`` planner: most tree nodes for attention-based planning, the n of Algorithm 1
     (None: the policy's ``attention_nodes`` if it has one, as shipped policies do; else
     ``max_nodes``)."""
+    attention_uniform: float | None = None
+    """``temp`` planner: probability of a uniform sample instead of the policy's in the
+    attention phase (None: the policy's own setting, else 0)."""
     attention_patience: int | None = None
     """``temp`` planner: attention-phase nodes in a row without a closer approach to the goal
     before classical planning takes over (None: `temp_gym.planning.attention.default_patience`;

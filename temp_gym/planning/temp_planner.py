@@ -97,7 +97,10 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         patience=patience,
         deadline=started + time_limit,
     )
-    outcome = run_attention_phase(tree, policy, rng, settings.goal_bias, limits)
+    uniform = settings.attention_uniform
+    if uniform is None:
+        uniform = getattr(policy, "attention_uniform", None) or 0.0
+    outcome = run_attention_phase(tree, policy, rng, settings.goal_bias, limits, uniform=uniform)
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,

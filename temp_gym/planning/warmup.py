@@ -9,17 +9,17 @@ policy's fast MPT, certification) is compiled, and per-process setup (the checke
 geometry, torch's first inference) is done. It lists no kernels by name: whatever the planner
 calls is warmed.
 
-It leaves no trace in results: planners seed their own generators from ``settings.seed``, a
-`TEMPPolicy` is re-seeded by every plan, and the per-workspace caches it fills (free volume,
-occupancy, EISE encoding) hold the values the timed run would compute. Two exceptions keep
-that true: OMPL's planners warm up through ours (OMPL seeds a process-wide stream at its
-first run, which must stay the caller's), and a policy whose ``reset`` cannot be re-seeded is
-not used for the warm-up (its state would move).
+It leaves no trace in results or in the caller's objects: planners seed their own
+generators from ``settings.seed``, the per-workspace caches it fills (free volume,
+occupancy, EISE encoding) hold the values the timed run would compute, and the caller's
+policy is never called: a policy that offers ``fresh()`` (a `TEMPPolicy`: the same model and
+settings, its own state) warms up through such a copy, any other through RRT* (which compiles
+the tree's kernels; a Python policy has nothing to compile). OMPL's planners warm up through
+ours too (OMPL seeds a process-wide stream at its first run, which must stay the caller's).
 """
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -37,10 +37,6 @@ STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star"}
 _WARMED: set[tuple[str, str]] = set()
 
 
-def _reseedable(policy: object) -> bool:
-    return policy is None or "seed" in inspect.signature(policy.reset).parameters
-
-
 def warm_up(
     problem: Problem,
     planner: str,
@@ -53,8 +49,12 @@ def warm_up(
     process, not per problem.
     """
     name = STAND_INS.get(planner, planner)
-    if name == "temp" and not _reseedable(settings.policy):
-        name = "rrt_star"
+    policy = settings.policy
+    if name == "temp" and policy is not None:
+        fresh = getattr(policy, "fresh", None)
+        policy = fresh() if fresh is not None else None
+        if policy is None:
+            name = "rrt_star"
     key = (problem.robot, name)
     if key in _WARMED:
         return False
@@ -67,7 +67,7 @@ def warm_up(
         stop_at_first=False,
         target_cost=None,
         attention_nodes=WARM_UP_NODES // 2,
-        policy=settings.policy if name == "temp" else None,
+        policy=policy if name == "temp" else None,
     )
     planners[name](problem, short)
     # The short plan may find no path: plan once more with the start inside the goal region

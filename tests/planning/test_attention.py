@@ -22,12 +22,12 @@ def _chunked_policy(robot: str, chunk: int, noise_std: float, horizon=None) -> T
     return TEMPPolicy(model, noise_std=noise_std, horizon=horizon)
 
 
-def _grow(problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05):
+def _grow(problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05, uniform=0.0):
     policy.reset(problem, seed=seed)
     tree = Tree(problem, capacity=16)  # small: the compiled loop must grow it on the way
     rng = np.random.default_rng(seed)
     limits = AttentionLimits(1500, 1500, 150_000, patience)
-    outcome = run_attention_phase(tree, policy, rng, goal_bias, limits, compiled_loop)
+    outcome = run_attention_phase(tree, policy, rng, goal_bias, limits, compiled_loop, uniform)
     return tree, outcome, rng.random(), policy.rng.random()
 
 
@@ -46,7 +46,7 @@ def _assert_same_tree(a, b):
     ("robot", "policy_kind", "patience"),
     [("point2d", "shipped", 0), ("point2d", "chunk3", 0), ("point3d", "shipped", 60),
      ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0),
-     ("kuka_iiwa14", "shipped", 0)],
+     ("kuka_iiwa14", "shipped", 0), ("point2d", "shipped-uniform", 0)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)
@@ -54,13 +54,14 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         problem = generate_problem(robot, rng, "challenging" if index % 2 else "easy")
         runs = []
         for compiled_loop in (True, False):
-            if policy_kind == "shipped":
+            if policy_kind.startswith("shipped"):
                 policy = load_policy(robot, noise_std=0.05)
             elif "horizon" in policy_kind:
                 policy = _chunked_policy(robot, 4, noise_std=0.05, horizon=2)
             else:
                 policy = _chunked_policy(robot, int(policy_kind[-1]), noise_std=0.05)
-            runs.append(_grow(problem, policy, index, compiled_loop, patience))
+            uniform = 0.2 if policy_kind.endswith("uniform") else 0.0
+            runs.append(_grow(problem, policy, index, compiled_loop, patience, uniform=uniform))
         (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
         assert out_c.compiled and not out_p.compiled
         _assert_same_tree(tree_c, tree_p)

@@ -90,3 +90,44 @@ def test_ompl_warms_up_through_our_planner_and_keeps_its_seed():
     # OMPL itself runs once, timed: its process-wide seed stays the caller's.
     assert [call[0] for call in calls] == ["rrt_star", "rrt_star", "ompl_rrt_star"]
     assert calls[-1][2] == 0
+
+
+def test_the_warm_up_never_calls_the_callers_policy(monkeypatch, wall):
+    import temp_gym.planning.warmup as warmup
+    from temp_gym import Problem, plan
+    from temp_gym.models.registry import load_policy
+
+    class Counting:
+        def __init__(self, policy):
+            self.policy, self.calls = policy, 0
+            self.encoding_resolution = policy.encoding_resolution
+            self.max_path_length = policy.max_path_length
+
+        def reset(self, problem, seed=None):
+            self.policy.reset(problem, seed=seed)
+
+        def __call__(self, observation):
+            self.calls += 1
+            return self.policy(observation)
+
+    problem = Problem.from_dict(wall)
+    monkeypatch.setattr(warmup, "_WARMED", set())  # as in a fresh process
+    counting = Counting(load_policy("point2d"))
+    plan(problem, policy=counting, seed=0, max_nodes=300, stop_at_first=True)
+    first = counting.calls
+    plan(problem, policy=counting, seed=0, max_nodes=300, stop_at_first=True)
+    assert first > 0 and counting.calls == 2 * first  # the first plan made no extra calls
+    # A TEMPPolicy warms up through a fresh copy of itself (same model and settings).
+    monkeypatch.setattr(warmup, "_WARMED", set())
+    policy = load_policy("point2d", seed=4)
+    copies = []
+    original = type(policy).fresh
+
+    def spy(self):
+        copies.append(original(self))
+        return copies[-1]
+
+    monkeypatch.setattr(type(policy), "fresh", spy)
+    plan(problem, policy=policy, seed=0, max_nodes=10)
+    assert len(copies) == 1 and copies[0] is not policy and copies[0].core is policy.core
+    assert copies[0].noise_std == policy.noise_std and copies[0].horizon == policy.horizon
