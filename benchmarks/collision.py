@@ -20,10 +20,9 @@ import time
 import numpy as np
 
 from temp_gym.config import parse_args, script_parser
-from temp_gym.worlds.collision import make_checker
+from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.generators import generate_workspace
-
-STEP = {"point2d": 1.0, "point3d": 1.0, "kuka_iiwa14": 0.5}
+from temp_gym.worlds.robots import robot_spec, robot_specs
 
 
 def _rates(functions, *args, repeats: int = 3) -> list[float]:
@@ -52,10 +51,10 @@ def _random_edges(rng, bounds, step, count):
 def _variants(workspace) -> dict[str, tuple]:
     """``{name: (fast, exact)}``: the checkers, and for the iiwa the same without self-collision."""
     variants = {"": (make_checker(workspace), make_checker(workspace, exact=True))}
-    if workspace.robot == "kuka_iiwa14":
-        from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
-        from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+    from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
+    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 
+    if isinstance(variants[""][0], IiwaSphereChecker):
         args = (workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
         variants[", no self-collision"] = (
             IiwaSphereChecker(*args, self_collision=False),
@@ -71,7 +70,9 @@ def bench_world(robot: str, args: argparse.Namespace) -> dict[str, float]:
         workspace = generate_workspace(robot, rng)
         bounds = workspace.bounds
         states = rng.uniform(bounds[0], bounds[1], size=(args.states, workspace.dim))
-        starts, ends = _random_edges(rng, bounds, STEP[robot], args.edges)
+        starts, ends = _random_edges(
+            rng, bounds, robot_spec(robot).default_step_size(bounds), args.edges
+        )
         few_starts, few_ends = starts[: args.exact_edges], ends[: args.exact_edges]
         variants = _variants(workspace)
         fast, exact = zip(*variants.values())
@@ -105,7 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--robots",
         nargs="+",
-        default=["point2d", "point3d", "kuka_iiwa14"],
+        default=[spec.name for spec in robot_specs()],
         help="robots to measure",
     )
     args = parse_args(parser, argv)

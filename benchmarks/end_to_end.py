@@ -4,7 +4,7 @@
         [--sections user first anytime complete split] [--out results/end_to_end.json]
 
 Per world, on ``--tasks`` test tasks of the evaluation (half easy, half challenging, unseen
-workspaces) and on the world's out-of-distribution family (`temp_gym.worlds.ood`), side by
+workspaces) and on the world's out-of-distribution family (`temp_gym.evaluation.ood`), side by
 side in one run, each planner called exactly as a user calls it (``plan(problem, planner=...)``,
 TEMP with its shipped policy from the process-wide cache):
 
@@ -40,13 +40,14 @@ import numpy as np
 
 from temp_gym import plan
 from temp_gym.config import parse_args, script_parser
+from temp_gym.evaluation.ood import WORLD_DIRS, load_ood_family
 from temp_gym.evaluation.protocol import reach_tolerance
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.models.fast_mpt import _forward_kernel
 from temp_gym.models.registry import load_policy
-from temp_gym.worlds.ood import WORLD_DIRS, load_ood_family
+from temp_gym.worlds.robots import robot_spec, robot_specs
 
-ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
+ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 BASELINES = ("rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star")
 PLANNERS = ("temp", *BASELINES)
 TOLERANCE = 1.05
@@ -54,7 +55,7 @@ TOLERANCE = 1.05
 
 def test_tasks(robot: str, count: int) -> dict[str, object]:
     """``count`` evaluation test tasks, half easy and half challenging (the 7D row: any)."""
-    if robot == "kuka_iiwa14":
+    if list(robot_spec(robot).evaluation_rows.values()) == ["any"]:
         return {f"test-{i}": evaluation_problem(robot, "any", i) for i in range(count)}
     easy = {f"easy-{i}": evaluation_problem(robot, "easy", i) for i in range(count // 2)}
     hard = {

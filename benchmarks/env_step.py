@@ -27,12 +27,9 @@ from temp_gym.planning.samplers import GoalBiasedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.generators import generate_problem
 from temp_gym.worlds.normalization import normalize
+from temp_gym.worlds.robots import robot_specs
 
-WORLDS = {
-    "2d": ("TEMP-2D-v0", "point2d"),
-    "3d": ("TEMP-3D-v0", "point3d"),
-    "7d": ("TEMP-7D-v0", "kuka_iiwa14"),
-}
+WORLDS = {spec.short_name: (spec.env_id, spec.name) for spec in robot_specs()}
 
 
 def samples_for(problem, count, seed):

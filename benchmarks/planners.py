@@ -17,8 +17,9 @@ import numpy as np
 
 from temp_gym.config import parse_args, script_parser
 from temp_gym.planning import plan
+from temp_gym.worlds.robots import robot_specs
 
-ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
+ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 PAIRS = [("rrt_star", "ompl_rrt_star"), ("informed_rrt_star", "ompl_informed_rrt_star")]
 
 

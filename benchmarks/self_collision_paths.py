@@ -24,13 +24,14 @@ from temp_gym.distributed import map_units
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.planning import plan
 from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa, densify
+from temp_gym.worlds.robots import KUKA_IIWA14
 
 PLANNERS = ["temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star"]
 
 
 def referee_task(index: int, planners: list[str], args: argparse.Namespace) -> dict[str, tuple]:
     """Plan task ``index`` with each planner; per planner ``(solved, states, colliding, pairs)``."""
-    problem = evaluation_problem("kuka_iiwa14", "any", index)
+    problem = evaluation_problem(KUKA_IIWA14.name, "any", index)
     out = {}
     with PybulletIiwa() as bullet:
         for name in planners:

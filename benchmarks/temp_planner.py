@@ -24,8 +24,9 @@ from temp_gym import plan
 from temp_gym.config import parse_args, script_parser
 from temp_gym.models.registry import load_policy
 from temp_gym.worlds.generators import generate_problem
+from temp_gym.worlds.robots import robot_specs
 
-ROBOTS = {"2d": "point2d", "3d": "point3d", "7d": "kuka_iiwa14"}
+ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 
 
 class ObservationOnly:

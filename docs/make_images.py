@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.image import imsave
 
-from temp_gym.envs.render import IiwaRenderer, plan_title, render_point_world
+from temp_gym.worlds.rendering import IiwaRenderer, plan_title, render_point_world
 
 IMAGES = Path(__file__).resolve().parent / "images"
 SEED_2D = 1

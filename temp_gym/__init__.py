@@ -3,14 +3,15 @@
 Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0``.
 """
 
+from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I001
 from temp_gym.envs import ENV_IDS, register_envs
 from temp_gym.planning.plan import plan
 from temp_gym.planning.result import PlanResult
-from temp_gym.problem import ROBOTS, Problem
+from temp_gym.problem import Problem
 
 register_envs()
 
-__all__ = ["ENV_IDS", "ROBOTS", "PlanResult", "Problem", "load_policy", "plan"]
+__all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "robots"]
 
 
 def __getattr__(name: str):

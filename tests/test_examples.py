@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 
 from temp_gym import Problem, plan
-from temp_gym.worlds.collision import make_checker
+from temp_gym.worlds.checkers import make_checker
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 FILES = sorted(EXAMPLES.glob("*.json"))
 
 
 def test_there_is_an_example_per_robot():
-    from temp_gym.problem import ROBOTS
+    from temp_gym.worlds.robots import BUILT_IN
 
-    assert {Problem.load(path).robot for path in FILES} == set(ROBOTS)
+    assert {Problem.load(path).robot for path in FILES} == {spec.name for spec in BUILT_IN}
 
 
 @pytest.mark.parametrize("path", FILES, ids=[path.stem for path in FILES])
@@ -43,12 +43,12 @@ def test_iiwa_example_keeps_away_from_limits_and_furniture():
     configs = np.stack([problem.start, problem.goal])
     low, high = problem.bounds
     assert np.all(configs - low >= 0.3) and np.all(high - configs >= 0.3)
-    furniture = problem.obstacle_upper[:, 2] > 0.0  # all but the floor slab
+    furniture = problem.workspace.obstacle_upper[:, 2] > 0.0  # all but the floor slab
     margin = 0.05
     grown = IiwaSphereChecker(
         problem.bounds,
-        problem.obstacle_lower[furniture] - margin,
-        problem.obstacle_upper[furniture] + margin,
+        problem.workspace.obstacle_lower[furniture] - margin,
+        problem.workspace.obstacle_upper[furniture] + margin,
     )
     assert grown.states_free(configs).all()
 
@@ -60,7 +60,7 @@ def test_iiwa_example_is_no_more_folded_than_the_straight_arm():
     import pybullet
     from pybullet_utils.bullet_client import BulletClient
 
-    from temp_gym.worlds.robots.iiwa14 import urdf_path
+    from temp_gym.worlds.iiwa14.kinematics import urdf_path
 
     problem = _iiwa()
     client = BulletClient(connection_mode=pybullet.DIRECT)

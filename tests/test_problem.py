@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from temp_gym import Problem
+from temp_gym.problem import Workspace
 
 EXAMPLE = {
     "robot": "point2d",
@@ -39,7 +40,7 @@ def test_json_round_trip_is_exact(tmp_path):
 
 def test_example_file_in_repo_loads():
     problem = Problem.load("examples/point2d.json")
-    assert problem.robot == "point2d" and problem.num_obstacles >= 1
+    assert problem.robot == "point2d" and problem.workspace.num_obstacles >= 1
 
 
 def test_point3d_and_arrays_are_read_only():
@@ -161,9 +162,10 @@ def test_numbers_that_overflow_or_underflow_are_rejected_by_name(changes, field)
 
 def test_huge_integers_never_raise_overflow_error_from_the_api():
     with pytest.raises(ValueError, match="too large"):
-        Problem(
-            "point2d", [[0, 0], [20, HUGE]], np.zeros((0, 2)), np.zeros((0, 2)), [2, 2], [3, 3], 1
-        )
+        Workspace("point2d", [[0, 0], [20, HUGE]], np.zeros((0, 2)), np.zeros((0, 2)))
+    workspace = Workspace("point2d", [[0, 0], [20, 20]], np.zeros((0, 2)), np.zeros((0, 2)))
+    with pytest.raises(ValueError, match="too large"):
+        Problem(workspace, [2, HUGE], [3, 3], 1)
 
 
 def test_a_tiny_world_is_planned_correctly_not_solved_by_underflow():
@@ -245,7 +247,7 @@ def test_iiwa_box_collision_keeps_its_message():
 
 
 def test_iiwa_bounds_must_lie_within_the_joint_limits():
-    from temp_gym.worlds.robots.iiwa14 import joint_limits
+    from temp_gym.worlds.iiwa14.kinematics import joint_limits
 
     limits = joint_limits()
     inside = Problem.from_dict({**IIWA, "bounds": (limits * 0.9).tolist()})

@@ -61,6 +61,7 @@ from temp_gym.models.attention import attention_figure, normalized_group_attenti
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import CheckpointError, load_checkpoint  # noqa: E402
 from temp_gym.planning.plan import plan  # noqa: E402
+from temp_gym.worlds.robots import robot_spec  # noqa: E402
 
 DEFAULT_CONFIG = "configs/2d.yaml"
 DEFAULT_OVERRIDES = [
@@ -111,8 +112,6 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
 
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
     """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
-    from temp_gym.envs.render import render_point_world
-
     eval_config = config["eval"]
     env = utils.make_env(config, fallback="random", split=eval_config.get("split", "test"))
     policy = TEMPPolicy(
@@ -125,11 +124,14 @@ def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> 
         episodes.append(episode)
         if index == 0 and logger.writer is not None:
             tree = env.unwrapped.tree
-            if problem.robot != "kuka_iiwa14":
-                image = render_point_world(
-                    problem, tree.positions, tree.parents, info.get("path"), tree.num_nodes
+            renderer = robot_spec(problem.robot).make_renderer()
+            try:
+                image = renderer.draw_tree(
+                    problem, tree.positions, tree.parents, tree.num_nodes, path=info.get("path")
                 )
-                logger.image(f"{tag}/plan", image, step)
+            finally:
+                renderer.close()
+            logger.image(f"{tag}/plan", image, step)
             weights = normalized_group_attention(policy.attentions, model.mpt.num_sei_tokens)
             logger.figure(f"{tag}/attention", attention_figure(weights), step)
     env.close()
@@ -214,7 +216,7 @@ def train(
     batch_size = int(train_config["batch_size"])
     monitor = train_config.get("monitor", "loss")
     path_noise = float(train_config.get("path_noise", 0.0))
-    augment = bool(train_config.get("augment", False)) and model.robot != "kuka_iiwa14"
+    augment = bool(train_config.get("augment", False)) and robot_spec(model.robot).cube_symmetric
     history_shape = (model.max_path_length, model.dim)
     if monitor not in ("loss", "semantic", "recons"):
         raise ValueError(f"train.monitor: expected loss, semantic or recons, got {monitor!r}")

@@ -35,13 +35,8 @@ from temp_gym.evaluation.runner import (
 from temp_gym.jobs import run_script
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.worlds.robots import robot_spec
 
-GROUPS = {
-    "point2d": {"2D easy": "easy", "2D challenging": "challenging"},
-    "point3d": {"3D easy": "easy", "3D challenging": "challenging"},
-    "kuka_iiwa14": {"7D": "any"},
-}
-DEFAULT_TASKS = {"point2d": 100, "point3d": 100, "kuka_iiwa14": 200}
 DEFAULTS = {
     "baselines": ["rrt_star", "informed_rrt_star"],
     "max_nodes": 10000,
@@ -74,8 +69,9 @@ def settings_from(
                           ("attention_patience", None)):  # fmt: skip
         if section[key] is None:
             section[key] = (planner_defaults or {}).get(key, fallback)
-    tasks = int(section.get("tasks") or DEFAULT_TASKS[robot])
-    groups = {name: (difficulty, tasks) for name, difficulty in GROUPS[robot].items()}
+    spec = robot_spec(robot)
+    tasks = int(section.get("tasks") or spec.evaluation_tasks)
+    groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
     settings = EvaluationSettings(
         robot=robot,
         groups=groups,

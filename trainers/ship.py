@@ -31,8 +31,9 @@ import yaml
 from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
-from temp_gym.models.registry import CHECKPOINT_DIR, SHIPPED
+from temp_gym.models.registry import CHECKPOINT_DIR
 from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
 """The issue's limit on a shipped checkpoint."""
@@ -47,6 +48,11 @@ def slim_checkpoint(
     slim["planner"] = planner
     slim["provenance"] = provenance
     return slim
+
+
+def _checkpoint_stems() -> dict[str, str]:
+    """Env id -> the stem of its shipped checkpoint (the robot's short name)."""
+    return {spec.env_id: spec.short_name for spec in robot_specs()}
 
 
 def _evaluation_section(env_id: str, digest: str) -> str:
@@ -76,9 +82,10 @@ def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Pat
     Raises:
         SystemExit: if the card or checkpoint is missing, or the results are of other weights.
     """
-    if env_id not in SHIPPED:
-        raise SystemExit(f"--refresh-evaluation: expected one of {list(SHIPPED)}, got {env_id!r}")
-    path = Path(out_dir) / f"{SHIPPED[env_id]}.pt"
+    stems = _checkpoint_stems()
+    if env_id not in stems:
+        raise SystemExit(f"--refresh-evaluation: expected one of {list(stems)}, got {env_id!r}")
+    path = Path(out_dir) / f"{stems[env_id]}.pt"
     card_path = path.with_suffix(".md")
     marker = "\n## Evaluation\n"
     if not (path.is_file() and card_path.is_file() and marker in card_path.read_text()):
@@ -251,7 +258,7 @@ def main(argv: list[str] | None = None) -> Path:
     }
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{SHIPPED[env_id]}.pt"
+    path = out_dir / f"{_checkpoint_stems()[env_id]}.pt"
     buffer = io.BytesIO()
     torch.save(slim_checkpoint(source, planner, provenance), buffer)
     size = buffer.getbuffer().nbytes

@@ -31,9 +31,9 @@ import utils  # noqa: E402
 from bc import plan_episode  # noqa: E402
 
 from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
+from temp_gym.evaluation.ood import load_ood_family  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import load_checkpoint  # noqa: E402
-from temp_gym.worlds.ood import load_ood_family  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> dict:

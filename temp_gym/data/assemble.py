@@ -18,11 +18,11 @@ import numpy as np
 from temp_gym.data.dataset import CARD, FORMAT_VERSION, TABLES
 from temp_gym.data.demonstrations import resample_path, task_samples
 from temp_gym.data.format import SAMPLE_KEYS, SPLITS, TASK_KEYS, sample_shapes
-from temp_gym.data.generate import STATUS, read_unit, unit_path
 from temp_gym.data.tables import close_table, create_table, file_manifest, write_table
+from temp_gym.data.units import STATUS, read_unit, unit_path
 from temp_gym.files import write_json_atomic
-from temp_gym.problem import ROBOTS
 from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import split_workspace
 
 MARKER = "assembled.json"
@@ -88,7 +88,7 @@ def _task_table(units: list[dict[str, np.ndarray]], paths: list[dict], settings:
         columns["nodes_to_first_solution"].append(unit["nodes_to_first_solution"])
         columns["plan_time"].append(unit["plan_time"])
     if not units:  # an empty split (e.g. data.workspaces.val=0): empty columns
-        dim = ROBOTS[settings["robot"]][0]
+        dim = robot_spec(settings["robot"]).dim
         floats = {"start": (0, dim), "goal": (0, dim), "goal_radius": (0,), "cost": (0,)}
         floats["plan_time"] = (0,)
         return {
@@ -102,7 +102,7 @@ def _build(root: Path, split: str, settings: dict, units: list, paths: list) -> 
     staging = root / split / ".assembly"
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
-    dim = ROBOTS[settings["robot"]][0]
+    dim = robot_spec(settings["robot"]).dim
     total = sum(len(path) - 1 for resampled in paths for path in resampled.values())
     shapes = sample_shapes(dim, settings["max_path_length"])
     buffer = create_table(
@@ -124,7 +124,7 @@ def _build(root: Path, split: str, settings: dict, units: list, paths: list) -> 
         occupancy_grid(split_workspace(robot, split, index), resolution)
         for index in range(len(units))
     ]
-    wdim = ROBOTS[robot][1]
+    wdim = robot_spec(robot).workspace_dim
     occupancy = np.stack(grids) if grids else np.zeros((0,) + (resolution,) * wdim, np.float32)
     write_table(
         staging / "workspaces",

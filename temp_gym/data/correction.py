@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 
-from temp_gym.data.demonstrations import normalized_goal_radius, resample_path
+from temp_gym.data.demonstrations import resample_path
 from temp_gym.planning.attention import AttentionLimits, run_attention_phase
 from temp_gym.planning.tree import Tree, default_step_size
 from temp_gym.problem import Problem
-from temp_gym.worlds.normalization import denormalize, normalize
+from temp_gym.worlds.normalization import denormalize, goal_radius_ratio, normalize
 from temp_gym.worlds.reference import GoalField
 
 
@@ -145,7 +145,7 @@ def correction_samples(
     out["target"] = out["targets"][:, 0].copy()
     for key, value in (("start", problem.start), ("goal", problem.goal)):
         out[key] = np.repeat(normalize(value, problem.bounds)[None].astype(np.float32), count, 0)
-    radius = normalized_goal_radius(problem.goal_radius, problem.bounds)
+    radius = goal_radius_ratio(problem.goal_radius, problem.bounds)
     out["goal_radius"] = np.full((count, 1), radius, dtype=np.float32)
     return out
 

@@ -18,10 +18,10 @@ from temp_gym.data.format import SPLITS
 from temp_gym.data.tables import read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
 from temp_gym.planning.plan import PLANNERS
-from temp_gym.problem import ROBOTS
+from temp_gym.problem import robot_names
 from temp_gym.quiet import torchrl_info_silenced
-from temp_gym.worlds.encoding import DEFAULT_RESOLUTION
 from temp_gym.worlds.generators import DIFFICULTIES
+from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
 
 CARD = "dataset_card.json"
@@ -42,8 +42,8 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
     env = config.get("env", {})
     data = config.get("data", {})
     robot = env.get("robot")
-    if robot not in ROBOTS:
-        raise ConfigError(f"env.robot: expected one of {list(ROBOTS)}, got {robot!r}")
+    if robot not in robot_names():
+        raise ConfigError(f"env.robot: expected one of {robot_names()}, got {robot!r}")
     requested = data.get("workspaces") or {}
     workspaces = {split: int(requested.get(split, WORKSPACE_POOLS[split])) for split in SPLITS}
     for split, count in workspaces.items():
@@ -53,7 +53,9 @@ def data_settings(config: dict[str, Any]) -> dict[str, Any]:
             )
     settings = {
         "robot": robot,
-        "encoding_resolution": int(env.get("encoding_resolution") or DEFAULT_RESOLUTION[robot]),
+        "encoding_resolution": int(
+            env.get("encoding_resolution") or robot_spec(robot).encoding_resolution
+        ),
         "max_path_length": int(env.get("max_path_length", 64)),
         "step_size": env.get("step_size"),
         "seed": int(data.get("seed", 0)),

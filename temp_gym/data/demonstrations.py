@@ -15,8 +15,7 @@ import math
 
 import numpy as np
 
-from temp_gym.envs.planning_env import MAX_RATIO
-from temp_gym.worlds.normalization import half_range, normalize
+from temp_gym.worlds.normalization import goal_radius_ratio, normalize
 
 _ROUNDING = 1e-9  # an edge of exactly k steps (up to rounding) is split into k pieces, not k + 1
 
@@ -44,11 +43,6 @@ def resample_path(path: np.ndarray, step: float) -> np.ndarray:
         points.append(inner)
         points.append(b[None])
     return np.concatenate(points, axis=0)
-
-
-def normalized_goal_radius(goal_radius: float, bounds: np.ndarray) -> float:
-    """The env's ``goal_radius`` observation: radius over the mean half-range, clipped."""
-    return min(float(goal_radius) / float(half_range(bounds).mean()), MAX_RATIO)
 
 
 def prefix_samples(
@@ -103,6 +97,6 @@ def task_samples(
         normalize(goal, bounds).astype(np.float32), (count, dim)
     ).copy()
     samples["goal_radius"] = np.full(
-        (count, 1), normalized_goal_radius(goal_radius, bounds), dtype=np.float32
+        (count, 1), goal_radius_ratio(goal_radius, bounds), dtype=np.float32
     )
     return samples

@@ -33,8 +33,6 @@ within ~2% of a 10,000-node run), 7D 1000 nodes with the env's 0.5 rad step.
 from __future__ import annotations
 
 import time
-import zipfile
-import zlib
 from pathlib import Path
 from typing import Any
 
@@ -43,11 +41,17 @@ import numpy as np
 from temp_gym.config import ConfigError, differing_keys
 from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
 from temp_gym.data.format import SPLITS
+from temp_gym.data.units import (  # noqa: F401  (re-exported: where they lived)
+    RECOMPUTE_UNIT,
+    STATUS,
+    UNIT_KEYS,
+    read_unit,
+    unit_path,
+    write_unit,
+)
 from temp_gym.files import (
     DirectoryLock,
     LockedError,
-    StoredFileError,
-    atomic_write,
     read_json,
     remove_leftovers,
     write_json_atomic,
@@ -64,8 +68,6 @@ RETRY_SEED_STRIDE = 1_000_003
 RETRY_BUDGET_GROWTH = 4
 """Attempt a of a task gets ``data.max_nodes`` times this to the power a: a task the expert
 failed is hard, and a new seed alone rarely solves it."""
-STATUS = {"ok": 0, "no_solution": 1, "no_task": 2}
-"""Per-task outcome codes stored in each unit."""
 
 
 def task_seeds(seed: int, split: str, workspace: int, task: int) -> tuple[np.random.Generator, int]:
@@ -74,11 +76,6 @@ def task_seeds(seed: int, split: str, workspace: int, task: int) -> tuple[np.ran
     task_sequence, plan_sequence = sequence.spawn(2)
     plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
     return np.random.default_rng(task_sequence), plan_seed
-
-
-def unit_path(root: Path, split: str, workspace: int) -> Path:
-    """Where the unit of (split, workspace) is stored."""
-    return root / split / "units" / f"{workspace:03d}.npz"
 
 
 def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str, np.ndarray]:
@@ -148,42 +145,6 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
         "unit_time": np.array(time.perf_counter() - started),
         "unit_cpu_time": np.array(time.process_time() - started_cpu),
     }
-
-
-UNIT_KEYS = (
-    "status", "start", "goal", "goal_radius", "bounds", "step_size", "cost", "nodes",
-    "nodes_to_first_solution", "plan_time", "plan_seed", "path_offsets", "path_points",
-    "unit_time",
-)  # fmt: skip
-"""Arrays every stored unit holds (``unit_cpu_time`` was added later and may be missing)."""
-
-RECOMPUTE_UNIT = "delete it and rerun the same command: that unit is planned again"
-
-
-def write_unit(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write a unit atomically (`temp_gym.files.atomic_write`): a reader sees all or none."""
-    with atomic_write(path) as handle:
-        np.savez(handle, **arrays)
-
-
-def read_unit(path: Path) -> dict[str, np.ndarray]:
-    """The arrays of a stored unit (never unpickled).
-
-    Raises:
-        StoredFileError: the file is truncated, empty or not a unit; the message names it.
-    """
-    try:
-        with np.load(path, allow_pickle=False) as stored:
-            arrays = {key: stored[key] for key in stored.files}
-    except FileNotFoundError:
-        raise StoredFileError(path, "missing", RECOMPUTE_UNIT) from None
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as error:
-        reason = str(error) or type(error).__name__
-        raise StoredFileError(path, f"damaged ({reason})", RECOMPUTE_UNIT) from None
-    missing = [key for key in UNIT_KEYS if key not in arrays]
-    if missing:
-        raise StoredFileError(path, f"not a unit (no {', '.join(missing)})", RECOMPUTE_UNIT)
-    return arrays
 
 
 def _solve_job(job: tuple[dict[str, Any], str, int]) -> dict[str, np.ndarray]:

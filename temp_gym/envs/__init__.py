@@ -1,23 +1,29 @@
-"""Gymnasium environments: `PlanningEnv` and the registered ids ``TEMP-{2,3,7}D-v0``."""
+"""Gymnasium environments: `PlanningEnv` and one registered id per robot (``TEMP-{2,3,7}D-v0``)."""
 
 from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-ENV_ROBOTS = {"TEMP-2D-v0": "point2d", "TEMP-3D-v0": "point3d", "TEMP-7D-v0": "kuka_iiwa14"}
-"""Registered id -> robot."""
-ENV_IDS = list(ENV_ROBOTS)
+from temp_gym.worlds.robots import robot_specs
 
 
 def register_envs() -> None:
-    """Register every id once (importing `temp_gym` does this)."""
-    for env_id, robot in ENV_ROBOTS.items():
-        if env_id not in registry:
+    """Register every registered robot's env id once (importing `temp_gym` does this).
+
+    A robot registered later (`temp_gym.worlds.robots.register_robot`) gets its env by
+    calling this again.
+    """
+    for spec in robot_specs():
+        if spec.env_id not in registry:
             register(
-                id=env_id,
+                id=spec.env_id,
                 entry_point="temp_gym.envs.planning_env:PlanningEnv",
-                kwargs={"robot": robot},
+                kwargs={"robot": spec.name},
             )
+
+
+ENV_IDS = [spec.env_id for spec in robot_specs()]
+"""The built-in robots' env ids."""
 
 
 def __getattr__(name: str):
@@ -28,4 +34,4 @@ def __getattr__(name: str):
     raise AttributeError(name)
 
 
-__all__ = ["ENV_IDS", "ENV_ROBOTS", "PlanningEnv", "register_envs"]
+__all__ = ["ENV_IDS", "PlanningEnv", "register_envs"]

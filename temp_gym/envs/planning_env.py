@@ -4,24 +4,23 @@ from __future__ import annotations
 
 import math
 import numbers
-from functools import lru_cache
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, MAX_RATIO, TreeObserver
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree, default_step_size
-from temp_gym.problem import ROBOTS, Problem
-from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.normalization import MAX_RATIO
+from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS, split_workspace
-from temp_gym.worlds.workspace import Workspace
 
 DIFFICULTIES = ("any", "easy", "challenging", "mixed")
 FALLBACKS = ("random", "none")
-DEFAULT_MAX_NODES = {"point2d": 3000, "point3d": 3000, "kuka_iiwa14": 5000}
 
 
 def _is_integer(value: object) -> bool:
@@ -48,13 +47,6 @@ def _check_target_cost(value: object, name: str) -> None:
         bad = True
     if bad:
         raise ValueError(f"{name}: expected a number (not NaN) or None, got {value!r}")
-
-
-@lru_cache(maxsize=64)
-def _reference_planner(robot: str, split: str, index: int):
-    from temp_gym.worlds.reference import ReferencePlanner
-
-    return ReferencePlanner(split_workspace(robot, split, index))
 
 
 class PlanningEnv(gym.Env):
@@ -119,11 +111,13 @@ class PlanningEnv(gym.Env):
     ```python
     gymnasium.make("TEMP-2D-v0", difficulty="challenging", max_nodes=2000, split="test")
     ```
-    * ``robot``: ``point2d``, ``point3d`` or ``kuka_iiwa14`` (set by the registered id).
+    * ``robot``: a registered robot's name (set by the registered id; `temp_gym.worlds.robots`).
     * ``difficulty``: ``any``, ``easy``, ``challenging`` or ``mixed`` (easy or challenging with
       equal chance) for drawn tasks.
-    * ``max_nodes``: truncation budget. ``step_size``: steering step (world units; default
-      `temp_gym.planning.tree.default_step_size`). ``goal_radius``: goal radius of drawn tasks.
+    * ``max_nodes``: truncation budget (default: the robot's, 3000 in 2D/3D and 5000 in 7D).
+      ``step_size``: steering step (world units; default
+      `temp_gym.planning.tree.default_step_size`). ``goal_radius``: goal radius of drawn tasks
+      (default: the robot's).
     * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``.
     * ``encoding_resolution``: cells per axis of the occupancy grid (32 in 2D, 16 in 3D/7D).
     * ``split``: ``train``, ``val`` or ``test`` workspace pool for drawn tasks.
@@ -139,7 +133,7 @@ class PlanningEnv(gym.Env):
 
     def __init__(
         self,
-        robot: str = "point2d",
+        robot: str,
         *,
         difficulty: str = "any",
         max_nodes: int | None = None,
@@ -155,8 +149,7 @@ class PlanningEnv(gym.Env):
         target_cost: float | None = None,
         render_mode: str | None = None,
     ) -> None:
-        if robot not in ROBOTS:
-            raise ValueError(f"robot: unknown robot {robot!r}; expected one of {list(ROBOTS)}")
+        spec = robot_spec(robot)
         if difficulty not in DIFFICULTIES:
             raise ValueError(f"difficulty: expected one of {DIFFICULTIES}, got {difficulty!r}")
         if fallback not in FALLBACKS:
@@ -165,7 +158,7 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']}")
-        max_nodes = DEFAULT_MAX_NODES[robot] if max_nodes is None else max_nodes
+        max_nodes = spec.max_nodes if max_nodes is None else max_nodes
         if not _is_integer(max_nodes) or max_nodes < 2:
             raise ValueError(f"max_nodes: expected an integer of at least 2, got {max_nodes!r}")
         if not _is_integer(max_path_length) or max_path_length < 2:
@@ -182,6 +175,7 @@ class PlanningEnv(gym.Env):
             )
         _check_target_cost(target_cost, "target_cost")
         self.robot = robot
+        self.robot_spec = spec
         self.difficulty = difficulty
         self.max_nodes = int(max_nodes)
         self.step_size = step_size
@@ -189,7 +183,7 @@ class PlanningEnv(gym.Env):
         self.fallback = fallback
         self.max_fallback_tries = int(max_fallback_tries)
         self.resolution = (
-            DEFAULT_RESOLUTION[robot] if encoding_resolution is None else int(encoding_resolution)
+            spec.encoding_resolution if encoding_resolution is None else int(encoding_resolution)
         )
         self.split = split
         self.max_path_length = int(max_path_length)
@@ -198,7 +192,7 @@ class PlanningEnv(gym.Env):
         self.default_target_cost = target_cost
         self.render_mode = render_mode
 
-        dim, wdim = ROBOTS[robot]
+        dim, wdim = spec.dim, spec.workspace_dim
         self.dim = dim
         unit = spaces.Box(-1.0, 1.0, (dim,), np.float32)
         ratio = spaces.Box(0.0, MAX_RATIO, (1,), np.float32)
@@ -220,7 +214,7 @@ class PlanningEnv(gym.Env):
         self.problem: Problem | None = None
         self.tree: Tree | None = None
         self._occupancy: np.ndarray | None = None
-        self._occupancy_key: tuple | None = None
+        self._occupancy_key: Workspace | None = None
         self._renderer = None
         self._figure = None
 
@@ -235,21 +229,7 @@ class PlanningEnv(gym.Env):
             index = int(rng.integers(SPLITS[self.split]))
             workspace = split_workspace(self.robot, self.split, index)
             try:
-                if self.robot == "kuka_iiwa14":
-                    from temp_gym.worlds.iiwa_world import generate_iiwa_task
-
-                    kwargs = {} if self.goal_radius is None else {"goal_radius": self.goal_radius}
-                    return generate_iiwa_task(workspace, rng, difficulty, **kwargs)
-                from temp_gym.worlds.generators import generate_point_task
-
-                reference = (
-                    None
-                    if difficulty == "any"
-                    else _reference_planner(self.robot, self.split, index)
-                )
-                return generate_point_task(
-                    workspace, rng, difficulty, self.goal_radius, reference=reference
-                )
+                return self.robot_spec.generate_task(workspace, rng, difficulty, self.goal_radius)
             except RuntimeError as error:  # no task of that difficulty here: next workspace
                 last_error = error
         raise RuntimeError(f"no {difficulty} task found in 20 {self.split} workspaces") from (
@@ -257,10 +237,9 @@ class PlanningEnv(gym.Env):
         )
 
     def _encoding(self, problem: Problem) -> np.ndarray:
-        key = (problem.obstacle_centers.tobytes(), problem.obstacle_half_extents.tobytes())
-        if key != self._occupancy_key:
-            self._occupancy = occupancy_grid(Workspace.of(problem), self.resolution)
-            self._occupancy_key = key
+        if problem.workspace != self._occupancy_key:
+            self._occupancy = occupancy_grid(problem.workspace, self.resolution)
+            self._occupancy_key = problem.workspace
         return self._occupancy
 
     # ------------------------------------------------------------------ gym API
@@ -362,27 +341,18 @@ class PlanningEnv(gym.Env):
         return None
 
     def _render_image(self) -> np.ndarray:
-        from temp_gym.envs import render
-
         tree = self.tree
+        if self._renderer is None:
+            self._renderer = self.robot_spec.make_renderer()
         # A solution, or else the path so far (drawn and titled as such).
         solution = tree.best_path()
-        paths = {
-            "path": solution,
-            "path_so_far": None if solution is not None else tree.path_so_far(),
-        }
-        if self.robot == "kuka_iiwa14":
-            if self._renderer is None:
-                self._renderer = render.IiwaRenderer()
-            shown = "orange arm" if solution is None and tree.num_nodes > 1 else ""
-            title = render.plan_title(self.problem, tree.num_nodes, solution, shown)
-            return self._renderer.render(self.problem, title=title, **paths)
-        return render.render_point_world(
+        return self._renderer.draw_tree(
             self.problem,
-            positions=tree.positions[: tree.num_nodes],
-            parents=tree.parents,
-            num_nodes=tree.num_nodes,
-            **paths,
+            tree.positions[: tree.num_nodes],
+            tree.parents,
+            tree.num_nodes,
+            path=solution,
+            path_so_far=None if solution is not None else tree.path_so_far(),
         )
 
     def _show(self, image: np.ndarray) -> None:

@@ -50,10 +50,9 @@ import torch
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
-from temp_gym.problem import Problem
+from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
-from temp_gym.worlds.normalization import half_range, normalize
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.worlds.normalization import goal_radius_ratio, normalize
 
 
 @contextlib.contextmanager
@@ -95,7 +94,7 @@ class PolicyCore:
         self.device = torch.device(device)
         self.model = model.to(self.device).eval()
         self.fast = FastMPT(self.model.mpt) if fast and self.device.type == "cpu" else None
-        self._sei: OrderedDict[tuple, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
+        self._sei: OrderedDict[Workspace, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
         self._lock = threading.Lock()
 
     def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
@@ -103,18 +102,13 @@ class PolicyCore:
 
         The tensor is ``(1, n, width)`` on the core's device; the array a float32 CPU copy.
         """
-        key = (
-            problem.robot,
-            problem.bounds.tobytes(),
-            problem.obstacle_centers.tobytes(),
-            problem.obstacle_half_extents.tobytes(),
-        )
+        key = problem.workspace
         with self._lock:
             sei = self._sei.get(key)
             if sei is not None:
                 self._sei.move_to_end(key)
                 return sei
-        grid = occupancy_grid(Workspace.of(problem), self.model.encoding_resolution)
+        grid = occupancy_grid(problem.workspace, self.model.encoding_resolution)
         with torch.inference_mode(), _single_torch_thread(self.fast is not None):
             tensor = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
         sei = (tensor, tensor.cpu().numpy()[0].astype(np.float32))
@@ -281,7 +275,7 @@ class TEMPPolicy:
         # The task as the model reads it, float32; PyTorch's tensors are made when first used.
         self._task_arrays = (
             normalize(problem.goal, problem.bounds).astype(np.float32),
-            np.array([problem.goal_radius / half_range(problem.bounds).mean()], np.float32),
+            np.array([goal_radius_ratio(problem.goal_radius, problem.bounds)], np.float32),
             normalize(problem.start, problem.bounds).astype(np.float32),
         )
         self._task = None
@@ -319,7 +313,7 @@ class TEMPPolicy:
                 "policy.reset(problem) after each env reset"
             )
         if self._grid_bytes is None and self.problem is not None:
-            grid = occupancy_grid(Workspace.of(self.problem), self.model.encoding_resolution)
+            grid = occupancy_grid(self.problem.workspace, self.model.encoding_resolution)
             self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
         same_grid = occupancy.tobytes() == self._grid_bytes
         if same_task and same_grid:

@@ -1,7 +1,8 @@
 """The pretrained policies shipped inside the package, `load_policy`, and the loaded-policy cache.
 
-Checkpoints live in ``temp_gym/checkpoints/{2d,3d,7d}.pt`` with a model card beside each
-(``{2d,3d,7d}.md``: data, config, metrics). They are ordinary `TEMPModel` checkpoints, read with
+Checkpoints live in ``temp_gym/checkpoints/{short name}.pt`` (``2d``, ``3d``, ``7d``: the
+robot spec's ``short_name``) with a model card beside each (``.md``: data, config, metrics).
+They are ordinary `TEMPModel` checkpoints, read with
 ``torch.load(..., weights_only=True)``.
 
 **Loaded once per process.** `load_policy` and `policy_from_checkpoint` keep what they loaded
@@ -27,12 +28,28 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from temp_gym.problem import ROBOTS
+from temp_gym.worlds.robots import RobotSpec, robot_specs
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
-SHIPPED = {"TEMP-2D-v0": "2d", "TEMP-3D-v0": "3d", "TEMP-7D-v0": "7d"}
-"""Env id -> checkpoint stem."""
-_ROBOT_IDS = {"point2d": "TEMP-2D-v0", "point3d": "TEMP-3D-v0", "kuka_iiwa14": "TEMP-7D-v0"}
+
+
+def robot_of(name: str) -> RobotSpec:
+    """The spec of an env id (``TEMP-7D-v0``) or a robot name (``point2d``).
+
+    Raises:
+        ValueError: for an unknown name (the message lists the known ones).
+    """
+    specs = robot_specs()
+    for spec in specs:
+        if name in (spec.env_id, spec.name):
+            return spec
+    known = [spec.env_id for spec in specs] + [spec.name for spec in specs]
+    raise ValueError(f"policy: unknown name {name!r}; expected one of {known}")
+
+
+def checkpoint_path(spec: RobotSpec) -> Path:
+    """Where the policy shipped for ``spec``'s robot is (or would be) stored."""
+    return CHECKPOINT_DIR / f"{spec.short_name}.pt"
 
 
 def shipped_checkpoint(name: str) -> Path:
@@ -42,15 +59,11 @@ def shipped_checkpoint(name: str) -> Path:
         ValueError: for an unknown name.
         FileNotFoundError: when this build ships no checkpoint for it.
     """
-    env_id = _ROBOT_IDS.get(name, name)
-    if env_id not in SHIPPED:
-        raise ValueError(
-            f"policy: unknown name {name!r}; expected one of {list(SHIPPED) + list(ROBOTS)}"
-        )
-    path = CHECKPOINT_DIR / f"{SHIPPED[env_id]}.pt"
+    spec = robot_of(name)
+    path = checkpoint_path(spec)
     if not path.is_file():
         raise FileNotFoundError(
-            f"no pretrained policy for {env_id} ships with this build ({path} is missing); "
+            f"no pretrained policy for {spec.env_id} ships with this build ({path} is missing); "
             "train one with trainers/bc.py and pass it as policy=TEMPPolicy.from_checkpoint(...)"
         )
     return path
@@ -165,6 +178,4 @@ def load_policy(name: str, noise_std: float | None = None, seed: int | None = No
     Algorithm 1, which the ``temp`` planner uses when ``attention_nodes`` is not given, and
     the output noise, used unless ``noise_std`` is given.
     """
-    env_id = _ROBOT_IDS.get(name, name)
-    robot = {v: k for k, v in _ROBOT_IDS.items()}.get(env_id)
-    return policy_from_checkpoint(shipped_checkpoint(name), robot, noise_std, seed)
+    return policy_from_checkpoint(shipped_checkpoint(name), robot_of(name).name, noise_std, seed)

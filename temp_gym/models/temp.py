@@ -39,7 +39,8 @@ from torch import nn
 from temp_gym.files import StoredFileError, atomic_write
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
-from temp_gym.problem import ROBOTS
+from temp_gym.problem import robot_names
+from temp_gym.worlds.robots import robot_spec
 
 CHECKPOINT_VERSION = 1
 
@@ -62,7 +63,7 @@ class TEMPModel(nn.Module):
     """EISE + MPT: occupancy, task and path so far -> the next sample and Ô's logits.
 
     Args:
-        robot: ``point2d``, ``point3d`` or ``kuka_iiwa14``.
+        robot: a registered robot's name (`temp_gym.worlds.robots`).
         encoding_resolution: cells per workspace axis of the occupancy grid.
         max_path_length: L.
         **model_config: the ``model`` section; missing keys take `MODEL_DEFAULTS`.
@@ -72,14 +73,13 @@ class TEMPModel(nn.Module):
         self, robot: str, encoding_resolution: int, max_path_length: int, **model_config: Any
     ) -> None:
         super().__init__()
-        if robot not in ROBOTS:
-            raise ValueError(f"robot: unknown robot {robot!r}; expected one of {list(ROBOTS)}")
+        spec = robot_spec(robot)
         unknown = set(model_config) - set(MODEL_DEFAULTS)
         if unknown:
             raise ValueError(f"model: unknown keys {sorted(unknown)}")
         config = {**MODEL_DEFAULTS, **model_config}
         self.robot = robot
-        self.dim, workspace_dim = ROBOTS[robot]
+        self.dim, workspace_dim = spec.dim, spec.workspace_dim
         self.encoding_resolution = int(encoding_resolution)
         self.max_path_length = int(max_path_length)
         self.config = config
@@ -226,7 +226,8 @@ def _read_checkpoint(path: str | Path, map_location) -> dict[str, Any]:
     for key in ("max_path_length",):
         if not isinstance(checkpoint.get(key), int) or checkpoint[key] < 1:
             raise CheckpointError(path, f"no valid {key!r} entry", NOT_A_CHECKPOINT)
-    if checkpoint["robot"] not in ROBOTS or ROBOTS[checkpoint["robot"]][0] != checkpoint["dim"]:
+    robot = checkpoint["robot"]
+    if robot not in robot_names() or robot_spec(robot).dim != checkpoint["dim"]:
         raise CheckpointError(
             path, f"unknown robot {checkpoint['robot']!r} (d={checkpoint['dim']})", NOT_A_CHECKPOINT
         )

@@ -42,8 +42,8 @@ from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.collision.compiled import compiled_context_of
-from temp_gym.worlds.encoding import DEFAULT_RESOLUTION, occupancy_grid
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.robots import robot_spec
 
 MAX_FALLBACK_TRIES = 1000
 """Most random replacements per proposal, so that a walled-in tree cannot loop forever."""
@@ -101,9 +101,12 @@ class AttentionOutcome:
 
 def observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
     """The observer matching what the policy was trained on (its resolution and L)."""
-    resolution = getattr(policy, "encoding_resolution", None) or DEFAULT_RESOLUTION[problem.robot]
+    resolution = (
+        getattr(policy, "encoding_resolution", None)
+        or robot_spec(problem.robot).encoding_resolution
+    )
     max_path_length = getattr(policy, "max_path_length", None) or DEFAULT_MAX_PATH_LENGTH
-    occupancy = occupancy_grid(Workspace.of(problem), resolution)
+    occupancy = occupancy_grid(problem.workspace, resolution)
     return TreeObserver(problem, occupancy, max_path_length, max_nodes)
 
 

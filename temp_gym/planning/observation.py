@@ -20,12 +20,10 @@ import numpy as np
 
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
-from temp_gym.worlds.normalization import half_range, normalize
+from temp_gym.worlds.normalization import MAX_RATIO, goal_radius_ratio, normalize
 
 DEFAULT_MAX_PATH_LENGTH = 64
 """Default L, the rows of the ``path`` (path-so-far) observation."""
-MAX_RATIO = 100.0
-"""Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
 
 
 # Not nogil: releasing and taking back the GIL costs more than this microsecond kernel.
@@ -73,7 +71,7 @@ def task_entries(problem: Problem) -> dict[str, np.ndarray]:
     What every observation of a tree grown on ``problem`` carries, so a policy can tell from an
     observation which task it belongs to (`temp_gym.policies.task_signature`).
     """
-    radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
+    radius = goal_radius_ratio(problem.goal_radius, problem.bounds)
     return {
         "start": normalize(problem.start, problem.bounds).astype(np.float32),
         "goal": normalize(problem.goal, problem.bounds).astype(np.float32),

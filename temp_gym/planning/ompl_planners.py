@@ -55,7 +55,8 @@ import numpy as np
 from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings
 from temp_gym.planning.tree import default_step_size
 from temp_gym.problem import Problem
-from temp_gym.worlds.collision import CollisionChecker, certify_path, make_checker
+from temp_gym.worlds.checkers import certify_path, make_checker
+from temp_gym.worlds.collision import CollisionChecker
 
 OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star")
 RANGE_FACTOR = 2.0

@@ -176,7 +176,7 @@ def certified_tree_solution(
     disagreement falls back to the next-best solution instead of failing the run;
     ``rejected`` counts the paths the exact checker rejected.
     """
-    from temp_gym.worlds.collision import certify_path
+    from temp_gym.worlds.checkers import certify_path
 
     goal_nodes = tree.goal_nodes
     order = goal_nodes[np.argsort(tree.costs[goal_nodes], kind="stable")][:max_tries]

@@ -40,26 +40,26 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from temp_gym.planning import _kernels as kernels
-from temp_gym.worlds.collision import CollisionChecker, make_checker
+from temp_gym.worlds.checkers import make_checker
+from temp_gym.worlds.collision import CollisionChecker
+from temp_gym.worlds.robots import robot_spec
 
 if TYPE_CHECKING:
-    from temp_gym.problem import Problem
+    from temp_gym.problem import Problem, Workspace
 
 NEIGHBOURHOODS = ("radius", "k_nearest")
 _FREE_VOLUME_SAMPLES = 4096
-_FREE_VOLUME_CACHE: OrderedDict[tuple, float] = OrderedDict()
+_FREE_VOLUME_CACHE: OrderedDict[Workspace, float] = OrderedDict()
 _FREE_VOLUME_CACHE_SIZE = 256
 
 
 def default_step_size(problem: Problem) -> float:
-    """The steering step ``e`` used when none is given.
+    """The steering step ``e`` used when none is given: the robot's (`RobotSpec.step_size`).
 
     Point robots: 5% of the largest side of the bounds (1.0 in the usual ``[0, 20]^d``
     worlds). The 7-DOF iiwa: 0.5 rad in joint space.
     """
-    if problem.robot == "kuka_iiwa14":
-        return 0.5
-    return 0.05 * float(np.max(problem.bounds[1] - problem.bounds[0]))
+    return robot_spec(problem.robot).default_step_size(problem.bounds)
 
 
 def unit_ball_volume(dim: int) -> float:
@@ -86,12 +86,7 @@ def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
     ``checker`` must be ``make_checker(problem)``'s kind; `Tree` asks for no estimate of
     another checker here.
     """
-    key = (
-        problem.robot,
-        problem.bounds.tobytes(),
-        problem.obstacle_centers.tobytes(),
-        problem.obstacle_half_extents.tobytes(),
-    )
+    key = problem.workspace
     volume = _FREE_VOLUME_CACHE.get(key)
     if volume is None:
         volume = estimate_free_volume(problem, checker)

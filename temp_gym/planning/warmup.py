@@ -27,7 +27,7 @@ import numpy as np
 
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.problem import Problem
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 
 WARM_UP_NODES = 64
 """Tree nodes of a warm-up plan (half of them attention-based for ``temp``)."""

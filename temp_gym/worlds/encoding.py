@@ -1,9 +1,9 @@
 """Environment encoding: an occupancy grid of the workspace, the model's view of obstacles.
 
 A cell is occupied when the box of the cell overlaps an obstacle box (closed intervals), so a
-box thinner than a cell still shows up. The grid covers the workspace region of
-`workspace_region`: the configuration bounds for point robots, and a fixed box around the iiwa
-that holds its whole reach.
+box thinner than a cell still shows up. The grid covers the robot's encoding region
+(`temp_gym.worlds.robots.RobotSpec.region`): the configuration bounds for point robots, and a
+fixed box around the iiwa that holds its whole reach.
 """
 
 from __future__ import annotations
@@ -12,20 +12,13 @@ import functools
 
 import numpy as np
 
-from temp_gym.worlds.workspace import Workspace
-
-DEFAULT_RESOLUTION = {"point2d": 32, "point3d": 16, "kuka_iiwa14": 16}
-"""Default cells per workspace axis of the occupancy grid, per robot (env, planner, data)."""
-
-IIWA_REGION = np.array([[-1.4, -1.4, -0.2], [1.4, 1.4, 1.6]])
-"""Workspace region encoded for the iiwa (metres, base at the origin, z up); holds its reach."""
+from temp_gym.problem import Workspace
+from temp_gym.worlds.robots import robot_spec
 
 
 def workspace_region(workspace: Workspace) -> np.ndarray:
-    """The ``(2, workspace_dim)`` region that the occupancy grid covers."""
-    if workspace.robot == "kuka_iiwa14":
-        return IIWA_REGION.copy()
-    return np.asarray(workspace.bounds, dtype=np.float64).copy()
+    """The ``(2, workspace_dim)`` region that the occupancy grid covers (the robot's)."""
+    return robot_spec(workspace.robot).region(workspace.bounds)
 
 
 def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
@@ -34,7 +27,7 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     The array has one axis per workspace dimension, indexed ``[x, y]`` or ``[x, y, z]``.
 
     Example:
-        >>> grid = occupancy_grid(Workspace.of(problem), resolution=32)  # (32, 32) for 2D
+        >>> grid = occupancy_grid(problem.workspace, resolution=32)  # (32, 32) for 2D
     """
     if int(resolution) != resolution or resolution < 2:
         raise ValueError(f"resolution: expected an integer >= 2, got {resolution!r}")

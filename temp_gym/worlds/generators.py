@@ -1,187 +1,63 @@
-"""Seeded generators of workspaces and start-goal tasks, easy or challenging.
+"""Seeded workspaces and tasks for any robot, drawn by the generators its spec names.
 
-All randomness comes from the `numpy.random.Generator` passed in; nothing touches global state,
-so the same seed always gives the same problems.
+All randomness comes from the `numpy.random.Generator` passed in; nothing touches global
+state, so the same seed always gives the same problems. What "easy" and "challenging" mean is
+the robot's generators' to say: `temp_gym.worlds.point_world` (a detour ratio against a
+reference path) and `temp_gym.worlds.iiwa_world` (a blocked straight motion).
 
-**Difficulty, measurably.** For a task with start s and goal g, let
-``ratio = reference_cost / |g - s|`` where ``reference_cost`` is the cost of the reference path
-of `temp_gym.worlds.reference` (lattice shortest path, shortcut; 1.0 when the straight segment
-is free). Then, for point worlds:
-
-* **easy**: ``ratio <= EASY_MAX_RATIO`` (1.05): the straight line is free or nearly so;
-* **challenging**: the straight line is blocked and ``ratio >= CHALLENGING_MIN_RATIO[d]``
-  (1.20 in 2D, 1.10 in 3D, where a third axis makes detours shorter): the robot must make a
-  real detour around obstacles.
-
-Tasks in between are neither and are only drawn with ``difficulty="any"``. Both kinds keep start
-and goal at least ``MIN_DISTANCE_FRACTION`` of the workspace diagonal apart. The iiwa's own
-definition lives in `temp_gym.worlds.iiwa_world`.
+Example:
+    >>> problem = generate_problem(POINT2D.name, np.random.default_rng(0), "challenging")
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from temp_gym.problem import ROBOTS, Problem
-from temp_gym.worlds.collision.point import PointBoxChecker
-from temp_gym.worlds.reference import ReferencePlanner
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds.difficulty import DIFFICULTIES, check_difficulty
+from temp_gym.worlds.robots import robot_spec
 
-DIFFICULTIES = ("any", "easy", "challenging")
-EASY_MAX_RATIO = 1.05
-CHALLENGING_MIN_RATIO = {2: 1.20, 3: 1.10}
-MIN_DISTANCE_FRACTION = 0.4
-POINT_WORLD_SIZE = 20.0
-DEFAULT_GOAL_RADIUS = {"point2d": 0.5, "point3d": 0.5, "kuka_iiwa14": 0.15}
-MAX_TASK_TRIES = 500
+WORKSPACE_TRIES = 20
+"""Workspaces `generate_problem` draws before giving up on a difficulty."""
 
 
-@dataclass(frozen=True)
-class PointWorldConfig:
-    """How random point workspaces are drawn (defaults follow the paper's 20 x 20 worlds)."""
-
-    size: float = POINT_WORLD_SIZE
-    """Side of the cubic workspace [0, size]^d."""
-    min_boxes: int = 8
-    """Fewest boxes."""
-    max_boxes: int = 14
-    """Most boxes (inclusive)."""
-    min_half_extent: float = 0.4
-    """Smallest half side of a box."""
-    max_half_extent: float = 2.8
-    """Largest half side of a box."""
-    max_occupancy: float = 0.35
-    """Reject workspaces whose boxes cover more than this fraction of the space."""
+def generate_workspace(robot: str, rng: np.random.Generator) -> Workspace:
+    """Draw a workspace for ``robot`` (its spec's workspace generator)."""
+    return robot_spec(robot).generate_workspace(rng)
 
 
-DEFAULT_POINT_WORLDS = {
-    2: PointWorldConfig(),
-    # 3D needs many more boxes for the same clutter: a detour in 3D has one more way around.
-    3: PointWorldConfig(min_boxes=30, max_boxes=45, min_half_extent=0.8, max_half_extent=3.2),
-}
-
-
-def _check_difficulty(difficulty: str) -> None:
-    if difficulty not in DIFFICULTIES:
-        raise ValueError(f"difficulty: expected one of {DIFFICULTIES}, got {difficulty!r}")
-
-
-def generate_point_workspace(
-    rng: np.random.Generator, dim: int, config: PointWorldConfig | None = None
-) -> Workspace:
-    """Draw a random box workspace in [0, size]^dim (dim 2 or 3)."""
-    if dim not in (2, 3):
-        raise ValueError(f"dim: point worlds are 2D or 3D, got {dim}")
-    config = config or DEFAULT_POINT_WORLDS[dim]
-    robot = "point2d" if dim == 2 else "point3d"
-    bounds = np.array([np.zeros(dim), np.full(dim, config.size)])
-    for _ in range(100):
-        count = int(rng.integers(config.min_boxes, config.max_boxes + 1))
-        halves = rng.uniform(config.min_half_extent, config.max_half_extent, size=(count, dim))
-        centers = rng.uniform(0.0, config.size, size=(count, dim))
-        probe = rng.uniform(0.0, config.size, size=(4000, dim))
-        checker = PointBoxChecker(bounds, centers - halves, centers + halves)
-        if 1.0 - checker.states_free(probe).mean() <= config.max_occupancy:
-            return Workspace(robot, bounds, centers, halves)
-    raise RuntimeError("could not draw a workspace under the occupancy limit; loosen the config")
-
-
-def classify_task(
-    reference: ReferencePlanner, start: np.ndarray, goal: np.ndarray
-) -> tuple[str, float]:
-    """Return ``(label, ratio)`` for a point task: label is easy, challenging or neither."""
-    straight = float(np.linalg.norm(np.asarray(goal) - np.asarray(start)))
-    solution = reference.solve(start, goal)
-    ratio = solution.cost / straight if straight > 0 else 1.0
-    blocked = not reference.checker.edge_free(start, goal)
-    if ratio <= EASY_MAX_RATIO:
-        return "easy", ratio
-    if blocked and ratio >= CHALLENGING_MIN_RATIO[len(start)] and np.isfinite(ratio):
-        return "challenging", ratio
-    return "neither", ratio
-
-
-def generate_point_task(
+def generate_task(
     workspace: Workspace,
     rng: np.random.Generator,
     difficulty: str = "any",
     goal_radius: float | None = None,
-    reference: ReferencePlanner | None = None,
 ) -> Problem:
-    """Draw a start-goal task of the requested difficulty in a point workspace.
-
-    Args:
-        workspace: where to plan.
-        rng: the only source of randomness.
-        difficulty: ``"any"``, ``"easy"`` or ``"challenging"`` (see the module docstring).
-        goal_radius: radius of the goal ball; defaults to `DEFAULT_GOAL_RADIUS`.
-        reference: a prebuilt `ReferencePlanner` for this workspace, to share across tasks.
+    """Draw a task of ``difficulty`` in ``workspace`` (None ``goal_radius``: the robot's).
 
     Raises:
-        RuntimeError: if no task of that difficulty turns up in `MAX_TASK_TRIES` draws.
+        RuntimeError: the workspace has no task of that difficulty (in the generator's tries).
     """
-    _check_difficulty(difficulty)
-    goal_radius = goal_radius or DEFAULT_GOAL_RADIUS[workspace.robot]
-    checker = PointBoxChecker(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
-    lower, upper = workspace.bounds
-    min_distance = MIN_DISTANCE_FRACTION * float(np.linalg.norm(upper - lower))
-    if difficulty != "any" and reference is None:
-        reference = ReferencePlanner(workspace)
-    for _ in range(MAX_TASK_TRIES):
-        pair = rng.uniform(lower, upper, size=(2, workspace.dim))
-        if np.linalg.norm(pair[1] - pair[0]) < min_distance or not checker.states_free(pair).all():
-            continue
-        if difficulty != "any":
-            label, _ = classify_task(reference, pair[0], pair[1])
-            if label != difficulty:
-                continue
-        return workspace.problem(pair[0], pair[1], goal_radius)
-    raise RuntimeError(
-        f"no {difficulty} task found in {MAX_TASK_TRIES} draws; this workspace may be too open "
-        "or too cluttered for it"
-    )
-
-
-def generate_workspace(robot: str, rng: np.random.Generator) -> Workspace:
-    """Draw a workspace for any robot."""
-    if robot not in ROBOTS:
-        raise ValueError(f"robot: unknown robot {robot!r}; expected one of {list(ROBOTS)}")
-    if robot == "kuka_iiwa14":
-        from temp_gym.worlds.iiwa_world import generate_iiwa_workspace
-
-        return generate_iiwa_workspace(rng)
-    return generate_point_workspace(rng, ROBOTS[robot][0])
-
-
-def generate_task(
-    workspace: Workspace, rng: np.random.Generator, difficulty: str = "any"
-) -> Problem:
-    """Draw a task of the given difficulty in ``workspace``, for any robot."""
-    _check_difficulty(difficulty)
-    if workspace.robot == "kuka_iiwa14":
-        from temp_gym.worlds.iiwa_world import generate_iiwa_task
-
-        return generate_iiwa_task(workspace, rng, difficulty)
-    return generate_point_task(workspace, rng, difficulty)
+    check_difficulty(difficulty)
+    return robot_spec(workspace.robot).generate_task(workspace, rng, difficulty, goal_radius)
 
 
 def generate_problem(robot: str, rng: np.random.Generator, difficulty: str = "any") -> Problem:
     """Draw a fresh workspace and one task in it.
 
     Some workspaces have no task of the requested difficulty (a nearly empty one has no
-    challenging task); then a new workspace is drawn.
-
-    Example:
-        >>> problem = generate_problem("point2d", np.random.default_rng(0), "challenging")
+    challenging task); then a new workspace is drawn, up to `WORKSPACE_TRIES`.
     """
-    _check_difficulty(difficulty)
+    check_difficulty(difficulty)
     last_error: RuntimeError | None = None
-    for _ in range(20):
+    for _ in range(WORKSPACE_TRIES):
         workspace = generate_workspace(robot, rng)
         try:
             return generate_task(workspace, rng, difficulty)
         except RuntimeError as error:
             last_error = error
-    raise RuntimeError(f"no {difficulty} {robot} problem found in 20 workspaces") from last_error
+    raise RuntimeError(
+        f"no {difficulty} {robot} problem found in {WORKSPACE_TRIES} workspaces"
+    ) from last_error
+
+
+__all__ = ["DIFFICULTIES", "generate_problem", "generate_task", "generate_workspace"]

@@ -34,21 +34,19 @@ same workspace and tasks.
 
 Example:
     >>> rng = np.random.default_rng(0)
-    >>> workspace = generate_iiwa_workspace(rng)
-    >>> problem = generate_iiwa_task(workspace, rng, difficulty="challenging")
+    >>> workspace = generate_iiwa_workspace(KUKA_IIWA14.name, rng)
+    >>> problem = generate_iiwa_task(workspace, rng, "challenging", goal_radius=0.1)
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from temp_gym.problem import Problem
+from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-from temp_gym.worlds.robots.iiwa14 import joint_limits
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.worlds.difficulty import check_difficulty
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
 
-ROBOT = "kuka_iiwa14"
-DIFFICULTIES = ("any", "easy", "challenging")
 FLOOR_TOP = -0.01
 """Top of the floor slab (m); link_0's lowest point is at z = 0."""
 _SIDES = (
@@ -129,10 +127,13 @@ def _wall(rng: np.random.Generator, side: int) -> list[Box]:
 TEMPLATES = {"table": _table, "shelf": _shelf, "pillar": _pillar, "wall": _wall}
 
 
-def generate_iiwa_workspace(rng: np.random.Generator, max_tries: int = 100) -> Workspace:
+def generate_iiwa_workspace(
+    robot: str, rng: np.random.Generator, max_tries: int = 100
+) -> Workspace:
     """Draw a floor and 3-4 random furniture templates in the iiwa's reach.
 
     Args:
+        robot: the iiwa's registered name (`temp_gym.worlds.robots.kuka_iiwa14`).
         rng: the only source of randomness.
         max_tries: templates redrawn when one touches the robot's base, before giving up.
 
@@ -160,14 +161,14 @@ def generate_iiwa_workspace(rng: np.random.Generator, max_tries: int = 100) -> W
             raise RuntimeError(f"generate_iiwa_workspace: no base-free template in {max_tries}")
     centers = np.array([c for c, _ in boxes])
     halves = np.array([h for _, h in boxes])
-    return Workspace(ROBOT, bounds, centers, halves)
+    return Workspace(robot, bounds, centers, halves)
 
 
 def generate_iiwa_task(
     workspace: Workspace,
     rng: np.random.Generator,
-    difficulty: str = "any",
-    goal_radius: float = 0.1,
+    difficulty: str,
+    goal_radius: float,
     max_tries: int = 2000,
 ) -> Problem:
     """Draw a free start and goal in ``workspace`` matching ``difficulty``.
@@ -184,10 +185,9 @@ def generate_iiwa_task(
         ValueError: bad ``workspace``, ``difficulty`` or ``goal_radius``.
         RuntimeError: no pair matched within ``max_tries``.
     """
-    if not isinstance(workspace, Workspace) or workspace.robot != ROBOT:
-        raise ValueError(f"workspace: expected a {ROBOT} Workspace, got {workspace!r}")
-    if difficulty not in DIFFICULTIES:
-        raise ValueError(f"difficulty: expected one of {DIFFICULTIES}, got {difficulty!r}")
+    if not isinstance(workspace, Workspace) or workspace.dim != NUM_JOINTS:
+        raise ValueError(f"workspace: expected an iiwa Workspace, got {workspace!r}")
+    check_difficulty(difficulty)
     if not (isinstance(goal_radius, (int, float)) and 0 < goal_radius < np.inf):
         raise ValueError(f"goal_radius: expected a positive number, got {goal_radius!r}")
     checker = IiwaSphereChecker(
@@ -198,8 +198,8 @@ def generate_iiwa_task(
     batch = 64
     for first in range(0, max_tries, batch):
         count = min(batch, max_tries - first)
-        starts = rng.uniform(lower, upper, size=(count, 7))
-        goals = rng.uniform(lower, upper, size=(count, 7))
+        starts = rng.uniform(lower, upper, size=(count, NUM_JOINTS))
+        goals = rng.uniform(lower, upper, size=(count, NUM_JOINTS))
         ok = checker.states_free(starts, clearance) & checker.states_free(goals, clearance)
         ok &= np.linalg.norm(goals - starts, axis=1) > 2 * goal_radius
         if difficulty != "any":
@@ -208,10 +208,10 @@ def generate_iiwa_task(
         hits = np.flatnonzero(ok)
         if len(hits):
             k = hits[0]
-            return workspace.problem(starts[k], goals[k], float(goal_radius))
+            return Problem(workspace, starts[k], goals[k], float(goal_radius))
     raise RuntimeError(
         f"generate_iiwa_task: no {difficulty!r} start-goal pair in {max_tries} tries"
     )
 
 
-__all__ = ["DIFFICULTIES", "TEMPLATES", "generate_iiwa_task", "generate_iiwa_workspace"]
+__all__ = ["TEMPLATES", "generate_iiwa_task", "generate_iiwa_workspace"]

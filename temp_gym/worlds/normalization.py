@@ -1,12 +1,16 @@
 """The map between a world's configuration space and the normalized [-1, 1]^d of actions.
 
 The model and the env's action and observation speak normalized coordinates; the world keeps
-its own units (DESIGN.md, "Data shapes worth fixing early").
+its own units (DESIGN.md, "Data shapes worth fixing early"). Lengths the model reads are
+ratios: the goal radius over the mean half-range of the bounds (`goal_radius_ratio`).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+MAX_RATIO = 100.0
+"""Upper bound of the ratio observations (``goal_radius``, ``best_cost``); larger is clipped."""
 
 
 def normalize(states: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -24,3 +28,11 @@ def denormalize(actions: np.ndarray, bounds: np.ndarray) -> np.ndarray:
 def half_range(bounds: np.ndarray) -> np.ndarray:
     """Half the side of the bounds per dimension: world length per normalized unit."""
     return 0.5 * (bounds[1] - bounds[0])
+
+
+def goal_radius_ratio(goal_radius: float, bounds: np.ndarray) -> float:
+    """The goal radius as the model reads it: over the mean half-range, clipped at `MAX_RATIO`.
+
+    The observation, the demonstrations and the policy's task all use this one ratio.
+    """
+    return min(float(goal_radius) / float(half_range(bounds).mean()), MAX_RATIO)

@@ -17,8 +17,8 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from temp_gym.problem import Workspace
 from temp_gym.worlds.collision.point import PointBoxChecker
-from temp_gym.worlds.workspace import Workspace
 
 DEFAULT_SPACING = {2: 0.25, 3: 0.5}
 """Lattice spacing per dimension for the default [0, 20]^d worlds."""
@@ -50,16 +50,16 @@ class ReferencePlanner:
     """Shortest paths on a free-space lattice of a point workspace, then shortcut.
 
     Args:
-        workspace: a point2d or point3d workspace.
+        workspace: a point robot's workspace (its configuration is its position, 2D or 3D).
         spacing: lattice spacing; defaults to `DEFAULT_SPACING` for the dimension.
     """
 
     def __init__(self, workspace: Workspace, spacing: float | None = None) -> None:
-        if workspace.robot not in ("point2d", "point3d"):
+        dim = workspace.dim
+        if dim != workspace.workspace_dim or dim not in DEFAULT_SPACING:
             raise ValueError(
                 f"robot: reference paths exist for point robots, not {workspace.robot}"
             )
-        dim = workspace.dim
         self.spacing = float(spacing or DEFAULT_SPACING[dim])
         self.checker = PointBoxChecker(
             workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper

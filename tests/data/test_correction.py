@@ -19,17 +19,16 @@ from temp_gym.data.correction import (
 from temp_gym.files import StoredFileError
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import TEMPModel
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 from temp_gym.worlds.normalization import denormalize
 from temp_gym.worlds.reference import GoalField, ReferencePlanner
-from temp_gym.worlds.workspace import Workspace
 
 ROOT = Path(__file__).resolve().parents[2]
 SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 4}
 
 
 def _field(problem: Problem) -> GoalField:
-    return GoalField(ReferencePlanner(Workspace.of(problem)), problem.goal)
+    return GoalField(ReferencePlanner(problem.workspace), problem.goal)
 
 
 def test_the_expert_walks_the_shortest_path_a_step_at_a_time(wall):
@@ -37,7 +36,7 @@ def test_the_expert_walks_the_shortest_path_a_step_at_a_time(wall):
     field = _field(problem)
     path = field.path(problem.start)
     assert certify_path(problem, path)
-    reference = ReferencePlanner(Workspace.of(problem)).solve(problem.start, problem.goal)
+    reference = ReferencePlanner(problem.workspace).solve(problem.start, problem.goal)
     cost = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
     assert cost == pytest.approx(reference.cost, rel=0.02)
     nodes, mask = expert_next_nodes(field, problem.start, 1.0, 3)

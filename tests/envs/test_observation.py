@@ -18,7 +18,6 @@ from temp_gym.planning.observation import MAX_RATIO, TreeObserver
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import half_range, normalize
-from temp_gym.worlds.workspace import Workspace
 
 
 def reference_observation(env) -> dict[str, np.ndarray]:
@@ -32,7 +31,7 @@ def reference_observation(env) -> dict[str, np.ndarray]:
     distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
     radius = min(problem.goal_radius / half_range(problem.bounds).mean(), MAX_RATIO)
     return {
-        "occupancy": occupancy_grid(Workspace.of(problem), env.resolution).astype(np.float32),
+        "occupancy": occupancy_grid(problem.workspace, env.resolution).astype(np.float32),
         "start": normalize(problem.start, problem.bounds).astype(np.float32),
         "goal": normalize(problem.goal, problem.bounds).astype(np.float32),
         "goal_radius": np.array([radius], np.float32),
@@ -104,7 +103,7 @@ def test_failed_step_observation_equals_the_previous_one_but_is_fresh(wall):
 
 def test_observer_follows_a_new_tree_with_as_many_nodes(wall):
     problem = Problem.from_dict(wall)
-    occupancy = occupancy_grid(Workspace.of(problem), 32)
+    occupancy = occupancy_grid(problem.workspace, 32)
     observer = TreeObserver(problem, occupancy, 8, 100)
     first, second = Tree(problem), Tree(problem)
     first.extend(np.array([3.0, 10.0]))
@@ -135,7 +134,7 @@ def test_path_so_far_is_the_path_entry_of_observe(wall):
     # The TEMP planner's fast path reads only these two entries; they must be what a full
     # observation of the same tree holds, with the path growing, shrinking and truncated to L.
     problem = Problem.from_dict(wall)
-    occupancy = occupancy_grid(Workspace.of(problem), 32)
+    occupancy = occupancy_grid(problem.workspace, 32)
     fast, full = TreeObserver(problem, occupancy, 4, 300), TreeObserver(problem, occupancy, 4, 300)
     tree = Tree(problem, step_size=1.0)
     rng = np.random.default_rng(0)

@@ -1,14 +1,14 @@
 import numpy as np
 import pytest
 
-from temp_gym.envs.render import (
+from temp_gym.problem import Problem
+from temp_gym.worlds.rendering import (
     MAX_3D_EDGES,
     IiwaRenderer,
     arm_poses,
     plan_title,
     render_point_world,
 )
-from temp_gym.problem import Problem
 
 POINT2D = {
     "robot": "point2d",
@@ -235,7 +235,7 @@ def test_3d_draws_few_edges_and_keeps_the_path_on_top_of_boxes():
     hidden = render_point_world(boxed, path=path)
     assert red_pixels(hidden) >= 0.9 * red_pixels(clear)
     positions, parents = random_tree(problem, 3 * MAX_3D_EDGES)
-    from temp_gym.envs.render_points import _tree_segments
+    from temp_gym.worlds.rendering.points import _tree_segments
 
     assert len(_tree_segments(positions, parents, MAX_3D_EDGES)) == MAX_3D_EDGES
     check_image(render_point_world(problem, positions, parents, path=path), 480, 480)

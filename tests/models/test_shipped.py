@@ -9,18 +9,22 @@ import numpy as np
 import pytest
 
 import temp_gym
-from temp_gym.models.registry import CHECKPOINT_DIR, SHIPPED
+from temp_gym.models.registry import checkpoint_path
 from temp_gym.models.temp import load_checkpoint, weights_digest
 from temp_gym.planning.plan import plan
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 from temp_gym.worlds.generators import generate_problem
+from temp_gym.worlds.robots import spec_for_env
 
 ROBOTS = {"TEMP-2D-v0": "point2d", "TEMP-3D-v0": "point3d", "TEMP-7D-v0": "kuka_iiwa14"}
+SHIPPED = {"TEMP-2D-v0": "2d", "TEMP-3D-v0": "3d", "TEMP-7D-v0": "7d"}
+"""Env id -> checkpoint stem, as shipped (the specs must keep naming these files)."""
 
 
 @pytest.mark.parametrize("env_id", list(SHIPPED))
 def test_shipped_checkpoint_is_small_carded_and_consistent(env_id):
-    path = CHECKPOINT_DIR / f"{SHIPPED[env_id]}.pt"
+    path = checkpoint_path(spec_for_env(env_id))
+    assert path.name == f"{SHIPPED[env_id]}.pt"
     assert path.stat().st_size <= 10 * 2**20
     model, checkpoint = load_checkpoint(path, robot=ROBOTS[env_id])  # weights_only=True
     assert checkpoint["provenance"]["digest"] == weights_digest(model.state_dict())

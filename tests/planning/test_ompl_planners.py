@@ -3,7 +3,7 @@ import pytest
 
 from temp_gym.planning import plan
 from temp_gym.problem import Problem
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 
 pytest.importorskip("ompl")
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from temp_gym.planning import PLANNERS, PlanResult, plan
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 
 OURS = ["rrt_star", "informed_rrt_star"]
 

@@ -10,7 +10,7 @@ import pytest
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.planning import plan
 from temp_gym.problem import Problem
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa, densify
 
 PLANNERS = ["temp", "rrt_star", "informed_rrt_star"]

@@ -3,7 +3,7 @@ import pytest
 
 from temp_gym import Problem, plan
 from temp_gym.policies import UniformPolicy
-from temp_gym.worlds.collision import certify_path
+from temp_gym.worlds.checkers import certify_path
 
 
 class TowardsGoal:

@@ -107,7 +107,8 @@ def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
     from dataclasses import replace
 
     from temp_gym.planning import tree as tree_module
-    from temp_gym.worlds.collision import make_checker
+    from temp_gym.problem import Workspace
+    from temp_gym.worlds.checkers import make_checker
 
     monkeypatch.setattr(tree_module, "_FREE_VOLUME_CACHE", type(tree_module._FREE_VOLUME_CACHE)())
     calls = []
@@ -122,11 +123,11 @@ def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
     assert first.gamma > 0 and len(calls) == 1
     other_query = replace(problem_2d, start=problem_2d.goal, goal=problem_2d.start)
     assert Tree(other_query).gamma == first.gamma and len(calls) == 1  # same workspace
-    no_boxes = replace(
-        problem_2d,
-        obstacle_centers=problem_2d.obstacle_centers[:0],
-        obstacle_half_extents=problem_2d.obstacle_half_extents[:0],
+    space = problem_2d.workspace
+    empty = Workspace(
+        space.robot, space.bounds, space.obstacle_centers[:0], space.obstacle_half_extents[:0]
     )
+    no_boxes = replace(problem_2d, workspace=empty)
     assert Tree(no_boxes).gamma > first.gamma and len(calls) == 2  # more free space
     Tree(problem_2d, checker=make_checker(problem_2d))  # a caller's checker: not cached
     assert len(calls) == 3

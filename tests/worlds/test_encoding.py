@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from temp_gym.worlds.encoding import IIWA_REGION, occupancy_grid
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.problem import Workspace
+from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.robots.kuka_iiwa14 import ENCODING_REGION as IIWA_REGION
 
 BOUNDS_2D = [[0.0, 0.0], [20.0, 20.0]]
 
@@ -38,7 +39,7 @@ def test_3d_and_iiwa_shapes():
                         np.array([[1.0] * 3]))  # fmt: skip
     assert occupancy_grid(point3d, 16).shape == (16, 16, 16)
     centre = IIWA_REGION.mean(axis=0)
-    iiwa = Workspace("kuka_iiwa14", [[-3.0] * 7, [3.0] * 7], centre[None], np.array([[0.1] * 3]))
+    iiwa = Workspace("kuka_iiwa14", [[-2.0] * 7, [2.0] * 7], centre[None], np.array([[0.1] * 3]))
     grid = occupancy_grid(iiwa, 16)
     assert grid.shape == (16, 16, 16) and 0 < grid.sum() <= 4**3
 

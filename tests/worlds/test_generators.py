@@ -2,24 +2,24 @@ import numpy as np
 import pytest
 
 from temp_gym import Problem
-from temp_gym.worlds.collision import make_checker
-from temp_gym.worlds.generators import (
+from temp_gym.problem import Workspace
+from temp_gym.worlds.checkers import make_checker
+from temp_gym.worlds.generators import generate_problem, generate_task
+from temp_gym.worlds.point_world import (
     CHALLENGING_MIN_RATIO,
     EASY_MAX_RATIO,
     classify_task,
     generate_point_workspace,
-    generate_problem,
-    generate_task,
 )
 from temp_gym.worlds.reference import ReferencePlanner
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.worlds.robots import robot_spec
 
 
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])
 def test_same_seed_same_problems(robot):
     def draw(seed):
         rng = np.random.default_rng(seed)
-        workspace = generate_point_workspace(rng, 2 if robot == "point2d" else 3)
+        workspace = generate_point_workspace(robot, rng)
         return [generate_task(workspace, rng).to_dict() for _ in range(5)]
 
     assert draw(3) == draw(3)
@@ -44,7 +44,7 @@ def test_easy_and_challenging_differ_by_the_documented_criterion(robot):
         for _ in range(4):
             problem = generate_problem(robot, rng, difficulty)
             assert isinstance(problem, Problem)
-            reference = ReferencePlanner(Workspace.of(problem))
+            reference = ReferencePlanner(problem.workspace)
             label, ratio = classify_task(reference, problem.start, problem.goal)
             assert label == difficulty
             checker = make_checker(problem)
@@ -61,7 +61,7 @@ def test_reference_path_is_collision_free_and_near_optimal():
     workspace = Workspace("point2d", [[0, 0], [20, 20]], [[10, 10]], [[1, 6]])
     reference = ReferencePlanner(workspace)
     solution = reference.solve(np.array([2.0, 10.0]), np.array([18.0, 10.0]))
-    checker = make_checker(workspace)
+    checker = robot_spec(workspace.robot).make_checker(workspace)
     assert checker.path_free(solution.path)
     optimal = 2 * np.hypot(7, 6) + 2  # around the corners (9, 4) and (11, 4)
     assert optimal - 1e-9 <= solution.cost <= 1.03 * optimal

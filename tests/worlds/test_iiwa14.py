@@ -7,7 +7,7 @@ import pybullet
 import pytest
 from pybullet_utils.bullet_client import BulletClient
 
-from temp_gym.worlds.robots.iiwa14 import (
+from temp_gym.worlds.iiwa14.kinematics import (
     forward_kinematics,
     forward_kinematics_reference,
     joint_limits,
@@ -16,7 +16,7 @@ from temp_gym.worlds.robots.iiwa14 import (
     read_stl,
     urdf_path,
 )
-from temp_gym.worlds.robots.sphere_fit import load_mesh_radii, load_sphere_model, subdivide
+from temp_gym.worlds.iiwa14.sphere_fit import load_mesh_radii, load_sphere_model, subdivide
 
 
 @pytest.fixture(scope="module")

@@ -5,12 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from temp_gym.worlds import iiwa_world
 from temp_gym.worlds.collision import CollisionChecker
 from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa
-from temp_gym.worlds.iiwa_world import generate_iiwa_workspace
-from temp_gym.worlds.robots.iiwa14 import joint_limits
+from temp_gym.worlds.iiwa14.kinematics import joint_limits
+
+
+def generate_iiwa_workspace(rng):
+    return iiwa_world.generate_iiwa_workspace("kuka_iiwa14", rng)
+
 
 LIMITS = joint_limits()
 # A 2 mm wall in the plane y = 0, in front of the robot: swinging joint 1 across it collides.

@@ -10,8 +10,8 @@ from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
 from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa, densify
-from temp_gym.worlds.robots.convex_hulls import SELF_COLLISION_PADDING
-from temp_gym.worlds.robots.iiwa14 import forward_kinematics, joint_limits
+from temp_gym.worlds.iiwa14.convex_hulls import SELF_COLLISION_PADDING
+from temp_gym.worlds.iiwa14.kinematics import forward_kinematics, joint_limits
 
 LIMITS = joint_limits()
 NO_BOXES = (np.zeros((0, 3)), np.zeros((0, 3)))

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
-from temp_gym.worlds.robots import acm, pair_tables
-from temp_gym.worlds.robots.convex_hulls import convex_hull, hull_tetrahedra, link_hulls
-from temp_gym.worlds.robots.iiwa14 import forward_kinematics, joint_limits, link_meshes
-from temp_gym.worlds.robots.sphere_fit import cover_solid, load_sphere_model
+from temp_gym.worlds.iiwa14 import acm, pair_tables
+from temp_gym.worlds.iiwa14.convex_hulls import convex_hull, hull_tetrahedra, link_hulls
+from temp_gym.worlds.iiwa14.kinematics import forward_kinematics, joint_limits, link_meshes
+from temp_gym.worlds.iiwa14.sphere_fit import cover_solid, load_sphere_model
 
 LIMITS = joint_limits()
 

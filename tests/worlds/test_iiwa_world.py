@@ -5,14 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from temp_gym.problem import Problem
-from temp_gym.worlds.collision import make_checker
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds import iiwa_world
+from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa
-from temp_gym.worlds.iiwa_world import generate_iiwa_task, generate_iiwa_workspace
-from temp_gym.worlds.robots.iiwa14 import joint_limits
-from temp_gym.worlds.workspace import Workspace
+from temp_gym.worlds.iiwa14.kinematics import joint_limits
+
+
+def generate_iiwa_workspace(rng):
+    return iiwa_world.generate_iiwa_workspace("kuka_iiwa14", rng)
+
+
+def generate_iiwa_task(workspace, rng, difficulty="any", goal_radius=0.1, **kwargs):
+    return iiwa_world.generate_iiwa_task(workspace, rng, difficulty, goal_radius, **kwargs)
 
 
 def test_same_seed_same_workspace_and_tasks():

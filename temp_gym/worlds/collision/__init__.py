@@ -10,16 +10,16 @@
   and on their (padded) convex hulls against each other, within the URDF joint limits.
 
 ``True`` always means *free* (OMPL's "valid"), so ``checker.states_free(x)`` reads as it says.
+
+A robot's spec names its checkers (`temp_gym.worlds.robots.RobotSpec.make_checker`);
+`temp_gym.worlds.checkers` builds a problem's.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from temp_gym.problem import Problem
 
 
 @runtime_checkable
@@ -57,38 +57,4 @@ class SelfCollisionChecker(Protocol):
         ...
 
 
-def make_checker(problem: Problem, exact: bool = False) -> CollisionChecker:
-    """Build the fast (default) or the exact collision checker for ``problem``.
-
-    Example:
-        >>> checker = make_checker(problem)
-        >>> checker.states_free(np.array([[2.0, 2.0], [10.0, 10.0]]))
-        array([ True, False])
-    """
-    if problem.robot in ("point2d", "point3d"):
-        from temp_gym.worlds.collision.point import PointBoxChecker
-
-        return PointBoxChecker(problem.bounds, problem.obstacle_lower, problem.obstacle_upper)
-    if problem.robot == "kuka_iiwa14":
-        if exact:
-            from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
-
-            return IiwaExactChecker(problem.bounds, problem.obstacle_lower, problem.obstacle_upper)
-        from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-
-        return IiwaSphereChecker(problem.bounds, problem.obstacle_lower, problem.obstacle_upper)
-    raise ValueError(f"robot: no collision checker for {problem.robot!r}")
-
-
-def certify_path(problem: Problem, path: np.ndarray) -> bool:
-    """Certify ``path`` with the exact checker: every state and motion is collision-free.
-
-    For the iiwa that includes self-collision and the URDF joint limits at every waypoint.
-    """
-    path = np.asarray(path, dtype=np.float64)
-    if path.ndim != 2 or path.shape[1] != problem.dim or len(path) == 0:
-        raise ValueError(f"path: expected shape (K, {problem.dim}), got {path.shape}")
-    return bool(make_checker(problem, exact=True).path_free(path))
-
-
-__all__ = ["CollisionChecker", "SelfCollisionChecker", "certify_path", "make_checker"]
+__all__ = ["CollisionChecker", "SelfCollisionChecker"]

@@ -2,7 +2,7 @@
 
 This is the checker that certifies every path a planner returns. Each link's collision mesh
 (pybullet_data's ``kuka_iiwa/meshes/link_*.stl``) is an fcl ``BVHModel`` (OBBRSS), posed by
-the forward kinematics of `temp_gym.worlds.robots.iiwa14` and tested against ``fcl.Box``
+the forward kinematics of `temp_gym.worlds.iiwa14.kinematics` and tested against ``fcl.Box``
 obstacles. Self-collision is tested on the links' convex hulls, padded like pybullet's, for the
 pairs the allowed-collision matrix enables (`temp_gym.worlds.collision.iiwa_self`).
 
@@ -17,13 +17,13 @@ link and is not produced by the world generators.
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``,
 a point of link ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
 ``W_j = sum_i |b_i - a_i| R[i, j]`` and ``R[i, j]`` bounds the distance of link ``j``'s mesh from
-joint ``i``'s axis (`temp_gym.worlds.robots.iiwa14.motion_radii`). If ``d_j`` is a lower bound
+joint ``i``'s axis (`temp_gym.worlds.iiwa14.kinematics.motion_radii`). If ``d_j`` is a lower bound
 on link ``j``'s distance to every box at ``q(t)``, nothing can touch while ``t`` advances by
 less than ``min_j d_j / W_j``. Likewise, the distance between links ``a < b`` changes only
 through the joints between them (the others move both links as one rigid body), at most at
 rate ``W_ab = sum_{a <= i < b} |b_i - a_i| R[i, b]`` (at most ``W_a + W_b``), so a pair with
 padded clearance ``d_ab`` cannot touch while ``t`` advances by less than ``d_ab / W_ab``
-(`temp_gym.worlds.robots.iiwa14.relative_motion_radii`). The checker walks
+(`temp_gym.worlds.iiwa14.kinematics.relative_motion_radii`). The checker walks
 the segment with steps of ``0.9`` times the smallest of these; ``d_j`` is the fcl mesh-box
 distance, or, for boxes farther than ``EXACT_DISTANCE_BELOW``, the (cheaper, smaller) distance
 from the link's oriented bounding box, and ``d_ab`` the hull distance or, for far pairs, the
@@ -41,8 +41,8 @@ import numpy as np
 
 from temp_gym.worlds.collision.iiwa_inputs import as_bounds, as_boxes, as_state, as_states
 from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
-from temp_gym.worlds.robots.acm import enabled_pairs, link_name
-from temp_gym.worlds.robots.iiwa14 import (
+from temp_gym.worlds.iiwa14.acm import enabled_pairs, link_name
+from temp_gym.worlds.iiwa14.kinematics import (
     NUM_LINKS,
     forward_kinematics,
     joint_limits,

@@ -1,7 +1,7 @@
 """Fast, conservative collision checking for the KUKA iiwa 14: boxes and self-collision.
 
 The planners' hot loop. One numba kernel does forward kinematics and tests the sphere model
-of `temp_gym.worlds.robots.sphere_fit` (spheres that provably cover each link's solid convex
+of `temp_gym.worlds.iiwa14.sphere_fit` (spheres that provably cover each link's solid convex
 hull, hence its collision mesh) against the boxes, with early exit, then the link pairs that
 the allowed-collision matrix enables against each other (`iiwa_fast_self`). A link's spheres
 are only tested against a box when the link's bounding sphere touches it (the broad phase, SIMD
@@ -9,7 +9,7 @@ over boxes), and link_0, which never moves, is tested against the boxes once in 
 Boxes are closed: touching counts as a collision.
 
 **Speed.** Sines and cosines are computed a block of states at a time by a vectorized
-polynomial (`temp_gym.worlds.robots.iiwa14.sincos_into`), FK uses 3x4 poses and the URDF's
+polynomial (`temp_gym.worlds.iiwa14.kinematics.sincos_into`), FK uses 3x4 poses and the URDF's
 signed-permutation joint origins (`joint_step_into`), and the kernels take their arrays
 unpacked and index them whole: tuple unpacking and row views cost atomic reference counts.
 That FK is within `FAST_FK_MARGIN` (10 nm) of the exact one, so every sphere is grown by it.
@@ -20,7 +20,7 @@ state this checker calls free is free for `IiwaExactChecker` too (the tests chec
 of thousands of states); the converse fails on a few percent of states, where only a sphere's
 bulge touches a box or another link's sphere.
 
-**Self-collision.** Only the pairs enabled by `temp_gym.worlds.robots.acm` are tested (adjacent
+**Self-collision.** Only the pairs enabled by `temp_gym.worlds.iiwa14.acm` are tested (adjacent
 pairs and pairs that never come close are not): link_5 - link_7 by a lookup in its joint-space
 table before the kinematics, the base against the forearm and wrist sphere against sphere
 after the boxes, behind a test of the links' bounding spheres whose world centers the box
@@ -32,7 +32,7 @@ shaped input raises `ValueError`.
 
 **Motion validity (resolution).** An edge is the straight joint-space segment. Rotating joint
 ``i`` by ``dq_i`` moves any point of link ``j`` by at most ``|dq_i| R[i, j]`` (see
-`temp_gym.worlds.robots.iiwa14.motion_radii`), so along the edge link ``j`` moves at most
+`temp_gym.worlds.iiwa14.kinematics.motion_radii`), so along the edge link ``j`` moves at most
 ``W_j = sum_i |dq_i| R[i, j]``. The edge is split into ``n = ceil(max_j W_j / resolution)``
 equal steps (``resolution`` = 0.02 m of workspace motion by default) and each of the
 ``n + 1`` states, endpoints included, is checked with link ``j``'s spheres grown by
@@ -66,8 +66,8 @@ from temp_gym.worlds.collision.iiwa_inputs import (
     as_states,
     within_joint_limits,
 )
-from temp_gym.worlds.robots.acm import enabled_pairs, link_name
-from temp_gym.worlds.robots.iiwa14 import (
+from temp_gym.worlds.iiwa14.acm import enabled_pairs, link_name
+from temp_gym.worlds.iiwa14.kinematics import (
     FAST_FK_MARGIN,
     NUM_JOINTS,
     NUM_LINKS,
@@ -76,8 +76,8 @@ from temp_gym.worlds.robots.iiwa14 import (
     origin_permutations,
     relative_motion_radii,
 )
-from temp_gym.worlds.robots.pair_tables import load_pair_tables
-from temp_gym.worlds.robots.sphere_fit import load_mesh_radii, load_sphere_model
+from temp_gym.worlds.iiwa14.pair_tables import load_pair_tables
+from temp_gym.worlds.iiwa14.sphere_fit import load_mesh_radii, load_sphere_model
 
 DEFAULT_RESOLUTION = 0.02
 """Largest workspace displacement (m) of any link point between two checked states."""

@@ -22,7 +22,7 @@ from temp_gym.worlds.collision.iiwa_fast_self import (
     pairs_free,
     tables_free,
 )
-from temp_gym.worlds.robots.iiwa14 import joint_step_into, sincos_into
+from temp_gym.worlds.iiwa14.kinematics import joint_step_into, sincos_into
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

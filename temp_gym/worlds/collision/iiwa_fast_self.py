@@ -5,7 +5,7 @@ kernels, on the joint angles and link poses those kernels already have. Two test
 
 * **Joint-space tables** for pairs two joints apart (link_5 - link_7): a lookup of a certified
   lower bound on the pair's padded hull distance in the cell of the first joint's angle
-  (`temp_gym.worlds.robots.pair_tables`). The pair is free when the bound exceeds the two
+  (`temp_gym.worlds.iiwa14.pair_tables`). The pair is free when the bound exceeds the two
   links' growth (below) plus ``2 * DISTANCE_TOLERANCE``. These links are a few centimetres
   apart in every pose, so spheres would have to be tiny and many not to overlap everywhere.
 * **Sphere against sphere** for the other pairs (the base against the forearm and wrist).
@@ -13,7 +13,7 @@ kernels, on the joint angles and link poses those kernels already have. Two test
 Both run after the box tests and stop at the first colliding pair.
 
 **Conservative (spheres).** The spheres of link ``j`` cover its solid convex hull
-(`temp_gym.worlds.robots.sphere_fit`). The exact checker calls links ``a`` and ``b`` colliding
+(`temp_gym.worlds.iiwa14.sphere_fit`). The exact checker calls links ``a`` and ``b`` colliding
 when fcl's hull distance, less its tolerance, is at most the padding gap ``G``
 (`temp_gym.worlds.collision.iiwa_self`), so when the true distance is at most
 ``G + 2 * DISTANCE_TOLERANCE``: then points ``x`` of hull ``a`` and ``y`` of hull ``b`` lie that

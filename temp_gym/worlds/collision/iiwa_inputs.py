@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from temp_gym.worlds.robots.iiwa14 import NUM_JOINTS, joint_limits
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
 
 
 def as_boxes(box_lower: np.ndarray, box_upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

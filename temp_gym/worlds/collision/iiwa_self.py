@@ -2,8 +2,8 @@
 
 Two links collide when their convex hulls, each grown by `SELF_COLLISION_PADDING`, touch:
 when the distance between the hulls is at most ``2 * SELF_COLLISION_PADDING``
-(`temp_gym.worlds.robots.convex_hulls` says why hulls). Only the pairs that the allowed-collision
-matrix enables are tested (`temp_gym.worlds.robots.acm`).
+(`temp_gym.worlds.iiwa14.convex_hulls` says why hulls). Only the pairs that the allowed-collision
+matrix enables are tested (`temp_gym.worlds.iiwa14.acm`).
 
 **Distances are lower bounds.** fcl's GJK distance between two hulls can exceed the true
 distance by a little (by about 1e-6 m on these hulls, against a quadratic program's), so
@@ -13,7 +13,8 @@ hulls, which reads as collision. A pair whose hulls' bounding spheres are farthe
 the gap needs no GJK call (the broad phase).
 
 **Motions.** Along a joint-space segment, a point of link ``b`` moves relative to link ``a``
-at most at rate ``W_ab`` per unit of ``t`` (`temp_gym.worlds.robots.iiwa14.relative_motion_radii`;
+at most at rate ``W_ab`` per unit of ``t``
+(`temp_gym.worlds.iiwa14.kinematics.relative_motion_radii`;
 hull points are convex combinations of mesh vertices, so the mesh's bound holds for them), so
 the distance between the links shrinks at most at that rate. `LinkHulls.clearances` gives
 the lower bounds that `temp_gym.worlds.collision.iiwa_exact` turns into certified steps.
@@ -24,7 +25,7 @@ from __future__ import annotations
 import fcl
 import numpy as np
 
-from temp_gym.worlds.robots.convex_hulls import SELF_COLLISION_PADDING, link_hulls
+from temp_gym.worlds.iiwa14.convex_hulls import SELF_COLLISION_PADDING, link_hulls
 
 DISTANCE_TOLERANCE = 1e-5
 """Subtracted from every fcl hull distance (m), so that a distance is a lower bound."""

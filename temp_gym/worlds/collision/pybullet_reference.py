@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from temp_gym.worlds.robots.iiwa14 import NUM_JOINTS, NUM_LINKS, urdf_path
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, NUM_LINKS, urdf_path
 
 SELF_PAIRS = tuple((a, b) for a in range(NUM_LINKS) for b in range(a + 2, NUM_LINKS))
 """Every pair of links that no joint joins, the base included: what pybullet is asked about."""
@@ -25,8 +25,8 @@ class PybulletIiwa:
     """The iiwa (base at the origin) and optionally a problem's boxes, in a pybullet client.
 
     Args:
-        problem: anything with ``obstacle_centers`` and ``obstacle_half_extents`` (a
-            `temp_gym.Problem` or a `Workspace`); ``None`` for the arm alone.
+        problem: a `temp_gym.Problem` or a `temp_gym.problem.Workspace`; ``None`` for the arm
+            alone.
     """
 
     def __init__(self, problem=None) -> None:
@@ -37,7 +37,8 @@ class PybulletIiwa:
         self._robot = self._client.loadURDF(str(urdf_path()), [0, 0, 0], useFixedBase=True)
         self._boxes = []
         if problem is not None:
-            for center, half in zip(problem.obstacle_centers, problem.obstacle_half_extents):
+            space = getattr(problem, "workspace", problem)  # a Problem's, or the Workspace
+            for center, half in zip(space.obstacle_centers, space.obstacle_half_extents):
                 shape = self._client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
                 self._boxes.append(self._client.createMultiBody(0, shape, -1, center))
 

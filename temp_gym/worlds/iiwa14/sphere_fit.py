@@ -1,15 +1,15 @@
 """A few spheres per iiwa link that provably cover the link's solid convex hull.
 
-Run ``python -m temp_gym.worlds.robots.sphere_fit`` to regenerate ``iiwa14_spheres.json``
+Run ``python -m temp_gym.worlds.iiwa14.sphere_fit`` to regenerate ``spheres.json``
 next to this file; the fast collision checker only loads that JSON (`load_sphere_model`), so
 importing it costs no fitting.
 
-Meshes are read with the small numpy binary-STL reader in `temp_gym.worlds.robots.iiwa14`
+Meshes are read with the small numpy binary-STL reader in `temp_gym.worlds.iiwa14.kinematics`
 rather than trimesh: the runtime (the exact checker needs the meshes too) then depends on no
 mesh library, and nothing here needs more than vertices and triangles.
 
 What is covered: the *solid* convex hull of each link's collision mesh
-(`temp_gym.worlds.robots.convex_hulls`). It contains the mesh, so the spheres cover the mesh
+(`temp_gym.worlds.iiwa14.convex_hulls`). It contains the mesh, so the spheres cover the mesh
 that the exact checker tests against boxes, and it is the geometry the exact checker uses for
 self-collision (a hull is a solid, so the cover must be one too: a link inside another's hull
 is a collision).
@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-SPHERES_PATH = Path(__file__).with_name("iiwa14_spheres.json")
+SPHERES_PATH = Path(__file__).with_name("spheres.json")
 SPHERES_PER_LINK = (6, 5, 5, 5, 5, 5, 4, 3)
 """Spheres per link, link_0 first. Link_0 never moves, so its count costs nothing at runtime."""
 MARGIN = 1e-4
@@ -136,7 +136,7 @@ def fit_link(
 
     Returns ``(centers (K, 3), radii (K,))``, the margin included.
     """
-    from temp_gym.worlds.robots.convex_hulls import hull_tetrahedra
+    from temp_gym.worlds.iiwa14.convex_hulls import hull_tetrahedra
 
     tetrahedra = hull_tetrahedra(vertices, faces)
     triangles = subdivide(vertices, faces, max_edge)
@@ -184,8 +184,8 @@ def fit_link(
 
 def fit_model(seed: int = 0) -> dict:
     """Fit every link's solid hull and return the JSON-ready sphere model."""
-    from temp_gym.worlds.robots.convex_hulls import link_hulls
-    from temp_gym.worlds.robots.iiwa14 import load_model
+    from temp_gym.worlds.iiwa14.convex_hulls import link_hulls
+    from temp_gym.worlds.iiwa14.kinematics import load_model
 
     rng = np.random.default_rng(seed)
     links = []
@@ -228,7 +228,7 @@ def load_mesh_radii(path: str | Path = SPHERES_PATH) -> np.ndarray:
 
 
 def main() -> None:
-    """Regenerate ``iiwa14_spheres.json`` and print the radii."""
+    """Regenerate ``spheres.json`` and print the radii."""
     model = fit_model()
     SPHERES_PATH.write_text(json.dumps(model, indent=1) + "\n")
     for j, link in enumerate(model["links"]):

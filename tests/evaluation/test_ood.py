@@ -2,8 +2,8 @@
 
 import pytest
 
-from temp_gym.worlds.collision import make_checker
-from temp_gym.worlds.ood import WORLD_DIRS, build_ood_family, load_ood_family
+from temp_gym.evaluation.ood import WORLD_DIRS, build_ood_family, load_ood_family
+from temp_gym.worlds.checkers import make_checker
 
 
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])
@@ -23,5 +23,5 @@ def test_every_problem_is_valid_and_its_straight_line_is_blocked(robot):
 def test_an_unknown_robot_has_no_family(tmp_path):
     with pytest.raises(ValueError, match="robot"):
         load_ood_family("point4d")
-    with pytest.raises(FileNotFoundError, match="temp_gym.worlds.ood"):
+    with pytest.raises(FileNotFoundError, match="temp_gym.evaluation.ood"):
         load_ood_family("point2d", tmp_path)

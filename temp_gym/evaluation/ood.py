@@ -21,7 +21,7 @@ and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``
 radius, so only the structure differs. No training generator produces these layouts.
 
 The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
-``python -m temp_gym.worlds.ood`` rewrites those files from the builders here, and the tests
+``python -m temp_gym.evaluation.ood`` rewrites those files from the builders here, and the tests
 check that the two agree. `load_ood_family` reads them.
 """
 
@@ -34,11 +34,12 @@ from pathlib import Path
 import numpy as np
 
 from temp_gym.problem import Problem
-from temp_gym.worlds.generators import DEFAULT_GOAL_RADIUS, POINT_WORLD_SIZE
+from temp_gym.worlds.point_world import POINT_WORLD_SIZE
+from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, RobotSpec
 
 EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples" / "ood"
-WORLD_DIRS = {"point2d": "2d", "point3d": "3d", "kuka_iiwa14": "7d"}
-"""Robot -> folder of its family under `EXAMPLES_DIR`."""
+WORLD_DIRS = {spec.name: spec.short_name for spec in (POINT2D, POINT3D, KUKA_IIWA14)}
+"""Robot -> folder of its family under `EXAMPLES_DIR` (the robot's short name)."""
 WALL = 0.25
 """Half thickness of a wall (world units): half a steering step."""
 
@@ -51,16 +52,15 @@ def _box(lower, upper) -> dict:
     }
 
 
-def _problem(robot: str, boxes: list[dict], start, goal) -> Problem:
-    dim = 2 if robot == "point2d" else 3
+def _problem(spec: RobotSpec, boxes: list[dict], start, goal) -> Problem:
     return Problem.from_dict(
         {
-            "robot": robot,
-            "bounds": [[0.0] * dim, [POINT_WORLD_SIZE] * dim],
+            "robot": spec.name,
+            "bounds": [[0.0] * spec.dim, [POINT_WORLD_SIZE] * spec.dim],
             "obstacles": boxes,
             "start": [float(v) for v in start],
             "goal": [float(v) for v in goal],
-            "goal_radius": DEFAULT_GOAL_RADIUS[robot],
+            "goal_radius": spec.goal_radius,
         }
     )
 
@@ -73,11 +73,11 @@ def _bug_trap_2d(opening: str) -> Problem:
     right = _box([hi - w, lo], [hi + w, hi])
     top = _box([lo - w, hi - w], [hi + w, hi + w])
     if opening == "down":  # open at the bottom, goal above
-        return _problem("point2d", [left, right, top], [10, 10], [10, 18.5])
+        return _problem(POINT2D, [left, right, top], [10, 10], [10, 18.5])
     # open to the left, goal to the right: the cup turned by a quarter
     bottom = _box([lo, lo - w], [hi, lo + w])
     right_wall = _box([hi - w, lo - w], [hi + w, hi + w])
-    return _problem("point2d", [_box([lo, hi - w], [hi, hi + w]), bottom, right_wall],
+    return _problem(POINT2D, [_box([lo, hi - w], [hi, hi + w]), bottom, right_wall],
                     [10, 10], [18.5, 10])  # fmt: skip
 
 
@@ -88,7 +88,7 @@ def _zigzag_2d(walls: int) -> Problem:
         y = POINT_WORLD_SIZE * (i + 1) / (walls + 1)
         x0, x1 = (0.0, 16.0) if i % 2 == 0 else (4.0, POINT_WORLD_SIZE)
         boxes.append(_box([x0, y - WALL], [x1, y + WALL]))
-    return _problem("point2d", boxes, [2, 1], [2, 19])
+    return _problem(POINT2D, boxes, [2, 1], [2, 19])
 
 
 def _narrow_gap_2d(width: float) -> Problem:
@@ -98,7 +98,7 @@ def _narrow_gap_2d(width: float) -> Problem:
         _box([10 - WALL, 0.0], [10 + WALL, gap_low]),
         _box([10 - WALL, gap_high], [10 + WALL, POINT_WORLD_SIZE]),
     ]
-    return _problem("point2d", boxes, [3, 16], [17, 16])
+    return _problem(POINT2D, boxes, [3, 16], [17, 16])
 
 
 def _double_wall_2d() -> Problem:
@@ -107,12 +107,12 @@ def _double_wall_2d() -> Problem:
         _box([7 - WALL, 0.0], [7 + WALL, 17.0]),
         _box([13 - WALL, 3.0], [13 + WALL, POINT_WORLD_SIZE]),
     ]
-    return _problem("point2d", boxes, [2, 2], [18, 18])
+    return _problem(POINT2D, boxes, [2, 2], [18, 18])
 
 
 def _long_detour_2d() -> Problem:
     """A wall from the left edge almost across; start and goal sit on its two sides."""
-    return _problem("point2d", [_box([0.0, 10 - WALL], [17.5, 10 + WALL])], [2, 8], [2, 12])
+    return _problem(POINT2D, [_box([0.0, 10 - WALL], [17.5, 10 + WALL])], [2, 8], [2, 12])
 
 
 def _forest_2d() -> Problem:
@@ -124,7 +124,7 @@ def _forest_2d() -> Problem:
             y = 1.7 + 2.2 * row
             if x < 19.6:
                 boxes.append(_box([x - 0.4, y - 0.4], [x + 0.4, y + 0.4]))
-    return _problem("point2d", boxes, [0.5, 0.5], [18.2, 19.3])
+    return _problem(POINT2D, boxes, [0.5, 0.5], [18.2, 19.3])
 
 
 # ---- 3D ---------------------------------------------------------------------------------------
@@ -138,7 +138,7 @@ def _cup_3d() -> Problem:
         _box([lo, hi - w, lo], [hi, hi + w, hi]),
         _box([lo - w, lo - w, hi - w], [hi + w, hi + w, hi + w]),
     ]
-    return _problem("point3d", boxes, [10, 10, 10], [10, 10, 18.5])
+    return _problem(POINT3D, boxes, [10, 10, 10], [10, 10, 18.5])
 
 
 def _wall_with_hole(x: float, hole_center, half: float) -> list[dict]:
@@ -155,13 +155,13 @@ def _wall_with_hole(x: float, hole_center, half: float) -> list[dict]:
 
 def _window_3d() -> Problem:
     """A wall across the world with a 2 x 2 window in a far corner."""
-    return _problem("point3d", _wall_with_hole(10.0, (4.0, 16.0), 1.0), [3, 16, 4], [17, 16, 4])
+    return _problem(POINT3D, _wall_with_hole(10.0, (4.0, 16.0), 1.0), [3, 16, 4], [17, 16, 4])
 
 
 def _double_window_3d() -> Problem:
     """Two walls whose windows sit in opposite corners."""
     boxes = _wall_with_hole(7.0, (4.0, 4.0), 1.25) + _wall_with_hole(13.0, (16.0, 16.0), 1.25)
-    return _problem("point3d", boxes, [2, 10, 10], [18, 10, 10])
+    return _problem(POINT3D, boxes, [2, 10, 10], [18, 10, 10])
 
 
 def _floors_3d() -> Problem:
@@ -178,7 +178,7 @@ def _floors_3d() -> Problem:
             _box([hx - h, hy + h, z - WALL], [hx + h, s, z + WALL]),
         ]
     boxes = [b for b in boxes if min(b["half_extents"]) > 0]
-    return _problem("point3d", boxes, [10, 10, 1.5], [10, 10, 18.5])
+    return _problem(POINT3D, boxes, [10, 10, 1.5], [10, 10, 18.5])
 
 
 def _pillars_3d() -> Problem:
@@ -188,13 +188,13 @@ def _pillars_3d() -> Problem:
         for j in range(8):
             x, y = 1.75 + 2.5 * i, 1.75 + 2.5 * j
             boxes.append(_box([x - 0.4, y - 0.4, 0.0], [x + 0.4, y + 0.4, POINT_WORLD_SIZE]))
-    return _problem("point3d", boxes, [0.5, 0.5, 10], [18.0, 18.0, 10])
+    return _problem(POINT3D, boxes, [0.5, 0.5, 10], [18.0, 18.0, 10])
 
 
 def _long_detour_3d() -> Problem:
     """A wall across all but a 2.5-unit strip at the far end; start and goal on its sides."""
     s = POINT_WORLD_SIZE
-    return _problem("point3d", [_box([0.0, 0.0, 10 - WALL], [17.5, s, 10 + WALL])],
+    return _problem(POINT3D, [_box([0.0, 0.0, 10 - WALL], [17.5, s, 10 + WALL])],
                     [2, 10, 8], [2, 10, 12])  # fmt: skip
 
 
@@ -216,7 +216,7 @@ def _iiwa_problem(boxes: list[dict], start_near, goal_near, seed: int) -> Proble
     """
     from temp_gym.planning.plan import plan
     from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-    from temp_gym.worlds.robots.iiwa14 import forward_kinematics, joint_limits
+    from temp_gym.worlds.iiwa14.kinematics import forward_kinematics, joint_limits
 
     limits = joint_limits()
     lower = np.array([np.subtract(b["center"], b["half_extents"]) for b in boxes])
@@ -237,11 +237,11 @@ def _iiwa_problem(boxes: list[dict], start_near, goal_near, seed: int) -> Proble
                 continue
             problem = Problem.from_dict(
                 {
-                    "robot": "kuka_iiwa14",
+                    "robot": KUKA_IIWA14.name,
                     "obstacles": boxes,
                     "start": start.tolist(),
                     "goal": goal.tolist(),
-                    "goal_radius": DEFAULT_GOAL_RADIUS["kuka_iiwa14"],
+                    "goal_radius": KUKA_IIWA14.goal_radius,
                 }
             )
             result = plan(problem, planner="informed_rrt_star", seed=0,
@@ -317,7 +317,7 @@ def _pillar_ring_7d() -> Problem:
 
 
 BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
-    "point2d": {
+    POINT2D.name: {
         "bug_trap": lambda: _bug_trap_2d("down"),
         "bug_trap_side": lambda: _bug_trap_2d("left"),
         "zigzag_3": lambda: _zigzag_2d(3),
@@ -328,7 +328,7 @@ BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
         "long_detour": _long_detour_2d,
         "forest": _forest_2d,
     },
-    "point3d": {
+    POINT3D.name: {
         "cup": _cup_3d,
         "window": _window_3d,
         "double_window": _double_window_3d,
@@ -336,7 +336,7 @@ BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
         "pillars": _pillars_3d,
         "long_detour": _long_detour_3d,
     },
-    "kuka_iiwa14": {
+    KUKA_IIWA14.name: {
         "window": _window_7d,
         "low_ceiling": _low_ceiling_7d,
         "slot": _slot_7d,
@@ -361,7 +361,7 @@ def load_ood_family(robot: str, directory: str | Path | None = None) -> dict[str
     folder = Path(directory) if directory is not None else EXAMPLES_DIR / WORLD_DIRS[robot]
     files = sorted(folder.glob("*.json"))
     if not files:
-        raise FileNotFoundError(f"{folder}: no problems (python -m temp_gym.worlds.ood)")
+        raise FileNotFoundError(f"{folder}: no problems (python -m temp_gym.evaluation.ood)")
     return {path.stem: Problem.load(path) for path in files}
 
 

@@ -1,6 +1,6 @@
 """The iiwa's allowed-collision matrix: which link pairs self-collision checks test.
 
-Run ``python -m temp_gym.worlds.robots.acm`` to regenerate ``iiwa14_acm.json`` next to this
+Run ``python -m temp_gym.worlds.iiwa14.acm`` to regenerate ``acm.json`` next to this
 file (deterministic from ``--seed``); the checkers only load that JSON (`enabled_pairs`).
 
 The matrix is computed the way MoveIt's setup assistant computes its "disabled collisions",
@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from temp_gym.worlds.robots.convex_hulls import SELF_COLLISION_PADDING
-from temp_gym.worlds.robots.iiwa14 import NUM_LINKS, forward_kinematics, joint_limits
+from temp_gym.worlds.iiwa14.convex_hulls import SELF_COLLISION_PADDING
+from temp_gym.worlds.iiwa14.kinematics import NUM_LINKS, forward_kinematics, joint_limits
 
-ACM_PATH = Path(__file__).with_name("iiwa14_acm.json")
+ACM_PATH = Path(__file__).with_name("acm.json")
 REASONS = ("adjacent", "default", "always", "never", "enabled")
 ALWAYS_FRACTION = 0.95
 """A pair in collision in at least this fraction of the samples is "always" (MoveIt's 95%)."""
@@ -143,7 +143,7 @@ def load_acm(path: str | Path = ACM_PATH) -> dict:
     if data.get("padding") != SELF_COLLISION_PADDING:
         raise ValueError(
             f"{path}: computed with padding {data.get('padding')}, the checkers use "
-            f"{SELF_COLLISION_PADDING}; run python -m temp_gym.worlds.robots.acm"
+            f"{SELF_COLLISION_PADDING}; run python -m temp_gym.worlds.iiwa14.acm"
         )
     return data
 
@@ -159,7 +159,7 @@ def enabled_pairs(path: str | Path = ACM_PATH) -> np.ndarray:
 
 
 def main() -> None:
-    """Regenerate ``iiwa14_acm.json`` and print the matrix and any reported pairs."""
+    """Regenerate ``acm.json`` and print the matrix and any reported pairs."""
     parser = argparse.ArgumentParser(description="Regenerate the iiwa's allowed-collision matrix.")
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0)

@@ -1,4 +1,4 @@
-"""`IiwaRenderer`: a ``kuka_iiwa14`` problem drawn with pybullet's software renderer.
+"""`IiwaRenderer`: an iiwa problem drawn with pybullet's software renderer.
 
 The arm is drawn at a few configurations in its own ``DIRECT`` client, with the boxes:
 
@@ -23,8 +23,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from temp_gym.envs.render_common import caption, check_paths, check_size
 from temp_gym.quiet import import_pybullet, native_output_silenced
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS
+from temp_gym.worlds.rendering.common import caption, check_paths, check_size, plan_title
 
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
@@ -98,7 +99,7 @@ def arm_poses(
 
 
 class IiwaRenderer:
-    """Draws ``kuka_iiwa14`` problems with pybullet's tiny (CPU) renderer.
+    """Draws iiwa problems with pybullet's tiny (CPU) renderer.
 
     The renderer owns its own ``DIRECT`` pybullet client, created at the first `render`, and
     keeps the arm bodies loaded; the boxes (and the camera, when chosen per scene) change only
@@ -206,9 +207,11 @@ class IiwaRenderer:
         for body in self._boxes:
             client.removeBody(body)
         self._boxes = []
-        lower, upper = problem.obstacle_lower, problem.obstacle_upper
+        lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
         ground_z = min(0.0, float(lower[:, 2].min())) if len(lower) else 0.0
-        boxes = list(zip(problem.obstacle_centers, problem.obstacle_half_extents))
+        boxes = list(
+            zip(problem.workspace.obstacle_centers, problem.workspace.obstacle_half_extents)
+        )
         # A pale visual-only ground under everything, so the scene does not float.
         ground = (np.array([0.0, 0.0, ground_z - 0.006]), np.array([1.6, 1.6, 0.005]))
         for index, (center, half) in enumerate([ground, *boxes]):
@@ -296,6 +299,25 @@ class IiwaRenderer:
         return max(scores, key=scores.get)  # first of the best: the order above breaks ties
 
     # ------------------------------------------------------------------ drawing
+    def draw_tree(
+        self,
+        problem: Problem,
+        positions: np.ndarray | None,
+        parents: np.ndarray | None,
+        num_nodes: int,
+        path: np.ndarray | None = None,
+        path_so_far: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """`render` titled like a tree picture (`TreeRenderer`); the tree itself is not drawn.
+
+        A 7D tree drawn as arms would hide the path, so the picture shows the arm along the
+        solution, or at the newest node of the path so far (an orange arm).
+        """
+        del positions, parents  # a tree of arm poses is no picture
+        shown = "orange arm" if path is None and num_nodes > 1 else ""
+        title = plan_title(problem, num_nodes, path, shown)
+        return self.render(problem, title=title, path=path, path_so_far=path_so_far)
+
     def render(
         self,
         problem: Problem,
@@ -308,7 +330,7 @@ class IiwaRenderer:
         """Draw ``problem`` with the arm along a solution, a path so far, or at start and goal.
 
         Args:
-            problem: A ``kuka_iiwa14`` problem.
+            problem: An iiwa problem.
             path: Joint configurations ``(K, 7)`` of a solution, or None.
             width: Image width in pixels.
             height: Image height in pixels.
@@ -322,9 +344,9 @@ class IiwaRenderer:
         Raises:
             ValueError: For another robot, a badly shaped path, or both kinds of path.
         """
-        if problem.robot != "kuka_iiwa14":
+        if problem.dim != NUM_JOINTS or problem.workspace.workspace_dim != 3:
             raise ValueError(
-                f"problem: IiwaRenderer draws kuka_iiwa14, got {problem.robot!r}; "
+                f"problem: IiwaRenderer draws the {NUM_JOINTS}-joint iiwa, got {problem.robot!r}; "
                 "use render_point_world for point robots"
             )
         width, height = check_size(width, height)

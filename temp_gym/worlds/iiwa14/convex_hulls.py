@@ -14,7 +14,7 @@ check self-collision on the same geometry as pybullet, the hulls grown by
   fcl's GJK distance on them is fast.
 
 The hulls are built here with scipy (Qhull) from the meshes read by
-`temp_gym.worlds.robots.iiwa14.link_meshes`; obstacles are still checked against the meshes.
+`temp_gym.worlds.iiwa14.kinematics.link_meshes`; obstacles are still checked against the meshes.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def convex_hull(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @functools.cache
 def link_hulls() -> tuple[tuple[np.ndarray, np.ndarray], ...]:
     """The 8 links' convex hulls ``(vertices, faces)`` in their link frames, link_0 first."""
-    from temp_gym.worlds.robots.iiwa14 import link_meshes
+    from temp_gym.worlds.iiwa14.kinematics import link_meshes
 
     hulls = []
     for vertices, _ in link_meshes():

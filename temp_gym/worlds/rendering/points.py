@@ -1,4 +1,4 @@
-"""`render_point_world`: a ``point2d`` or ``point3d`` problem, tree and path, with matplotlib.
+"""`render_point_world`: a point robot's problem, tree and path (2D or 3D), with matplotlib.
 
 It builds its own `Figure` on an Agg canvas (never pyplot's global state), so it is headless
 and safe in threads and subprocesses.
@@ -19,7 +19,7 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from temp_gym.envs.render_common import (
+from temp_gym.worlds.rendering.common import (
     DPI,
     GOAL_COLOR,
     PATH_SO_FAR_COLOR,
@@ -96,7 +96,7 @@ def _box_faces(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 def _draw_2d(figure, problem, positions, parents, path, solution):
     axes = figure.add_subplot()
-    lower, upper = problem.obstacle_lower, problem.obstacle_upper
+    lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
     rectangles = [
         [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
         for lo, hi in zip(lower, upper)
@@ -128,9 +128,14 @@ def _draw_3d(figure, problem, positions, parents, path, solution):
 
     # Drawn in zorder, not by depth: the path, start and goal stay in front of the boxes.
     axes = figure.add_subplot(projection="3d", computed_zorder=False)
-    if problem.num_obstacles:
+    if problem.workspace.num_obstacles:
         faces = np.concatenate(
-            [_box_faces(lo, hi) for lo, hi in zip(problem.obstacle_lower, problem.obstacle_upper)]
+            [
+                _box_faces(lo, hi)
+                for lo, hi in zip(
+                    problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
+                )
+            ]
         )
         boxes = Poly3DCollection(
             faces, facecolors=_BOX_COLOR, edgecolors="#9a9a9a", linewidths=0.25, alpha=0.1
@@ -187,7 +192,7 @@ def render_point_world(
     one, titled "no solution yet". The axes span ``problem.bounds`` with equal aspect.
 
     Args:
-        problem: A ``point2d`` or ``point3d`` problem.
+        problem: A point robot's problem (2D or 3D).
         positions: Tree node states ``(N, d)``; rows past ``num_nodes`` are ignored.
         parents: Parent index per node (``-1`` for the root), length at least ``num_nodes``.
         path: States ``(K, d)`` of a solution.
@@ -202,10 +207,10 @@ def render_point_world(
     Raises:
         ValueError: For another robot, badly shaped arguments, or both kinds of path.
     """
-    if problem.robot not in ("point2d", "point3d"):
+    if problem.dim not in (2, 3) or problem.dim != problem.workspace.workspace_dim:
         raise ValueError(
-            f"problem: render_point_world draws point2d and point3d, got {problem.robot!r}; "
-            "use IiwaRenderer for kuka_iiwa14"
+            f"problem: render_point_world draws point robots in 2D or 3D, got {problem.robot!r}; "
+            "the iiwa's renderer is IiwaRenderer"
         )
     width, height = check_size(width, height)
     positions, parents = _check_tree(problem, positions, parents, num_nodes)
@@ -224,3 +229,24 @@ def render_point_world(
     else:
         figure.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.95)
     return canvas_to_array(canvas, width, height)
+
+
+class PointWorldRenderer:
+    """The point robots' `temp_gym.worlds.rendering.common.TreeRenderer`: `render_point_world`."""
+
+    def draw_tree(
+        self,
+        problem: Problem,
+        positions: np.ndarray | None,
+        parents: np.ndarray | None,
+        num_nodes: int,
+        path: np.ndarray | None = None,
+        path_so_far: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The problem, the first ``num_nodes`` nodes of a tree, and a solution or path so far."""
+        return render_point_world(
+            problem, positions, parents, path, num_nodes, path_so_far=path_so_far
+        )
+
+    def close(self) -> None:
+        """Nothing to release: every picture has its own figure."""

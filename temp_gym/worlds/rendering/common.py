@@ -8,7 +8,7 @@ and titled with its cost.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -19,12 +19,34 @@ if TYPE_CHECKING:
     from temp_gym.problem import Problem
 
 DPI = 100
+
+
 SOLUTION_COLOR = "#e41a1c"
 """A solution: bold red."""
 PATH_SO_FAR_COLOR = "#f28e2b"
 """The path to the newest node before a solution: orange, dashed."""
 START_COLOR = "#1a9e3a"
 GOAL_COLOR = "#1f4fd6"
+
+
+class TreeRenderer(Protocol):
+    """What draws a planning episode (a robot spec's ``make_renderer`` builds one)."""
+
+    def draw_tree(
+        self,
+        problem: Problem,
+        positions: np.ndarray | None,
+        parents: np.ndarray | None,
+        num_nodes: int,
+        path: np.ndarray | None = None,
+        path_so_far: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """An RGB picture of ``problem`` and its tree, with a solution or the path so far."""
+        ...
+
+    def close(self) -> None:
+        """Release what the renderer holds (a simulator client); safe to call twice."""
+        ...
 
 
 def check_size(width: int, height: int) -> tuple[int, int]:

@@ -1,7 +1,7 @@
 """Joint-space tables of the self-collision clearance of link pairs two joints apart.
 
-Run ``python -m temp_gym.worlds.robots.pair_tables`` to regenerate ``iiwa14_pair_tables.json``
-next to this file (after the allowed-collision matrix, `temp_gym.worlds.robots.acm`); the fast
+Run ``python -m temp_gym.worlds.iiwa14.pair_tables`` to regenerate ``pair_tables.json``
+next to this file (after the allowed-collision matrix, `temp_gym.worlds.iiwa14.acm`); the fast
 checker only loads the JSON (`load_pair_tables`).
 
 **Why a table.** Links ``a`` and ``a + 2`` (for the iiwa, the enabled pair link_5 - link_7) sit
@@ -20,7 +20,7 @@ geometry, `temp_gym.worlds.collision.iiwa_self`), i.e. the hull distance less th
 where ``c_i`` is the cell's center, ``s_k`` the centers of cells of width ``h2`` covering the
 next joint's range, ``d`` fcl's hull distance less its tolerance and the gap, and ``R1``,
 ``R2`` the largest distance of link ``a + 2``'s mesh from each joint's axis
-(`temp_gym.worlds.robots.iiwa14.motion_radii`; hull points are convex combinations of mesh
+(`temp_gym.worlds.iiwa14.kinematics.motion_radii`; hull points are convex combinations of mesh
 vertices). Turning a joint by ``x`` moves link ``a + 2`` relative to link ``a`` by at most
 ``R |x|``, so every pose of the cell is within that of a sampled one. Entries are rounded down.
 A pose is free for the pair when its entry exceeds the growth of the two links' spheres
@@ -36,11 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
-from temp_gym.worlds.robots.acm import enabled_pairs
-from temp_gym.worlds.robots.convex_hulls import SELF_COLLISION_PADDING
-from temp_gym.worlds.robots.iiwa14 import forward_kinematics, joint_limits, motion_radii
+from temp_gym.worlds.iiwa14.acm import enabled_pairs
+from temp_gym.worlds.iiwa14.convex_hulls import SELF_COLLISION_PADDING
+from temp_gym.worlds.iiwa14.kinematics import forward_kinematics, joint_limits, motion_radii
 
-TABLES_PATH = Path(__file__).with_name("iiwa14_pair_tables.json")
+TABLES_PATH = Path(__file__).with_name("pair_tables.json")
 CELL = 0.002
 """Width (rad) of a table cell of the first joint between the pair."""
 SWEEP_CELL = 0.01
@@ -64,7 +64,7 @@ def _cells(lower: float, upper: float, width: float) -> tuple[np.ndarray, float]
 def compute_table(pair: tuple[int, int], cell: float = CELL, sweep_cell: float = SWEEP_CELL):
     """The table of ``pair`` ``(a, a + 2)``: JSON-ready, see the module docstring."""
     from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
-    from temp_gym.worlds.robots.sphere_fit import load_mesh_radii
+    from temp_gym.worlds.iiwa14.sphere_fit import load_mesh_radii
 
     a, b = pair
     if b - a != 2:
@@ -116,7 +116,7 @@ def _load(path: Path) -> dict:
         raise ValueError(
             f"{path}: made for padding {data.get('padding')} and pairs {found}, the checkers "
             f"use {SELF_COLLISION_PADDING} and {expected}; run "
-            "python -m temp_gym.worlds.robots.pair_tables"
+            "python -m temp_gym.worlds.iiwa14.pair_tables"
         )
     return data
 
@@ -140,7 +140,7 @@ def load_pair_tables(path: str | Path = TABLES_PATH) -> tuple[np.ndarray, np.nda
 
 
 def main() -> None:
-    """Regenerate ``iiwa14_pair_tables.json`` and print each table's range."""
+    """Regenerate ``pair_tables.json`` and print each table's range."""
     parser = argparse.ArgumentParser(description="Regenerate the iiwa's joint-space pair tables.")
     parser.add_argument("--out", type=Path, default=TABLES_PATH)
     args = parser.parse_args()

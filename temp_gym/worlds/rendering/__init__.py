@@ -1,8 +1,8 @@
 """Pictures of problems, trees and paths as ``uint8`` RGB arrays of shape ``(height, width, 3)``.
 
-* `render_point_world` (`temp_gym.envs.render_points`) draws a ``point2d`` or ``point3d``
+* `render_point_world` (`temp_gym.worlds.rendering.points`) draws a ``point2d`` or ``point3d``
   problem with matplotlib: boxes, the planner's tree, a path, the start and the goal region.
-* `IiwaRenderer` (`temp_gym.envs.render_iiwa`) draws a ``kuka_iiwa14`` problem with pybullet's
+* `IiwaRenderer` (`temp_gym.worlds.rendering.iiwa`) draws a ``kuka_iiwa14`` problem with pybullet's
   software renderer: the boxes and the arm at a few configurations, from a camera chosen per
   scene so that the arm is in view.
 
@@ -21,8 +21,8 @@ Example:
 
 from __future__ import annotations
 
-from temp_gym.envs.render_common import plan_title
-from temp_gym.envs.render_iiwa import IiwaRenderer, arm_poses
-from temp_gym.envs.render_points import MAX_3D_EDGES, render_point_world
+from temp_gym.worlds.rendering.common import plan_title
+from temp_gym.worlds.rendering.iiwa import IiwaRenderer, arm_poses
+from temp_gym.worlds.rendering.points import MAX_3D_EDGES, render_point_world
 
 __all__ = ["MAX_3D_EDGES", "IiwaRenderer", "arm_poses", "plan_title", "render_point_world"]

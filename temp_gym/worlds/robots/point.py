@@ -1,0 +1,83 @@
+"""Point robots among boxes: the factory behind `point2d` and `point3d`.
+
+A point robot's configuration is its position in a box world ``[0, 20]^d``: the analytic
+segment-versus-box test is exact (one checker serves both levels), tasks are drawn by
+`temp_gym.worlds.point_world`, pictures by matplotlib. Factories import their machinery on
+first use, so registering a robot loads none of it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from temp_gym.worlds.robots.spec import RobotSpec
+
+if TYPE_CHECKING:
+    from temp_gym.problem import Problem, Workspace
+    from temp_gym.worlds.collision import CollisionChecker
+    from temp_gym.worlds.rendering.common import TreeRenderer
+
+GOAL_RADIUS = 0.5
+"""Goal radius of drawn tasks (world units): a step is 1.0 in the ``[0, 20]^d`` worlds."""
+MAX_NODES = 3000
+"""The env's default node budget."""
+EVALUATION_TASKS = 100
+"""Test tasks per evaluation row (easy and challenging: the paper's 100 + 100)."""
+
+
+def _box_checker(workspace: Workspace, exact: bool) -> CollisionChecker:
+    """The analytic slab test; it is exact, so it is also the fast checker."""
+    from temp_gym.worlds.collision.point import PointBoxChecker
+
+    del exact
+    return PointBoxChecker(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+
+
+def _workspace(robot: str, rng: np.random.Generator) -> Workspace:
+    from temp_gym.worlds.point_world import generate_point_workspace
+
+    return generate_point_workspace(robot, rng)
+
+
+def _task(
+    workspace: Workspace, rng: np.random.Generator, difficulty: str, goal_radius: float
+) -> Problem:
+    from temp_gym.worlds.point_world import generate_point_task
+
+    return generate_point_task(workspace, rng, difficulty, goal_radius)
+
+
+def _renderer() -> TreeRenderer:
+    from temp_gym.worlds.rendering.points import PointWorldRenderer
+
+    return PointWorldRenderer()
+
+
+def point_robot(
+    name: str, env_id: str, short_name: str, seed_code: int, dim: int, encoding_resolution: int
+) -> RobotSpec:
+    """The spec of a point robot in a ``dim``-dimensional box world (see the module docstring).
+
+    Its evaluation has an easy and a challenging row, named after ``short_name``.
+    """
+    label = short_name.upper()
+    return RobotSpec(
+        name=name,
+        env_id=env_id,
+        short_name=short_name,
+        seed_code=seed_code,
+        dim=dim,
+        workspace_dim=dim,
+        encoding_resolution=encoding_resolution,
+        goal_radius=GOAL_RADIUS,
+        max_nodes=MAX_NODES,
+        evaluation_rows={f"{label} easy": "easy", f"{label} challenging": "challenging"},
+        evaluation_tasks=EVALUATION_TASKS,
+        checker_factory=_box_checker,
+        workspace_generator=_workspace,
+        task_generator=_task,
+        renderer_factory=_renderer,
+        cube_symmetric=True,
+    )

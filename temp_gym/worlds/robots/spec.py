@@ -1,0 +1,152 @@
+"""`RobotSpec`: everything that differs between robots, in one place per robot.
+
+A robot's file in this package builds one `RobotSpec`; the registry
+(`temp_gym.worlds.robots`) maps its name to it. The env, the tree, the collision factory,
+the encoding, the generators, the data, the trainers and the evaluation read the spec, so no
+code outside this package asks which robot it is planning for.
+
+The spec holds values (dimensions, budgets, the encoding) and factories (checkers,
+generators, the renderer). The library calls the methods, which apply the spec's defaults.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from temp_gym.worlds.collision import SelfCollisionChecker
+
+if TYPE_CHECKING:
+    from temp_gym.problem import Problem, Workspace
+    from temp_gym.worlds.collision import CollisionChecker
+    from temp_gym.worlds.rendering.common import TreeRenderer
+
+STEP_FRACTION = 0.05
+"""Steering step of a robot without a fixed one: this fraction of the bounds' largest side."""
+
+CheckerFactory = Callable[["Workspace", bool], "CollisionChecker"]
+WorkspaceGenerator = Callable[[str, np.random.Generator], "Workspace"]
+TaskGenerator = Callable[["Workspace", np.random.Generator, str, float], "Problem"]
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot: its dimensions, defaults, checkers, generators and renderer.
+
+    Example:
+        >>> spec = robot_spec("point2d")
+        >>> spec.dim, spec.env_id, spec.encoding_resolution
+        (2, 'TEMP-2D-v0', 32)
+        >>> checker = spec.make_checker(problem.workspace)
+    """
+
+    name: str
+    """The name problem files and configs use (``"robot": ...``)."""
+    env_id: str
+    """The Gymnasium id registered for it (``TEMP-2D-v0``)."""
+    short_name: str
+    """A short name for files and flags: its shipped checkpoint (``{short_name}.pt``), its
+    out-of-distribution folder, benchmark options."""
+    seed_code: int
+    """Its entry in the seed sequence of the fixed workspace pools (`temp_gym.worlds.splits`);
+    unique per robot, and never changed, or every pool changes."""
+    dim: int
+    """Configuration-space dimension."""
+    workspace_dim: int
+    """Dimension of the workspace the boxes live in (2 or 3)."""
+    encoding_resolution: int
+    """Default cells per workspace axis of the occupancy grid (env, planner, data)."""
+    goal_radius: float
+    """Goal radius of drawn tasks, in configuration units."""
+    max_nodes: int
+    """The env's default node budget (episode truncation)."""
+    evaluation_rows: Mapping[str, str]
+    """The rows of the evaluation table: row name -> task difficulty."""
+    evaluation_tasks: int
+    """Test tasks per evaluation row, by default."""
+    checker_factory: CheckerFactory
+    """``(workspace, exact) -> checker``: the fast checker planners call in their hot loop,
+    or the exact one that certifies returned paths (`temp_gym.worlds.collision`)."""
+    workspace_generator: WorkspaceGenerator
+    """``(name, rng) -> Workspace``: a random workspace of the robot."""
+    task_generator: TaskGenerator
+    """``(workspace, rng, difficulty, goal_radius) -> Problem``: a random task in it."""
+    renderer_factory: Callable[[], TreeRenderer]
+    """A new renderer of the robot's episodes (`TreeRenderer`)."""
+    step_size: float | None = None
+    """Fixed steering step; None: `STEP_FRACTION` of the bounds' largest side."""
+    encoding_region: np.ndarray | None = None
+    """The ``(2, workspace_dim)`` box the occupancy grid covers; None: the bounds."""
+    joint_limits: Callable[[], np.ndarray] | None = None
+    """The robot's own ``(2, dim)`` limits: a problem's bounds default to them and lie within."""
+    allowed_collisions: Path | None = None
+    """The allowed-collision matrix (JSON) of a robot that can collide with itself: which link
+    pairs its checkers test against each other."""
+    cube_symmetric: bool = False
+    """Its world is a cube whose occupancy grid shares the configuration axes (a point robot),
+    so mirrored and axis-swapped samples are samples too: training may augment with them."""
+
+    # ------------------------------------------------------------------ what the library calls
+    def make_checker(self, workspace: Workspace, exact: bool = False) -> CollisionChecker:
+        """The fast (default) or exact collision checker of ``workspace``."""
+        return self.checker_factory(workspace, exact)
+
+    def generate_workspace(self, rng: np.random.Generator) -> Workspace:
+        """A random workspace, drawn from ``rng`` alone."""
+        return self.workspace_generator(self.name, rng)
+
+    def generate_task(
+        self,
+        workspace: Workspace,
+        rng: np.random.Generator,
+        difficulty: str = "any",
+        goal_radius: float | None = None,
+    ) -> Problem:
+        """A random task of ``difficulty`` in ``workspace`` (None ``goal_radius``: the robot's).
+
+        Raises:
+            RuntimeError: no task of that difficulty in the generator's tries.
+        """
+        radius = self.goal_radius if goal_radius is None else goal_radius
+        return self.task_generator(workspace, rng, difficulty, radius)
+
+    def make_renderer(self) -> TreeRenderer:
+        """A new renderer of this robot's episodes; close it when done."""
+        return self.renderer_factory()
+
+    def default_step_size(self, bounds: np.ndarray) -> float:
+        """The steering step for a problem of these ``bounds`` when none is given."""
+        if self.step_size is not None:
+            return self.step_size
+        return STEP_FRACTION * float(np.max(bounds[1] - bounds[0]))
+
+    def region(self, bounds: np.ndarray) -> np.ndarray:
+        """The ``(2, workspace_dim)`` box the occupancy grid covers, a fresh array."""
+        region = bounds if self.encoding_region is None else self.encoding_region
+        return np.asarray(region, dtype=np.float64).copy()
+
+    def collision_reasons(self, workspace: Workspace, states: np.ndarray) -> list[str | None]:
+        """Per state: None when the fast checker calls it free, else why not (for messages).
+
+        A self-collision names the link pairs; every reason names the checker.
+        """
+        checker = self.make_checker(workspace)
+        reasons: list[str | None] = []
+        for state, free in zip(states, checker.states_free(states)):
+            if free:
+                reasons.append(None)
+                continue
+            pairs = (
+                checker.self_collisions(state) if isinstance(checker, SelfCollisionChecker) else []
+            )
+            what = (
+                "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
+                if pairs
+                else "collision"
+            )
+            reasons.append(f"{what} ({checker.description})")
+        return reasons
