@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -269,7 +270,7 @@ def train(
         state["epoch"] = epoch + 1
         state["history"].append(
             {"epoch": epoch + 1, "train_loss": sums["loss"] / batches, "val_loss": val["loss"],
-             "lr": lr}
+             "val": dict(val), "lr": lr, "hardware": hardware(device, dist.world)}
         )  # fmt: skip
         step = state["epoch"]  # epochs completed: the periodic evaluation's step too
         logger.scalars({f"train/{key}": value / batches for key, value in sums.items()}, step)
@@ -360,6 +361,13 @@ def resume_checkpoint(last_path: Path, config: dict[str, Any], robot: str) -> di
                 "to start a new run"
             )
     return checkpoint
+
+
+def hardware(device: torch.device, world: int) -> str:
+    """What an epoch ran on, for the model card: processes, device and CPU cores."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    name = torch.cuda.get_device_name(device) if device.type == "cuda" else "CPU"
+    return f"{world} x {name}, {cores} CPU cores, torch {torch.__version__}"
 
 
 def epoch_estimate(remaining: int, seconds: list[float]) -> str:

@@ -33,6 +33,9 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--tasks-per-workspace", type=int, default=10, help="tasks per workspace")
     parser.add_argument("--samples-per-task", type=int, default=100, help="most samples per task")
     parser.add_argument("--max-nodes", type=int, default=2000, help="attention-phase budget")
+    parser.add_argument(
+        "--clearance", type=float, default=0.0, help="the expert keeps this far from boxes"
+    )
     parser.add_argument("--workers", type=int, default=None, help="processes (None: data.workers)")
     parser.add_argument("--out", default=None, help="round dir (None: {data.dir}/corrections/)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -41,7 +44,7 @@ def main(argv: list[str] | None = None) -> Path:
     config = load_config(args.config, args.overrides)
     settings = correction_settings(
         config, args.checkpoint, args.round, args.tasks_per_workspace, args.samples_per_task,
-        args.max_nodes,
+        args.max_nodes, args.clearance,
     )  # fmt: skip
     out = Path(args.out or Path(config["data"]["dir"]) / "corrections" / f"round{args.round}")
     workers = int(args.workers or config["data"].get("workers") or 1)

@@ -99,6 +99,60 @@ def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Pat
     return card_path
 
 
+def _logged_scalar(run_dir: Path, tag: str) -> dict[int, float]:
+    """``tag``'s values by step from the run's TensorBoard files (the last write of a step wins)."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    values: dict[int, float] = {}
+    for events in sorted(run_dir.glob("events.out.tfevents.*")):
+        accumulator = EventAccumulator(str(events), size_guidance={"scalars": 0})
+        accumulator.Reload()
+        if tag in accumulator.Tags().get("scalars", []):
+            values.update({event.step: event.value for event in accumulator.Scalars(tag)})
+    return values
+
+
+def training_figures(checkpoint: str | Path, hardware: str | None = None) -> list[str]:
+    """Card lines from the run's ``last.pt`` history: the validation curve, time and hardware.
+
+    ``hardware`` describes the training machine for runs that predate the history's own record
+    of it; the history's record wins where it exists.
+    """
+    last = Path(checkpoint).with_name("last.pt")
+    try:
+        history = torch.load(last, weights_only=True, map_location="cpu").get("history") or []
+    except (OSError, RuntimeError, AttributeError) as error:
+        return [f"- Training history unavailable ({last}: {error})."]
+    if not history:
+        return [f"- Training history unavailable ({last} records no epochs)."]
+    seconds = [entry["seconds"] for entry in history if "seconds" in entry]
+    recorded = {entry["hardware"] for entry in history if "hardware" in entry}
+    machine = ", ".join(sorted(recorded)) or hardware or "not recorded"
+    timing = (
+        f"{sum(seconds) / 60:.1f} min over {len(seconds)} timed epochs"
+        if seconds
+        else "not recorded by this run"
+    )
+    lines = [
+        f"- Epochs: {len(history)}; training time: {timing}; hardware: {machine}.",
+        "",
+        "Validation curve (the trainer's `history`; `val semantic` is the next-node term the "
+        "best checkpoint is chosen on, where recorded):",
+        "",
+        "| epoch | train loss | val loss | val semantic | lr |",
+        "|---:|---:|---:|---:|---:|",
+    ]
+    logged = _logged_scalar(last.parent, "val/semantic")
+    for entry in history:
+        semantic = entry.get("val", {}).get("semantic", logged.get(entry["epoch"]))
+        lines.append(
+            f"| {entry['epoch']} | {entry['train_loss']:.5f} | {entry['val_loss']:.5f} | "
+            + (f"{semantic:.5f}" if semantic is not None else "-")
+            + f" | {entry['lr']:.0e} |"
+        )
+    return lines
+
+
 def model_card(
     env_id: str,
     config: dict[str, Any],
@@ -176,6 +230,7 @@ def model_card(
             + "`",
             f"- Checkpoint: {provenance['source']} (epoch {provenance.get('epoch')}, validation "
             f"loss {provenance.get('val_loss')}).",
+            *training_figures(provenance["source"], provenance.get("hardware")),
             "",
             "```yaml",
             yaml.safe_dump(sections, sort_keys=False).strip(),
@@ -219,6 +274,11 @@ def main(argv: list[str] | None = None) -> Path:
     )
     parser.add_argument("--notes", default="", help="for the card: how training went")
     parser.add_argument(
+        "--hardware",
+        default=None,
+        help="for the card: the training machine, for runs whose history does not record it",
+    )
+    parser.add_argument(
         "--out-dir", default=str(CHECKPOINT_DIR), help="where checkpoint and card go"
     )
     parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
@@ -255,6 +315,7 @@ def main(argv: list[str] | None = None) -> Path:
         "val_loss": source.get("val_loss"),
         "digest": weights_digest(source["state_dict"]),
         "notes": args.notes,
+        "hardware": args.hardware,
     }
     out_dir = Path(args.out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -37,9 +37,36 @@ import numpy as np
 from temp_gym.data.demonstrations import resample_path
 from temp_gym.planning.attention import AttentionLimits, run_attention_phase
 from temp_gym.planning.tree import Tree, default_step_size
-from temp_gym.problem import Problem
+from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.normalization import denormalize, goal_radius_ratio, normalize
 from temp_gym.worlds.reference import GoalField
+
+
+class ClearField:
+    """Shortest paths that keep ``clearance`` from the boxes where they can (`GoalField`s).
+
+    A shortest path hugs the corners of the boxes it passes; a policy that imitates it
+    proposes samples whose steered edges graze those corners and collide. The expert therefore
+    plans among boxes grown by ``clearance`` and falls back to the real boxes only from states
+    (or to goals) the grown world closes off.
+    """
+
+    def __init__(self, workspace, goal: np.ndarray, clearance: float) -> None:
+        from temp_gym.worlds.reference import ReferencePlanner
+
+        self.fields = [GoalField(ReferencePlanner(workspace), goal)]
+        if clearance > 0:
+            grown = Workspace(workspace.robot, workspace.bounds, workspace.obstacle_centers,
+                              workspace.obstacle_half_extents + clearance)  # fmt: skip
+            self.fields.insert(0, GoalField(ReferencePlanner(grown), goal))
+
+    def path(self, state: np.ndarray, length: float = np.inf) -> np.ndarray | None:
+        """The first field's path from ``state`` (None when none has one)."""
+        for field in self.fields:
+            path = field.path(state, length)
+            if path is not None:
+                return path
+        return None
 
 
 def expert_next_nodes(
@@ -162,12 +189,10 @@ def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.nd
     """Plan and label ``settings["tasks_per_workspace"]`` new tasks of one training workspace."""
     from temp_gym.models.registry import policy_from_checkpoint
     from temp_gym.worlds.generators import generate_task
-    from temp_gym.worlds.reference import ReferencePlanner
     from temp_gym.worlds.splits import split_workspace
 
     started = time.perf_counter()
     space = split_workspace(settings["robot"], "train", workspace)
-    reference = ReferencePlanner(space)
     policy = policy_from_checkpoint(
         settings["checkpoint"], settings["robot"], noise_std=settings["noise_std"],
         horizon=settings["horizon"],
@@ -185,7 +210,8 @@ def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.nd
             continue
         plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
         samples = correction_samples(
-            policy, problem, GoalField(reference, problem.goal), plan_seed,
+            policy, problem, ClearField(space, problem.goal, settings.get("clearance", 0.0)),
+            plan_seed,
             settings["max_nodes"], settings["samples_per_task"], settings["chunk"],
         )  # fmt: skip
         rows = len(samples["step"])
@@ -208,6 +234,7 @@ def correction_settings(
     tasks_per_workspace: int,
     samples_per_task: int,
     max_nodes: int,
+    clearance: float = 0.0,
 ) -> dict[str, Any]:
     """The JSON-able settings of one round (the card records them; a rerun must match)."""
     from temp_gym.data.dataset import data_settings
@@ -225,6 +252,7 @@ def correction_settings(
         "tasks_per_workspace": int(tasks_per_workspace),
         "samples_per_task": int(samples_per_task),
         "max_nodes": int(max_nodes),
+        "clearance": float(clearance),
         "chunk": int(loaded.core.model.mpt.chunk),
         "horizon": planner.get("horizon"),
         "noise_std": float(planner.get("noise_std", noise or 0.0) if noise is None else noise),

@@ -19,7 +19,8 @@ from temp_gym.data.correction import (
 from temp_gym.files import StoredFileError
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import TEMPModel
-from temp_gym.worlds.checkers import certify_path
+from temp_gym.problem import Workspace
+from temp_gym.worlds.checkers import certify_path, make_checker
 from temp_gym.worlds.normalization import denormalize
 from temp_gym.worlds.reference import GoalField, ReferencePlanner
 
@@ -142,3 +143,20 @@ def test_a_task_solved_without_asking_the_policy_gives_no_samples(wall):
     policy = TEMPPolicy(TEMPModel("point2d", 8, 16, eise_hidden=16, chunk=2, **SMALL))
     samples = correction_samples(policy, problem, _field(problem), 0, 100, 10, chunk=2)
     assert samples["path"].shape == (0, 16, 2) and samples["targets"].shape == (0, 2, 2)
+
+
+def test_the_clear_expert_keeps_its_distance_where_it_can(wall):
+    from temp_gym.data.correction import ClearField
+
+    problem = Problem.from_dict(wall)
+    workspace = problem.workspace
+    path = ClearField(workspace, problem.goal, 0.5).path(problem.start)
+    tight = _field(problem).path(problem.start)
+    grown = Workspace(workspace.robot, workspace.bounds, workspace.obstacle_centers,
+                      workspace.obstacle_half_extents + 0.5)  # fmt: skip
+    checker = make_checker(grown)
+    assert checker.path_free(path) and not checker.path_free(tight)  # clear vs corner-hugging
+    # From a state the grown boxes close off, the real boxes' shortest path serves.
+    hugging = np.array([9.3, 18.3])  # 0.2 beside the wall, 0.3 below its top: in the grown wall
+    assert np.allclose(ClearField(workspace, problem.goal, 0.5).path(hugging),
+                       _field(problem).path(hugging))  # fmt: skip
