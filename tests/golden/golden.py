@@ -1,0 +1,206 @@
+"""Fingerprints of what the library computes from seeds: problems, plans, env trees, a dataset,
+evaluation records. A refactor must leave every one unchanged.
+
+``python tests/golden/golden.py OUT.json`` writes them for the checkout on ``PYTHONPATH``;
+``tests/golden/test_golden.py`` recomputes them and compares with the stored
+``tests/golden/golden.json``, made with the code before the renovation (issue 17, main at
+a490cc1) from an export of that commit:
+
+    git archive a490cc1 | tar -x -C /tmp/before
+    PYTHONPATH=/tmp/before python tests/golden/golden.py tests/golden/golden.json
+
+The test recomputes the whole sample, section by section (seconds once numba's caches are
+warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.
+
+The sample: in each world, evaluation test tasks and generated problems; every built-in
+planner (``rrt_star``, ``informed_rrt_star``, ``temp`` with the shipped policy) on them; an
+env episode of seeded random actions; the tiny config's dataset (``configs/tiny.yaml``, one
+training workspace); and one evaluation record with curves. Wall times are left out; all else
+(paths, costs, node counts, histories, observations, dataset columns) is hashed exactly.
+Only the public API that both layouts share is used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROBOTS = ("point2d", "point3d", "kuka_iiwa14")
+ENV_IDS = {"point2d": "TEMP-2D-v0", "point3d": "TEMP-3D-v0", "kuka_iiwa14": "TEMP-7D-v0"}
+PLANNERS = ("rrt_star", "informed_rrt_star", "temp")
+NODES = {"point2d": 400, "point3d": 400, "kuka_iiwa14": 300}
+TIME_KEYS = ("time", "wall")
+
+
+def digest(value) -> str:
+    """SHA-256 (first 16 hex digits) of an array's dtype, shape and bytes, or of JSON."""
+    hasher = hashlib.sha256()
+    if isinstance(value, np.ndarray) or np.isscalar(value):
+        array = np.ascontiguousarray(value)
+        hasher.update(f"{array.dtype.str}{array.shape}".encode())
+        hasher.update(array.tobytes())
+    else:
+        hasher.update(json.dumps(value, sort_keys=True, default=_jsonable).encode())
+    return hasher.hexdigest()[:16]
+
+
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(type(value))
+
+
+def _untimed(value):
+    """``value`` without the entries whose key names a time (they differ run to run)."""
+    if isinstance(value, dict):
+        return {k: _untimed(v) for k, v in value.items() if not any(t in str(k) for t in TIME_KEYS)}
+    if isinstance(value, (list, tuple)):
+        return [_untimed(v) for v in value]
+    return value
+
+
+def problems() -> dict[str, object]:
+    from temp_gym.evaluation.runner import evaluation_problem
+    from temp_gym.worlds.generators import generate_problem
+
+    found = {}
+    for robot in ROBOTS:
+        difficulties = ("any",) if robot == "kuka_iiwa14" else ("easy", "challenging")
+        for difficulty in difficulties:
+            found[f"{robot}/test/{difficulty}/0"] = evaluation_problem(robot, difficulty, 0)
+        found[f"{robot}/generated/3"] = generate_problem(robot, np.random.default_rng(3), "any")
+    return found
+
+
+def plans(found: dict[str, object], robots: tuple[str, ...] = ROBOTS) -> dict[str, str]:
+    from temp_gym import plan
+
+    out = {}
+    for name, problem in found.items():
+        if problem.robot not in robots:
+            continue
+        for planner in PLANNERS:
+            result = plan(problem, planner=planner, seed=1, max_nodes=NODES[problem.robot])
+            record = {
+                "success": result.success,
+                "cost": result.cost,
+                "nodes": result.nodes,
+                "samples": result.samples,
+                "sampling_failures": result.sampling_failures,
+                "collision_checks": result.collision_checks,
+                "nodes_to_first_solution": result.nodes_to_first_solution,
+                "path": None if result.path is None else digest(np.asarray(result.path)),
+                "history": {
+                    k: digest(np.asarray(v))
+                    for k, v in sorted(result.history.items())
+                    if not any(t in k for t in TIME_KEYS)
+                },
+                "attention": _untimed(result.attention),
+            }
+            out[f"{name}/{planner}"] = digest(record)
+    return out
+
+
+def env_trees() -> dict[str, str]:
+    import gymnasium
+
+    import temp_gym  # noqa: F401  (registers the envs)
+
+    out = {}
+    for robot in ROBOTS:
+        env = gymnasium.make(ENV_IDS[robot], max_nodes=200)
+        observation, _ = env.reset(seed=7)
+        rng = np.random.default_rng(7)
+        parts = [digest({k: digest(np.asarray(v)) for k, v in sorted(observation.items())})]
+        for _ in range(60):
+            action = rng.uniform(-1, 1, size=env.action_space.shape).astype(np.float32)
+            observation, reward, terminated, truncated, _ = env.step(action)
+            parts.append(digest({k: digest(np.asarray(v)) for k, v in sorted(observation.items())}))
+            parts.append(repr((float(reward), terminated, truncated)))
+            if terminated or truncated:
+                break
+        tree = env.unwrapped.tree
+        n = tree.num_nodes
+        parts += [digest(np.asarray(tree.positions[:n])), digest(np.asarray(tree.parents[:n]))]
+        parts.append(digest(np.asarray(tree.costs[:n])))
+        out[robot] = digest(parts)
+        env.close()
+    return out
+
+
+def dataset() -> dict[str, str]:
+    import temp_gym
+    from temp_gym.config import load_config
+    from temp_gym.data.generate import generate_dataset
+
+    root = Path(temp_gym.__file__).resolve().parents[1]  # the checkout being fingerprinted
+    out = {}
+    with tempfile.TemporaryDirectory() as folder:
+        config = load_config(
+            root / "configs" / "tiny.yaml",
+            [f"data.dir={folder}/tiny", "data.workspaces={train: 1, val: 1}"],
+        )
+        path = generate_dataset(config, workers=1, progress=False)
+        for column in sorted(path.rglob("*.npy")):
+            if any(t in column.name for t in TIME_KEYS):
+                continue
+            out[str(column.relative_to(path))] = digest(np.load(column, allow_pickle=False))
+    return out
+
+
+def evaluation_records(found: dict[str, object]) -> dict[str, str]:
+    from temp_gym import load_policy
+    from temp_gym.evaluation.runner import EvaluationSettings, evaluate_task
+
+    out = {}
+    for name in ("point2d/test/challenging/0", "kuka_iiwa14/test/any/0"):
+        problem = found[name]
+        settings = EvaluationSettings(
+            robot=problem.robot,
+            groups={"row": ("any", 1)},
+            max_nodes=NODES[problem.robot],
+            curve_nodes=NODES[problem.robot],
+        )
+        policy = load_policy(problem.robot, seed=0)
+        record = evaluate_task(problem, policy, settings, with_curves=True)
+        out[name] = digest(_untimed(record))
+    return out
+
+
+def fingerprints() -> dict[str, dict[str, str]]:
+    """Every fingerprint of the sample, by section."""
+    found = problems()
+    return {
+        "problems": {name: digest(problem.to_dict()) for name, problem in found.items()},
+        "plans": plans(found),
+        "env": env_trees(),
+        "dataset": dataset(),
+        "evaluation": evaluation_records(found),
+    }
+
+
+def differences(found: dict[str, dict[str, str]], stored: dict[str, dict[str, str]]) -> list[str]:
+    """The entries of ``found`` that differ from ``stored`` (or that it lacks), one line each."""
+    return [
+        f"{section}/{key}: {value} != {stored.get(section, {}).get(key)}"
+        for section, entries in found.items()
+        for key, value in entries.items()
+        if stored.get(section, {}).get(key) != value
+    ]
+
+
+STORED = Path(__file__).with_name("golden.json")
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["--check"]:  # the whole sample against the stored fingerprints
+        lines = differences(fingerprints(), json.loads(STORED.read_text()))
+        print("\n".join(lines) or "identical")
+        sys.exit(1 if lines else 0)
+    Path(sys.argv[1]).write_text(json.dumps(fingerprints(), indent=1, sort_keys=True) + "\n")
