@@ -32,11 +32,7 @@ def generate_task(
     difficulty: str = "any",
     goal_radius: float | None = None,
 ) -> Problem:
-    """Draw a task of ``difficulty`` in ``workspace`` (None ``goal_radius``: the robot's).
-
-    Raises:
-        RuntimeError: the workspace has no task of that difficulty (in the generator's tries).
-    """
+    """`RobotSpec.generate_task` of the workspace's robot, the difficulty checked first."""
     check_difficulty(difficulty)
     return robot_spec(workspace.robot).generate_task(workspace, rng, difficulty, goal_radius)
 

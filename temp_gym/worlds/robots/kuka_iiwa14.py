@@ -14,12 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from temp_gym.worlds.robots.spec import RobotSpec
+from temp_gym.worlds.robots.spec import RobotSpec, lazy
 
 if TYPE_CHECKING:
-    from temp_gym.problem import Problem, Workspace
+    from temp_gym.problem import Workspace
     from temp_gym.worlds.collision import CollisionChecker
-    from temp_gym.worlds.rendering.common import TreeRenderer
 
 ENCODING_REGION = np.array([[-1.4, -1.4, -0.2], [1.4, 1.4, 1.6]])
 """Workspace region encoded for the iiwa (metres, base at the origin, z up); holds its reach."""
@@ -39,32 +38,6 @@ def _checker(workspace: Workspace, exact: bool) -> CollisionChecker:
     return IiwaSphereChecker(workspace.bounds, lower, upper)
 
 
-def _workspace(robot: str, rng: np.random.Generator) -> Workspace:
-    from temp_gym.worlds.iiwa_world import generate_iiwa_workspace
-
-    return generate_iiwa_workspace(robot, rng)
-
-
-def _task(
-    workspace: Workspace, rng: np.random.Generator, difficulty: str, goal_radius: float
-) -> Problem:
-    from temp_gym.worlds.iiwa_world import generate_iiwa_task
-
-    return generate_iiwa_task(workspace, rng, difficulty, goal_radius)
-
-
-def _renderer() -> TreeRenderer:
-    from temp_gym.worlds.rendering.iiwa import IiwaRenderer
-
-    return IiwaRenderer()
-
-
-def _joint_limits() -> np.ndarray:
-    from temp_gym.worlds.iiwa14.kinematics import joint_limits
-
-    return joint_limits()
-
-
 KUKA_IIWA14 = RobotSpec(
     name="kuka_iiwa14",
     env_id="TEMP-7D-v0",
@@ -78,11 +51,11 @@ KUKA_IIWA14 = RobotSpec(
     evaluation_rows={"7D": "any"},
     evaluation_tasks=200,
     checker_factory=_checker,
-    workspace_generator=_workspace,
-    task_generator=_task,
-    renderer_factory=_renderer,
+    workspace_generator=lazy("temp_gym.worlds.iiwa_world", "generate_iiwa_workspace"),
+    task_generator=lazy("temp_gym.worlds.iiwa_world", "generate_iiwa_task"),
+    renderer_factory=lazy("temp_gym.worlds.rendering.iiwa", "IiwaRenderer"),
     step_size=0.5,
     encoding_region=ENCODING_REGION,
-    joint_limits=_joint_limits,
+    joint_limits=lazy("temp_gym.worlds.iiwa14.kinematics", "joint_limits"),
     allowed_collisions=ALLOWED_COLLISIONS,
 )

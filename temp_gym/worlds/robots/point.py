@@ -10,14 +10,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from temp_gym.worlds.robots.spec import RobotSpec
+from temp_gym.worlds.robots.spec import RobotSpec, lazy
 
 if TYPE_CHECKING:
-    from temp_gym.problem import Problem, Workspace
+    from temp_gym.problem import Workspace
     from temp_gym.worlds.collision import CollisionChecker
-    from temp_gym.worlds.rendering.common import TreeRenderer
 
 GOAL_RADIUS = 0.5
 """Goal radius of drawn tasks (world units): a step is 1.0 in the ``[0, 20]^d`` worlds."""
@@ -33,26 +30,6 @@ def _box_checker(workspace: Workspace, exact: bool) -> CollisionChecker:
 
     del exact
     return PointBoxChecker(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
-
-
-def _workspace(robot: str, rng: np.random.Generator) -> Workspace:
-    from temp_gym.worlds.point_world import generate_point_workspace
-
-    return generate_point_workspace(robot, rng)
-
-
-def _task(
-    workspace: Workspace, rng: np.random.Generator, difficulty: str, goal_radius: float
-) -> Problem:
-    from temp_gym.worlds.point_world import generate_point_task
-
-    return generate_point_task(workspace, rng, difficulty, goal_radius)
-
-
-def _renderer() -> TreeRenderer:
-    from temp_gym.worlds.rendering.points import PointWorldRenderer
-
-    return PointWorldRenderer()
 
 
 def point_robot(
@@ -76,8 +53,8 @@ def point_robot(
         evaluation_rows={f"{label} easy": "easy", f"{label} challenging": "challenging"},
         evaluation_tasks=EVALUATION_TASKS,
         checker_factory=_box_checker,
-        workspace_generator=_workspace,
-        task_generator=_task,
-        renderer_factory=_renderer,
+        workspace_generator=lazy("temp_gym.worlds.point_world", "generate_point_workspace"),
+        task_generator=lazy("temp_gym.worlds.point_world", "generate_point_task"),
+        renderer_factory=lazy("temp_gym.worlds.rendering.points", "PointWorldRenderer"),
         cube_symmetric=True,
     )

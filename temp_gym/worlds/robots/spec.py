@@ -11,6 +11,7 @@ generators, the renderer). The library calls the methods, which apply the spec's
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,23 @@ if TYPE_CHECKING:
 
 STEP_FRACTION = 0.05
 """Steering step of a robot without a fixed one: this fraction of the bounds' largest side."""
+
+
+@dataclass(frozen=True)
+class lazy:  # noqa: N801  (reads as a function in the specs)
+    """``module.name``, imported on the first call.
+
+    A spec's factories load no machinery (numba kernels, meshes, pybullet) until the robot is
+    used; being a plain dataclass, a spec with them pickles (worker processes, Ray).
+    """
+
+    module: str
+    name: str
+
+    def __call__(self, *args, **kwargs):
+        """Import ``module`` (once: Python caches it) and call its ``name``."""
+        return getattr(importlib.import_module(self.module), self.name)(*args, **kwargs)
+
 
 CheckerFactory = Callable[["Workspace", bool], "CollisionChecker"]
 WorkspaceGenerator = Callable[[str, np.random.Generator], "Workspace"]
