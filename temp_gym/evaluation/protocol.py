@@ -22,8 +22,8 @@ Medians and means with bootstrap intervals (`distribution_rows`, and the per-tas
 machine, and an interval tells a difference from a stall.
 
 "Success" means two things here, and labels say which (`success_label`): TEMP *solved* the
-task (its first solution within the budget, from either phase); a baseline *reached (1 + tau) J*, TEMP's
-cost within the tolerance, which is harder than solving it.
+task (its first solution within the budget, from either phase); a baseline *reached
+(1 + tau) J*, TEMP's cost within the tolerance, which is harder than solving it.
 
 Records are plain dictionaries (JSON-able, one per task and planner), so evaluation can be
 resumed and merged across processes or machines.
