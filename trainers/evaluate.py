@@ -5,7 +5,7 @@
     python trainers/evaluate.py --config configs/2d.yaml evaluation.tasks=20 --workers 2
     python trainers/evaluate.py --config configs/7d.yaml --backend ray --ray-address auto
 
-Protocol (`temp_gym.evaluation`): TEMP's attention phase gives t, N, J; each baseline runs until
+Protocol (`temp_gym.evaluation`): TEMP's first solution gives t, N, J; each baseline runs until
 its cost is at most (1 + tau) J. Test sets: 100 easy + 100 challenging tasks in 2D and 3D, 200
 tasks in 7D (``evaluation.tasks`` per group), from the unseen ``test`` workspaces.
 

@@ -2,8 +2,10 @@
 
 For each test task:
 
-1. TEMP's attention-based phase gives time ``t``, nodes ``N`` and cost ``J``
-   (`PlanResult.attention`).
+1. TEMP gives time ``t``, nodes ``N`` and cost ``J`` of its first solution. That is the
+   attention phase's, as in the paper, unless the attention phase stalled (the stall rule,
+   `temp_gym.planning.attention`) and classical planning on the same tree found it: TEMP is
+   timed as a user calls it, and ``attention_solved`` records which phase it was.
 2. Every baseline (RRT*, Informed RRT*, OMPL's) runs until its cost is at most
    ``(1 + tau) * J`` with ``tau = 0.05`` (``plan(..., target_cost=...)``) or its budget ends; its
    time and nodes are read off its anytime history at the first entry within tolerance
@@ -20,8 +22,8 @@ Medians and means with bootstrap intervals (`distribution_rows`, and the per-tas
 machine, and an interval tells a difference from a stall.
 
 "Success" means two things here, and labels say which (`success_label`): TEMP *solved* the
-task (its attention phase reached the goal region); a baseline *reached (1 + tau) J*, TEMP's
-cost within the tolerance, which is harder than solving it.
+task (its first solution within the budget, from either phase); a baseline *reached
+(1 + tau) J*, TEMP's cost within the tolerance, which is harder than solving it.
 
 Records are plain dictionaries (JSON-able, one per task and planner), so evaluation can be
 resumed and merged across processes or machines.

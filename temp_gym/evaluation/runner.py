@@ -1,6 +1,8 @@
 """Running the evaluation protocol over a test set: resumable, in parallel over processes.
 
-Work unit = one test task. Its record (TEMP's attention-phase figures, every baseline's time
+Work unit = one test task. Its record (TEMP's first solution as a user gets it: from the
+attention phase, or from classical planning on the same tree once the attention phase stalled,
+with ``attention_solved`` saying which; every baseline's time
 and nodes to the tolerance cost, and optionally fixed-budget anytime histories for the cost
 curves) is written atomically by the driver to ``{out}/tasks/{group}-{index:04d}.json``; a
 rerun of the same command skips finished tasks, so a killed evaluation loses nothing and
@@ -103,11 +105,13 @@ def evaluate_task(
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
+    solved = bool(temp.success and temp.time_to_first_solution is not None)
     record["planners"]["temp"] = {
-        "success": bool(attention["solved"] and temp.success),
-        "time": attention["time"] if attention["solved"] else None,
-        "nodes": attention["nodes"] if attention["solved"] else None,
-        "cost": temp.cost if temp.success else None,
+        "success": solved,
+        "time": temp.time_to_first_solution if solved else None,
+        "nodes": temp.nodes_to_first_solution if solved else None,
+        "cost": temp.cost if solved else None,
+        "attention_solved": bool(attention["solved"]),
         "sampling_failures": attention["sampling_failures"],
     }
     if record["planners"]["temp"]["success"]:
@@ -169,6 +173,12 @@ def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -
     return record
 
 
+RECORD_VERSION = 2
+"""What a record means; records of another version never mix. 2: TEMP's figures are the whole
+planner's first solution (the attention phase hands over to Informed RRT* when it stalls, see
+`temp_gym.planning.attention.default_patience`), no longer the attention phase's alone."""
+
+
 class ManifestMismatchError(JobError, ValueError):
     """An output directory holds the records of an evaluation with another manifest."""
 
@@ -223,6 +233,7 @@ def run_evaluation(
             out_dir,
             {
                 "test_set_version": TEST_SET_VERSION,
+                "record_version": RECORD_VERSION,
                 "settings": asdict(settings),
                 **(identity or {}),
             },

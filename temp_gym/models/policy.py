@@ -43,6 +43,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -233,14 +234,22 @@ class TEMPPolicy:
         """The robot the model was trained for."""
         return self.model.robot
 
-    def fresh(self) -> TEMPPolicy:
-        """A policy of the same model and settings with its own state (noise, problem)."""
-        return TEMPPolicy(
-            self.model, noise_std=self.noise_std, seed=self.seed,
-            record_attention=self.record_attention, device=self.device, backend=self.backend,
-            attention_nodes=self.attention_nodes, core=self.core, horizon=self.horizon,
-            attention_patience=self.attention_patience, attention_uniform=self.attention_uniform,
+    def fresh(self, **changes: Any) -> TEMPPolicy:
+        """A policy of the same model and settings with its own state (noise, problem).
+
+        ``changes`` replace constructor settings, e.g. ``policy.fresh(horizon=1)`` for one
+        proposal per MPT call; the loaded model and its caches are shared either way.
+        """
+        settings = dict(
+            noise_std=self.noise_std, seed=self.seed, record_attention=self.record_attention,
+            device=self.device, backend=self.backend, attention_nodes=self.attention_nodes,
+            core=self.core, horizon=self.horizon, attention_patience=self.attention_patience,
+            attention_uniform=self.attention_uniform,
         )  # fmt: skip
+        unknown = set(changes) - set(settings) - {"core"}
+        if unknown:
+            raise TypeError(f"fresh(): unknown settings {sorted(unknown)}")
+        return TEMPPolicy(self.model, **{**settings, **changes})
 
     @property
     def rng(self) -> np.random.Generator:

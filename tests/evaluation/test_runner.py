@@ -1,6 +1,7 @@
 import functools
 import json
 
+import numpy as np
 import pytest
 
 from temp_gym.evaluation.report import write_report
@@ -9,9 +10,11 @@ from temp_gym.evaluation.runner import (
     EvaluationSettings,
     ManifestMismatchError,
     attention_example,
+    evaluate_task,
     evaluation_problem,
     run_evaluation,
 )
+from temp_gym.planning.plan import plan
 from temp_gym.policies import UniformPolicy
 
 
@@ -152,3 +155,32 @@ def test_damaged_records_and_manifest_are_named_and_a_rerun_says_what_is_done(tm
     with DirectoryLock(tmp_path, "another evaluation"):
         with pytest.raises(LockedError, match="another evaluation"):
             run_evaluation(one, make_policy, tmp_path, workers=1, progress=False)
+
+
+class Stuck:
+    """A policy that cannot help: always the same corner, so the attention phase stalls."""
+
+    def reset(self, problem, seed=None):
+        pass
+
+    def __call__(self, observation):
+        return np.full(observation["goal"].shape, -1.0, np.float32)
+
+
+def test_temp_is_timed_as_a_user_calls_it_when_its_attention_phase_stalls():
+    # Record version 2: TEMP's figures are the whole planner's first solution; a task that
+    # classical planning solved after the stall rule handed over counts as solved, and the
+    # record says the attention phase did not solve it alone.
+    problem = evaluation_problem("point2d", "easy", 0)
+    stuck = settings(attention_patience=5, baselines=("rrt_star",))
+    record = evaluate_task(problem, Stuck(), stuck, with_curves=False)
+    temp = record["planners"]["temp"]
+    reference = plan(
+        problem, planner="temp", policy=Stuck(), seed=stuck.seed, max_nodes=stuck.max_nodes,
+        attention_patience=5, stop_at_first=True,
+    )  # fmt: skip
+    assert temp["success"] and not temp["attention_solved"]
+    assert temp["nodes"] == reference.nodes_to_first_solution
+    assert temp["nodes"] > reference.attention["nodes"]
+    assert temp["cost"] == pytest.approx(reference.cost)
+    assert "rrt_star" in record["planners"] and record["target_cost"] > temp["cost"]

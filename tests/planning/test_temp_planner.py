@@ -42,7 +42,9 @@ class ObservationOnly:
 
 def test_policy_fast_path_plans_exactly_like_full_observations():
     # The planner hands a TEMPPolicy only the path so far (`propose`); any other policy gets
-    # whole observations. Same policy, same seeds: the same trees, node for node.
+    # whole observations. Same policy, same seeds: the same trees, node for node. An
+    # observation asks for one sample, so the fast path is compared at one proposal per call
+    # (the shipped 2D model predicts a chunk of 4; chunks are tested in test_attention.py).
     from temp_gym.models.registry import load_policy
     from temp_gym.worlds.generators import generate_problem
 
@@ -58,7 +60,10 @@ def test_policy_fast_path_plans_exactly_like_full_observations():
                 max_nodes=1500,
                 stop_at_first=True,
             )  # fmt: skip
-            for policy in (load_policy("point2d"), ObservationOnly(load_policy("point2d")))
+            for policy in (
+                load_policy("point2d").fresh(horizon=1),
+                ObservationOnly(load_policy("point2d").fresh(horizon=1)),
+            )
         ]
         assert runs[0].attention["policy_samples"] > 0
         # The TEMPPolicy runs compiled, the wrapped one from Python: the same phase.
