@@ -3,10 +3,11 @@ evaluation records. A refactor must leave every one unchanged.
 
 ``python tests/golden/golden.py OUT.json`` writes them for the checkout on ``PYTHONPATH``;
 ``tests/golden/test_golden.py`` recomputes them and compares with the stored
-``tests/golden/golden.json``, made with the code before the renovation (issue 17, main at
-a490cc1) from an export of that commit:
+``tests/golden/golden.json``, made with the code before the renovation (issue 17; first
+from main at a490cc1, then from main at de0f33d, whose evaluation record version 2 changed
+TEMP's figures) from an export of that commit:
 
-    git archive a490cc1 | tar -x -C /tmp/before
+    git archive de0f33d | tar -x -C /tmp/before
     PYTHONPATH=/tmp/before python tests/golden/golden.py tests/golden/golden.json
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
