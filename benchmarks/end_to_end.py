@@ -43,8 +43,8 @@ from temp_gym.config import parse_args, script_parser
 from temp_gym.evaluation.ood import WORLD_DIRS, load_ood_family
 from temp_gym.evaluation.protocol import reach_tolerance
 from temp_gym.evaluation.runner import evaluation_problem
-from temp_gym.models.fast_mpt import _forward_kernel
 from temp_gym.models.registry import load_policy
+from temp_gym.planning.mpt_kernel import forward_kernel
 from temp_gym.worlds.robots import robot_spec, robot_specs
 
 ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
@@ -217,7 +217,7 @@ class RecordingProposer:
 @numba.njit(cache=True)
 def _forward_calls(paths, lengths, goal, z, qkv, weights, out) -> None:
     for i in range(lengths.shape[0]):
-        _forward_kernel(paths[i], lengths[i], goal, z, qkv, *weights, out)
+        forward_kernel(paths[i], lengths[i], goal, z, qkv, *weights, out)
 
 
 def mpt_seconds(policy, inputs: list[tuple[np.ndarray, int]], repeats: int = 5) -> float:

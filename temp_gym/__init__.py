@@ -7,9 +7,20 @@ from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I00
 from temp_gym.envs import ENV_IDS, register_envs
 from temp_gym.planning.plan import plan
 from temp_gym.planning.result import PlanResult
+from temp_gym.planning.temp_planner import set_default_policy
 from temp_gym.problem import Problem
 
 register_envs()
+
+
+def _shipped_policy(robot: str):
+    """The ``temp`` planner's default policy: the one shipped for ``robot`` (imports torch)."""
+    from temp_gym.models.registry import load_policy
+
+    return load_policy(robot)
+
+
+set_default_policy(_shipped_policy)  # the planning layer imports no model code itself
 
 __all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "robots"]
 

@@ -10,7 +10,7 @@ random numbers in the same order, so both grow the same tree (tested node for no
 1. goal bias: with probability ``goal_bias`` the goal is the sample (the chunk is dropped);
    else, with probability ``uniform``, a uniform sample (from the fallback's batch);
 2. otherwise the next proposal of the current chunk, or, when none is left, a new MPT call
-   on the path so far (`temp_gym.models.fast_mpt`), with the policy's output noise;
+   on the path so far (`temp_gym.planning.mpt_kernel`), with the policy's output noise;
 3. `temp_gym.planning._compiled_tree.extend_with_fallback`: nearest, steer, the random
    fallback while the edge collides, choose-parent, insert, rewire; a fallback or a failed
    extension drops the rest of the chunk (its proposals continued the path it predicted);
@@ -26,7 +26,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from temp_gym.models.fast_mpt import _forward_kernel
 from temp_gym.planning._compiled_tree import (
     BAD_ACTION,
     BEST_NODE,
@@ -38,6 +37,7 @@ from temp_gym.planning._compiled_tree import (
     normalized_root_path,
     squared_distance,
 )
+from temp_gym.planning.mpt_kernel import forward_kernel
 
 STATE = ("pending", "next_row", "calls", "proposals", "stalled")
 """The loop's int64 state, kept between calls: proposals left in the chunk and the next one,
@@ -106,8 +106,8 @@ def attention_slice(
             if state[PENDING] == 0:
                 length = normalized_root_path(links, positions, counters[NEWEST], bounds,
                                               path_rows)  # fmt: skip
-                _forward_kernel(path_rows, length, prefix_goal, prefix_z, prefix_qkv, *weights,
-                                chunk_out)  # fmt: skip
+                forward_kernel(path_rows, length, prefix_goal, prefix_z, prefix_qkv, *weights,
+                               chunk_out)  # fmt: skip
                 if noise_std > 0.0:
                     noise[:] = policy_rng.normal(0.0, noise_std, (chunk, dim))
                 for row in range(chunk):

@@ -45,6 +45,8 @@ from __future__ import annotations
 import inspect
 import math
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -53,6 +55,30 @@ from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
+
+_default_policy: Callable[[str], Any] | None = None
+"""``loader(robot name)``: the policy the planner uses when given none (`set_default_policy`)."""
+
+
+def set_default_policy(loader: Callable[[str], Any] | None) -> None:
+    """Set what the ``temp`` planner uses when ``plan`` is given no policy.
+
+    ``loader(robot)`` returns a `temp_gym.policies.SamplingPolicy` for a robot name. Importing
+    `temp_gym` sets the shipped policies (`temp_gym.load_policy`, loaded on first use): the
+    planning layer imports no model code, so the loader is handed in from above.
+    """
+    global _default_policy
+    _default_policy = loader
+
+
+def default_policy(robot: str):
+    """The policy the ``temp`` planner uses for ``robot`` when given none."""
+    if _default_policy is None:
+        raise ValueError(
+            "policy: the temp planner has no default policy (set_default_policy(None) was "
+            "called); pass policy=..."
+        )
+    return _default_policy(robot)
 
 
 def _reset_policy(policy, problem: Problem, seed: int) -> None:
@@ -67,9 +93,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     """Plan with a sampling policy (AP, Algorithm 1), then Informed RRT* (CP)."""
     policy = settings.policy
     if policy is None:
-        from temp_gym.models.registry import load_policy
-
-        policy = load_policy(problem.robot)
+        policy = default_policy(problem.robot)
     started = time.perf_counter()
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
