@@ -19,15 +19,18 @@ goal, goal radius, occupancy grid), and a policy compares it with the task it wa
 themselves, which is what a vector env's automatic reset needs; `InformedPolicy`, which needs
 the bounds in world units that the observation does not carry, raises a ``ValueError`` that
 says to call ``reset``.
+
+The contract every policy meets, `SamplingPolicy` (``reset(problem, seed=None)`` and
+``policy(observation)``, an optional fast path and declared settings), is
+`temp_gym.planning.policy`'s; it is importable from here too.
 """
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
-
 import numpy as np
 
 from temp_gym.planning.observation import task_entries
+from temp_gym.planning.policy import SamplingPolicy  # noqa: F401  (the contract, re-exported)
 from temp_gym.planning.result import PlanSettings
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.problem import Problem
@@ -65,23 +68,6 @@ def carries(observation: object, keys: tuple[str, ...]) -> bool:
 def problem_signature(problem: Problem, keys: tuple[str, ...]) -> bytes:
     """`task_signature` of every observation of a tree grown on ``problem`` (no occupancy)."""
     return task_signature(task_entries(problem), keys)
-
-
-@runtime_checkable
-class SamplingPolicy(Protocol):
-    """Anything that proposes the next sample for a planning episode."""
-
-    def reset(self, problem: Problem) -> None:
-        """Prepare for a new problem (the learned policy encodes the environment here).
-
-        A stochastic policy may also accept ``seed=``; the planners pass theirs, so the same
-        seed gives the same plan.
-        """
-        ...
-
-    def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
-        """Return the next sample, normalized to [-1, 1]^d."""
-        ...
 
 
 class UniformPolicy:

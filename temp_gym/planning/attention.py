@@ -37,7 +37,8 @@ import numpy as np
 
 from temp_gym.planning import _compiled_attention as compiled
 from temp_gym.planning._compiled_tree import FALLBACK_BATCH, squared_distance
-from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
+from temp_gym.planning.observation import TreeObserver
+from temp_gym.planning.policy import SamplingPolicy, fast_path, observation_settings
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
@@ -99,20 +100,18 @@ class AttentionOutcome:
     """Whether the compiled loop ran it."""
 
 
-def observer_for(problem: Problem, policy, max_nodes: int) -> TreeObserver:
+def observer_for(problem: Problem, policy: SamplingPolicy, max_nodes: int) -> TreeObserver:
     """The observer matching what the policy was trained on (its resolution and L)."""
-    resolution = (
-        getattr(policy, "encoding_resolution", None)
-        or robot_spec(problem.robot).encoding_resolution
+    resolution, max_path_length = observation_settings(
+        policy, robot_spec(problem.robot).encoding_resolution
     )
-    max_path_length = getattr(policy, "max_path_length", None) or DEFAULT_MAX_PATH_LENGTH
     occupancy = occupancy_grid(problem.workspace, resolution)
     return TreeObserver(problem, occupancy, max_path_length, max_nodes)
 
 
 def run_attention_phase(
     tree: Tree,
-    policy,
+    policy: SamplingPolicy,
     rng: np.random.Generator,
     goal_bias: float,
     limits: AttentionLimits,
@@ -123,7 +122,8 @@ def run_attention_phase(
 
     Args:
         tree: the planner's tree (its root is the problem's start).
-        policy: a reset `temp_gym.policies.SamplingPolicy`.
+        policy: a reset `temp_gym.planning.policy.SamplingPolicy`; its optional fast paths
+            (``compiled_proposer``, ``propose_chunk``, ``propose``) are used when present.
         rng: the planner's generator (goal bias and fallback samples).
         goal_bias: probability of sampling the goal.
         limits: the budgets.
@@ -131,7 +131,8 @@ def run_attention_phase(
             Python loop (False); None picks the compiled one whenever it can run.
         uniform: probability of a uniform sample instead of the policy's (after goal bias).
     """
-    proposer = getattr(policy, "compiled_proposer", lambda: None)()
+    compiled_proposer = fast_path(policy, "compiled_proposer")
+    proposer = compiled_proposer() if compiled_proposer is not None else None
     context = compiled_context_of(tree.checker)
     can_compile = proposer is not None and context is not None
     if compiled_loop and not can_compile:
@@ -146,7 +147,7 @@ def run_attention_phase(
 
 def _run_python(
     tree: Tree,
-    policy,
+    policy: SamplingPolicy,
     rng: np.random.Generator,
     goal_bias: float,
     uniform: float,
@@ -157,15 +158,17 @@ def _run_python(
     observer = observer_for(problem, policy, limits.max_nodes)
     fallback = UniformSampler(problem.bounds)
     goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
-    if hasattr(policy, "propose_chunk"):
+    propose_chunk = fast_path(policy, "propose_chunk")
+    propose_one = fast_path(policy, "propose")
+    if propose_chunk is not None:
 
         def propose() -> np.ndarray:
-            return policy.propose_chunk(*observer.path_so_far(tree))
+            return propose_chunk(*observer.path_so_far(tree))
 
-    elif hasattr(policy, "propose"):
+    elif propose_one is not None:
 
         def propose() -> np.ndarray:
-            return policy.propose(*observer.path_so_far(tree))[None]
+            return propose_one(*observer.path_so_far(tree))[None]
 
     else:
 

@@ -13,6 +13,7 @@ import numbers
 from collections.abc import Callable
 
 from temp_gym.planning.planners import informed_rrt_star, rrt_star
+from temp_gym.planning.policy import as_sampling_policy
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.planning.temp_planner import temp
 from temp_gym.planning.warmup import warm_up
@@ -121,7 +122,7 @@ def plan(
         goal_bias: Probability of sampling the goal, in ``[0, 1]``.
         target_cost: Stop once a solution costs at most this.
         max_samples: Sample budget; None means ``100 * max_nodes``.
-        policy: ``temp`` only: a `temp_gym.policies.SamplingPolicy` (for instance
+        policy: ``temp`` only: a `temp_gym.planning.policy.SamplingPolicy` (for instance
             `temp_gym.load_policy("TEMP-2D-v0")`); None loads the shipped policy for the robot.
         attention_nodes: ``temp`` only: tree-node budget of attention-based planning before
             classical planning takes over, the n of Algorithm 1 (None: the policy's own
@@ -174,10 +175,10 @@ def plan(
             raise ValueError(
                 f"attention_uniform: expected a number in [0, 1], got {attention_uniform!r}"
             )
-    if policy is not None and not (hasattr(policy, "reset") and callable(policy)):
-        raise ValueError("policy: expected a SamplingPolicy (reset(problem), policy(obs))")
-    if policy is not None and planner != "temp":
-        raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
+    if policy is not None:
+        policy = as_sampling_policy(policy)  # a ValueError for anything else
+        if planner != "temp":
+            raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
     settings = PlanSettings(
         seed=int(seed),
         max_nodes=max_nodes,

@@ -42,36 +42,35 @@ policy proposes.
 
 from __future__ import annotations
 
-import inspect
 import math
 import time
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from temp_gym.planning.attention import AttentionLimits, default_patience, run_attention_phase
+from temp_gym.planning.policy import SamplingPolicy, policy_settings
 from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 
-_default_policy: Callable[[str], Any] | None = None
+_default_policy: Callable[[str], SamplingPolicy] | None = None
 """``loader(robot name)``: the policy the planner uses when given none (`set_default_policy`)."""
 
 
-def set_default_policy(loader: Callable[[str], Any] | None) -> None:
+def set_default_policy(loader: Callable[[str], SamplingPolicy] | None) -> None:
     """Set what the ``temp`` planner uses when ``plan`` is given no policy.
 
-    ``loader(robot)`` returns a `temp_gym.policies.SamplingPolicy` for a robot name. Importing
-    `temp_gym` sets the shipped policies (`temp_gym.load_policy`, loaded on first use): the
-    planning layer imports no model code, so the loader is handed in from above.
+    ``loader(robot)`` returns a `temp_gym.planning.policy.SamplingPolicy` for a robot name.
+    Importing `temp_gym` sets the shipped policies (`temp_gym.load_policy`, loaded on first
+    use): the planning layer imports no model code, so the loader is handed in from above.
     """
     global _default_policy
     _default_policy = loader
 
 
-def default_policy(robot: str):
+def default_policy(robot: str) -> SamplingPolicy:
     """The policy the ``temp`` planner uses for ``robot`` when given none."""
     if _default_policy is None:
         raise ValueError(
@@ -79,14 +78,6 @@ def default_policy(robot: str):
             "called); pass policy=..."
         )
     return _default_policy(robot)
-
-
-def _reset_policy(policy, problem: Problem, seed: int) -> None:
-    """Reset for ``problem``; a stochastic policy also takes the seed (same seed, same plan)."""
-    if "seed" in inspect.signature(policy.reset).parameters:
-        policy.reset(problem, seed=seed)
-    else:
-        policy.reset(problem)
 
 
 def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
@@ -97,19 +88,20 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     started = time.perf_counter()
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
-    _reset_policy(policy, problem, settings.seed)
+    policy.reset(problem, seed=settings.seed)
+    declared = policy_settings(policy)
     log = AnytimeLog()
     first_time: float | None = None
     first_nodes: int | None = None
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
     attention_nodes = settings.attention_nodes
     if attention_nodes is None:  # the policy's own budget n (a shipped one carries it)
-        attention_nodes = getattr(policy, "attention_nodes", None)
+        attention_nodes = declared.attention_nodes
     if attention_nodes is None:
         attention_nodes = settings.max_nodes
     patience = settings.attention_patience
     if patience is None:  # the policy's own (a shipped one may carry it), else the rule
-        patience = getattr(policy, "attention_patience", None)
+        patience = declared.attention_patience
     if patience is None:
         patience = default_patience(problem, tree.step_size)
 
@@ -123,7 +115,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     )
     uniform = settings.attention_uniform
     if uniform is None:
-        uniform = getattr(policy, "attention_uniform", None) or 0.0
+        uniform = declared.attention_uniform or 0.0
     outcome = run_attention_phase(tree, policy, rng, settings.goal_bias, limits, uniform=uniform)
     attention = {
         "solved": tree.best_node >= 0,

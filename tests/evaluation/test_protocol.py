@@ -46,7 +46,7 @@ def test_protocol_end_to_end_on_a_toy_problem_whose_answer_is_known():
     )
 
     class TowardsGoal:
-        def reset(self, problem):
+        def reset(self, problem, seed=None):
             pass
 
         def __call__(self, observation):

@@ -7,7 +7,15 @@ from temp_gym import Problem
 from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import TEMPModel, load_checkpoint
-from temp_gym.policies import SamplingPolicy
+from temp_gym.planning.policy import (
+    FAST_PATHS,
+    ChunkProposer,
+    CompiledProposer,
+    Proposer,
+    SamplingPolicy,
+    fast_path,
+    policy_settings,
+)
 from temp_gym.wrappers.metrics import PlanningMetrics
 
 PROBLEM = Problem.load("examples/point2d.json")
@@ -229,3 +237,18 @@ def test_a_path_only_observation_uses_the_reset_task(small_model):
     policy = TEMPPolicy(small_model)
     policy.reset(PROBLEM)
     np.testing.assert_array_equal(policy(path_only), policy(full))
+
+
+def test_a_temp_policy_meets_the_contract_with_every_fast_path(small_model):
+    policy = TEMPPolicy(small_model, attention_nodes=40)
+    for protocol in (SamplingPolicy, Proposer, ChunkProposer, CompiledProposer):
+        assert isinstance(policy, protocol)
+    assert all(fast_path(policy, name) is not None for name in FAST_PATHS)
+    declared = policy_settings(policy)
+    assert declared.attention_nodes == 40
+    assert declared.encoding_resolution == small_model.encoding_resolution
+    assert declared.max_path_length == small_model.max_path_length
+    problem = Problem.load("examples/point2d.json")
+    policy.reset(problem, seed=0)
+    path = np.zeros((policy.max_path_length, 2), np.float32)
+    assert policy.propose_chunk(path, 1).shape == (policy.chunk, 2)

@@ -87,7 +87,7 @@ def test_a_chunk_is_used_in_turn_and_dropped_after_a_fallback(wall):
 class Stuck:
     """A policy that cannot help: always the same corner, away from the goal."""
 
-    def reset(self, problem):
+    def reset(self, problem, seed=None):
         pass
 
     def __call__(self, observation):

@@ -9,7 +9,7 @@ from temp_gym.worlds.checkers import certify_path
 class TowardsGoal:
     """Proposes the goal itself: a perfect policy in an open world."""
 
-    def reset(self, problem):
+    def reset(self, problem, seed=None):
         self.goal = problem.goal
         self.bounds = problem.bounds
 
@@ -20,7 +20,7 @@ class TowardsGoal:
 class Stuck:
     """A policy that cannot help: always the same corner, away from the goal."""
 
-    def reset(self, problem):
+    def reset(self, problem, seed=None):
         pass
 
     def __call__(self, observation):

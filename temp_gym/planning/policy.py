@@ -1,0 +1,206 @@
+"""The policy contract: what the ``temp`` planner asks of a sampling policy.
+
+**Required** (`SamplingPolicy`): ``reset(problem, seed=None)``, once per problem (the seed is
+the planner's: a stochastic policy re-seeds from it, so the same seed gives the same plan; a
+deterministic one ignores it), and ``policy(observation)``, which returns the next sample,
+normalized to [-1, 1]^d, from the observation `temp_gym.planning.observation.TreeObserver`
+builds. A class with these two methods plans::
+
+    class TowardsGoal:
+        def reset(self, problem, seed=None):
+            pass
+
+        def __call__(self, observation):
+            return observation["goal"]
+
+    plan(problem, planner="temp", policy=TowardsGoal())
+
+**Optional fast path** (`FAST_PATHS`, found by `fast_path`), used when present, else the
+planner builds whole observations:
+
+* ``propose_chunk(path, length)`` (`ChunkProposer`): float32 ``(k, d)`` samples from the
+  path so far alone (``(L, d)`` normalized rows, ``length`` valid), used in turn;
+* ``propose(path, length)`` (`Proposer`): one sample, ``(d,)``, from the path so far;
+* ``compiled_proposer()`` (`CompiledProposer`): the arrays with which the compiled attention
+  loop (`temp_gym.planning._compiled_attention`) runs the policy itself, or None when it
+  cannot (a `temp_gym.models.policy.TEMPPolicy` on its numba MPT gives them).
+
+Each must propose what ``policy(observation)`` would for the same tree (the first row of a
+chunk is that sample).
+
+**Declared settings** (`POLICY_SETTINGS`), optional attributes read by `policy_settings`; a
+policy without one (or with None) gets the default:
+
+* ``encoding_resolution``: cells per workspace axis of the observation's occupancy grid
+  (default: the robot's);
+* ``max_path_length``: L, the path-so-far rows of the observation (default
+  `DEFAULT_MAX_PATH_LENGTH`);
+* ``attention_nodes``, ``attention_patience``, ``attention_uniform``: the attention phase's
+  budget, stall patience and share of uniform samples when ``plan`` is given none (defaults:
+  all of ``max_nodes``, `temp_gym.planning.attention.default_patience`, 0).
+
+A policy whose ``reset`` takes the problem alone still works through `as_sampling_policy`
+(``plan`` adapts it, with a ``DeprecationWarning``).
+"""
+
+from __future__ import annotations
+
+import inspect
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH
+from temp_gym.problem import Problem
+
+
+@runtime_checkable
+class SamplingPolicy(Protocol):
+    """Anything that proposes the next sample for a planning episode (module docstring)."""
+
+    def reset(self, problem: Problem, seed: int | None = None) -> None:
+        """Prepare for a new problem (the learned policy encodes the environment here).
+
+        ``seed``: the planner's seed; a stochastic policy re-seeds its generator from it (None
+        keeps its own), so the same seed gives the same plan.
+        """
+        ...
+
+    def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
+        """Return the next sample, normalized to [-1, 1]^d."""
+        ...
+
+
+@runtime_checkable
+class Proposer(Protocol):
+    """The optional one-sample fast path: the next sample from the path so far alone."""
+
+    def propose(self, path: np.ndarray, length: int) -> np.ndarray:
+        """Float32 ``(d,)``: what ``policy(observation)`` returns for that path."""
+        ...
+
+
+@runtime_checkable
+class ChunkProposer(Protocol):
+    """The optional chunked fast path: the next k samples from the path so far alone."""
+
+    def propose_chunk(self, path: np.ndarray, length: int) -> np.ndarray:
+        """Float32 ``(k, d)``; the first row is what ``policy(observation)`` returns."""
+        ...
+
+
+@runtime_checkable
+class CompiledProposer(Protocol):
+    """The optional compiled fast path (`temp_gym.planning._compiled_attention`)."""
+
+    def compiled_proposer(self) -> tuple | None:
+        """The policy as the compiled loop runs it, or None when it cannot.
+
+        ``(weights, goal, prefix tokens, prefix qkv, noise generator, noise_std, chunk, L)``
+        for the MPT kernel (`temp_gym.planning.mpt_kernel.forward_kernel`).
+        """
+        ...
+
+
+@dataclass(frozen=True)
+class PolicySettings:
+    """The settings a policy declares (None: not declared, the default applies)."""
+
+    encoding_resolution: int | None = None
+    max_path_length: int | None = None
+    attention_nodes: int | None = None
+    attention_patience: int | None = None
+    attention_uniform: float | None = None
+
+
+POLICY_SETTINGS = tuple(field.name for field in fields(PolicySettings))
+"""The optional attributes a policy may declare (module docstring)."""
+
+
+FAST_PATHS = ("compiled_proposer", "propose_chunk", "propose")
+"""The optional fast-path methods, the planner's first choice first."""
+
+
+def fast_path(policy: Any, name: str) -> Callable[..., Any] | None:
+    """``policy``'s bound ``name`` (one of `FAST_PATHS`), or None when it offers none.
+
+    Looked up as an attribute (as ``hasattr`` does, on every Python version), so a wrapper
+    that forwards attributes offers what it wraps.
+    """
+    if name not in FAST_PATHS:
+        raise ValueError(f"name: expected one of {FAST_PATHS}, got {name!r}")
+    method = getattr(policy, name, None)
+    return method if callable(method) else None
+
+
+def policy_settings(policy: Any) -> PolicySettings:
+    """The settings ``policy`` declares as attributes; None for each it does not."""
+    return PolicySettings(**{name: getattr(policy, name, None) for name in POLICY_SETTINGS})
+
+
+def observation_settings(policy: Any, robot_resolution: int) -> tuple[int, int]:
+    """``(encoding_resolution, max_path_length)`` of the observations ``policy`` reads."""
+    declared = policy_settings(policy)
+    return (
+        declared.encoding_resolution or robot_resolution,
+        declared.max_path_length or DEFAULT_MAX_PATH_LENGTH,
+    )
+
+
+class _ProblemOnlyReset:
+    """A policy whose ``reset`` takes the problem alone, seen through the contract."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+
+    def reset(self, problem: Problem, seed: int | None = None) -> None:
+        self.policy.reset(problem)
+
+    def __call__(self, observation: dict[str, np.ndarray]) -> np.ndarray:
+        return self.policy(observation)
+
+    def __getattr__(self, name: str) -> Any:  # settings and fast paths of the policy
+        return getattr(self.policy, name)
+
+
+def as_sampling_policy(policy: Any) -> SamplingPolicy:
+    """``policy`` itself, or, when its ``reset`` takes no ``seed``, an adapter that drops it.
+
+    Raises:
+        ValueError: when ``policy`` has no ``reset`` or cannot be called.
+    """
+    if not isinstance(policy, SamplingPolicy):
+        raise ValueError(
+            "policy: expected a SamplingPolicy (reset(problem, seed=None), policy(obs))"
+        )
+    try:
+        parameters = inspect.signature(policy.reset).parameters
+    except (TypeError, ValueError):  # no signature to read (a builtin): trust the contract
+        return policy
+    if "seed" in parameters:
+        return policy
+    warnings.warn(
+        f"{type(policy).__name__}.reset(problem): a SamplingPolicy's reset takes "
+        "reset(problem, seed=None) (temp_gym.planning.policy); the seed is dropped",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return _ProblemOnlyReset(policy)
+
+
+__all__ = [
+    "FAST_PATHS",
+    "POLICY_SETTINGS",
+    "ChunkProposer",
+    "CompiledProposer",
+    "PolicySettings",
+    "Proposer",
+    "SamplingPolicy",
+    "as_sampling_policy",
+    "fast_path",
+    "observation_settings",
+    "policy_settings",
+]
