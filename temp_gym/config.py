@@ -1,8 +1,9 @@
 """YAML configs with ``key.sub=value`` command-line overrides.
 
-    >>> config = load_config("configs/2d.yaml", ["train.epochs=3", "data.dir=/tmp/d"])
-    >>> config["train"]["epochs"]
-    3
+    >>> from temp_gym.config import load_config
+    >>> config = load_config("configs/2d.yaml", ["train.max_epochs=3", "data.dir=/tmp/d"])
+    >>> config["train"]["max_epochs"], config["data"]["dir"]
+    (3, '/tmp/d')
 
 Values in overrides are parsed as YAML scalars (``3`` is an int, ``1e-3`` a float, ``null``
 None, ``[1, 2]`` a list). Overriding a key that the file does not have is an error, so a typo

@@ -29,6 +29,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
+import numpy as np
+
 from temp_gym.jobs import JobError
 
 LOCK_NAME = ".lock"
@@ -83,9 +85,21 @@ def _fsync_directory(directory: Path) -> None:
         os.close(descriptor)
 
 
+def jsonable(value: Any) -> Any:
+    """``json.dump``'s ``default``: a numpy scalar as its Python value; anything else fails."""
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON-able: {type(value).__name__}")
+
+
 def write_json_atomic(path: str | Path, payload: Any, **dump_options: Any) -> None:
-    """Write ``payload`` as JSON through `atomic_write` (indented, sorted keys by default)."""
-    options = {"indent": 2, "sort_keys": True, **dump_options}
+    """Write ``payload`` as JSON through `atomic_write`: the package's one JSON writer.
+
+    Indented, keys sorted, numpy scalars as numbers (`jsonable`) unless ``dump_options`` (any
+    of ``json.dump``'s) say otherwise; evaluation records, for instance, are written compact
+    and in their own key order, with NaN refused.
+    """
+    options = {"indent": 2, "sort_keys": True, "default": jsonable, **dump_options}
     with atomic_write(path, "w") as handle:
         json.dump(payload, handle, **options)
 

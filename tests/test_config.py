@@ -60,3 +60,13 @@ def test_environment_overrides_apply_after_the_callers(monkeypatch):
         load_config("configs/2d.yaml")
     monkeypatch.delenv("TEMP_GYM_OVERRIDES")
     assert load_config("configs/2d.yaml")["train"]["max_epochs"] > 1
+
+
+def test_the_module_docstring_example_runs(monkeypatch):
+    import doctest
+
+    import temp_gym.config
+
+    monkeypatch.delenv("TEMP_GYM_OVERRIDES", raising=False)
+    outcome = doctest.testmod(temp_gym.config)
+    assert outcome.attempted >= 3 and outcome.failed == 0

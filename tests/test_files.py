@@ -28,16 +28,30 @@ def calls(monkeypatch):
 
 
 def test_checkpoints_and_evaluation_records_are_fsynced_before_their_rename(tmp_path, calls):
-    from temp_gym.evaluation.runner import _write_json_atomic
+    from temp_gym.evaluation.runner import RECORD_JSON
     from temp_gym.models.temp import TEMPModel
 
     model = TEMPModel.from_config({"num_layers": 1}, "point2d", 8, 8)
     model.save(tmp_path / "last.pt")
-    _write_json_atomic(tmp_path / "record.json", {"a": 1})
+    files.write_json_atomic(tmp_path / "record.json", {"a": 1}, **RECORD_JSON)
     for target in ("last.pt", "record.json"):
         index = calls.index(("replace", str(tmp_path / target)))
         assert calls[index - 1] == "fsync" and calls[index + 1] == "fsync"  # file, directory
     assert json.loads((tmp_path / "record.json").read_text()) == {"a": 1}
+
+
+def test_the_json_writer_takes_numpy_scalars_and_json_options(tmp_path):
+    import numpy as np
+
+    path = tmp_path / "card.json"
+    files.write_json_atomic(path, {"b": np.float32(0.5), "a": np.int64(3)})
+    assert path.read_text() == '{\n  "a": 3,\n  "b": 0.5\n}'
+    files.write_json_atomic(path, {"b": 1, "a": 2}, indent=None, sort_keys=False)
+    assert path.read_text() == '{"b": 1, "a": 2}'
+    with pytest.raises(ValueError):
+        files.write_json_atomic(path, {"a": float("nan")}, allow_nan=False)
+    with pytest.raises(TypeError):
+        files.write_json_atomic(path, {"a": object()})
 
 
 def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):

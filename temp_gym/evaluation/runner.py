@@ -35,7 +35,13 @@ import numpy as np
 
 from temp_gym.config import differing_keys
 from temp_gym.evaluation.protocol import TAU, reach_tolerance, tolerance_target
-from temp_gym.files import DirectoryLock, read_json, remove_leftovers, write_json_atomic
+from temp_gym.files import (
+    DirectoryLock,
+    jsonable,
+    read_json,
+    remove_leftovers,
+    write_json_atomic,
+)
 from temp_gym.jobs import JobError, estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Problem
@@ -141,19 +147,12 @@ def evaluate_task(
     return record
 
 
-def _write_json_atomic(path: Path, payload: Any) -> None:
-    write_json_atomic(
-        path, payload, indent=None, sort_keys=False, allow_nan=False, default=_jsonable
-    )
+RECORD_JSON = {"indent": None, "sort_keys": False, "allow_nan": False}
+"""How records and the manifest are written (`write_json_atomic`): compact, in their own key
+order, NaN refused."""
 
 
 RERUN_TASK = "delete it and rerun the same command: that task is evaluated again"
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON-able: {type(value).__name__}")
 
 
 _POLICIES: dict[str, Any] = {}
@@ -186,10 +185,10 @@ class ManifestMismatchError(JobError, ValueError):
 def _check_manifest(out_dir: Path, manifest: dict[str, Any]) -> None:
     """Write ``run.json`` on a first run; on a rerun, raise if it describes another run."""
     path = out_dir / "run.json"
-    manifest = json.loads(json.dumps(manifest, default=_jsonable))  # tuples -> lists, as stored
+    manifest = json.loads(json.dumps(manifest, default=jsonable))  # tuples -> lists, as stored
     if not path.exists():
         out_dir.mkdir(parents=True, exist_ok=True)
-        _write_json_atomic(path, manifest)
+        write_json_atomic(path, manifest, **RECORD_JSON)
         return
     stored = read_json(
         path,
@@ -278,7 +277,7 @@ def _evaluate_missing(jobs, targets, paths, workers, progress, backend, address)
         for count, (index, record) in enumerate(
             map_units(_run_job, jobs, backend, workers, address)
         ):
-            _write_json_atomic(targets[index], record)
+            write_json_atomic(targets[index], record, **RECORD_JSON)
             if count == 0 and len(times) < 3 and len(jobs) > 1:
                 line = estimate_line(
                     len(jobs) - 1, record["task_time"], workers, "tasks", "measured on the first"

@@ -6,7 +6,6 @@ from gymnasium.utils.env_checker import check_env
 import temp_gym
 from temp_gym import ENV_IDS, Problem, plan
 from temp_gym.policies import InformedPolicy, UniformPolicy
-from temp_gym.wrappers import PlanningMetrics, TensorBoardMetrics
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -209,41 +208,6 @@ def test_reward_is_step_penalty_plus_success_bonus(wall):
     assert terminated and info["success"]
     assert total == pytest.approx(1.0 - 0.01 * info["nodes"] + 0.01, abs=1e-9)
     assert info["path"][0].tolist() == problem.start.tolist()
-
-
-@pytest.mark.parametrize("vector_cls", [gym.vector.SyncVectorEnv, gym.vector.AsyncVectorEnv])
-def test_vector_envs_roll_out_with_metrics(vector_cls):
-    def make():
-        return PlanningMetrics(gym.make("TEMP-2D-v0", max_nodes=60))
-
-    envs = vector_cls([make, make])
-    envs.reset(seed=0)
-    finished = 0
-    for _ in range(150):
-        _, _, terminated, truncated, infos = envs.step(envs.action_space.sample())
-        if "planning" in infos:
-            mask = infos["_planning"]
-            finished += int(mask.sum())
-            assert np.all(infos["planning"]["nodes"][mask] >= 2)
-    envs.close()
-    assert finished >= 2
-
-
-def test_tensorboard_wrapper_writes_events(tmp_path):
-    env = TensorBoardMetrics(gym.make("TEMP-2D-v0", max_nodes=30), log_dir=tmp_path)
-    env.reset(seed=0)
-    for _ in range(100):
-        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-        if terminated or truncated:
-            env.reset()
-    assert env.episodes >= 1
-    env.close()
-    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-
-    events = EventAccumulator(str(tmp_path))
-    events.Reload()
-    tags = events.Tags()["scalars"]
-    assert "eval/nodes" in tags and "eval/success" in tags
 
 
 def test_torchrl_gymenv_7d_specs_and_rollout():
