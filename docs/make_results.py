@@ -26,8 +26,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from temp_gym.evaluation import command as evaluate  # noqa: E402
 from temp_gym.evaluation.statistics import format_interval  # noqa: E402
-from trainers import evaluate  # noqa: E402
 
 WORLDS = {"2d": "TEMP-2D-v0", "3d": "TEMP-3D-v0", "7d": "TEMP-7D-v0"}
 PAPER_TIME_RATIO = {

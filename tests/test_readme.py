@@ -201,9 +201,17 @@ def static_check(command: str) -> str:
     if not source.is_file():
         return f"{command}: no {source.relative_to(ROOT)}"
     text = source.read_text()
-    for module in re.findall(r"^from (temp_gym[\w.]*) import", text, flags=re.M):
-        helper = ROOT / Path(*module.split(".")).with_suffix(".py")  # shared flags live there
-        text += helper.read_text() if helper.is_file() else ""
+    seen: set[str] = set()
+    pending = re.findall(r"^from (temp_gym[\w.]*) import", text, flags=re.M)
+    while pending:  # the package modules it imports, and theirs: shared flags live there
+        module = pending.pop()
+        helper = ROOT / Path(*module.split(".")).with_suffix(".py")
+        if module in seen or not helper.is_file():
+            continue
+        seen.add(module)
+        helper_text = helper.read_text()
+        text += helper_text
+        pending += re.findall(r"^from (temp_gym[\w.]*) import", helper_text, flags=re.M)
     missing = [flag for flag in flags_of(options) if f'"{flag}"' not in text]
     return f"{command}: {source.name} defines no {missing}" if missing else ""
 

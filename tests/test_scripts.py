@@ -11,10 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPTS = sorted(
-    [p for p in (ROOT / "trainers").glob("*.py") if p.name != "utils.py"]
-    + list((ROOT / "benchmarks").glob("*.py"))
-)
+SCRIPTS = sorted(list((ROOT / "trainers").glob("*.py")) + list((ROOT / "benchmarks").glob("*.py")))
 
 # In a fresh process (the scripts set environment variables at import): load each script,
 # capture the parser its main() builds, and describe it; then parse a command line with an
@@ -47,9 +44,10 @@ INSPECT = textwrap.dedent(
             captured["parser"] = parser
             raise Captured
 
-        for name in ("parse_args",):
-            if hasattr(module, name):
-                setattr(module, name, capture)
+        # the script's own namespace, and the package module its main() comes from
+        for owner in {module, sys.modules.get(module.main.__module__, module)}:
+            if hasattr(owner, "parse_args"):
+                owner.parse_args = capture
         try:
             module.main([])
         except Captured:

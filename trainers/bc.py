@@ -21,7 +21,7 @@ refused, naming the keys. Reproducibility: with a fixed ``train.threads`` (the m
 per core, so the weights depend on the machine (float sums are ordered by the thread count).
 
 TensorBoard tags (step: epochs completed), each described on its chart
-(``utils.TAG_DESCRIPTIONS``): ``train/loss``, ``train/recons``, ``train/semantic`` (epoch
+(``training.TAG_DESCRIPTIONS``): ``train/loss``, ``train/recons``, ``train/semantic`` (epoch
 means), ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
 ``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``eval.periodic_tasks`` test tasks,
 every ``eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention`` (figure: per-group
@@ -46,23 +46,20 @@ import torch
 import yaml
 from tqdm import tqdm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # `utils` next to this script
-import utils  # noqa: E402
-
-from temp_gym.config import (  # noqa: E402
+from temp_gym import training
+from temp_gym.config import (
     differing_keys,
     flatten,
     load_config,
     parse_args,
     script_parser,
 )
-from temp_gym.files import StoredFileError  # noqa: E402
-from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script  # noqa: E402
-from temp_gym.models.attention import attention_figure, normalized_group_attention  # noqa: E402
-from temp_gym.models.policy import TEMPPolicy  # noqa: E402
-from temp_gym.models.temp import CheckpointError, load_checkpoint  # noqa: E402
-from temp_gym.planning.plan import plan  # noqa: E402
-from temp_gym.worlds.robots import robot_spec  # noqa: E402
+from temp_gym.files import StoredFileError
+from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script
+from temp_gym.models.attention import attention_figure, normalized_group_attention
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.temp import CheckpointError, load_checkpoint
+from temp_gym.worlds.robots import robot_spec
 
 DEFAULT_CONFIG = "configs/2d.yaml"
 DEFAULT_OVERRIDES = [
@@ -99,10 +96,10 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
     rank, world = (dist.rank, dist.world) if dist is not None else (0, 1)
     keys = ("loss", "recons", "semantic")
     totals = torch.zeros(len(keys), dtype=torch.float64)
-    for number, index in enumerate(utils.iterate_batch_indices(data, batch_size)):
+    for number, index in enumerate(training.iterate_batch_indices(data, batch_size)):
         if number % world != rank:
             continue
-        terms = utils.model_step(model, loss_module, data.batch(index, device))
+        terms = training.model_step(model, loss_module, data.batch(index, device))
         totals += torch.tensor(
             [float(terms[key]) * len(index) for key in keys], dtype=torch.float64
         )
@@ -114,14 +111,14 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
     """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
     eval_config = config["eval"]
-    env = utils.make_env(config, fallback="random", split=eval_config.get("split", "test"))
+    env = training.make_env(config, fallback="random", split=eval_config.get("split", "test"))
     policy = TEMPPolicy(
         model.cpu(), noise_std=eval_config.get("noise_std", 0.0), seed=eval_config["seed"]
     )
     episodes = []
     for index, problem in enumerate(problems):
         policy.record_attention = index == 0
-        episode, info = utils.run_episode(env, policy, problem, eval_config["seed"] + index)
+        episode, info = training.run_episode(env, policy, problem, eval_config["seed"] + index)
         episodes.append(episode)
         if index == 0 and logger.writer is not None:
             tree = env.unwrapped.tree
@@ -136,7 +133,7 @@ def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> 
             weights = normalized_group_attention(policy.attentions, model.mpt.num_sei_tokens)
             logger.figure(f"{tag}/attention", attention_figure(weights), step)
     env.close()
-    summary = utils.summarize(episodes, env.unwrapped.max_nodes)
+    summary = training.summarize(episodes, env.unwrapped.max_nodes)
     logger.scalars(
         {f"{tag}/success": summary["success"], f"{tag}/nodes": summary["nodes_mean"]}
         | {f"{tag}/cost": summary["cost"]},
@@ -155,7 +152,7 @@ def train(
     run_dir: Path,
     resume: bool,
     progress: bool = True,
-    dist: utils.Distributed | None = None,
+    dist: training.Distributed | None = None,
 ) -> Path:
     """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path.
 
@@ -164,18 +161,18 @@ def train(
     size), and only rank 0 logs and writes checkpoints: the loss curve is the single-process
     one up to float rounding (tests/trainers/test_ddp.py).
     """
-    dist = dist or utils.Distributed(config["train"].get("device", "auto"))
+    dist = dist or training.Distributed(config["train"].get("device", "auto"))
     train_config, eval_config = config["train"], config["eval"]
     seed = int(train_config.get("seed", 0))
     device = dist.device
     torch.manual_seed(seed)
     np.random.seed(seed)
-    train_data = utils.make_replay_buffer(config, "train")
-    val_data = utils.make_replay_buffer(config, "val")
-    model = utils.make_model(config).to(device)
-    loss_module = utils.make_loss(config)
-    optimizer, scheduler = utils.make_optimizer(config, model)
-    logger = utils.make_logger(config if dist.is_main else _no_logging(config), run_dir)
+    train_data = training.make_replay_buffer(config, "train")
+    val_data = training.make_replay_buffer(config, "val")
+    model = training.make_model(config).to(device)
+    loss_module = training.make_loss(config)
+    optimizer, scheduler = training.make_optimizer(config, model)
+    logger = training.make_logger(config if dist.is_main else _no_logging(config), run_dir)
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
     max_epochs = int(train_config["max_epochs"])
     state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False, "history": []}
@@ -209,7 +206,7 @@ def train(
         print(f"{run_dir}: training already finished (epoch {state['epoch']})")
         logger.close()
         return best_path
-    periodic = utils.draw_problems(
+    periodic = training.draw_problems(
         config, eval_config.get("split", "test"), eval_config["periodic_tasks"], eval_config["seed"]
     )
     min_lr = float(config["optim"].get("min_lr", 1e-6))
@@ -235,10 +232,10 @@ def train(
         keys = ("loss", "recons", "semantic", "grad_norm")
         sums = torch.zeros(len(keys), dtype=torch.float64)
         batches = 0
-        for index in utils.iterate_batch_indices(train_data, batch_size, generator):
+        for index in training.iterate_batch_indices(train_data, batch_size, generator):
             # Random draws are made for the global batch, so every rank (and a single
             # process) consumes the generator identically; then each rank keeps its slice.
-            symmetry = utils.draw_symmetry(model.dim, generator) if augment else None
+            symmetry = training.draw_symmetry(model.dim, generator) if augment else None
             noise = (
                 torch.randn((len(index), *history_shape), generator=generator)
                 if path_noise > 0
@@ -247,10 +244,10 @@ def train(
             positions, weight = dist.shard(len(index))
             batch = train_data.batch(index[positions], device)
             if symmetry is not None:
-                batch = utils.augment_symmetry(batch, symmetry=symmetry)
+                batch = training.augment_symmetry(batch, symmetry=symmetry)
             if noise is not None:
-                batch = utils.perturb_path(batch, path_noise, noise=noise[positions])
-            terms = utils.model_step(trained, loss_module, batch)
+                batch = training.perturb_path(batch, path_noise, noise=noise[positions])
+            terms = training.model_step(trained, loss_module, batch)
             optimizer.zero_grad(set_to_none=True)
             (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
             grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
@@ -376,31 +373,6 @@ def epoch_estimate(remaining: int, seconds: list[float]) -> str:
     return f"{line}, at most: training stops early at the lr floor"
 
 
-def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:
-    """One `temp_gym.plan` run up to the first solution, as a `utils.summarize` episode."""
-    result = plan(
-        problem,
-        planner=planner,
-        seed=seed,
-        max_nodes=eval_config["max_nodes"],
-        stop_at_first=True,
-        policy=policy,
-        attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
-        attention_patience=eval_config.get("attention_patience") if planner == "temp" else None,
-        attention_uniform=eval_config.get("attention_uniform") if planner == "temp" else None,
-    )
-    episode = {
-        "success": float(result.success),
-        "nodes": float(result.nodes_to_first_solution or result.nodes),
-        "cost": result.cost,
-        "samples": float(result.samples),
-        "time": result.time_to_first_solution or result.wall_time,
-    }
-    if planner == "temp":
-        episode["attention_solved"] = float(result.attention["solved"])
-    return episode
-
-
 def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Path) -> dict:
     """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
 
@@ -411,24 +383,24 @@ def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Pat
     eval_config = config["eval"]
     torch.set_num_threads(1)  # the per-sample latency a planner sees
     model, _ = load_checkpoint(checkpoint, robot=config["env"]["robot"])
-    problems = utils.draw_problems(
+    problems = training.draw_problems(
         config, eval_config.get("split", "test"), eval_config["tasks"], eval_config["seed"] + 10_000
     )
-    logger = utils.make_logger(config, run_dir)
+    logger = training.make_logger(config, run_dir)
     evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.get("noise_std", 0.0))
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
     temp_runs = [
-        plan_episode(problem, "temp", seed, eval_config, policy)
+        training.plan_episode(problem, "temp", seed, eval_config, policy)
         for problem, seed in zip(problems, seeds)
     ]
     rrt_runs = [
-        plan_episode(problem, "rrt_star", seed, eval_config)
+        training.plan_episode(problem, "rrt_star", seed, eval_config)
         for problem, seed in zip(problems, seeds)
     ]
-    temp = utils.summarize(temp_runs, eval_config["max_nodes"])
+    temp = training.summarize(temp_runs, eval_config["max_nodes"])
     temp["attention_success"] = float(np.mean([run["attention_solved"] for run in temp_runs]))
-    rrt_star = utils.summarize(rrt_runs, eval_config["max_nodes"])
+    rrt_star = training.summarize(rrt_runs, eval_config["max_nodes"])
     logger.scalars({f"eval/final/rrt_star/{key}": value for key, value in rrt_star.items()}, 0)
     logger.scalars({f"eval/final/temp/{key}": value for key, value in temp.items()}, 0)
     logger.close()
@@ -487,9 +459,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     # Every rank makes sure of the dataset before the process group exists, so no rank waits
     # at a barrier (with its timeout) while another generates it; the directory lock lets
     # one process per node generate while the others wait for it.
-    rank = utils.launch_rank()
-    utils.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
-    dist = utils.Distributed(config["train"].get("device", "auto"))
+    rank = training.launch_rank()
+    training.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
+    dist = training.Distributed(config["train"].get("device", "auto"))
     if dist.is_main:
         run_dir.mkdir(parents=True, exist_ok=True)
     threads = config["train"].get("threads")

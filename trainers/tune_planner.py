@@ -19,21 +19,16 @@ minimizes the mean nodes among the settings whose attention phase solves at leas
 from __future__ import annotations
 
 import itertools
-import sys
-from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import utils  # noqa: E402
-from bc import plan_episode  # noqa: E402
-
-from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
-from temp_gym.evaluation.ood import load_ood_family  # noqa: E402
-from temp_gym.models.policy import TEMPPolicy  # noqa: E402
-from temp_gym.models.temp import load_checkpoint  # noqa: E402
+from temp_gym import training
+from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.evaluation.ood import load_ood_family
+from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.temp import load_checkpoint
+from temp_gym.training import plan_episode
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -100,10 +95,12 @@ def main(argv: list[str] | None = None) -> dict:
         family = list(load_ood_family(config["env"]["robot"]).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
     else:
-        problems = utils.draw_problems(config, args.split, args.tasks, eval_config["seed"] + 20_000)
+        problems = training.draw_problems(
+            config, args.split, args.tasks, eval_config["seed"] + 20_000
+        )
     seeds = [eval_config["seed"] + index for index in range(len(problems))]
     rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
-    rrt = utils.summarize(rrt_runs, eval_config["max_nodes"])
+    rrt = training.summarize(rrt_runs, eval_config["max_nodes"])
     print(
         f"{len(problems)} {args.split} tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
@@ -123,9 +120,9 @@ def main(argv: list[str] | None = None) -> dict:
         eval_config["attention_uniform"] = uniform
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
-        row = utils.summarize(runs, eval_config["max_nodes"])
+        row = training.summarize(runs, eval_config["max_nodes"])
         solved = float(np.mean([run["attention_solved"] for run in runs]))
-        paired = utils.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
+        paired = training.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {uniform} | "
             f"{row['nodes_mean']:.1f} | "

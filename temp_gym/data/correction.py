@@ -23,7 +23,7 @@ samples are assembled, in workspace and task order, into one table of columns
 (`temp_gym.data.tables`) listed with sizes and SHA-256 in ``correction_card.json``; the card
 also records the checkpoint's digest and the settings. `load_corrections` reads a round back,
 verified, and the trainer adds the rounds listed in ``data.corrections`` to the training
-split (`trainers/utils.make_replay_buffer`).
+split (`temp_gym.training.batches.make_replay_buffer`).
 """
 
 from __future__ import annotations

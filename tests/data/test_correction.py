@@ -1,6 +1,5 @@
 """On-policy correction: the lattice expert's labels, rounds on disk, and training on them."""
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -115,17 +114,15 @@ def test_a_round_resumes_and_is_verified_on_load(tiny_round):
 
 def test_training_batches_mix_demonstrations_and_corrections(tiny_round):
     config, settings, out = tiny_round
-    sys.path.insert(0, str(ROOT / "trainers"))
-    import utils
-
     from temp_gym.data import generate_dataset, load_split
+    from temp_gym.training import SplitData
 
     config["model"] = {**config.get("model", {}), "chunk": 2}
     generate_dataset(config, workers=1, progress=False)
     collect_corrections(settings, out, progress=False)
     buffer, workspaces = load_split(config["data"]["dir"], "train")
     corrections = load_corrections(out)
-    data = utils.SplitData(buffer, workspaces, 2, [corrections])
+    data = SplitData(buffer, workspaces, 2, [corrections])
     demonstrations = len(buffer)
     assert len(data) == demonstrations + len(corrections["step"])
     index = torch.arange(demonstrations, len(data))
@@ -134,7 +131,7 @@ def test_training_batches_mix_demonstrations_and_corrections(tiny_round):
     np.testing.assert_array_equal(batch["path"].numpy(), corrections["path"])
     np.testing.assert_array_equal(batch["target"].numpy(), corrections["targets"][:, 0])
     with pytest.raises(ValueError, match="labelled with 2 targets"):
-        utils.SplitData(buffer, workspaces, 3, [corrections])
+        SplitData(buffer, workspaces, 3, [corrections])
 
 
 def test_a_task_solved_without_asking_the_policy_gives_no_samples(wall):

@@ -64,8 +64,7 @@ def test_trains_evaluates_and_resumes(tmp_path):
 
 
 def test_symmetry_augmentation_keeps_occupied_cells_occupied():
-    sys.path.insert(0, str(ROOT / "trainers"))
-    import utils
+    from temp_gym import training
 
     resolution = 8
     grid = torch.zeros(1, resolution, resolution)
@@ -81,33 +80,32 @@ def test_symmetry_augmentation_keeps_occupied_cells_occupied():
     }
     generator = torch.Generator().manual_seed(0)
     for _ in range(16):
-        out = utils.augment_symmetry(batch, generator)
+        out = training.augment_symmetry(batch, generator)
         cell = ((out["start"][0] + 1) / 2 * resolution).long()
         assert out["occupancy"][0, cell[0], cell[1]] == 1
         torch.testing.assert_close(out["goal"], out["start"])
-    noisy = utils.perturb_path(batch, 0.1, generator)
+    noisy = training.perturb_path(batch, 0.1, generator)
     assert not torch.equal(noisy["path"], batch["path"])
     assert torch.equal(noisy["target"], batch["target"])
 
 
 def test_paired_nodes_compares_task_by_task_with_failures_at_the_budget():
-    sys.path.insert(0, str(ROOT / "trainers"))
-    import utils
+    from temp_gym import training
 
     def runs(nodes):
         return [{"success": float(n is not None), "nodes": n or 0} for n in nodes]
 
     temp = runs([10, 20, None, 40])  # the failure counts as the budget, 100
     rrt = runs([30, 20, 50, 60])
-    paired = utils.paired_nodes(temp, rrt, max_nodes=100)
+    paired = training.paired_nodes(temp, rrt, max_nodes=100)
     assert paired["fewer"] == 0.5  # tasks 0 and 3; task 1 is a tie
     assert paired["difference"] == (-20 + 0 + 50 - 20) / 4
     assert paired["low"] <= paired["difference"] <= paired["high"]
     assert paired["low"] < paired["high"]
-    shifted = utils.paired_nodes(runs([5, 15, 25]), runs([10, 20, 30]), max_nodes=100)
+    shifted = training.paired_nodes(runs([5, 15, 25]), runs([10, 20, 30]), max_nodes=100)
     assert shifted == {"fewer": 1.0, "difference": -5.0, "low": -5.0, "high": -5.0}
     with pytest.raises(ValueError, match="same non-empty task list"):
-        utils.paired_nodes(temp, rrt[:2], max_nodes=100)
+        training.paired_nodes(temp, rrt[:2], max_nodes=100)
 
 
 def bc_module():
@@ -118,11 +116,10 @@ def bc_module():
 
 
 def write_last(tmp_path, config) -> Path:
-    sys.path.insert(0, str(ROOT / "trainers"))
-    import utils
+    from temp_gym import training
 
-    model = utils.make_model(config)
-    optimizer, scheduler = utils.make_optimizer(config, model)
+    model = training.make_model(config)
+    optimizer, scheduler = training.make_optimizer(config, model)
     path = tmp_path / "last.pt"
     model.save(
         path, optimizer=optimizer.state_dict(), scheduler=scheduler.state_dict(),
@@ -165,22 +162,21 @@ def test_a_damaged_last_checkpoint_is_named_with_what_to_do(tmp_path, damage):
 
 
 def test_chunk_targets_are_the_next_nodes_of_the_same_path():
-    sys.path.insert(0, str(ROOT / "trainers"))
-    import utils
+    from temp_gym import training
 
     # Two tasks of 3 and 2 samples, stored in path order.
     task_id = torch.tensor([0, 0, 0, 1, 1])
     step = torch.tensor([0, 1, 2, 0, 1])
-    rows, mask = utils.chunk_rows(task_id, step, 3)
+    rows, mask = training.chunk_rows(task_id, step, 3)
     assert rows.tolist() == [[0, 1, 2], [1, 2, 1], [2, 2, 2], [3, 4, 3], [4, 4, 4]]
     assert mask.tolist() == [
         [True, True, True], [True, True, False], [True, False, False],
         [True, True, False], [True, False, False],
     ]  # fmt: skip
-    single, single_mask = utils.chunk_rows(task_id, step, 1)
+    single, single_mask = training.chunk_rows(task_id, step, 1)
     assert single.tolist() == [[0], [1], [2], [3], [4]] and bool(single_mask.all())
     with pytest.raises(ValueError, match="path order"):
-        utils.chunk_rows(torch.tensor([0, 1, 0, 1]), torch.tensor([0, 0, 1, 1]), 2)
+        training.chunk_rows(torch.tensor([0, 1, 0, 1]), torch.tensor([0, 0, 1, 1]), 2)
 
 
 def test_trains_a_chunked_mpt_that_plans(tmp_path):

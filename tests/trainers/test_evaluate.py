@@ -15,7 +15,7 @@ sys.path.insert(0, str(ROOT / "docs"))
 
 import make_results  # noqa: E402
 
-from trainers import evaluate  # noqa: E402
+from temp_gym.evaluation import command as evaluate  # noqa: E402
 
 SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 2,
          "eise_hidden": 32}  # fmt: skip

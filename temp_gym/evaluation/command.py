@@ -1,0 +1,148 @@
+"""The paper's evaluation: TEMP vs RRT*, Informed RRT* (and OMPL's) on unseen test tasks.
+
+    python trainers/evaluate.py --config configs/2d.yaml                 # shipped policy
+    python trainers/evaluate.py --config configs/7d.yaml --checkpoint runs/.../best.pt
+    python trainers/evaluate.py --config configs/2d.yaml evaluation.tasks=20 --workers 2
+    python trainers/evaluate.py --config configs/7d.yaml --backend ray --ray-address auto
+
+Protocol (`temp_gym.evaluation`): TEMP's first solution gives t, N, J; each baseline runs until
+its cost is at most (1 + tau) J. Test sets: 100 easy + 100 challenging tasks in 2D and 3D, 200
+tasks in 7D (``evaluation.tasks`` per group), from the unseen ``test`` workspaces.
+
+Outputs in ``evaluation.out`` (default ``results/{env id}``): ``results.md`` (Table 1 layout and
+the TEMP/baseline ratios), ``results.json`` (raw records), ``success_vs_time.png``,
+``cost_vs_nodes.png``, ``sampling_failures.png``, ``attention.png`` (normalized attention per
+token group along the plan of the first row's task 0), ``tensorboard/`` (custom-scalars layout with
+TEMP and the baselines on shared charts) and ``tasks/`` (one record per task: rerunning the
+same command resumes).
+
+``trainers/evaluate.py`` runs `main`; ``docs/make_results.py`` calls it for each world.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.distributed import add_backend_arguments
+from temp_gym.evaluation.report import write_report
+from temp_gym.evaluation.runner import (
+    EvaluationSettings,
+    ManifestMismatchError,
+    attention_example,
+    run_evaluation,
+)
+from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
+from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.worlds.robots import robot_spec
+
+DEFAULTS = {
+    "baselines": ["rrt_star", "informed_rrt_star"],
+    "max_nodes": 10000,
+    "time_limit": 60.0,
+    "attention_nodes": None,
+    "curve_tasks": 10,
+    "curve_nodes": 3000,
+    "noise_std": None,
+    "horizon": None,
+    "attention_patience": None,
+    "seed": 0,
+    "workers": 2,
+    "out": None,
+}
+
+
+def settings_from(
+    config: dict, planner_defaults: dict | None = None
+) -> tuple[EvaluationSettings, dict]:
+    """The evaluation settings of a config's ``evaluation`` section (defaults above).
+
+    ``attention_nodes``, ``noise_std``, ``horizon`` and ``attention_patience`` left null take
+    the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
+    applies to a shipped policy), else all of ``max_nodes``, no noise, the model's whole chunk
+    and the default stall rule.
+    """
+    robot = config["env"]["robot"]
+    section = {**DEFAULTS, **(config.get("evaluation") or {})}
+    for key, fallback in (("attention_nodes", None), ("noise_std", 0.0), ("horizon", None),
+                          ("attention_patience", None)):  # fmt: skip
+        if section[key] is None:
+            section[key] = (planner_defaults or {}).get(key, fallback)
+    spec = robot_spec(robot)
+    tasks = int(section.get("tasks") or spec.evaluation_tasks)
+    groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
+    settings = EvaluationSettings(
+        robot=robot,
+        groups=groups,
+        baselines=tuple(section["baselines"]),
+        max_nodes=int(section["max_nodes"]),
+        time_limit=float(section["time_limit"]),
+        attention_nodes=section["attention_nodes"],
+        attention_patience=section["attention_patience"],
+        curve_tasks=int(section["curve_tasks"]),
+        curve_nodes=int(section["curve_nodes"]),
+        seed=int(section["seed"]),
+    )
+    return settings, section
+
+
+def main(argv: list[str] | None = None) -> str:
+    """Evaluate (resuming), write the report, print the table."""
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument(
+        "--config", required=True, help="YAML config of the world (configs/2d.yaml, 3d, 7d)"
+    )
+    parser.add_argument(
+        "--checkpoint", default=None, help="policy to evaluate (None: the shipped one)"
+    )
+    add_backend_arguments(parser, "evaluation.workers", "tasks")
+    parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
+    args = parse_args(parser, argv)
+    config = load_config(args.config, args.overrides)
+    robot = config["env"]["robot"]
+    try:  # fail fast, with one line, on a missing, damaged or other robot's checkpoint
+        checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
+        _, stored = load_checkpoint(checkpoint, robot=robot)
+    except (OSError, ValueError) as error:
+        raise SystemExit(f"evaluate.py: error: {error}") from None
+    settings, section = settings_from(config, stored.get("planner"))
+    make_policy = functools.partial(
+        policy_from_checkpoint,
+        str(checkpoint),
+        robot=settings.robot,
+        noise_std=float(section["noise_std"]),
+        seed=settings.seed,
+        horizon=section["horizon"],
+    )
+    out = Path(section["out"] or Path("results") / config["env"]["id"])
+    digest = weights_digest(stored["state_dict"])
+    try:
+        records = run_evaluation(
+            settings,
+            make_policy,
+            out,
+            workers=int(args.workers or section["workers"]),
+            progress=not args.no_progress,
+            backend=args.backend,
+            address=args.ray_address,
+            identity={
+                "checkpoint_digest": digest,
+                "noise_std": float(section["noise_std"]),
+                "horizon": section["horizon"],
+            },
+        )
+    except ManifestMismatchError as error:  # another checkpoint's or settings' records
+        raise SystemExit(f"evaluate.py: error: {error}") from None
+    metadata = {
+        "checkpoint": str(checkpoint),
+        "checkpoint_digest": digest,
+        "settings": {key: section[key] for key in DEFAULTS if key not in ("workers", "out")},
+    }
+    example = attention_example(settings, make_policy)
+    table = write_report(records, out, attention=example, metadata=metadata)
+    print(table)
+    print(
+        f"\nreport: {out / 'results.md'}; TensorBoard: tensorboard --logdir {out / 'tensorboard'}"
+    )
+    return table

@@ -1,0 +1,152 @@
+"""Planning episodes for the trainers' evaluations.
+
+Tasks drawn by the env, an env episode with a policy, a ``plan`` run to the first solution,
+and the summaries (nodes, success, paired comparison with a baseline).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from temp_gym.evaluation.statistics import bootstrap_interval
+from temp_gym.planning.plan import plan
+from temp_gym.problem import Problem
+from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
+
+
+def make_env(config: dict[str, Any], fallback: str = "random", split: str = "test") -> gym.Env:
+    """The planning env of ``config["env"]``, wrapped in `PlanningMetrics`."""
+    env_config, eval_config = config["env"], config.get("eval", {})
+    env = gym.make(
+        env_config["id"],
+        difficulty=eval_config.get("difficulty", "any"),
+        max_nodes=eval_config.get("max_nodes"),
+        step_size=env_config.get("step_size"),
+        fallback=fallback,
+        encoding_resolution=env_config["encoding_resolution"],
+        split=split,
+        max_path_length=env_config["max_path_length"],
+        disable_env_checker=True,
+    )
+    return PlanningMetrics(env)
+
+
+def draw_problems(config: dict[str, Any], split: str, count: int, seed: int) -> list[Problem]:
+    """``count`` tasks drawn by the env from ``split``'s workspaces, task i with seed+i."""
+    env = make_env(config, fallback="none", split=split)
+    problems = []
+    for index in range(count):
+        env.reset(seed=seed + index)
+        problems.append(env.unwrapped.problem)
+    env.close()
+    return problems
+
+
+def run_episode(
+    env: gym.Env, policy: Any, problem: Problem, seed: int
+) -> tuple[dict[str, float], dict[str, Any]]:
+    """Plan ``problem`` in ``env`` with ``policy`` until the first solution or the budget.
+
+    Returns ``info["planning"]`` (`PlanningMetrics`) plus ``time`` (wall seconds, policy
+    included), and the final info (with the tree still in ``env.unwrapped``).
+    """
+    began = time.perf_counter()
+    observation, info = env.reset(seed=seed, options={"problem": problem})
+    policy.reset(problem)
+    while True:
+        observation, _, terminated, truncated, info = env.step(policy(observation))
+        if terminated or truncated:
+            break
+    episode = {key: float(value) for key, value in info[INFO_KEY].items()}
+    episode["time"] = time.perf_counter() - began
+    return episode, info
+
+
+def evaluate_planner(
+    env: gym.Env, policy: Any, problems: list[Problem], seed: int
+) -> list[dict[str, float]]:
+    """`run_episode` over ``problems`` (episode i seeded ``seed + i``)."""
+    return [run_episode(env, policy, problem, seed + i)[0] for i, problem in enumerate(problems)]
+
+
+def nodes_or_budget(episodes: list[dict[str, float]], max_nodes: int) -> np.ndarray:
+    """Nodes to the first solution per episode, ``max_nodes`` for a failed one."""
+    return np.array([run["nodes"] if run["success"] > 0 else max_nodes for run in episodes])
+
+
+def paired_nodes(
+    episodes: list[dict[str, float]],
+    baseline: list[dict[str, float]],
+    max_nodes: int,
+    resamples: int = 2000,
+    seed: int = 0,
+) -> dict[str, float]:
+    """Nodes to the first solution of two planners on the same tasks, compared task by task.
+
+    A failure counts as the whole budget, as in `summarize`. Returns the share of tasks where
+    ``episodes`` needed fewer nodes than ``baseline``, the mean difference (``episodes`` minus
+    ``baseline``) and its 95% paired bootstrap interval (``resamples`` resamplings of the
+    tasks, seeded): the means of heavy-tailed node counts move a lot between task sets, and
+    the interval says whether a difference is more than that.
+    """
+    if len(episodes) != len(baseline) or not episodes:
+        raise ValueError(
+            f"expected the same non-empty task list, got {len(episodes)} and {len(baseline)}"
+        )
+    difference = nodes_or_budget(episodes, max_nodes) - nodes_or_budget(baseline, max_nodes)
+    low, high = bootstrap_interval(difference, np.mean, resamples=resamples, seed=seed)
+    return {
+        "fewer": float(np.mean(difference < 0)),
+        "difference": float(difference.mean()),
+        "low": float(low),
+        "high": float(high),
+    }
+
+
+def summarize(episodes: list[dict[str, float]], max_nodes: int) -> dict[str, float]:
+    """Success rate, nodes to the first solution, cost, samples and time of a planner.
+
+    Nodes: mean over all episodes (a failure counts as the whole budget) and median; cost:
+    mean over successful episodes; samples and time: means over all episodes.
+    """
+    success = np.array([episode["success"] for episode in episodes]) > 0
+    nodes = nodes_or_budget(episodes, max_nodes)
+    costs = np.array([episode["cost"] for episode, ok in zip(episodes, success) if ok])
+    return {
+        "success": float(success.mean()),
+        "nodes_mean": float(nodes.mean()),
+        "nodes_median": float(np.median(nodes)),
+        "cost": float(costs.mean()) if len(costs) else math.inf,
+        "samples": float(np.mean([episode["samples"] for episode in episodes])),
+        "time": float(np.mean([episode["time"] for episode in episodes])),
+    }
+
+
+def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:
+    """One `temp_gym.plan` run up to the first solution, as a `summarize` episode."""
+    result = plan(
+        problem,
+        planner=planner,
+        seed=seed,
+        max_nodes=eval_config["max_nodes"],
+        stop_at_first=True,
+        policy=policy,
+        attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
+        attention_patience=eval_config.get("attention_patience") if planner == "temp" else None,
+        attention_uniform=eval_config.get("attention_uniform") if planner == "temp" else None,
+    )
+    episode = {
+        "success": float(result.success),
+        "nodes": float(result.nodes_to_first_solution or result.nodes),
+        "cost": result.cost,
+        "samples": float(result.samples),
+        "time": result.time_to_first_solution or result.wall_time,
+    }
+    if planner == "temp":
+        episode["attention_solved"] = float(result.attention["solved"])
+    return episode
