@@ -63,18 +63,29 @@ def _transform(pose: np.ndarray) -> fcl.Transform:
     return fcl.Transform(np.ascontiguousarray(pose[:3, :3]), np.ascontiguousarray(pose[:3, 3]))
 
 
-def _mesh_object(vertices: np.ndarray, faces: np.ndarray) -> fcl.CollisionObject:
+def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
     mesh = fcl.BVHModel()
     mesh.beginModel(len(vertices), len(faces))
     mesh.addSubModel(vertices, faces)
     mesh.endModel()
-    return fcl.CollisionObject(mesh, fcl.Transform())
+    return mesh
+
+
+@functools.lru_cache(maxsize=1)
+def _link_models() -> tuple[fcl.BVHModel, ...]:
+    """Each link's mesh as an fcl BVH, built once per process.
+
+    Building them is most of a checker's construction, and `plan` builds an exact checker
+    on every call to certify its path. The geometry never changes after ``endModel``; each
+    checker wraps it in collision objects of its own, which carry the poses.
+    """
+    return tuple(_mesh_model(vertices, faces) for vertices, faces in link_meshes())
 
 
 @functools.lru_cache(maxsize=1)
 def _base_link() -> fcl.CollisionObject:
-    """link_0's mesh at the origin, built once per process (it never moves; ~10 ms)."""
-    return _mesh_object(*link_meshes()[0])
+    """link_0's mesh at the origin (it never moves)."""
+    return fcl.CollisionObject(_link_models()[0], fcl.Transform())
 
 
 def base_link_collides(box_params: np.ndarray) -> bool:
@@ -128,8 +139,8 @@ class IiwaExactChecker:
         ]
         self._links, self._link_boxes = [], []
         local_center, local_half = [], []
-        for vertices, faces in link_meshes():
-            self._links.append(_mesh_object(vertices, faces))
+        for model, (vertices, _faces) in zip(_link_models(), link_meshes()):
+            self._links.append(fcl.CollisionObject(model, fcl.Transform()))
             lo, hi = vertices.min(axis=0), vertices.max(axis=0)
             local_center.append((lo + hi) / 2)
             local_half.append((hi - lo) / 2)

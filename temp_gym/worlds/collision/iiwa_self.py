@@ -22,6 +22,8 @@ the lower bounds that `temp_gym.worlds.collision.iiwa_exact` turns into certifie
 
 from __future__ import annotations
 
+import functools
+
 import fcl
 import numpy as np
 
@@ -33,9 +35,19 @@ SELF_COLLISION_GAP = 2 * SELF_COLLISION_PADDING
 """Two links whose hulls are this close (m) or closer are in collision."""
 
 
-def _hull_object(vertices: np.ndarray, faces: np.ndarray) -> fcl.CollisionObject:
+def _hull_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.Convex:
     counted = np.hstack([np.full((len(faces), 1), 3), faces]).ravel()
-    return fcl.CollisionObject(fcl.Convex(vertices, len(faces), counted), fcl.Transform())
+    return fcl.Convex(vertices, len(faces), counted)
+
+
+@functools.lru_cache(maxsize=1)
+def _hull_models() -> tuple[fcl.Convex, ...]:
+    """Each link's convex hull as fcl geometry, built once per process.
+
+    The geometry never changes; every `LinkHulls` wraps it in collision objects of its own,
+    which carry the poses.
+    """
+    return tuple(_hull_model(vertices, faces) for vertices, faces in link_hulls())
 
 
 def _transform(pose: np.ndarray) -> fcl.Transform:
@@ -57,7 +69,7 @@ class LinkHulls:
     def __init__(self, pairs: np.ndarray) -> None:
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         hulls = link_hulls()
-        self._objects = [_hull_object(vertices, faces) for vertices, faces in hulls]
+        self._objects = [fcl.CollisionObject(model, fcl.Transform()) for model in _hull_models()]
         # Each hull's bounding sphere (box-center and farthest vertex) for the broad phase.
         self._sphere_centers = np.array([(v.min(axis=0) + v.max(axis=0)) / 2 for v, _ in hulls])
         self._sphere_radii = np.array(
