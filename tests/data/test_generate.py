@@ -38,12 +38,21 @@ def dataset(tmp_path_factory) -> Path:
     return generate_dataset(tiny(directory), workers=1, progress=False)
 
 
+def _default_interrupts() -> None:
+    """In the child: Ctrl-C's default disposition, as a terminal's foreground job has it.
+
+    An ignored SIGINT is inherited across exec, and Python then leaves it ignored, so a test
+    process that ignores it (a test runner's worker may) would hand that on to the job.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def signal_after_first_unit(command: list[str], root: Path, sig: int) -> tuple[int, str]:
     """Run ``command`` (a generate.py run into ``root``) and send ``sig`` to its process
     group, as a terminal would, once its first unit is on disk; return (status, stderr)."""
     process = subprocess.Popen(
         command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        start_new_session=True,
+        start_new_session=True, preexec_fn=_default_interrupts,
     )  # fmt: skip
     units = root / "train" / "units"
     deadline = time.monotonic() + 120

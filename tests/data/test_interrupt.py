@@ -18,7 +18,9 @@ def test_ctrl_c_prints_one_line_and_the_rerun_says_what_is_done(tmp_path):
     # quiet machine could finish them all in the burst before the signal lands.
     status, stderr = signal_after_first_unit(command, tmp_path, signal.SIGINT)
     units = tmp_path / "train" / "units"
-    assert not (tmp_path / "dataset_card.json").exists(), "interrupted too late to test"
+    assert not (tmp_path / "dataset_card.json").exists(), (
+        f"interrupted too late to test: status {status}, stderr {stderr[-1500:]!r}"
+    )
     assert status == 130
     lines = [line for line in stderr.replace("\r", "\n").splitlines() if line.strip()]
     assert lines[-1] == "generate.py: interrupted; rerun the same command to resume"
