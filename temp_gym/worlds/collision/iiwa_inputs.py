@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, as_configs, joint_limits
 
 
 def as_boxes(box_lower: np.ndarray, box_upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -44,12 +44,7 @@ def within_joint_limits(bounds: np.ndarray) -> np.ndarray:
 
 def as_states(states: np.ndarray, name: str = "states") -> np.ndarray:
     """``(N, 7)`` float64 states (one ``(7,)`` state becomes ``(1, 7)``); ``name`` is the field."""
-    states = np.ascontiguousarray(states, dtype=np.float64)
-    if states.ndim == 1:
-        states = states.reshape(1, -1)
-    if states.ndim != 2 or states.shape[1] != NUM_JOINTS:
-        raise ValueError(f"{name}: expected shape (N, {NUM_JOINTS}), got {states.shape}")
-    return states
+    return as_configs(states, name)
 
 
 def as_state(state: np.ndarray, name: str) -> np.ndarray:

@@ -306,25 +306,26 @@ def joint_step_into(poses, j, perm, sign, shift, c, s) -> None:
         poses[j + 1, r, 1] = c * m1 - s * m0
 
 
-def _as_configs(configs: np.ndarray) -> np.ndarray:
+def as_configs(configs: np.ndarray, name: str = "configs") -> np.ndarray:
+    """``(N, 7)`` float64 configurations (one ``(7,)`` becomes ``(1, 7)``), ``name`` the field."""
     configs = np.ascontiguousarray(configs, dtype=np.float64)
     if configs.ndim == 1:
         configs = configs.reshape(1, -1)
     if configs.ndim != 2 or configs.shape[1] != NUM_JOINTS:
-        raise ValueError(f"configs: expected shape (N, {NUM_JOINTS}), got {configs.shape}")
+        raise ValueError(f"{name}: expected shape (N, {NUM_JOINTS}), got {configs.shape}")
     return configs
 
 
 def forward_kinematics(configs: np.ndarray) -> np.ndarray:
     """World poses ``(N, 8, 4, 4)`` of the 8 links for configurations ``(N, 7)`` (numba)."""
     model = load_model()
-    return _fk_batch(_as_configs(configs), model.joint_origins, model.joint_axes)
+    return _fk_batch(as_configs(configs), model.joint_origins, model.joint_axes)
 
 
 def forward_kinematics_reference(config: np.ndarray) -> np.ndarray:
     """Plain-numpy FK of one configuration ``(7,)`` -> ``(8, 4, 4)``; the tests' reference."""
     model = load_model()
-    config = _as_configs(config)[0]
+    config = as_configs(config)[0]
     poses = [np.eye(4)]
     for origin, axis, angle in zip(model.joint_origins, model.joint_axes, config):
         skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
@@ -383,6 +384,7 @@ def relative_motion_radii(radii: np.ndarray, pairs: np.ndarray) -> np.ndarray:
 __all__ = [
     "NUM_JOINTS",
     "NUM_LINKS",
+    "as_configs",
     "IiwaModel",
     "FAST_FK_MARGIN",
     "fk_into",
