@@ -83,14 +83,13 @@ def _median(statistics: dict | None) -> str:
     return format_interval(statistics, "median")
 
 
-def attention_shares(out: Path) -> dict[str, float]:
+def attention_shares(records: list[dict]) -> dict[str, float]:
     """Per row, the share of TEMP's solved tasks that its attention phase solved alone."""
     solved: dict[str, list[bool]] = {}
-    for path in sorted((out / "tasks").glob("*.json")):
-        record = json.loads(path.read_text())["planners"]["temp"]
-        if record.get("success") and "attention_solved" in record:
-            group = path.stem.rsplit("-", 1)[0].replace("_", " ")
-            solved.setdefault(group, []).append(bool(record["attention_solved"]))
+    for record in records:
+        temp = record["planners"]["temp"]
+        if temp.get("success") and "attention_solved" in temp:
+            solved.setdefault(record["group"], []).append(bool(temp["attention_solved"]))
     return {group: sum(flags) / len(flags) for group, flags in solved.items()}
 
 
@@ -157,7 +156,7 @@ def world_section(key: str, out: Path, docs: Path) -> tuple[str, list[str], list
         *(f"![{name[:-4]}](results/{key}/{name})" for name in PLOTS if (target / name).is_file()),
         "",
     ]
-    return "\n".join(text), ratios, checks(summary, attention_shares(out))
+    return "\n".join(text), ratios, checks(summary, attention_shares(results.get("records", [])))
 
 
 def main(argv: list[str] | None = None) -> Path:
