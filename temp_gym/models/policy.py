@@ -246,7 +246,7 @@ class TEMPPolicy:
             core=self.core, horizon=self.horizon, attention_patience=self.attention_patience,
             attention_uniform=self.attention_uniform,
         )  # fmt: skip
-        unknown = set(changes) - set(settings) - {"core"}
+        unknown = set(changes) - set(settings)
         if unknown:
             raise TypeError(f"fresh(): unknown settings {sorted(unknown)}")
         return TEMPPolicy(self.model, **{**settings, **changes})
