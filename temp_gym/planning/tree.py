@@ -16,8 +16,9 @@ planning", Thm. 38 and its k-nearest variant), with ``n`` the number of nodes pl
 
 * ``"radius"`` (default): ``r = min(gamma * (log n / n) ** (1/d), max_radius)`` with
   ``gamma = rewire_factor * 2 * (1 + 1/d) ** (1/d) * (mu_free / zeta_d) ** (1/d)``, where
-  ``mu_free`` is the free configuration-space volume (estimated by Monte Carlo with the fast
-  checker, once per workspace and process: `workspace_free_volume`) and ``zeta_d`` the volume
+  ``mu_free`` is the free configuration-space volume (exact when the checker offers
+  ``free_volume()``, as the point robots' does; else estimated by Monte Carlo with the fast
+  checker; once per workspace and process: `workspace_free_volume`) and ``zeta_d`` the volume
   of the unit d-ball. ``rewire_factor > 1`` keeps ``gamma`` above the asymptotic-optimality
   bound. ``max_radius`` defaults to ``2 * step_size``: for the budgets we run the cap is what
   binds.
@@ -68,12 +69,21 @@ def unit_ball_volume(dim: int) -> float:
 
 
 def estimate_free_volume(problem: Problem, checker: CollisionChecker) -> float:
-    """Monte Carlo estimate of the free configuration-space volume (deterministic)."""
+    """The free configuration-space volume: exact when ``checker`` has ``free_volume()``.
+
+    Otherwise a Monte Carlo estimate with the checker's `states_free` (deterministic). Either
+    way at least ``1 / _FREE_VOLUME_SAMPLES`` of the bounds, so that ``gamma`` stays positive.
+    """
     low, high = problem.bounds
-    rng = np.random.default_rng(0)
-    states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
-    fraction = max(float(np.mean(checker.states_free(states))), 1.0 / _FREE_VOLUME_SAMPLES)
-    return fraction * float(np.prod(high - low))
+    total = float(np.prod(high - low))
+    exact = getattr(checker, "free_volume", None)
+    if exact is not None:
+        fraction = float(exact()) / total
+    else:
+        rng = np.random.default_rng(0)
+        states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
+        fraction = float(np.mean(checker.states_free(states)))
+    return max(fraction, 1.0 / _FREE_VOLUME_SAMPLES) * total
 
 
 def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
@@ -81,8 +91,9 @@ def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
 
     The estimate depends only on the robot, the bounds and the boxes (its samples are seeded),
     not on the start and goal, so many queries in one workspace (a user's scene, an
-    evaluation) pay it once per process: about 0.6 ms in 2D and 1.4 ms for the iiwa, a
-    quarter of a typical 2D RRT* plan. The last `_FREE_VOLUME_CACHE_SIZE` workspaces are kept.
+    evaluation) pay it once per process (the iiwa's Monte Carlo estimate is worth keeping;
+    the point robots' exact volume is cheap either way). The last `_FREE_VOLUME_CACHE_SIZE`
+    workspaces are kept.
     ``checker`` must be ``make_checker(problem)``'s kind; `Tree` asks for no estimate of
     another checker here.
     """

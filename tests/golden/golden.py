@@ -10,6 +10,11 @@ TEMP's figures) from an export of that commit:
     git archive de0f33d | tar -x -C /tmp/before
     PYTHONPATH=/tmp/before python tests/golden/golden.py tests/golden/golden.json
 
+One intended change since: the point robots' rewiring radius now uses the exact free volume
+(`PointBoxChecker.free_volume`) instead of a Monte Carlo estimate. The radius cap binds in every
+plan of the sample, so only the tiny dataset's validation unit changed (its expert plans run
+longer); ``dataset/val`` was rewritten with ``golden.py`` at that commit, all else kept.
+
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.
 

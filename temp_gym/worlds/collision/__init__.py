@@ -11,6 +11,10 @@
 
 ``True`` always means *free* (OMPL's "valid"), so ``checker.states_free(x)`` reads as it says.
 
+Optional methods, used when a checker has them: ``compiled_context()`` (a compiled motion
+check, `temp_gym.worlds.collision.compiled`) and ``free_volume()`` (the exact free volume,
+for RRT*'s rewiring radius; without it the tree estimates it by Monte Carlo).
+
 A robot's spec names its checkers (`temp_gym.worlds.robots.RobotSpec.make_checker`);
 `temp_gym.worlds.checkers` builds a problem's.
 """

@@ -106,6 +106,87 @@ def _path_free(path, lower_bounds, upper_bounds, box_lower, box_upper) -> bool:
     return True
 
 
+@numba.njit(cache=True, nogil=True)
+def _union_volume(lower, upper) -> float:
+    """`union_volume` of boxes already clipped to the bounds and non-empty.
+
+    Each box adds +1 where it starts and -1 where it ends along the last axis, on every row of
+    cells its other axes cover; a running sum along each row then gives the covered length.
+    """
+    count, dim = lower.shape
+    last = dim - 1
+    cuts = np.empty((dim, 2 * count))
+    sizes = np.empty(dim, dtype=np.int64)
+    for k in range(dim):
+        axis = np.unique(np.concatenate((lower[:, k], upper[:, k])))
+        sizes[k] = axis.shape[0]
+        cuts[k, : axis.shape[0]] = axis
+    strides = np.ones(dim, dtype=np.int64)  # of a row's index over the axes but the last
+    rows = 1
+    for k in range(last - 1, -1, -1):
+        strides[k] = rows
+        rows *= sizes[k] - 1
+    steps = np.zeros((rows, sizes[last]), dtype=np.int32)
+    first = np.empty(dim, dtype=np.int64)
+    stop = np.empty(dim, dtype=np.int64)
+    cell = np.empty(dim, dtype=np.int64)
+    for b in range(count):
+        for k in range(dim):
+            first[k] = np.searchsorted(cuts[k, : sizes[k]], lower[b, k])
+            stop[k] = np.searchsorted(cuts[k, : sizes[k]], upper[b, k])
+            cell[k] = first[k]
+        while True:  # every row of the box, an odometer over the axes but the last
+            row = 0
+            for k in range(last):
+                row += cell[k] * strides[k]
+            steps[row, first[last]] += 1
+            steps[row, stop[last]] -= 1
+            k = last - 1
+            while k >= 0:
+                cell[k] += 1
+                if cell[k] < stop[k]:
+                    break
+                cell[k] = first[k]
+                k -= 1
+            if k < 0:
+                break
+    volume = 0.0
+    for row in range(rows):
+        depth = 0
+        length = 0.0
+        for j in range(sizes[last] - 1):
+            depth += steps[row, j]
+            if depth > 0:
+                length += cuts[last, j + 1] - cuts[last, j]
+        if length > 0.0:
+            rest = row
+            for k in range(last):
+                index = rest // strides[k]
+                rest -= index * strides[k]
+                length *= cuts[k, index + 1] - cuts[k, index]
+            volume += length
+    return volume
+
+
+def union_volume(
+    box_lower: np.ndarray, box_upper: np.ndarray, lower_bounds: np.ndarray, upper_bounds: np.ndarray
+) -> float:
+    """The volume of the union of the boxes ``[box_lower[i], box_upper[i]]`` within the bounds.
+
+    Exact, by coordinate compression: the box faces cut each axis into intervals, and every
+    cell of that grid is either inside some box or outside all of them, so overlaps count once
+    and parts outside the bounds not at all.
+    """
+    lower = np.clip(box_lower, lower_bounds, upper_bounds)
+    upper = np.clip(box_upper, lower_bounds, upper_bounds)
+    kept = np.all(upper > lower, axis=1)
+    if not np.any(kept):
+        return 0.0
+    return float(
+        _union_volume(np.ascontiguousarray(lower[kept]), np.ascontiguousarray(upper[kept]))
+    )
+
+
 class PointBoxChecker:
     """Fast *and* exact checker for a point robot among axis-aligned boxes.
 
@@ -123,6 +204,13 @@ class PointBoxChecker:
         self._box_lower = np.ascontiguousarray(box_lower, dtype=np.float64).reshape(-1, self.dim)
         self._box_upper = np.ascontiguousarray(box_upper, dtype=np.float64).reshape(-1, self.dim)
         self.description = f"analytic segment-vs-box test, {len(self._box_lower)} boxes"
+
+    def free_volume(self) -> float:
+        """The exact volume of the free space: the bounds less the union of the boxes."""
+        total = float(np.prod(self._upper_bounds - self._lower_bounds))
+        return total - union_volume(
+            self._box_lower, self._box_upper, self._lower_bounds, self._upper_bounds
+        )
 
     def compiled_context(self) -> tuple[np.ndarray, ...]:
         """Bounds and boxes for `temp_gym.worlds.collision.compiled.motion_free`."""
