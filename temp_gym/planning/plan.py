@@ -8,12 +8,9 @@ Example:
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Callable
 
 from temp_gym.planning.planners import informed_rrt_star, rrt_star
-from temp_gym.planning.policy import as_sampling_policy
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.planning.temp_planner import temp
 from temp_gym.planning.warmup import warm_up
@@ -49,31 +46,6 @@ register_planner("temp", temp)
 # OMPL is imported only when one of these runs; without it they raise a clear ImportError.
 register_planner("ompl_rrt_star", _ompl_planner("ompl_rrt_star"))
 register_planner("ompl_informed_rrt_star", _ompl_planner("ompl_informed_rrt_star"))
-
-
-MAX_COUNT = 2**53
-"""Largest node or sample budget: counts above it no longer convert to float exactly (and
-no tree that large fits in memory)."""
-
-
-def _count(value: object, name: str, minimum: int = 1) -> int:
-    """An integer in ``[minimum, MAX_COUNT]``, or a `ValueError` naming ``name``."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise ValueError(f"{name}: expected an integer of at least {minimum}, got {value!r}")
-    if not minimum <= value <= MAX_COUNT:
-        shown = value if abs(value) < 10**20 else f"an integer of {len(str(value))} digits"
-        raise ValueError(f"{name}: expected an integer in [{minimum}, 2**53], got {shown}")
-    return int(value)
-
-
-def _real(value: object, name: str, expected: str) -> float:
-    """``float(value)`` for a real number (not bool), or a `ValueError` naming ``name``."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise ValueError(f"{name}: expected {expected}, got {value!r}")
-    try:
-        return float(value)
-    except OverflowError:
-        raise ValueError(f"{name}: expected {expected}, got a number beyond float range") from None
 
 
 def plan(
@@ -135,7 +107,8 @@ def plan(
             sample instead of the policy's (None: the policy's own setting, else 0).
 
     Raises:
-        ValueError: For an unknown planner or an invalid argument.
+        ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
+            the arguments).
     """
     if not isinstance(problem, Problem):
         raise ValueError(f"problem: expected a Problem, got {type(problem).__name__}")
@@ -143,55 +116,13 @@ def plan(
         raise ValueError(
             f"planner: unknown planner {planner!r}; expected one of {sorted(PLANNERS)}"
         )
-    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    max_nodes = _count(max_nodes, "max_nodes")
-    if time_limit is not None:
-        time_limit = _real(time_limit, "time_limit", "a non-negative number or None")
-        if not time_limit >= 0:
-            raise ValueError(
-                f"time_limit: expected a non-negative number or None, got {time_limit}"
-            )
-    if step_size is not None:
-        step_size = _real(step_size, "step_size", "a positive number or None")
-        if not (math.isfinite(step_size) and step_size > 0):
-            raise ValueError(f"step_size: expected a positive number or None, got {step_size}")
-    goal_bias = _real(goal_bias, "goal_bias", "a number in [0, 1]")
-    if not 0.0 <= goal_bias <= 1.0:
-        raise ValueError(f"goal_bias: expected a number in [0, 1], got {goal_bias!r}")
-    if target_cost is not None:
-        target_cost = _real(target_cost, "target_cost", "a number or None")
-        if math.isnan(target_cost):
-            raise ValueError("target_cost: expected a number or None, got nan")
-    if max_samples is not None:
-        max_samples = _count(max_samples, "max_samples")
-    if attention_nodes is not None:
-        attention_nodes = _count(attention_nodes, "attention_nodes")
-    if attention_patience is not None:
-        attention_patience = _count(attention_patience, "attention_patience", minimum=0)
-    if attention_uniform is not None:
-        attention_uniform = _real(attention_uniform, "attention_uniform", "a number in [0, 1]")
-        if not 0.0 <= attention_uniform <= 1.0:
-            raise ValueError(
-                f"attention_uniform: expected a number in [0, 1], got {attention_uniform!r}"
-            )
-    if policy is not None:
-        policy = as_sampling_policy(policy)  # a ValueError for anything else
-        if planner != "temp":
-            raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
     settings = PlanSettings(
-        seed=int(seed),
-        max_nodes=max_nodes,
-        time_limit=time_limit,
-        stop_at_first=bool(stop_at_first),
-        step_size=step_size,
-        goal_bias=goal_bias,
-        target_cost=target_cost,
-        max_samples=max_samples,
-        policy=policy,
-        attention_nodes=attention_nodes,
-        attention_patience=attention_patience,
-        attention_uniform=attention_uniform,
-    )
+        seed=seed, max_nodes=max_nodes, time_limit=time_limit, stop_at_first=stop_at_first,
+        step_size=step_size, goal_bias=goal_bias, target_cost=target_cost,
+        max_samples=max_samples, policy=policy, attention_nodes=attention_nodes,
+        attention_patience=attention_patience, attention_uniform=attention_uniform,
+    )  # fmt: skip
+    if settings.policy is not None and planner != "temp":
+        raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")
     warm_up(problem, planner, settings, PLANNERS)  # compile before the clock starts
     return PLANNERS[planner](problem, settings)

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import inspect
 import warnings
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any, Protocol, runtime_checkable
@@ -166,6 +167,26 @@ class _ProblemOnlyReset:
         return getattr(self.policy, name)
 
 
+_TAKES_SEED: weakref.WeakKeyDictionary[Callable[..., Any], bool] = weakref.WeakKeyDictionary()
+"""Per ``reset`` function of a policy class: whether it takes ``seed`` (`inspect.signature`
+costs tens of microseconds, and `plan` asks once per call)."""
+
+
+def _reset_takes_seed(reset: Callable[..., Any]) -> bool:
+    """Whether ``reset`` takes a ``seed``; True when it has no signature to read (a builtin)."""
+    function = getattr(reset, "__func__", None)  # a bound method: its class's function
+    known = None if function is None else _TAKES_SEED.get(function)
+    if known is not None:
+        return known
+    try:
+        takes = "seed" in inspect.signature(reset).parameters
+    except (TypeError, ValueError):  # no signature to read: trust the contract
+        takes = True
+    if function is not None:
+        _TAKES_SEED[function] = takes
+    return takes
+
+
 def as_sampling_policy(policy: Any) -> SamplingPolicy:
     """``policy`` itself, or, when its ``reset`` takes no ``seed``, an adapter that drops it.
 
@@ -176,11 +197,7 @@ def as_sampling_policy(policy: Any) -> SamplingPolicy:
         raise ValueError(
             "policy: expected a SamplingPolicy (reset(problem, seed=None), policy(obs))"
         )
-    try:
-        parameters = inspect.signature(policy.reset).parameters
-    except (TypeError, ValueError):  # no signature to read (a builtin): trust the contract
-        return policy
-    if "seed" in parameters:
+    if _reset_takes_seed(policy.reset):
         return policy
     warnings.warn(
         f"{type(policy).__name__}.reset(problem): a SamplingPolicy's reset takes "

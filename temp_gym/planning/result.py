@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -14,9 +15,50 @@ if TYPE_CHECKING:
     from temp_gym.problem import Problem
 
 
+MAX_COUNT = 2**53
+"""Largest node or sample budget: counts above it no longer convert to float exactly (and
+no tree that large fits in memory)."""
+
+
+def _count(value: object, name: str, minimum: int = 1) -> int:
+    """An integer in ``[minimum, MAX_COUNT]``, or a `ValueError` naming ``name``."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise ValueError(f"{name}: expected an integer of at least {minimum}, got {value!r}")
+    if not minimum <= value <= MAX_COUNT:
+        shown = value if abs(value) < 10**20 else f"an integer of {len(str(value))} digits"
+        raise ValueError(f"{name}: expected an integer in [{minimum}, 2**53], got {shown}")
+    return int(value)
+
+
+def _real(value: object, name: str, expected: str) -> float:
+    """``float(value)`` for a real number (not bool), or a `ValueError` naming ``name``."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: expected {expected}, got a number beyond float range") from None
+
+
+def _share(value: object, name: str) -> float:
+    """A probability: a real number in ``[0, 1]``."""
+    share = _real(value, name, "a number in [0, 1]")
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"{name}: expected a number in [0, 1], got {value!r}")
+    return share
+
+
 @dataclass(frozen=True)
 class PlanSettings:
-    """Validated arguments of `temp_gym.planning.plan`, handed to every planner."""
+    """The arguments of `temp_gym.planning.plan`, handed to every planner; they check themselves.
+
+    Building one validates and normalizes every field (plain ``int`` and ``float``; a policy
+    seen through `temp_gym.planning.policy.as_sampling_policy`), so a planner never meets a
+    negative budget, a NaN or a bool where a number belongs.
+
+    Raises:
+        ValueError: naming the first invalid field and what it expected.
+    """
 
     seed: int = 0
     """Seed of the planner's random generator."""
@@ -48,6 +90,47 @@ class PlanSettings:
     """``temp`` planner: attention-phase nodes in a row without a closer approach to the goal
     before classical planning takes over (None: `temp_gym.planning.attention.default_patience`;
     0: never, Algorithm 1 as written)."""
+
+    def __post_init__(self) -> None:
+        def normalize(name: str, value: object) -> None:
+            object.__setattr__(self, name, value)
+
+        seed = self.seed
+        if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
+            raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+        normalize("seed", int(seed))
+        normalize("max_nodes", _count(self.max_nodes, "max_nodes"))
+        if self.time_limit is not None:
+            limit = _real(self.time_limit, "time_limit", "a non-negative number or None")
+            if not limit >= 0:
+                raise ValueError(f"time_limit: expected a non-negative number or None, got {limit}")
+            normalize("time_limit", limit)
+        normalize("stop_at_first", bool(self.stop_at_first))
+        if self.step_size is not None:
+            step = _real(self.step_size, "step_size", "a positive number or None")
+            if not (math.isfinite(step) and step > 0):
+                raise ValueError(f"step_size: expected a positive number or None, got {step}")
+            normalize("step_size", step)
+        normalize("goal_bias", _share(self.goal_bias, "goal_bias"))
+        if self.target_cost is not None:
+            target = _real(self.target_cost, "target_cost", "a number or None")
+            if math.isnan(target):
+                raise ValueError("target_cost: expected a number or None, got nan")
+            normalize("target_cost", target)
+        for name, minimum in (
+            ("max_samples", 1),
+            ("attention_nodes", 1),
+            ("attention_patience", 0),
+        ):
+            value = getattr(self, name)
+            if value is not None:
+                normalize(name, _count(value, name, minimum))
+        if self.attention_uniform is not None:
+            normalize("attention_uniform", _share(self.attention_uniform, "attention_uniform"))
+        if self.policy is not None:
+            from temp_gym.planning.policy import as_sampling_policy
+
+            normalize("policy", as_sampling_policy(self.policy))  # a ValueError for others
 
     @property
     def sample_limit(self) -> int:
@@ -142,18 +225,41 @@ class PlanResult:
 
 
 class AnytimeLog:
-    """Records ``(nodes, time, best_cost)`` whenever the best cost improves."""
+    """A planner's clock and its record of ``(nodes, time, best_cost)`` at every improvement.
 
-    def __init__(self) -> None:
+    Times are seconds since ``started`` (default: when the log is made, the planner's start);
+    the first entry is the first solution.
+    """
+
+    def __init__(self, started: float | None = None) -> None:
+        self.started = time.perf_counter() if started is None else float(started)
         self.nodes: list[int] = []
         self.times: list[float] = []
         self.costs: list[float] = []
+
+    def elapsed(self) -> float:
+        """Seconds since the planner started."""
+        return time.perf_counter() - self.started
 
     def record(self, nodes: int, elapsed: float, cost: float) -> None:
         """Append one improvement."""
         self.nodes.append(int(nodes))
         self.times.append(float(elapsed))
         self.costs.append(float(cost))
+
+    def record_tree(self, tree: Tree) -> None:
+        """Append the tree's new best cost, now."""
+        self.record(tree.num_nodes, self.elapsed(), tree.best_cost)
+
+    @property
+    def first_time(self) -> float | None:
+        """Seconds to the first solution (None: none yet)."""
+        return self.times[0] if self.times else None
+
+    @property
+    def first_nodes(self) -> int | None:
+        """Tree nodes at the first solution (None: none yet)."""
+        return self.nodes[0] if self.nodes else None
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """The history dictionary of `PlanResult`."""
@@ -196,10 +302,7 @@ def tree_plan_result(
     tree: Tree,
     planner: str,
     settings: PlanSettings,
-    started: float,
     log: AnytimeLog,
-    first_time: float | None,
-    first_nodes: int | None,
     **extra: Any,
 ) -> PlanResult:
     """The `PlanResult` of a finished tree: certified best path, counters, wall time, history."""
@@ -213,9 +316,9 @@ def tree_plan_result(
         samples=tree.samples,
         sampling_failures=tree.sampling_failures,
         collision_checks=tree.collision_checks,
-        wall_time=time.perf_counter() - started,
-        time_to_first_solution=first_time,
-        nodes_to_first_solution=first_nodes,
+        wall_time=log.elapsed(),
+        time_to_first_solution=log.first_time,
+        nodes_to_first_solution=log.first_nodes,
         history=log.as_arrays(),
         seed=settings.seed,
         certification_failures=rejected,

@@ -43,15 +43,14 @@ policy proposes.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 
 import numpy as np
 
+from temp_gym.planning.anytime import grow_anytime
 from temp_gym.planning.attention import AttentionLimits, default_patience, run_attention_phase
 from temp_gym.planning.policy import SamplingPolicy, policy_settings
 from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
-from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 
@@ -85,14 +84,11 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     policy = settings.policy
     if policy is None:
         policy = default_policy(problem.robot)
-    started = time.perf_counter()
+    log = AnytimeLog()
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
     policy.reset(problem, seed=settings.seed)
     declared = policy_settings(policy)
-    log = AnytimeLog()
-    first_time: float | None = None
-    first_nodes: int | None = None
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
     attention_nodes = settings.attention_nodes
     if attention_nodes is None:  # the policy's own budget n (a shipped one carries it)
@@ -111,7 +107,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         max_nodes=settings.max_nodes,
         max_samples=settings.sample_limit,
         patience=patience,
-        deadline=started + time_limit,
+        deadline=log.started + time_limit,
     )
     uniform = settings.attention_uniform
     if uniform is None:
@@ -120,7 +116,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,
-        "time": time.perf_counter() - started,
+        "time": log.elapsed(),
         "cost": tree.best_cost,
         "samples": tree.samples,
         "policy_samples": outcome.policy_samples,
@@ -130,33 +126,8 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         "compiled": outcome.compiled,
     }
     if attention["solved"]:
-        first_time, first_nodes = attention["time"], tree.num_nodes
-        log.record(tree.num_nodes, first_time, tree.best_cost)
+        log.record(tree.num_nodes, attention["time"], tree.best_cost)
 
     # ---- classical planning: Informed RRT* on the same tree
-    informed = InformedSampler(problem.bounds, problem.start, problem.goal, problem.goal_radius)
-    informed.set_best_cost(tree.best_cost)
-    sampler = GoalBiasedSampler(informed, problem.goal, settings.goal_bias)
-    target = -math.inf if settings.target_cost is None else settings.target_cost
-
-    def out_of_budget() -> bool:
-        return (
-            tree.num_nodes >= settings.max_nodes
-            or tree.samples >= settings.sample_limit
-            or time.perf_counter() - started >= time_limit
-        )
-
-    while not out_of_budget():
-        solved = tree.best_node >= 0
-        if solved and (settings.stop_at_first or tree.best_cost <= target):
-            break
-        result = tree.extend(sampler.sample(rng))
-        if result.improved:
-            elapsed = time.perf_counter() - started
-            log.record(tree.num_nodes, elapsed, tree.best_cost)
-            if first_time is None:
-                first_time, first_nodes = elapsed, tree.num_nodes
-            informed.set_best_cost(tree.best_cost)
-    return tree_plan_result(
-        problem, tree, "temp", settings, started, log, first_time, first_nodes, attention=attention
-    )
+    grow_anytime(tree, settings, rng, log, informed=True)
+    return tree_plan_result(problem, tree, "temp", settings, log, attention=attention)

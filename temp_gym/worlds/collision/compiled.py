@@ -23,10 +23,28 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numba
+import numpy as np
 from numba.core import types
 from numba.extending import overload
 
 _KERNELS: dict[types.Type, Callable] = {}
+_REGISTERED: set[tuple] = set()
+"""``(kernel, _layout(context))`` pairs already registered: ``numba.typeof`` of a tuple of
+arrays costs tens of microseconds, paid again by every checker a planner builds otherwise."""
+
+
+def _layout(value: object) -> tuple | type | None:
+    """What numba's type of ``value`` depends on, cheaply; None when unsure (then not cached)."""
+    if isinstance(value, np.ndarray):
+        flags = value.flags
+        return (value.dtype.str, value.ndim, flags.c_contiguous, flags.f_contiguous,
+                flags.writeable, flags.aligned)  # fmt: skip
+    if isinstance(value, tuple):
+        parts = tuple(_layout(item) for item in value)
+        return None if any(part is None for part in parts) else parts
+    if type(value) in (bool, int, float):
+        return type(value)
+    return None
 
 
 def register_motion_kernel(context: tuple, kernel: Callable) -> None:
@@ -36,11 +54,16 @@ def register_motion_kernel(context: tuple, kernel: Callable) -> None:
         ValueError: another kernel is already registered for that type (two checkers whose
             contexts have the same array signature: give one a distinguishing element).
     """
+    layout = _layout(context)
+    if layout is not None and (kernel, layout) in _REGISTERED:
+        return
     key = numba.typeof(context)
     known = _KERNELS.get(key)
     if known is not None and known is not kernel:
         raise ValueError(f"compiled context {key}: already served by {known}")
     _KERNELS[key] = kernel
+    if layout is not None:
+        _REGISTERED.add((kernel, layout))
 
 
 def compiled_context_of(checker: object) -> tuple | None:
