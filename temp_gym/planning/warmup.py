@@ -50,15 +50,17 @@ def warm_up(
     """
     name = STAND_INS.get(planner, planner)
     policy = settings.policy
-    if name == "temp" and policy is not None:
-        fresh = getattr(policy, "fresh", None)
-        policy = fresh() if fresh is not None else None
-        if policy is None:
-            name = "rrt_star"
+    fresh = None if policy is None else getattr(policy, "fresh", None)
+    if name == "temp" and policy is not None and fresh is None:
+        name = "rrt_star"
     key = (problem.robot, name)
-    if key in _WARMED:
+    if key in _WARMED:  # checked before any copy of the policy is made: this is per call
         return False
     _WARMED.add(key)
+    if name == "temp" and fresh is not None:
+        policy = fresh()
+        if policy is None:  # no copy to be had: warm up what every planner shares
+            name = "rrt_star"
     short = replace(
         settings,
         max_nodes=WARM_UP_NODES,

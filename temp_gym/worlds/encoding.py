@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 
+import numba
 import numpy as np
 
 from temp_gym.problem import Workspace
@@ -51,17 +52,47 @@ def _grid(key: tuple) -> np.ndarray:
     lower = np.frombuffer(lower_bytes, dtype=np.float64).reshape(shape)
     upper = np.frombuffer(upper_bytes, dtype=np.float64).reshape(shape)
     wdim = region.shape[1]
-    cell = (region[1] - region[0]) / resolution
-    grid = np.zeros((resolution,) * wdim, dtype=bool)
-    for lo, hi in zip(lower, upper):
-        # Cells [region0 + i*cell, region0 + (i+1)*cell] that overlap [lo, hi] on every axis.
-        first = np.floor((lo - region[0]) / cell).astype(int)
-        last = np.ceil((hi - region[0]) / cell).astype(int) - 1
-        first = np.clip(first, 0, resolution - 1)
-        last = np.clip(last, -1, resolution - 1)
-        if np.any(last < first) or np.any(hi < region[0]) or np.any(lo > region[1]):
-            continue
-        grid[tuple(slice(a, b + 1) for a, b in zip(first, last))] = True
-    grid = grid.astype(np.float32)
+    flat = np.zeros(resolution**wdim, dtype=np.bool_)
+    _mark_boxes(flat, np.ascontiguousarray(region), lower, upper, resolution)
+    grid = flat.reshape((resolution,) * wdim).astype(np.float32)
     grid.flags.writeable = False
     return grid
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_boxes(flat, region, lower, upper, resolution) -> None:
+    """Mark, in the C-order flattened grid, the cells that overlap each box (closed intervals).
+
+    Cell ``i`` of an axis spans ``[region0 + i * cell, region0 + (i + 1) * cell]``.
+    """
+    wdim = region.shape[1]
+    cell = (region[1] - region[0]) / resolution
+    first = np.empty(wdim, dtype=np.int64)
+    last = np.empty(wdim, dtype=np.int64)
+    index = np.empty(wdim, dtype=np.int64)
+    for b in range(lower.shape[0]):
+        skip = False
+        for k in range(wdim):
+            first[k] = min(max(int(np.floor((lower[b, k] - region[0, k]) / cell[k])), 0),
+                           resolution - 1)  # fmt: skip
+            last[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])) - 1, -1),
+                          resolution - 1)  # fmt: skip
+            if last[k] < first[k] or upper[b, k] < region[0, k] or lower[b, k] > region[1, k]:
+                skip = True
+            index[k] = first[k]
+        if skip:
+            continue
+        while True:  # every cell of the box, an odometer over the axes
+            position = 0
+            for k in range(wdim):
+                position = position * resolution + index[k]
+            flat[position] = True
+            k = wdim - 1
+            while k >= 0:
+                index[k] += 1
+                if index[k] <= last[k]:
+                    break
+                index[k] = first[k]
+                k -= 1
+            if k < 0:
+                break

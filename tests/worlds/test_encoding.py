@@ -56,3 +56,26 @@ def test_every_call_returns_a_fresh_writable_array():
 def test_bad_resolution_is_an_error(resolution):
     with pytest.raises(ValueError, match="resolution"):
         occupancy_grid(workspace_2d([[5.0, 10.0]], [[2.0, 0.5]]), resolution)
+
+
+@pytest.mark.parametrize("robot, dim", [("point2d", 2), ("point3d", 3)])
+def test_grid_matches_a_cell_by_cell_overlap_test(robot, dim):
+    # Reference: cell [lo + i c, lo + (i + 1) c] is occupied iff it overlaps a box on every axis.
+    rng = np.random.default_rng(4)
+    bounds = [[0.0] * dim, [20.0] * dim]
+    centers = rng.uniform(-3.0, 23.0, size=(12, dim))
+    half_extents = rng.uniform(0.01, 4.0, size=(12, dim))
+    space = Workspace(robot, bounds, centers, half_extents)
+    resolution = 9  # cells of 20/9: faces rarely fall on cell borders
+    grid = occupancy_grid(space, resolution)
+    edges = np.linspace(0.0, 20.0, resolution + 1)
+    cells = np.stack(np.meshgrid(*[np.arange(resolution)] * dim, indexing="ij"), -1).reshape(
+        -1, dim
+    )
+    low, high = edges[cells], edges[cells + 1]
+    overlaps = np.all(
+        (low[:, None, :] <= space.obstacle_upper) & (high[:, None, :] >= space.obstacle_lower),
+        axis=2,
+    )
+    expected = overlaps.any(axis=1).reshape((resolution,) * dim)
+    np.testing.assert_array_equal(grid.astype(bool), expected)
