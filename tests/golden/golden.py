@@ -14,6 +14,8 @@ One intended change since: the point robots' rewiring radius now uses the exact 
 (`PointBoxChecker.free_volume`) instead of a Monte Carlo estimate. The radius cap binds in every
 plan of the sample, so only the tiny dataset's validation unit changed (its expert plans run
 longer); ``dataset/val`` was rewritten with ``golden.py`` at that commit, all else kept.
+Then the shipped 3D policy changed (the paper-scale chunked one): only the three 3D ``temp``
+plans changed, and were rewritten the same way.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.
