@@ -127,16 +127,40 @@ def test_the_package_docstring_example_runs():
     assert outcome.attempted >= 4 and outcome.failed == 0
 
 
-def test_the_main_job_is_configs_2d_with_the_old_built_in_overrides():
+MAIN_JOB_OVERRIDES = [
+    "data.dir=datasets/2d-quick",
+    "data.workspaces.train=30",
+    "data.workspaces.val=5",
+    "data.tasks_per_workspace=40",
+    "train.exp_name=quick",
+    "train.max_epochs=30",
+    "train.threads=1",
+    "train.path_noise=0.03",
+    "train.monitor=semantic",
+    "model.dropout=0.1",
+    "train_eval.tasks=40",
+]
+"""What trainers/bc.py applied to configs/2d.yaml for its main job before configs/quick.yaml
+(its DEFAULT_OVERRIDES, with eval.tasks renamed)."""
+
+
+def test_the_main_job_is_configs_2d_with_the_overrides_bc_py_once_built_in():
+    quick = load_config("configs/quick.yaml").to_dict()
+    merged = load_config("configs/2d.yaml", MAIN_JOB_OVERRIDES).to_dict()
+    assert quick == merged
+    assert json.dumps(quick) == json.dumps(merged)  # the same types and key order too
+
+
+def test_bc_py_runs_the_main_job_without_a_config_flag():
     import sys
 
     sys.path.insert(0, str(ROOT / "trainers"))
     import bc
 
-    quick = load_config("configs/quick.yaml").to_dict()
-    merged = load_config("configs/2d.yaml", bc.DEFAULT_OVERRIDES).to_dict()
-    assert quick == merged
-    assert json.dumps(quick) == json.dumps(merged)  # the same types and key order too
+    config, args = bc.read_command_line([])
+    assert config == load_config("configs/quick.yaml") and not args.overrides
+    config, _ = bc.read_command_line(["train.max_epochs=2"])
+    assert config.train.max_epochs == 2 and config.train.exp_name == "quick"
 
 
 def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
