@@ -77,15 +77,15 @@ def build(cls: type[T], values: Mapping[str, Any] | None, where: str = "") -> T:
         values = {}
     if not isinstance(values, Mapping):
         raise ConfigError(f"{where or 'config'}: expected a mapping of keys, got {values!r}")
-    types_ = field_types(cls)
+    declared = field_types(cls)
     for key in values:
-        if key not in types_:
-            raise ConfigError(unknown_key_message(dotted(where, str(key)), list(types_)))
+        if key not in declared:
+            raise ConfigError(unknown_key_message(dotted(where, str(key)), list(declared)))
     arguments = {}
     for field in dataclasses.fields(cls):
         key = dotted(where, field.name)
         if field.name in values:
-            arguments[field.name] = convert(values[field.name], types_[field.name], key)
+            arguments[field.name] = convert(values[field.name], declared[field.name], key)
         elif field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING:
             raise ConfigError(f"{key}: missing (it has no default)")
     return cls(**arguments)
@@ -161,11 +161,11 @@ def replace_key(config: T, key: str, value: Any, where: str = "") -> T:
     """
     name, _, rest = key.partition(".")
     here = dotted(where, name)
-    types_ = field_types(type(config))
-    if name not in types_:
-        raise ConfigError(unknown_key_message(here, list(types_)))
+    declared = field_types(type(config))
+    if name not in declared:
+        raise ConfigError(unknown_key_message(here, list(declared)))
     if not rest:
-        new = convert(value, types_[name], here)
+        new = convert(value, declared[name], here)
     else:
         inner = getattr(config, name)
         if not dataclasses.is_dataclass(inner):
