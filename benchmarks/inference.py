@@ -34,10 +34,11 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from temp_planner import TimedPolicy  # noqa: E402  (benchmarks/temp_planner.py)
 
-from temp_gym.config import load_config, parse_args, script_parser  # noqa: E402
+from temp_gym.config import Config, load_config, parse_args, script_parser  # noqa: E402
 from temp_gym.models.fast_mpt import FastMPT  # noqa: E402
 from temp_gym.models.policy import TEMPPolicy  # noqa: E402
 from temp_gym.models.temp import TEMPModel  # noqa: E402
+from temp_gym.training import make_model  # noqa: E402
 
 
 def _time(function, repeats: int, rounds: int = 20) -> float:
@@ -53,12 +54,9 @@ def _time(function, repeats: int, rounds: int = 20) -> float:
     return best
 
 
-def _model(config: dict, seed: int = 0) -> TEMPModel:
-    env = config["env"]
+def _model(config: Config, seed: int = 0) -> TEMPModel:
     torch.manual_seed(seed)
-    return TEMPModel.from_config(
-        config.get("model"), env["robot"], env["encoding_resolution"], env["max_path_length"]
-    ).eval()
+    return make_model(config).eval()
 
 
 def benchmark(config_path: str, repeats: int, overrides: list[str] | None = None) -> None:
@@ -70,7 +68,7 @@ def benchmark(config_path: str, repeats: int, overrides: list[str] | None = None
     buffer = io.BytesIO()
     torch.save(model.checkpoint(), buffer)
     print(
-        f"\n{config['env']['id']}: parameters {model.num_parameters():,} (EISE "
+        f"\n{config.env.id}: parameters {model.num_parameters():,} (EISE "
         f"{model.num_parameters('eise'):,}, MPT {model.num_parameters('mpt'):,}), "
         f"checkpoint {buffer.tell() / 1e6:.2f} MB"
     )
@@ -145,18 +143,18 @@ def plan_per_node(config_path: str, problems: int, nodes: int, rounds: int) -> N
 
     config = load_config(config_path)
     model = _model(config)
-    robot = config["env"]["robot"]
+    robot = config.env.robot
     rng = np.random.default_rng(1)
     tasks = [generate_problem(robot, rng, "challenging") for _ in range(problems)]
     print(
-        f"\nTEMP planning, randomly initialised {config['env']['id']} model, {problems} "
+        f"\nTEMP planning, randomly initialised {config.env.id} model, {problems} "
         f"challenging problems, attention phase up to {nodes} nodes (best of {rounds} rounds)"
     )
     print(
         f"  {'planner':>22} | {'nodes':>6} | {'us/node':>8} | {'policy us/call':>14} | "
         f"{'rest us/node':>12}"
     )
-    noise = config.get("eval", {}).get("noise_std", 0.0)
+    noise = config.train_eval.noise_std or 0.0
     for backend in ("torch", "numba"):
         policy = TimedPolicy(TEMPPolicy(model, noise_std=noise, seed=0, backend=backend))
         plan(tasks[0], planner="temp", policy=policy, seed=0, max_nodes=nodes)  # warm-up

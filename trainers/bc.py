@@ -1,16 +1,17 @@
 """Behaviour cloning of TEMP (EISE + MPT) on RRT* demonstrations, then TEMP vs. RRT*.
 
-    python trainers/bc.py                                   # the main job (2D, ~15 min, CPU)
+    python trainers/bc.py                                   # the main job: configs/quick.yaml
     python trainers/bc.py --config configs/7d.yaml train.max_epochs=300
     python trainers/bc.py --config configs/tiny.yaml logger.backend=""   # no TensorBoard
     torchrun --nproc_per_node=2 trainers/bc.py --config configs/2d.yaml  # data parallel (DDP)
 
 Steps: (1) generate the dataset of ``data.dir`` if it is missing; (2) train with
 L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation loss, until the
-learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``eval.tasks``
+learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``train_eval.tasks``
 held-out tasks (unseen ``test`` workspaces) up to the first solution with TEMP (the best
 checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for at most
-``eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the table.
+``train_eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the
+table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
 (lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG, config: a killed run
@@ -23,17 +24,19 @@ per core, so the weights depend on the machine (float sums are ordered by the th
 TensorBoard tags (step: epochs completed), each described on its chart
 (``training.TAG_DESCRIPTIONS``): ``train/loss``, ``train/recons``, ``train/semantic`` (epoch
 means), ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/semantic``;
-``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``eval.periodic_tasks`` test tasks,
-every ``eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention`` (figure: per-group
-attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...`` (the comparison);
-``time/epoch``, ``time/samples_per_s``. The config is in the HParams dashboard, and the
-custom-scalars dashboard puts each loss term's training and validation curves on one chart
-(``val/recons`` rises on unseen workspaces: the charts say why that is not divergence).
+``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``train_eval.periodic_tasks`` test
+tasks, every ``train_eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention``
+(figure: per-group attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...``
+(the comparison); ``time/epoch``, ``time/samples_per_s``. The config is in the HParams
+dashboard, and the custom-scalars dashboard puts each loss term's training and validation
+curves on one chart (``val/recons`` rises on unseen workspaces: the charts say why that is not
+divergence).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -48,11 +51,13 @@ from tqdm import tqdm
 
 from temp_gym import training
 from temp_gym.config import (
+    Config,
     differing_keys,
     flatten,
     load_config,
     parse_args,
     script_parser,
+    upgrade_stored,
 )
 from temp_gym.files import StoredFileError
 from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script
@@ -61,32 +66,15 @@ from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import CheckpointError, load_checkpoint
 from temp_gym.worlds.robots import robot_spec
 
-DEFAULT_CONFIG = "configs/2d.yaml"
-DEFAULT_OVERRIDES = [
-    "data.dir=datasets/2d-quick",
-    "data.workspaces.train=30",
-    "data.workspaces.val=5",
-    "data.tasks_per_workspace=40",
-    "train.exp_name=quick",
-    "train.max_epochs=30",
-    "train.threads=1",
-    "train.path_noise=0.03",
-    "train.monitor=semantic",
-    "model.dropout=0.1",
-    "eval.tasks=40",
-]
-"""The main job: ``configs/2d.yaml`` with a small dataset and budget (a laptop CPU, ~15 min).
-
-With 30 training workspaces the EISE's reconstruction cannot generalize to unseen ones (its
-validation term grows while planning improves), so the semantic term picks the best epoch.
-One thread: tiny batches gain little from more, and stall on a busy machine."""
+MAIN_JOB = "configs/quick.yaml"
+"""The config of ``python trainers/bc.py`` without ``--config``: the main job, 2D on a small
+dataset and budget (the file says why each setting differs from ``configs/2d.yaml``)."""
 
 
-def run_directory(config: dict[str, Any]) -> Path:
+def run_directory(config: Config) -> Path:
     """``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` (no time: resumable)."""
-    train = config["train"]
-    name = f"{config['env']['id']}__{train.get('exp_name', 'bc')}__{train.get('seed', 0)}"
-    return Path(config["logger"].get("dir", "runs")) / name
+    name = f"{config.env.id}__{config.train.exp_name}__{config.train.seed}"
+    return Path(config.logger.dir) / name
 
 
 @torch.no_grad()
@@ -110,15 +98,13 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
 
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
     """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
-    eval_config = config["eval"]
-    env = training.make_env(config, fallback="random", split=eval_config.get("split", "test"))
-    policy = TEMPPolicy(
-        model.cpu(), noise_std=eval_config.get("noise_std", 0.0), seed=eval_config["seed"]
-    )
+    eval_config = config.train_eval
+    env = training.make_env(config, fallback="random", split=eval_config.split)
+    policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0, seed=eval_config.seed)
     episodes = []
     for index, problem in enumerate(problems):
         policy.record_attention = index == 0
-        episode, info = training.run_episode(env, policy, problem, eval_config["seed"] + index)
+        episode, info = training.run_episode(env, policy, problem, eval_config.seed + index)
         episodes.append(episode)
         if index == 0 and logger.writer is not None:
             tree = env.unwrapped.tree
@@ -142,13 +128,13 @@ def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> 
     return summary
 
 
-def _no_logging(config: dict[str, Any]) -> dict[str, Any]:
+def _no_logging(config: Config) -> Config:
     """The config with logging off (ranks other than 0)."""
-    return {**config, "logger": {**config["logger"], "backend": ""}}
+    return dataclasses.replace(config, logger=dataclasses.replace(config.logger, backend=""))
 
 
 def train(
-    config: dict[str, Any],
+    config: Config,
     run_dir: Path,
     resume: bool,
     progress: bool = True,
@@ -161,9 +147,9 @@ def train(
     size), and only rank 0 logs and writes checkpoints: the loss curve is the single-process
     one up to float rounding (tests/trainers/test_ddp.py).
     """
-    dist = dist or training.Distributed(config["train"].get("device", "auto"))
-    train_config, eval_config = config["train"], config["eval"]
-    seed = int(train_config.get("seed", 0))
+    dist = dist or training.Distributed(config.train.device)
+    train_config, eval_config = config.train, config.train_eval
+    seed = train_config.seed
     device = dist.device
     torch.manual_seed(seed)
     np.random.seed(seed)
@@ -174,7 +160,7 @@ def train(
     optimizer, scheduler = training.make_optimizer(config, model)
     logger = training.make_logger(config if dist.is_main else _no_logging(config), run_dir)
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
-    max_epochs = int(train_config["max_epochs"])
+    max_epochs = train_config.max_epochs
     state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False, "history": []}
     if resume and last_path.exists():
         checkpoint = resume_checkpoint(last_path, config, model.robot)
@@ -189,9 +175,8 @@ def train(
             if seconds and state["epoch"] < max_epochs and not state["lr_floor"]:
                 report(epoch_estimate(max_epochs - state["epoch"], seconds))
     else:
-        init_from = train_config.get("init_from")
-        if init_from:  # fine-tuning (e.g. after a correction round): start from these weights
-            source, _ = load_checkpoint(init_from, robot=model.robot)
+        if train_config.init_from:  # fine-tuning (after a correction round, say): these weights
+            source, _ = load_checkpoint(train_config.init_from, robot=model.robot)
             model.load_state_dict(source.state_dict())
         logger.hparams(config)
     if dist.world > 1:
@@ -207,14 +192,14 @@ def train(
         logger.close()
         return best_path
     periodic = training.draw_problems(
-        config, eval_config.get("split", "test"), eval_config["periodic_tasks"], eval_config["seed"]
+        config, eval_config.split, eval_config.periodic_tasks, eval_config.seed
     )
-    min_lr = float(config["optim"].get("min_lr", 1e-6))
-    clip = float(config["optim"].get("grad_clip", 0.0)) or math.inf
-    batch_size = int(train_config["batch_size"])
-    monitor = train_config.get("monitor", "loss")
-    path_noise = float(train_config.get("path_noise", 0.0))
-    augment = bool(train_config.get("augment", False)) and robot_spec(model.robot).cube_symmetric
+    min_lr = config.optim.min_lr
+    clip = config.optim.grad_clip or math.inf
+    batch_size = train_config.batch_size
+    monitor = train_config.monitor
+    path_noise = train_config.path_noise
+    augment = train_config.augment and robot_spec(model.robot).cube_symmetric
     history_shape = (model.max_path_length, model.dim)
     if monitor not in ("loss", "semantic", "recons"):
         raise ValueError(f"train.monitor: expected loss, semantic or recons, got {monitor!r}")
@@ -284,7 +269,7 @@ def train(
             state["best_val"] = val[monitor]
             if dist.is_main:
                 model.save(best_path, epoch=state["epoch"], val_loss=val[monitor])
-        every = int(eval_config.get("every", 0))
+        every = eval_config.every
         if every and state["epoch"] % every == 0 and periodic and dist.is_main:
             evaluate_with_figures(config, model, periodic, logger, state["epoch"])
             model.to(device)
@@ -296,7 +281,7 @@ def train(
                 optimizer=optimizer.state_dict(),
                 scheduler=scheduler.state_dict(),
                 rng=torch.get_rng_state(),
-                config=config,
+                config=config.to_dict(),
                 finished=state["lr_floor"] or state["epoch"] >= max_epochs,
                 **state,
             )
@@ -310,10 +295,12 @@ def train(
 
 
 RESUMABLE_CHANGES = ("train.max_epochs", "train.threads", "train.device", "data.dir",
-                     "data.workers", "eval", "logger")  # fmt: skip
+                     "data.workers", "train_eval", "evaluation", "logger")  # fmt: skip
 """Config keys that may differ when a run resumes: when to stop, where and how fast it runs,
 and what is evaluated and logged. Every other key shapes the training itself (model, optim,
-loss, data, env, train), so a run refuses to resume under a change to one of them.
+loss, data, env, train), so a run refuses to resume under a change to one of them. A config
+stored by an older version is upgraded first (`temp_gym.config.upgrade_stored`: renamed
+sections, keys added since at their defaults), so such a run resumes too.
 ``train.threads`` and ``train.device`` may change, but the result is then not bit-identical to
 an uninterrupted run (floating-point sums are ordered by the thread count and device)."""
 
@@ -322,7 +309,7 @@ class ResumeMismatchError(JobError, ValueError):
     """``last.pt`` was written under a config that differs in a key training depends on."""
 
 
-def resume_checkpoint(last_path: Path, config: dict[str, Any], robot: str) -> dict[str, Any]:
+def resume_checkpoint(last_path: Path, config: Config, robot: str) -> dict[str, Any]:
     """``last.pt``, checked to be readable and written under the same training config.
 
     Raises:
@@ -346,10 +333,11 @@ def resume_checkpoint(last_path: Path, config: dict[str, Any], robot: str) -> di
             )
     stored = checkpoint.get("config")
     if isinstance(stored, dict):
-        changed = differing_keys(stored, config, RESUMABLE_CHANGES)
+        stored, current = upgrade_stored(stored), config.to_dict()
+        changed = differing_keys(stored, current, RESUMABLE_CHANGES)
         if changed:
             shown = ", ".join(
-                f"{key}: {flatten(stored).get(key)!r} -> {flatten(config).get(key)!r}"
+                f"{key}: {flatten(stored).get(key)!r} -> {flatten(current).get(key)!r}"
                 for key in changed
             )
             raise ResumeMismatchError(
@@ -373,23 +361,23 @@ def epoch_estimate(remaining: int, seconds: list[float]) -> str:
     return f"{line}, at most: training stops early at the lr floor"
 
 
-def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Path) -> dict:
+def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> dict:
     """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
 
     TEMP is the ``temp`` planner: attention-based planning (Algorithm 1) for at most
-    ``eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
-    ``rrt_star``. Both get the same tasks, seeds and ``eval.max_nodes`` budget.
+    ``train_eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
+    ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget.
     """
-    eval_config = config["eval"]
+    eval_config = config.train_eval
     torch.set_num_threads(1)  # the per-sample latency a planner sees
-    model, _ = load_checkpoint(checkpoint, robot=config["env"]["robot"])
+    model, _ = load_checkpoint(checkpoint, robot=config.env.robot)
     problems = training.draw_problems(
-        config, eval_config.get("split", "test"), eval_config["tasks"], eval_config["seed"] + 10_000
+        config, eval_config.split, eval_config.tasks, eval_config.seed + 10_000
     )
     logger = training.make_logger(config, run_dir)
     evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
-    policy = TEMPPolicy(model.cpu(), noise_std=eval_config.get("noise_std", 0.0))
-    seeds = [eval_config["seed"] + index for index in range(len(problems))]
+    policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0)
+    seeds = [eval_config.seed + index for index in range(len(problems))]
     temp_runs = [
         training.plan_episode(problem, "temp", seed, eval_config, policy)
         for problem, seed in zip(problems, seeds)
@@ -398,15 +386,15 @@ def compare_with_rrt_star(config: dict[str, Any], checkpoint: Path, run_dir: Pat
         training.plan_episode(problem, "rrt_star", seed, eval_config)
         for problem, seed in zip(problems, seeds)
     ]
-    temp = training.summarize(temp_runs, eval_config["max_nodes"])
+    temp = training.summarize(temp_runs, eval_config.max_nodes)
     temp["attention_success"] = float(np.mean([run["attention_solved"] for run in temp_runs]))
-    rrt_star = training.summarize(rrt_runs, eval_config["max_nodes"])
+    rrt_star = training.summarize(rrt_runs, eval_config.max_nodes)
     logger.scalars({f"eval/final/rrt_star/{key}": value for key, value in rrt_star.items()}, 0)
     logger.scalars({f"eval/final/temp/{key}": value for key, value in temp.items()}, 0)
     logger.close()
     return {
         "tasks": len(problems),
-        "attention_nodes": eval_config.get("attention_nodes"),
+        "attention_nodes": eval_config.attention_nodes,
         "temp": temp,
         "rrt_star": rrt_star,
     }
@@ -430,23 +418,17 @@ def results_table(results: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
-def read_command_line(argv: list[str] | None) -> tuple[dict[str, Any], argparse.Namespace]:
-    """The config (file, built-in defaults for the main job, overrides) and the flags."""
+def read_command_line(argv: list[str] | None) -> tuple[Config, argparse.Namespace]:
+    """The config (the file, the main job's by default, and the overrides) and the flags."""
     parser = script_parser(__doc__.split("\n")[0])
-    parser.add_argument(
-        "--config", help=f"YAML config (None: the main job, {DEFAULT_CONFIG} + DEFAULT_OVERRIDES)"
-    )
+    parser.add_argument("--config", default=MAIN_JOB, help="YAML config (default: the main job)")
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     parser.add_argument("--resume", action="store_true", help="require last.pt and resume")
     parser.add_argument("--no-resume", action="store_true", help="start over, ignore last.pt")
     parser.add_argument("--skip-eval", action="store_true", help="no final comparison")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = parse_args(parser, argv)
-    if args.config is None:
-        config = load_config(DEFAULT_CONFIG, DEFAULT_OVERRIDES + args.overrides)
-    else:
-        config = load_config(args.config, args.overrides)
-    return config, args
+    return load_config(args.config, args.overrides), args
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:
@@ -461,12 +443,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     # one process per node generate while the others wait for it.
     rank = training.launch_rank()
     training.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
-    dist = training.Distributed(config["train"].get("device", "auto"))
+    dist = training.Distributed(config.train.device)
     if dist.is_main:
         run_dir.mkdir(parents=True, exist_ok=True)
-    threads = config["train"].get("threads")
-    if threads:
-        torch.set_num_threads(int(threads))
+    if config.train.threads:
+        torch.set_num_threads(config.train.threads)
     best = train(
         config, run_dir, resume=not args.no_resume, progress=not args.no_progress, dist=dist
     )
@@ -482,12 +463,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     with open(run_dir / "results.yaml", "w") as handle:
         yaml.safe_dump(results, handle, sort_keys=False)
     print(
-        f"\n{results['tasks']} held-out tasks ({config['eval'].get('difficulty')}, unseen "
+        f"\n{results['tasks']} held-out tasks ({config.train_eval.difficulty}, unseen "
         f"test workspaces), up to the first solution:\n"
     )
     print(results_table(results))
     print(f"\nwall time {results['wall_time_s']:.0f} s; results in {run_dir / 'results.yaml'}")
-    if config["logger"].get("backend"):
+    if config.logger.backend:
         print(f"TensorBoard: tensorboard --logdir {run_dir.parent}")
     return results
 

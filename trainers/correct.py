@@ -46,8 +46,8 @@ def main(argv: list[str] | None = None) -> Path:
         config, args.checkpoint, args.round, args.tasks_per_workspace, args.samples_per_task,
         args.max_nodes, args.clearance,
     )  # fmt: skip
-    out = Path(args.out or Path(config["data"]["dir"]) / "corrections" / f"round{args.round}")
-    workers = int(args.workers or config["data"].get("workers") or 1)
+    out = Path(args.out or Path(config.data.dir) / "corrections" / f"round{args.round}")
+    workers = int(args.workers or config.data.workers or 1)
     root = collect_corrections(settings, out, workers, progress=not args.no_progress)
     card = read_json(root / CARD_NAME, "rerun the same command")
     print(json.dumps({"dir": str(root), "samples": card["samples"],

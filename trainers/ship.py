@@ -28,11 +28,11 @@ from typing import Any
 import torch
 import yaml
 
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import Config, load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR
-from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
 from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
@@ -155,7 +155,7 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
 
 def model_card(
     env_id: str,
-    config: dict[str, Any],
+    config: Config,
     checkpoint: dict[str, Any],
     planner: dict[str, Any],
     provenance: dict[str, Any],
@@ -163,9 +163,8 @@ def model_card(
     size: int,
 ) -> str:
     """The markdown model card of a shipped checkpoint."""
-    data = config["data"]
     try:
-        card = read_json(Path(data["dir"]) / CARD, "the model card is written without it")
+        card = read_json(Path(config.data.dir) / CARD, "the model card is written without it")
         splits = card.get("splits", {})
         counts = ", ".join(
             f"{split}: {figures.get('plans_stored', '?')} plans, "
@@ -183,8 +182,9 @@ def model_card(
         ]
     except (FileNotFoundError, KeyError, ValueError) as error:
         data_lines = [f"- Dataset card unavailable ({error})."]
-    sections = {key: config.get(key, {}) for key in ("env", "data", "model", "optim", "loss")}
-    sections["train"] = config.get("train", {})
+    everything = config.to_dict()
+    sections = {key: everything[key] for key in ("env", "data", "model", "optim", "loss", "train")}
+    chunk = model_config_of(checkpoint["model_config"]).chunk
     return "\n".join(
         [
             f"# Model card: `{env_id}` TEMP policy",
@@ -210,8 +210,7 @@ def model_card(
             + "; then classical planning (Informed RRT*).",
             f"- Output noise: {planner['noise_std']} (normalized units).",
             f"- Proposals per MPT call (horizon): "
-            f"{planner.get('horizon') or checkpoint['model_config'].get('chunk', 1)} of the "
-            f"model's chunk of {checkpoint['model_config'].get('chunk', 1)}.",
+            f"{planner.get('horizon') or chunk} of the model's chunk of {chunk}.",
             "- Stall patience of the attention phase: "
             + (
                 "the planner's default rule (`temp_gym.planning.attention.default_patience`)"
@@ -296,8 +295,8 @@ def main(argv: list[str] | None = None) -> Path:
     ):
         raise SystemExit("--horizon must be >= 1 and --attention-patience >= 0")
     config = load_config(args.config, args.overrides)
-    env_id = config["env"]["id"]
-    model, source = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
+    env_id = config.env.id
+    model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
     if args.horizon is not None and args.horizon > model.mpt.chunk:
         raise SystemExit(f"--horizon {args.horizon}: the model predicts {model.mpt.chunk} per call")
     planner = {

@@ -18,6 +18,7 @@ minimizes the mean nodes among the settings whose attention phase solves at leas
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -89,18 +90,16 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     torch.set_num_threads(1)
-    model, _ = load_checkpoint(args.checkpoint, robot=config["env"]["robot"])
-    eval_config = dict(config["eval"])
+    model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    eval_config = config.train_eval
     if args.split == "ood":
-        family = list(load_ood_family(config["env"]["robot"]).values())
+        family = list(load_ood_family(config.env.robot).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
     else:
-        problems = training.draw_problems(
-            config, args.split, args.tasks, eval_config["seed"] + 20_000
-        )
-    seeds = [eval_config["seed"] + index for index in range(len(problems))]
+        problems = training.draw_problems(config, args.split, args.tasks, eval_config.seed + 20_000)
+    seeds = [eval_config.seed + index for index in range(len(problems))]
     rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
-    rrt = training.summarize(rrt_runs, eval_config["max_nodes"])
+    rrt = training.summarize(rrt_runs, eval_config.max_nodes)
     print(
         f"{len(problems)} {args.split} tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
@@ -115,14 +114,17 @@ def main(argv: list[str] | None = None) -> dict:
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.uniform
     )
     for budget, noise, horizon, patience, uniform in settings:
-        eval_config["attention_nodes"] = budget
-        eval_config["attention_patience"] = None if patience < 0 else patience
-        eval_config["attention_uniform"] = uniform
+        eval_config = dataclasses.replace(
+            eval_config,
+            attention_nodes=budget,
+            attention_patience=None if patience < 0 else patience,
+            attention_uniform=uniform,
+        )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
-        row = training.summarize(runs, eval_config["max_nodes"])
+        row = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
-        paired = training.paired_nodes(runs, rrt_runs, eval_config["max_nodes"])
+        paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {uniform} | "
             f"{row['nodes_mean']:.1f} | "
@@ -134,7 +136,7 @@ def main(argv: list[str] | None = None) -> dict:
         )
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
-                    "attention_patience": eval_config["attention_patience"],
+                    "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")

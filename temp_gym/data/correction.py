@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym.config import Config
 from temp_gym.data.demonstrations import resample_path
 from temp_gym.planning.attention import AttentionLimits, run_attention_phase
 from temp_gym.planning.tree import Tree, default_step_size
@@ -228,7 +229,7 @@ def _unit_job(job: tuple[dict[str, Any], int]) -> dict[str, np.ndarray]:
 
 
 def correction_settings(
-    config: dict[str, Any],
+    config: Config,
     checkpoint: str | Path,
     round_index: int,
     tasks_per_workspace: int,
@@ -240,13 +241,12 @@ def correction_settings(
     from temp_gym.data.dataset import data_settings
     from temp_gym.models.registry import load_cached
 
-    loaded = load_cached(checkpoint, config["env"]["robot"])
+    loaded = load_cached(checkpoint, config.env.robot)
     planner = loaded.meta.get("planner", {})
-    eval_config = config.get("eval") or {}
-    noise = eval_config.get("noise_std")
+    noise = config.train_eval.noise_std
     return {
-        "robot": config["env"]["robot"],
-        "seed": int(config["data"].get("seed", 0)),
+        "robot": config.env.robot,
+        "seed": config.data.seed,
         "round": int(round_index),
         "workspaces": data_settings(config)["workspaces"]["train"],
         "tasks_per_workspace": int(tasks_per_workspace),
@@ -255,7 +255,7 @@ def correction_settings(
         "clearance": float(clearance),
         "chunk": int(loaded.core.model.mpt.chunk),
         "horizon": planner.get("horizon"),
-        "noise_std": float(planner.get("noise_std", noise or 0.0) if noise is None else noise),
+        "noise_std": float(planner.get("noise_std", 0.0) if noise is None else noise),
         "checkpoint": str(Path(checkpoint).resolve()),
         "checkpoint_digest": loaded.digest,
     }

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from temp_gym.config import ConfigError
+from temp_gym.config import Config, ConfigError
 from temp_gym.data.format import SPLITS
 from temp_gym.data.tables import read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
@@ -28,59 +28,60 @@ CARD = "dataset_card.json"
 SETTINGS = "settings.json"
 
 
-def data_dir(config: dict[str, Any]) -> Path:
+def data_dir(config: Config) -> Path:
     """The dataset directory ``data.dir`` (relative paths are taken from the working dir)."""
-    return Path(config["data"]["dir"]).expanduser().absolute()
+    return Path(config.data.dir).expanduser().absolute()
 
 
-def data_settings(config: dict[str, Any]) -> dict[str, Any]:
+def data_settings(config: Config) -> dict[str, Any]:
     """The validated, JSON-able settings that determine the dataset's contents.
 
+    Nulls are resolved (the robot's encoding resolution, a whole workspace pool), so that the
+    settings say what was made.
+
     Raises:
-        ConfigError: For a missing or invalid ``data``/``env`` key.
+        ConfigError: For an invalid ``data``/``env`` value.
     """
-    env = config.get("env", {})
-    data = config.get("data", {})
-    robot = env.get("robot")
+    env, data = config.env, config.data
+    robot = env.robot
     if robot not in robot_names():
         raise ConfigError(f"env.robot: expected one of {robot_names()}, got {robot!r}")
-    requested = data.get("workspaces") or {}
-    workspaces = {split: int(requested.get(split, WORKSPACE_POOLS[split])) for split in SPLITS}
-    for split, count in workspaces.items():
-        if not 0 <= count <= WORKSPACE_POOLS[split]:
+    workspaces = {}
+    for split in SPLITS:
+        count = getattr(data.workspaces, split)
+        workspaces[split] = WORKSPACE_POOLS[split] if count is None else count
+        if not 0 <= workspaces[split] <= WORKSPACE_POOLS[split]:
             raise ConfigError(
-                f"data.workspaces.{split}: expected 0..{WORKSPACE_POOLS[split]}, got {count}"
+                f"data.workspaces.{split}: expected 0..{WORKSPACE_POOLS[split]}, "
+                f"got {workspaces[split]}"
             )
     settings = {
         "robot": robot,
-        "encoding_resolution": int(
-            env.get("encoding_resolution") or robot_spec(robot).encoding_resolution
-        ),
-        "max_path_length": int(env.get("max_path_length", 64)),
-        "step_size": env.get("step_size"),
-        "seed": int(data.get("seed", 0)),
+        "encoding_resolution": env.encoding_resolution or robot_spec(robot).encoding_resolution,
+        "max_path_length": env.max_path_length,
+        "step_size": env.step_size,
+        "seed": data.seed,
         "workspaces": workspaces,
-        "tasks_per_workspace": int(data.get("tasks_per_workspace", 200)),
-        "difficulty": data.get("difficulty", "any"),
-        "planner": data.get("planner", "informed_rrt_star"),
-        "max_nodes": int(data.get("max_nodes", 2000)),
-        "planner_step_size": data.get("planner_step_size"),
-        "goal_bias": float(data.get("goal_bias", 0.05)),
+        "tasks_per_workspace": data.tasks_per_workspace,
+        "difficulty": data.difficulty,
+        "planner": data.planner,
+        "max_nodes": data.max_nodes,
+        "planner_step_size": data.planner_step_size,
+        "goal_bias": data.goal_bias,
     }
-    attempts = int(data.get("attempts", 1))
-    if attempts < 1:
-        raise ConfigError(f"data.attempts: must be at least 1, got {attempts}")
-    if attempts > 1:  # absent means 1: datasets made before the key existed keep their settings
-        settings["attempts"] = attempts
+    if data.attempts < 1:
+        raise ConfigError(f"data.attempts: must be at least 1, got {data.attempts}")
+    if data.attempts > 1:  # absent means 1: datasets made before the key existed keep theirs
+        settings["attempts"] = data.attempts
     if settings["planner"] not in PLANNERS:
         raise ConfigError(f"data.planner: expected one of {sorted(PLANNERS)}")
     if settings["difficulty"] not in DIFFICULTIES:
         raise ConfigError(f"data.difficulty: expected one of {list(DIFFICULTIES)}")
     if settings["tasks_per_workspace"] < 1:
         raise ConfigError("data.tasks_per_workspace: must be at least 1")
-    for key in ("step_size", "planner_step_size"):
-        value = settings[key]
-        if value is not None and not (isinstance(value, (int, float)) and value > 0):
+    for key, value in (("env.step_size", env.step_size),
+                       ("data.planner_step_size", data.planner_step_size)):  # fmt: skip
+        if value is not None and not value > 0:
             raise ConfigError(f"{key}: expected a positive number or null, got {value!r}")
     if settings["max_path_length"] < 1:
         raise ConfigError("env.max_path_length: must be at least 1")
@@ -145,7 +146,7 @@ def incomplete_reason(root: Path, settings: dict[str, Any]) -> str | None:
     return None
 
 
-def dataset_exists(config: dict[str, Any]) -> bool:
+def dataset_exists(config: Config) -> bool:
     """Whether ``data.dir`` holds a complete dataset made with this config's settings."""
     root = data_dir(config)
     try:

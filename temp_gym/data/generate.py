@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from temp_gym.config import ConfigError, differing_keys
+from temp_gym.config import Config, ConfigError, differing_keys
 from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
 from temp_gym.data.format import SPLITS
 from temp_gym.data.units import (  # noqa: F401  (re-exported: where they lived)
@@ -234,7 +234,7 @@ def _estimate(
 
 
 def generate_dataset(
-    config: dict[str, Any],
+    config: Config,
     workers: int | None = None,
     progress: bool = True,
     backend: str = "local",
@@ -292,7 +292,7 @@ def _generate(root, settings, config, workers, progress, backend, address) -> No
     for split in SPLITS:
         (root / split / MARKER).unlink(missing_ok=True)  # rebuild every table
     started = time.perf_counter()
-    workers = int(workers or config["data"].get("workers") or 1)
+    workers = int(workers or config.data.workers or 1)
     total = sum(settings["workspaces"].values())
     jobs = [
         (settings, split, workspace)

@@ -21,10 +21,14 @@ same command resumes).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import Config, EvaluationConfig, load_config, parse_args, script_parser
+from temp_gym.config.typed import to_dict
 from temp_gym.distributed import add_backend_arguments
 from temp_gym.evaluation.report import write_report
 from temp_gym.evaluation.runner import (
@@ -37,52 +41,48 @@ from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
 from temp_gym.worlds.robots import robot_spec
 
-DEFAULTS = {
-    "baselines": ["rrt_star", "informed_rrt_star"],
-    "max_nodes": 10000,
-    "time_limit": 60.0,
-    "attention_nodes": None,
-    "curve_tasks": 10,
-    "curve_nodes": 3000,
-    "noise_std": None,
-    "horizon": None,
-    "attention_patience": None,
-    "seed": 0,
-    "workers": 2,
-    "out": None,
-}
+PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
+                     "attention_patience": None}  # fmt: skip
+"""What a null planner setting of the ``evaluation`` section takes when the checkpoint names
+none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule."""
+
+UNRECORDED = ("tasks", "workers", "out")
+"""Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
+the records, and where and how fast a run went does not change them."""
 
 
 def settings_from(
-    config: dict, planner_defaults: dict | None = None
-) -> tuple[EvaluationSettings, dict]:
-    """The evaluation settings of a config's ``evaluation`` section (defaults above).
+    config: Config, planner_defaults: Mapping[str, Any] | None = None
+) -> tuple[EvaluationSettings, EvaluationConfig]:
+    """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
     ``attention_nodes``, ``noise_std``, ``horizon`` and ``attention_patience`` left null take
     the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
-    applies to a shipped policy), else all of ``max_nodes``, no noise, the model's whole chunk
-    and the default stall rule.
+    applies to a shipped policy), else `PLANNER_FALLBACKS`; a null ``tasks`` is the robot's
+    (its spec's ``evaluation_tasks``).
     """
-    robot = config["env"]["robot"]
-    section = {**DEFAULTS, **(config.get("evaluation") or {})}
-    for key, fallback in (("attention_nodes", None), ("noise_std", 0.0), ("horizon", None),
-                          ("attention_patience", None)):  # fmt: skip
-        if section[key] is None:
-            section[key] = (planner_defaults or {}).get(key, fallback)
+    robot = config.env.robot
+    section = config.evaluation
+    resolved = {
+        key: (planner_defaults or {}).get(key, fallback)
+        for key, fallback in PLANNER_FALLBACKS.items()
+        if getattr(section, key) is None
+    }
+    section = dataclasses.replace(section, **resolved)
     spec = robot_spec(robot)
-    tasks = int(section.get("tasks") or spec.evaluation_tasks)
+    tasks = section.tasks or spec.evaluation_tasks
     groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
     settings = EvaluationSettings(
         robot=robot,
         groups=groups,
-        baselines=tuple(section["baselines"]),
-        max_nodes=int(section["max_nodes"]),
-        time_limit=float(section["time_limit"]),
-        attention_nodes=section["attention_nodes"],
-        attention_patience=section["attention_patience"],
-        curve_tasks=int(section["curve_tasks"]),
-        curve_nodes=int(section["curve_nodes"]),
-        seed=int(section["seed"]),
+        baselines=tuple(section.baselines),
+        max_nodes=section.max_nodes,
+        time_limit=section.time_limit,
+        attention_nodes=section.attention_nodes,
+        attention_patience=section.attention_patience,
+        curve_tasks=section.curve_tasks,
+        curve_nodes=section.curve_nodes,
+        seed=section.seed,
     )
     return settings, section
 
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
-    robot = config["env"]["robot"]
+    robot = config.env.robot
     try:  # fail fast, with one line, on a missing, damaged or other robot's checkpoint
         checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
         _, stored = load_checkpoint(checkpoint, robot=robot)
@@ -111,25 +111,25 @@ def main(argv: list[str] | None = None) -> str:
         policy_from_checkpoint,
         str(checkpoint),
         robot=settings.robot,
-        noise_std=float(section["noise_std"]),
+        noise_std=float(section.noise_std),
         seed=settings.seed,
-        horizon=section["horizon"],
+        horizon=section.horizon,
     )
-    out = Path(section["out"] or Path("results") / config["env"]["id"])
+    out = Path(section.out or Path("results") / config.env.id)
     digest = weights_digest(stored["state_dict"])
     try:
         records = run_evaluation(
             settings,
             make_policy,
             out,
-            workers=int(args.workers or section["workers"]),
+            workers=int(args.workers or section.workers),
             progress=not args.no_progress,
             backend=args.backend,
             address=args.ray_address,
             identity={
                 "checkpoint_digest": digest,
-                "noise_std": float(section["noise_std"]),
-                "horizon": section["horizon"],
+                "noise_std": float(section.noise_std),
+                "horizon": section.horizon,
             },
         )
     except ManifestMismatchError as error:  # another checkpoint's or settings' records
@@ -137,7 +137,9 @@ def main(argv: list[str] | None = None) -> str:
     metadata = {
         "checkpoint": str(checkpoint),
         "checkpoint_digest": digest,
-        "settings": {key: section[key] for key in DEFAULTS if key not in ("workers", "out")},
+        "settings": {
+            key: value for key, value in to_dict(section).items() if key not in UNRECORDED
+        },
     }
     example = attention_example(settings, make_policy)
     table = write_report(records, out, attention=example, metadata=metadata)

@@ -4,7 +4,7 @@
 |---|---|
 | `temp_gym.models.eise` | `EISE`: occupancy grid -> SEI tokens, and the reconstruction decoder |
 | `temp_gym.models.mpt` | `MPT`: SEI, goal, start, path so far -> next sample; attention weights |
-| `temp_gym.models.temp` | `TEMPModel` (both), `MODEL_DEFAULTS`, checkpoints |
+| `temp_gym.models.temp` | `TEMPModel` (both; sizes: `temp_gym.config.ModelConfig`), checkpoints |
 | `temp_gym.models.loss` | `TEMPLoss`: λ·L_recons + η·L_semantic |
 | `temp_gym.models.fast_mpt` | `FastMPT`: single-sample MPT forward pass in numba (CPU) |
 | `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` (env, `temp` planner) |
@@ -18,13 +18,12 @@ from temp_gym.models.fast_mpt import FastMPT
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.mpt import MPT
 from temp_gym.models.policy import TEMPPolicy
-from temp_gym.models.temp import MODEL_DEFAULTS, TEMPModel, load_checkpoint
+from temp_gym.models.temp import TEMPModel, load_checkpoint
 
 __all__ = [
     "EISE",
     "FastMPT",
     "GROUPS",
-    "MODEL_DEFAULTS",
     "MPT",
     "TEMPLoss",
     "TEMPModel",

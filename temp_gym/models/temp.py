@@ -1,7 +1,8 @@
 """`TEMPModel`: EISE and MPT trained together, its config, and its checkpoint format.
 
-Model sizes come from the config's ``model`` section (`MODEL_DEFAULTS` lists every key); the
-robot, the occupancy resolution and L come from the ``env`` section.
+Model sizes come from the config's ``model`` section (`temp_gym.config.ModelConfig`: every key,
+its default and meaning); the robot, the occupancy resolution and L come from the ``env``
+section.
 
 A checkpoint is a plain dict that ``torch.load(path, weights_only=True)`` reads:
 
@@ -9,7 +10,7 @@ A checkpoint is a plain dict that ``torch.load(path, weights_only=True)`` reads:
 |---|---|
 | ``version`` | `CHECKPOINT_VERSION` |
 | ``state_dict`` | the `TEMPModel`'s tensors |
-| ``model_config`` | the ``model`` section (plain python) |
+| ``model_config`` | the ``model`` section (plain python: a `ModelConfig` as a dict) |
 | ``robot``, ``dim`` | the robot it was trained for and its configuration-space dimension |
 | ``encoding_resolution`` | cells per workspace axis of the occupancy grid |
 | ``max_path_length`` | L, the most HPD tokens |
@@ -27,15 +28,19 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import pickle
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import torch
 from torch import nn
 
+from temp_gym.config import ModelConfig
+from temp_gym.config.typed import build
 from temp_gym.files import StoredFileError, atomic_write
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
@@ -44,19 +49,19 @@ from temp_gym.worlds.robots import robot_spec
 
 CHECKPOINT_VERSION = 1
 
-MODEL_DEFAULTS: dict[str, Any] = {
-    "token_dim": 64,
-    "num_heads": 4,
-    "num_layers": 3,
-    "ffn_dim": 128,
-    "num_sei_tokens": 8,
-    "eise_hidden": 256,
-    "dropout": 0.0,
-    "prediction": "offset",
-    "offset_scale": 0.5,
-    "chunk": 1,
-}
-"""Every ``model`` config key and its default."""
+
+def model_config_of(model_config: ModelConfig | Mapping[str, Any] | None) -> ModelConfig:
+    """A `ModelConfig` from a ``model`` section or a checkpoint's ``model_config`` dict.
+
+    A checkpoint written before a key existed lacks it, and gets its default (the value the
+    model was built with then).
+
+    Raises:
+        ValueError: an unknown key or a wrong type (a `temp_gym.config.ConfigError`).
+    """
+    if isinstance(model_config, ModelConfig):
+        return model_config
+    return build(ModelConfig, model_config, "model")
 
 
 class TEMPModel(nn.Module):
@@ -66,7 +71,8 @@ class TEMPModel(nn.Module):
         robot: a registered robot's name (`temp_gym.worlds.robots`).
         encoding_resolution: cells per workspace axis of the occupancy grid.
         max_path_length: L.
-        **model_config: the ``model`` section; missing keys take `MODEL_DEFAULTS`.
+        **model_config: the ``model`` section's keys; missing ones take the defaults of
+            `temp_gym.config.ModelConfig`.
     """
 
     def __init__(
@@ -74,10 +80,8 @@ class TEMPModel(nn.Module):
     ) -> None:
         super().__init__()
         spec = robot_spec(robot)
-        unknown = set(model_config) - set(MODEL_DEFAULTS)
-        if unknown:
-            raise ValueError(f"model: unknown keys {sorted(unknown)}")
-        config = {**MODEL_DEFAULTS, **model_config}
+        sizes = model_config_of(model_config)
+        config = dataclasses.asdict(sizes)
         self.robot = robot
         self.dim, workspace_dim = spec.dim, spec.workspace_dim
         self.encoding_resolution = int(encoding_resolution)
@@ -85,34 +89,35 @@ class TEMPModel(nn.Module):
         self.config = config
         self.eise = EISE(
             (self.encoding_resolution,) * workspace_dim,
-            config["eise_hidden"],
-            config["num_sei_tokens"],
-            config["token_dim"],
+            sizes.eise_hidden,
+            sizes.num_sei_tokens,
+            sizes.token_dim,
         )
         self.mpt = MPT(
             self.dim,
-            config["token_dim"],
-            config["num_heads"],
-            config["num_layers"],
-            config["ffn_dim"],
-            config["num_sei_tokens"],
+            sizes.token_dim,
+            sizes.num_heads,
+            sizes.num_layers,
+            sizes.ffn_dim,
+            sizes.num_sei_tokens,
             self.max_path_length,
-            config["dropout"],
-            config["prediction"],
-            config["offset_scale"],
-            config["chunk"],
+            sizes.dropout,
+            sizes.prediction,
+            sizes.offset_scale,
+            sizes.chunk,
         )
 
     @classmethod
     def from_config(
         cls,
-        model_config: dict[str, Any] | None,
+        model_config: ModelConfig | Mapping[str, Any] | None,
         robot: str,
         encoding_resolution: int,
         max_path_length: int,
     ) -> TEMPModel:
-        """Build from the ``model`` section and the env's robot, resolution and L."""
-        return cls(robot, encoding_resolution, max_path_length, **(model_config or {}))
+        """Build from a ``model`` section (or checkpoint dict), the robot, resolution and L."""
+        sizes = dataclasses.asdict(model_config_of(model_config))
+        return cls(robot, encoding_resolution, max_path_length, **sizes)
 
     def forward(
         self, batch: dict[str, torch.Tensor], need_weights: bool = False

@@ -16,11 +16,13 @@ import numpy as np
 import torch
 from tensordict import TensorDict
 
+from temp_gym.config import Config
+
 BATCH_KEYS = ("start", "goal", "goal_radius", "path", "path_length", "target")
 
 
-def ensure_dataset(config: dict[str, Any], progress: bool = True, quiet: bool = False) -> Path:
-    """The dataset directory of ``config["data"]``, generated (or repaired) if incomplete.
+def ensure_dataset(config: Config, progress: bool = True, quiet: bool = False) -> Path:
+    """The dataset directory ``data.dir``, generated (or repaired) if incomplete.
 
     Waits while another process holds the directory's lock (another rank, or a
     ``generate.py`` run), then finds the dataset it made.
@@ -28,16 +30,10 @@ def ensure_dataset(config: dict[str, Any], progress: bool = True, quiet: bool = 
     from temp_gym.data import dataset_exists, generate_dataset
 
     if dataset_exists(config):
-        return Path(config["data"]["dir"])
+        return Path(config.data.dir)
     if not quiet:
-        print(
-            f"no complete dataset in {config['data']['dir']}: generating it (RRT* demonstrations)"
-        )
-    return Path(
-        generate_dataset(
-            config, workers=config["data"].get("workers"), progress=progress, wait=True
-        )
-    )
+        print(f"no complete dataset in {config.data.dir}: generating it (RRT* demonstrations)")
+    return Path(generate_dataset(config, workers=config.data.workers, progress=progress, wait=True))
 
 
 def chunk_rows(task_id: torch.Tensor, step: torch.Tensor, chunk: int):
@@ -192,14 +188,17 @@ def perturb_path(
     return out
 
 
-def make_replay_buffer(config: dict[str, Any], split: str) -> SplitData:
-    """Load ``split`` (``train`` or ``val``) as `SplitData`, with targets for the model's chunk."""
+def make_replay_buffer(config: Config, split: str) -> SplitData:
+    """Load ``split`` (``train`` or ``val``) as `SplitData`, with targets for the model's chunk.
+
+    The training split gets the correction rounds of ``data.corrections`` too.
+    """
     from temp_gym.data import load_split
     from temp_gym.data.correction import load_corrections
 
-    buffer, workspaces = load_split(config["data"]["dir"], split)
-    chunk = int((config.get("model") or {}).get("chunk", 1))
-    rounds = (config["data"].get("corrections") or []) if split == "train" else []
+    buffer, workspaces = load_split(config.data.dir, split)
+    chunk = config.model.chunk
+    rounds = config.data.corrections if split == "train" else []
     return SplitData(buffer, workspaces, chunk, [load_corrections(path) for path in rounds])
 
 

@@ -13,30 +13,34 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from temp_gym.config import Config, TrainEvalConfig
 from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Problem
 from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
 
 
-def make_env(config: dict[str, Any], fallback: str = "random", split: str = "test") -> gym.Env:
-    """The planning env of ``config["env"]``, wrapped in `PlanningMetrics`."""
-    env_config, eval_config = config["env"], config.get("eval", {})
+def make_env(config: Config, fallback: str = "random", split: str = "test") -> gym.Env:
+    """The planning env of the ``env`` section, with ``train_eval``'s tasks and budget.
+
+    Wrapped in `PlanningMetrics`.
+    """
+    env_config, eval_config = config.env, config.train_eval
     env = gym.make(
-        env_config["id"],
-        difficulty=eval_config.get("difficulty", "any"),
-        max_nodes=eval_config.get("max_nodes"),
-        step_size=env_config.get("step_size"),
+        env_config.id,
+        difficulty=eval_config.difficulty,
+        max_nodes=eval_config.max_nodes,
+        step_size=env_config.step_size,
         fallback=fallback,
-        encoding_resolution=env_config["encoding_resolution"],
+        encoding_resolution=env_config.encoding_resolution,
         split=split,
-        max_path_length=env_config["max_path_length"],
+        max_path_length=env_config.max_path_length,
         disable_env_checker=True,
     )
     return PlanningMetrics(env)
 
 
-def draw_problems(config: dict[str, Any], split: str, count: int, seed: int) -> list[Problem]:
+def draw_problems(config: Config, split: str, count: int, seed: int) -> list[Problem]:
     """``count`` tasks drawn by the env from ``split``'s workspaces, task i with seed+i."""
     env = make_env(config, fallback="none", split=split)
     problems = []
@@ -127,18 +131,24 @@ def summarize(episodes: list[dict[str, float]], max_nodes: int) -> dict[str, flo
     }
 
 
-def plan_episode(problem, planner: str, seed: int, eval_config: dict, policy=None) -> dict:
-    """One `temp_gym.plan` run up to the first solution, as a `summarize` episode."""
+def plan_episode(
+    problem: Problem, planner: str, seed: int, eval_config: TrainEvalConfig, policy=None
+) -> dict:
+    """One `temp_gym.plan` run up to the first solution, as a `summarize` episode.
+
+    ``eval_config`` gives the budget and, for ``temp``, the attention phase's settings.
+    """
+    temp = planner == "temp"
     result = plan(
         problem,
         planner=planner,
         seed=seed,
-        max_nodes=eval_config["max_nodes"],
+        max_nodes=eval_config.max_nodes,
         stop_at_first=True,
         policy=policy,
-        attention_nodes=eval_config.get("attention_nodes") if planner == "temp" else None,
-        attention_patience=eval_config.get("attention_patience") if planner == "temp" else None,
-        attention_uniform=eval_config.get("attention_uniform") if planner == "temp" else None,
+        attention_nodes=eval_config.attention_nodes if temp else None,
+        attention_patience=eval_config.attention_patience if temp else None,
+        attention_uniform=eval_config.attention_uniform if temp else None,
     )
     episode = {
         "success": float(result.success),

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym.config import Config
 from temp_gym.tensorboard_summaries import add_hparams, add_scalar
 
 _VAL_RECONS = (
@@ -33,8 +34,8 @@ TAG_DESCRIPTIONS = {
     "val/recons": _VAL_RECONS,
     "val/semantic": "MPT next-node error on validation workspaces: whether the policy "
     "generalizes to unseen workspaces. Lower is better; the main job picks best.pt on it.",
-    "eval/success": "TEMP planning during training: share of eval.periodic_tasks held-out test "
-    "tasks solved within eval.max_nodes, every eval.every epochs.",
+    "eval/success": "TEMP planning during training: share of train_eval.periodic_tasks "
+    "held-out test tasks solved within train_eval.max_nodes, every train_eval.every epochs.",
     "eval/nodes": "TEMP planning during training: mean nodes to the first solution on the "
     "held-out tasks (a failure counts as the whole budget).",
     "eval/cost": "TEMP planning during training: mean path cost over the solved held-out tasks.",
@@ -43,8 +44,8 @@ TAG_DESCRIPTIONS = {
 }
 """What each TensorBoard tag of `trainers/bc.py` means; shown with its chart."""
 FINAL_DESCRIPTION = (
-    "The final comparison: TEMP (best.pt) against RRT* on eval.tasks held-out tasks, each up "
-    "to its first solution (a failure counts as the budget in the node figures)."
+    "The final comparison: TEMP (best.pt) against RRT* on train_eval.tasks held-out tasks, "
+    "each up to its first solution (a failure counts as the budget in the node figures)."
 )
 LAYOUT = {
     "training: train vs. validation": {
@@ -115,10 +116,10 @@ class Logger:
         if self.writer is not None:
             self.writer.add_image(tag, image, step, dataformats="HWC")
 
-    def hparams(self, config: dict[str, Any]) -> None:
+    def hparams(self, config: Config) -> None:
         """The config in the HParams dashboard and the custom-scalars layout (`LAYOUT`)."""
         if self.writer is not None:
-            add_hparams(self.writer, config, HPARAM_METRICS)
+            add_hparams(self.writer, config.to_dict(), HPARAM_METRICS)
             self.writer.add_custom_scalars(LAYOUT)
 
     def close(self) -> None:
@@ -127,6 +128,6 @@ class Logger:
             self.writer.close()
 
 
-def make_logger(config: dict[str, Any], run_dir: Path) -> Logger:
+def make_logger(config: Config, run_dir: Path) -> Logger:
     """`Logger` for ``logger.backend`` writing into the run directory."""
-    return Logger(config.get("logger", {}).get("backend", "tensorboard"), run_dir)
+    return Logger(config.logger.backend, run_dir)

@@ -2,48 +2,51 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 
+from temp_gym.config import Config, ConfigError
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.temp import TEMPModel
+from temp_gym.worlds.robots import robot_spec
 
 
-def make_model(config: dict[str, Any]) -> TEMPModel:
-    """`TEMPModel` from the ``model`` section and the env's robot, resolution and L."""
-    env = config["env"]
-    return TEMPModel.from_config(
-        config.get("model"), env["robot"], env["encoding_resolution"], env["max_path_length"]
-    )
+def make_model(config: Config) -> TEMPModel:
+    """`TEMPModel` from the ``model`` section and the env's robot, resolution and L.
+
+    A null ``env.encoding_resolution`` is the robot's own, as in the dataset's settings.
+    """
+    env = config.env
+    resolution = env.encoding_resolution or robot_spec(env.robot).encoding_resolution
+    return TEMPModel.from_config(config.model, env.robot, resolution, env.max_path_length)
 
 
-def make_loss(config: dict[str, Any]) -> TEMPLoss:
+def make_loss(config: Config) -> TEMPLoss:
     """`TEMPLoss` with λ = ``loss.recons_weight`` and η = ``loss.semantic_weight``."""
-    loss = config.get("loss", {})
-    return TEMPLoss(loss.get("recons_weight", 1.0), loss.get("semantic_weight", 1.0))
+    return TEMPLoss(config.loss.recons_weight, config.loss.semantic_weight)
 
 
 def make_optimizer(
-    config: dict[str, Any], model: torch.nn.Module
+    config: Config, model: torch.nn.Module
 ) -> tuple[torch.optim.Optimizer, torch.optim.lr_scheduler.ReduceLROnPlateau]:
     """Adam and ReduceLROnPlateau on the validation loss (the paper's schedule)."""
-    optim = config.get("optim", {})
+    optim = config.optim
+    if len(optim.betas) != 2:
+        raise ConfigError(f"optim.betas: expected two numbers, got {optim.betas}")
     optimizer = torch.optim.Adam(
         model.parameters(),
-        lr=float(optim.get("lr", 1e-3)),
-        betas=tuple(float(beta) for beta in optim.get("betas", (0.9, 0.999))),
-        eps=float(optim.get("eps", 1e-8)),
-        weight_decay=float(optim.get("weight_decay", 0.0)),
+        lr=optim.lr,
+        betas=(optim.betas[0], optim.betas[1]),
+        eps=optim.eps,
+        weight_decay=optim.weight_decay,
     )
     scheduler = torch.optim.lr_scheduler.ReduceLROnPlateau(
         optimizer,
         mode="min",
-        factor=float(optim.get("lr_factor", 0.1)),
-        patience=int(optim.get("lr_patience", 10)),
-        threshold=float(optim.get("lr_threshold", 0.1)),
+        factor=optim.lr_factor,
+        patience=optim.lr_patience,
+        threshold=optim.lr_threshold,
         threshold_mode="rel",
-        min_lr=float(optim.get("min_lr", 1e-6)),
+        min_lr=optim.min_lr,
     )
     return optimizer, scheduler
 

@@ -74,11 +74,12 @@ def tiny_round(tmp_path):
     """A tiny config, a small random chunked checkpoint and a round's settings."""
     from temp_gym.config import load_config
 
-    config = load_config(ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path / 'data'}"])
-    config["data"]["workspaces"]["train"] = 2
+    config = load_config(
+        ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path / 'data'}", "data.workspaces.train=2"]
+    )
     torch.manual_seed(0)
-    env = config["env"]
-    model = TEMPModel("point2d", env["encoding_resolution"], env["max_path_length"],
+    env = config.env
+    model = TEMPModel("point2d", env.encoding_resolution, env.max_path_length,
                       eise_hidden=16, chunk=2, **SMALL)  # fmt: skip
     checkpoint = tmp_path / "policy.pt"
     model.save(checkpoint)
@@ -114,13 +115,14 @@ def test_a_round_resumes_and_is_verified_on_load(tiny_round):
 
 def test_training_batches_mix_demonstrations_and_corrections(tiny_round):
     config, settings, out = tiny_round
+    from temp_gym.config import apply_overrides
     from temp_gym.data import generate_dataset, load_split
     from temp_gym.training import SplitData
 
-    config["model"] = {**config.get("model", {}), "chunk": 2}
+    config = apply_overrides(config, ["model.chunk=2"])
     generate_dataset(config, workers=1, progress=False)
     collect_corrections(settings, out, progress=False)
-    buffer, workspaces = load_split(config["data"]["dir"], "train")
+    buffer, workspaces = load_split(config.data.dir, "train")
     corrections = load_corrections(out)
     data = SplitData(buffer, workspaces, 2, [corrections])
     demonstrations = len(buffer)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import torch
 
-from temp_gym.config import load_config
+from temp_gym.config import apply_overrides, load_config
 from temp_gym.data import dataset_exists, generate_dataset, load_split, load_tasks
 from temp_gym.data.demonstrations import resample_path
 from temp_gym.data.format import SAMPLE_KEYS, SPLITS, TASK_KEYS
@@ -88,7 +88,7 @@ def assert_same(a: Path, b: Path) -> None:
 
 def test_samples_have_every_key_with_its_shape_and_dtype(dataset):
     config = tiny(dataset)
-    length, resolution = config["env"]["max_path_length"], config["env"]["encoding_resolution"]
+    length, resolution = config.env.max_path_length, config.env.encoding_resolution
     dtypes = {"float32": torch.float32, "int64": torch.int64}
     shapes = {"()": (), "(d,)": (2,), "(1,)": (1,), "(L, d)": (length, 2)}
     for split in SPLITS:
@@ -101,7 +101,7 @@ def test_samples_have_every_key_with_its_shape_and_dtype(dataset):
             assert batch[key].dtype == dtypes[dtype], key
             assert tuple(batch[key].shape) == (7, *shapes[shape]), key
         assert workspaces["occupancy"].shape == (
-            config["data"]["workspaces"][split],
+            getattr(config.data.workspaces, split),
             resolution,
             resolution,
         )
@@ -148,7 +148,7 @@ def test_targets_and_paths_follow_the_resampled_expert_paths(dataset):
             assert np.linalg.norm(world[-1] - goal) <= float(tasks["goal_radius"][row]) + 1e-4
             for k in range(len(steps)):
                 valid = int(lengths[k])
-                assert valid == min(k + 1, config["env"]["max_path_length"])
+                assert valid == min(k + 1, config.env.max_path_length)
                 assert torch.equal(paths[k, valid - 1], torch.from_numpy(nodes[k]).float())
                 assert torch.all(paths[k, valid:] == 0)
                 if k + 1 < len(steps):  # the target is the next prefix's newest node
@@ -226,8 +226,9 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
     import temp_gym.data.generate as generate
     from temp_gym.data.dataset import data_settings
 
-    config = load_config(ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path}"])
-    config["data"]["tasks_per_workspace"] = 2
+    config = load_config(
+        ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path}", "data.tasks_per_workspace=2"]
+    )
     settings = data_settings(config)
     assert (
         "attempts" not in settings
@@ -253,10 +254,9 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
     seeds.clear()
     budgets.clear()
     tried.clear()
-    config["data"]["attempts"] = 3
-    retried = solve_unit(data_settings(config), "train", 0)
+    retried = solve_unit(data_settings(apply_overrides(config, ["data.attempts=3"])), "train", 0)
     assert list(retried["status"]) == [0, 0] and len(seeds) == 4  # one retry per task
     assert seeds[1] == (seeds[0] + generate.RETRY_SEED_STRIDE) % 2**32
     assert budgets[1] == generate.RETRY_BUDGET_GROWTH * budgets[0]
     with pytest.raises(ValueError, match="data.attempts"):
-        data_settings({**config, "data": {**config["data"], "attempts": 0}})
+        data_settings(apply_overrides(config, ["data.attempts=0"]))

@@ -77,7 +77,7 @@ def test_matches_torch_at_the_configured_sizes(robot):
 
     config = load_config("configs/2d.yaml" if robot == "point2d" else "configs/7d.yaml")
     torch.manual_seed(1)
-    model = TEMPModel.from_config(config["model"], robot, 8, config["env"]["max_path_length"])
+    model = TEMPModel.from_config(config.model, robot, 8, config.env.max_path_length)
     mpt = model.eval().mpt
     fast = FastMPT(mpt)
     rng = np.random.default_rng(1)

@@ -100,8 +100,10 @@ def test_overfits_64_samples(make_batch, small_config):
 
 
 def test_unknown_model_key_is_an_error():
-    with pytest.raises(ValueError, match="unknown keys"):
+    with pytest.raises(ValueError, match=r"unknown key model\.token_dims \(did you mean"):
         TEMPModel("point2d", 16, 16, token_dims=3)
+    with pytest.raises(ValueError, match="model.num_layers: expected an integer, got 'two'"):
+        TEMPModel("point2d", 16, 16, num_layers="two")
 
 
 def test_chunk_loss_is_a_per_sample_mean_over_the_valid_entries():

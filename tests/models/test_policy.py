@@ -148,9 +148,9 @@ def test_model_sizes_within_budget():
 
     for name in ("2d", "3d", "7d"):
         config = load_config(f"configs/{name}.yaml")
-        env = config["env"]
+        env = config.env
         model = TEMPModel.from_config(
-            config["model"], env["robot"], env["encoding_resolution"], env["max_path_length"]
+            config.model, env.robot, env.encoding_resolution, env.max_path_length
         )
         assert model.num_parameters() * 4 < 10e6 * 0.95, name
 

@@ -52,7 +52,7 @@ def test_trains_evaluates_and_resumes(tmp_path):
         "train.max_epochs=2",
         "train.exp_name=straight",
         "logger.backend=",
-        "eval.every=0",
+        "train_eval.every=0",
         flags=("--skip-eval",),
     )
     straight = torch.load(
@@ -115,7 +115,8 @@ def bc_module():
     return bc
 
 
-def write_last(tmp_path, config) -> Path:
+def write_last(tmp_path, config, stored: dict | None = None) -> Path:
+    """A last.pt of epoch 1 under ``config``, storing ``stored`` as its config if given."""
     from temp_gym import training
 
     model = training.make_model(config)
@@ -123,7 +124,8 @@ def write_last(tmp_path, config) -> Path:
     path = tmp_path / "last.pt"
     model.save(
         path, optimizer=optimizer.state_dict(), scheduler=scheduler.state_dict(),
-        rng=torch.get_rng_state(), config=config, epoch=1, history=[],
+        rng=torch.get_rng_state(), config=config.to_dict() if stored is None else stored,
+        epoch=1, history=[],
     )  # fmt: skip
     return path
 
@@ -144,8 +146,34 @@ def test_resuming_under_a_changed_training_config_is_refused_naming_the_keys(tmp
     assert "loss.semantic_weight: 1.0 -> 2.0" in message and "optim.lr: 0.001 -> 0.0005" in message
     assert "--no-resume" in message
     # When to stop, where it runs, what is evaluated and logged may change.
-    allowed = tiny_config("train.max_epochs=9", "train.threads=2", "eval.every=0", "logger.dir=x")
+    allowed = tiny_config(
+        "train.max_epochs=9", "train.threads=2", "train_eval.every=0", "logger.dir=x"
+    )
     assert bc.resume_checkpoint(path, allowed, "point2d")["epoch"] == 1
+
+
+def test_a_run_started_before_the_eval_section_was_renamed_resumes(tmp_path):
+    # The layout last.pt stored before: an "eval" section, and none of the keys added since.
+    bc = bc_module()
+    config = tiny_config()
+    old_layout = config.to_dict()
+    old_layout["eval"] = old_layout.pop("train_eval")
+    for section, key in [
+        ("eval", "attention_patience"),
+        ("eval", "attention_uniform"),
+        ("evaluation", "horizon"),
+        ("evaluation", "attention_patience"),
+    ]:
+        del old_layout[section][key]  # fmt: skip
+    path = write_last(tmp_path, config, stored=old_layout)
+    assert bc.resume_checkpoint(path, config, "point2d")["epoch"] == 1
+    assert bc.resume_checkpoint(path, tiny_config("train_eval.every=0"), "point2d")
+    with pytest.raises(bc.ResumeMismatchError, match=r"\(optim.lr: 0.001 -> 0.0005\)"):
+        bc.resume_checkpoint(path, tiny_config("optim.lr=5e-4"), "point2d")
+    old_layout["model"]["num_heads"] = 1  # a key that shapes training, stored differently
+    path = write_last(tmp_path, config, stored=old_layout)
+    with pytest.raises(bc.ResumeMismatchError, match=r"model.num_heads: 1 -> 2"):
+        bc.resume_checkpoint(path, config, "point2d")
 
 
 @pytest.mark.parametrize("damage", ["truncate", "empty"])
@@ -184,7 +212,7 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
     from temp_gym.models.policy import TEMPPolicy
     from temp_gym.worlds.generators import generate_problem
 
-    run_bc(tmp_path, "train.max_epochs=1", "model.chunk=3", "logger.backend=", "eval.every=0",
+    run_bc(tmp_path, "train.max_epochs=1", "model.chunk=3", "logger.backend=", "train_eval.every=0",
            flags=("--skip-eval",))  # fmt: skip
     best = tmp_path / "runs" / "TEMP-2D-v0__bc__0" / "best.pt"
     policy = TEMPPolicy.from_checkpoint(best)

@@ -9,8 +9,8 @@ def test_dashboard_describes_tags_and_lines_up_evaluations_with_epochs(tmp_path)
     run_bc(
         tmp_path,
         "train.max_epochs=2",
-        "eval.every=1",
-        "eval.periodic_tasks=1",
+        "train_eval.every=1",
+        "train_eval.periodic_tasks=1",
         flags=("--skip-eval",),
     )
     events = EventAccumulator(str(tmp_path / "runs" / "TEMP-2D-v0__bc__0"))

@@ -20,7 +20,7 @@ def train(tmp_path: Path, name: str, launcher: list[str]) -> dict:
         f"data.dir={tmp_path / 'data'}", "data.workers=1",
         f"logger.dir={tmp_path / 'runs'}", "logger.backend=",
         f"train.exp_name={name}", "train.max_epochs=3", "train.path_noise=0.02",
-        "train.threads=1", "eval.every=0",
+        "train.threads=1", "train_eval.every=0",
     ]  # fmt: skip
     env = dict(os.environ, OMP_NUM_THREADS="1")
     done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True,

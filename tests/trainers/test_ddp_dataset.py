@@ -51,7 +51,7 @@ def test_torchrun_outlives_a_dataset_slower_than_the_process_group_timeout(tmp_p
         "--no-progress", "--skip-eval", f"data.dir={tmp_path / 'data'}", "data.workers=1",
         "data.workspaces.train=1", "data.tasks_per_workspace=2",
         f"logger.dir={tmp_path / 'runs'}", "logger.backend=", "train.max_epochs=1",
-        "train.threads=1", "eval.every=0",
+        "train.threads=1", "train_eval.every=0",
     ]  # fmt: skip
     path = os.pathsep.join([str(fake), str(ROOT), os.environ.get("PYTHONPATH", "")])
     env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=path)

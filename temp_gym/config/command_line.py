@@ -1,0 +1,35 @@
+"""Scripts' command lines: flags for argparse, ``key.sub=value`` tokens for the config."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from collections.abc import Sequence
+
+OVERRIDE = re.compile(r"^\+?[A-Za-z_][\w-]*(\.[\w-]+)*=")
+"""A ``key.sub=value`` (or ``+key.sub=value``) command-line override."""
+
+
+def script_parser(description: str) -> argparse.ArgumentParser:
+    """An `argparse.ArgumentParser` whose help shows every flag's default."""
+    return argparse.ArgumentParser(
+        description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+
+
+def parse_args(
+    parser: argparse.ArgumentParser, argv: Sequence[str] | None = None
+) -> argparse.Namespace:
+    """Parse ``argv``, taking every ``key.sub=value`` token as an override, wherever it is.
+
+    The overrides end up in ``args.overrides`` (the parser may declare that positional for
+    its help text), so they may also follow an option that takes several values
+    (``--noise-std 0 0.03 train.seed=1``). Tokens starting with ``-`` are never overrides,
+    so ``--flag=value`` stays a flag.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    overrides = [token for token in argv if OVERRIDE.match(token)]
+    args = parser.parse_args([token for token in argv if not OVERRIDE.match(token)])
+    args.overrides = list(getattr(args, "overrides", None) or []) + overrides
+    return args

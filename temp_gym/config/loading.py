@@ -1,0 +1,143 @@
+"""A `Config` from a YAML file and ``key.sub=value`` overrides; older stored configs upgraded.
+
+Values in overrides are parsed as YAML scalars (``3`` is an int, ``1e-3`` a float, ``null``
+None, ``[1, 2]`` a list, ``{train: 2, val: 1}`` a mapping) and then checked against the
+field's type. Every key a section declares can be overridden, whether the file lists it or
+not; a key no section declares is an error, so a typo never passes silently. A leading ``+``
+(``+train_eval.attention_patience=0``), which once added a key the file lacked, is still
+accepted and means the same.
+
+The environment variable ``TEMP_GYM_OVERRIDES`` holds more overrides, separated by spaces,
+that every config load applies after the caller's: the same command then runs at another size
+(the tests run the README's commands as written, smoke-sized this way).
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from temp_gym.config.errors import ConfigError
+from temp_gym.config.sections import Config
+from temp_gym.config.typed import build, fill_defaults, replace_key
+
+CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs"
+"""The repository's ``configs/``: a config named by a path that does not exist is looked up
+there by its file name."""
+
+OVERRIDES_VARIABLE = "TEMP_GYM_OVERRIDES"
+"""Environment variable with overrides applied after the caller's (see the module docstring)."""
+
+RENAMED_SECTIONS = {"eval": "train_eval"}
+"""Sections that older configs named otherwise (old name -> new), for `upgrade_stored` and the
+error that names the new section."""
+
+
+def environment_overrides() -> list[str]:
+    """The overrides in ``$TEMP_GYM_OVERRIDES`` (shell-style words; none when unset)."""
+    return shlex.split(os.environ.get(OVERRIDES_VARIABLE, ""))
+
+
+def parse_value(text: str) -> Any:
+    """An override's value: a YAML scalar, list or mapping (``1e-3`` is a float)."""
+    try:
+        value = yaml.safe_load(text) if text.strip() else ""
+    except yaml.YAMLError:
+        return text
+    # YAML 1.1 reads "1e-3" as a string; numbers written that way are meant as floats.
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
+def _renamed_hint(key: str) -> str:
+    section = key.split(".", 1)[0]
+    new = RENAMED_SECTIONS.get(section)
+    return f" (the {section} section is now {new})" if new else ""
+
+
+def apply_overrides(config: Config, overrides: Sequence[str]) -> Config:
+    """A copy of ``config`` with each ``key.sub=value`` override applied, in order.
+
+    Raises:
+        ConfigError: an override without ``=``, a key no section declares, a value of the
+            wrong type; the message quotes the override.
+    """
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(f"override {item!r}: expected key.sub=value")
+        key, text = item.split("=", 1)
+        try:
+            config = replace_key(config, key.lstrip("+"), parse_value(text))
+        except ConfigError as error:
+            hint = _renamed_hint(key.lstrip("+"))
+            raise ConfigError(f"override {item!r}: {error}{hint}") from None
+    return config
+
+
+def config_from_dict(values: Mapping[str, Any] | None, source: str = "config") -> Config:
+    """A `Config` from a nested mapping (a YAML file's), checked key by key.
+
+    Raises:
+        ConfigError: an unknown section or key, a wrong type, a missing ``env.id``,
+            ``env.robot`` or ``data.dir``; the message starts with ``source``.
+    """
+    if not isinstance(values, Mapping):
+        raise ConfigError(f"{source}: a config must be a YAML mapping")
+    try:
+        return build(Config, values)
+    except ConfigError as error:
+        unknown = next((key for key in values if key in RENAMED_SECTIONS), None)
+        hint = _renamed_hint(unknown) if unknown and f"unknown key {unknown}" in str(error) else ""
+        raise ConfigError(f"{source}: {error}{hint}") from None
+
+
+def read_config_file(path: str | Path) -> tuple[Path, Any]:
+    """The path actually read (see `CONFIG_DIR`) and its YAML content (`yaml.safe_load`)."""
+    path = Path(path)
+    if not path.exists() and (CONFIG_DIR / path.name).exists():
+        path = CONFIG_DIR / path.name
+    try:
+        with open(path) as handle:
+            return path, yaml.safe_load(handle)
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the config ({error.strerror})") from None
+    except yaml.YAMLError as error:
+        raise ConfigError(f"{path}: not valid YAML ({error})") from None
+
+
+def load_config(path: str | Path, overrides: Sequence[str] | None = None) -> Config:
+    """Load a YAML config; apply ``overrides``, then ``$TEMP_GYM_OVERRIDES``.
+
+    Raises:
+        ConfigError: an unreadable file, invalid YAML, an unknown key or a wrong type in the
+            file or an override (see `config_from_dict`, `apply_overrides`).
+    """
+    path, values = read_config_file(path)
+    config = config_from_dict(values, str(path))
+    extra = environment_overrides()
+    config = apply_overrides(config, list(overrides or []))
+    try:
+        return apply_overrides(config, extra)
+    except ConfigError as error:
+        raise ConfigError(f"${OVERRIDES_VARIABLE}: {error}") from error
+
+
+def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:
+    """A config dict stored by an older temp-gym (``last.pt``), in today's layout.
+
+    Renamed sections take their new names (`RENAMED_SECTIONS`) and keys added since take
+    their defaults, so that a run started before either change compares equal to the same
+    config today. Values are kept as stored, and keys this version no longer declares stay,
+    so a comparison still names them.
+    """
+    renamed = {RENAMED_SECTIONS.get(key, key): value for key, value in stored.items()}
+    return fill_defaults(Config, renamed)
