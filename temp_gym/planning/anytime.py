@@ -45,8 +45,7 @@ def grow_anytime(
     set of the best cost, which may already be the tree's), else RRT*'s uniform one. The
     sampler is built only when the loop runs at all.
     """
-    time_limit = math.inf if settings.time_limit is None else settings.time_limit
-    deadline = log.started + time_limit
+    deadline = settings.deadline(log.started)
     if finished(tree, settings, deadline):
         return
     problem = tree.problem

@@ -132,6 +132,10 @@ class PlanSettings:
 
             normalize("policy", as_sampling_policy(self.policy))  # a ValueError for others
 
+    def deadline(self, started: float) -> float:
+        """When a run started at ``started`` runs out of time (a perf_counter value; inf: never)."""
+        return math.inf if self.time_limit is None else started + self.time_limit
+
     @property
     def sample_limit(self) -> int:
         """The effective sample limit."""

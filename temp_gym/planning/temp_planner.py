@@ -42,7 +42,6 @@ policy proposes.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -89,7 +88,6 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     tree = Tree(problem, step_size=settings.step_size)
     policy.reset(problem, seed=settings.seed)
     declared = policy_settings(policy)
-    time_limit = math.inf if settings.time_limit is None else settings.time_limit
     attention_nodes = settings.attention_nodes
     if attention_nodes is None:  # the policy's own budget n (a shipped one carries it)
         attention_nodes = declared.attention_nodes
@@ -107,7 +105,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         max_nodes=settings.max_nodes,
         max_samples=settings.sample_limit,
         patience=patience,
-        deadline=log.started + time_limit,
+        deadline=settings.deadline(log.started),
     )
     uniform = settings.attention_uniform
     if uniform is None:
