@@ -44,18 +44,15 @@ def environment_overrides() -> list[str]:
 
 
 def parse_value(text: str) -> Any:
-    """An override's value: a YAML scalar, list or mapping (``1e-3`` is a float)."""
+    """An override's value: a YAML scalar, list or mapping, as a YAML file would hold it.
+
+    Numbers YAML 1.1 reads as text (``1e-3``) stay text here: the field's declared type
+    decides (`temp_gym.config.typed.convert`), so ``train.exp_name=1e5`` stays a name.
+    """
     try:
-        value = yaml.safe_load(text) if text.strip() else ""
+        return yaml.safe_load(text) if text.strip() else ""
     except yaml.YAMLError:
         return text
-    # YAML 1.1 reads "1e-3" as a string; numbers written that way are meant as floats.
-    if isinstance(value, str):
-        try:
-            return float(value)
-        except ValueError:
-            return value
-    return value
 
 
 def _renamed_hint(key: str) -> str:

@@ -9,7 +9,8 @@ store and TensorBoard shows).
 
 Values are converted only where nothing can be lost: an int where a float is declared becomes
 that float, a float with an integral value where an int is declared becomes that int, and a
-number written as YAML 1.1 reads it as text (``1e-3``) becomes the float.
+number written as YAML 1.1 reads it as text (``1e-3``) becomes the float where a float is
+declared (and stays text where a string is).
 
     >>> from dataclasses import dataclass
     >>> @dataclass(frozen=True)

@@ -46,6 +46,9 @@ def test_overrides_are_parsed_and_checked_against_the_types():
     assert "horizon" not in (ROOT / "configs" / "2d.yaml").read_text()
     assert apply_overrides(config, ["evaluation.horizon=2"]).evaluation.horizon == 2
     assert apply_overrides(config, ["+evaluation.horizon=3"]).evaluation.horizon == 3
+    # Text that reads as a number is one only where a number is declared.
+    config = apply_overrides(config, ["train.exp_name=1e5", "optim.lr=2e-4"])
+    assert config.train.exp_name == "1e5" and config.optim.lr == 2e-4
 
 
 @pytest.mark.parametrize(
@@ -58,6 +61,7 @@ def test_overrides_are_parsed_and_checked_against_the_types():
         ("train.max_epochs=ten", "train.max_epochs: expected an integer, got 'ten'"),
         ("train.augment=2", "train.augment: expected true or false, got 2"),
         ("optim.betas=0.9", "optim.betas: expected a list of numbers, got 0.9"),
+        ("optim.lr=nan", "optim.lr: expected a number, got 'nan'"),
         ("train.max_epochs.x=1", "unknown key train.max_epochs.x (train.max_epochs is a value"),
         ("train.max_epochs", "expected key.sub=value"),
     ],
