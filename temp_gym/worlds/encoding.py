@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from temp_gym.problem import Workspace
+from temp_gym.worlds.cells import next_cell
 from temp_gym.worlds.robots import robot_spec
 
 
@@ -68,31 +69,24 @@ def _mark_boxes(flat, region, lower, upper, resolution) -> None:
     wdim = region.shape[1]
     cell = (region[1] - region[0]) / resolution
     first = np.empty(wdim, dtype=np.int64)
-    last = np.empty(wdim, dtype=np.int64)
+    stop = np.empty(wdim, dtype=np.int64)
     index = np.empty(wdim, dtype=np.int64)
     for b in range(lower.shape[0]):
         skip = False
         for k in range(wdim):
             first[k] = min(max(int(np.floor((lower[b, k] - region[0, k]) / cell[k])), 0),
                            resolution - 1)  # fmt: skip
-            last[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])) - 1, -1),
-                          resolution - 1)  # fmt: skip
-            if last[k] < first[k] or upper[b, k] < region[0, k] or lower[b, k] > region[1, k]:
+            stop[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])), 0),
+                          resolution)  # fmt: skip
+            if stop[k] <= first[k] or upper[b, k] < region[0, k] or lower[b, k] > region[1, k]:
                 skip = True
             index[k] = first[k]
         if skip:
             continue
-        while True:  # every cell of the box, an odometer over the axes
+        while True:  # every cell of the box
             position = 0
             for k in range(wdim):
                 position = position * resolution + index[k]
             flat[position] = True
-            k = wdim - 1
-            while k >= 0:
-                index[k] += 1
-                if index[k] <= last[k]:
-                    break
-                index[k] = first[k]
-                k -= 1
-            if k < 0:
+            if not next_cell(index, first, stop, wdim):
                 break

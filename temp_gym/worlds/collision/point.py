@@ -11,6 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from temp_gym.worlds.cells import next_cell
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
 _PARALLEL_EPS = 1e-15
@@ -141,14 +142,7 @@ def _union_volume(lower, upper) -> float:
                 row += cell[k] * strides[k]
             steps[row, first[last]] += 1
             steps[row, stop[last]] -= 1
-            k = last - 1
-            while k >= 0:
-                cell[k] += 1
-                if cell[k] < stop[k]:
-                    break
-                cell[k] = first[k]
-                k -= 1
-            if k < 0:
+            if not next_cell(cell, first, stop, last):
                 break
     volume = 0.0
     for row in range(rows):
