@@ -7,6 +7,7 @@
 | `temp_gym.models.temp` | `TEMPModel` (both; sizes: `temp_gym.config.ModelConfig`), checkpoints |
 | `temp_gym.models.loss` | `TEMPLoss`: λ·L_recons + η·L_semantic |
 | `temp_gym.models.fast_mpt` | `FastMPT`: single-sample MPT forward pass in numba (CPU) |
+| `temp_gym.models.fast_eise` | `FastEISE`: one grid's EISE encoding in numba (CPU) |
 | `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` (env, `temp` planner) |
 | `temp_gym.models.registry` | the shipped policies: `load_policy`, `shipped_checkpoint` |
 | `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
@@ -14,6 +15,7 @@
 
 from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
 from temp_gym.models.eise import EISE
+from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT
 from temp_gym.models.loss import TEMPLoss
 from temp_gym.models.mpt import MPT
@@ -22,6 +24,7 @@ from temp_gym.models.temp import TEMPModel, load_checkpoint
 
 __all__ = [
     "EISE",
+    "FastEISE",
     "FastMPT",
     "GROUPS",
     "MPT",

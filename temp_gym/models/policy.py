@@ -38,43 +38,21 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
 import threading
 from collections import OrderedDict
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
+from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import goal_radius_ratio, normalize
-
-
-@contextlib.contextmanager
-def _single_torch_thread(enabled: bool) -> Iterator[None]:
-    """Run PyTorch ops in the block on one thread, then restore the thread count.
-
-    After a multi-threaded op PyTorch's OpenMP workers keep spinning for a while; on the fast
-    (numba) path the planner's own thread then competes with them for the cores. Measured on a
-    loaded 2-core machine: the attention phase of a 2D plan took 4-5x longer after a 2-thread
-    EISE call than after a 1-thread one.
-    """
-    previous = torch.get_num_threads()
-    if not enabled or previous == 1:
-        yield
-        return
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
-
 
 _UNUSED_GENERATOR = np.random.default_rng(0)
 """Stands in for the noise generator of a noiseless policy in compiled code (never drawn)."""
@@ -83,36 +61,47 @@ SEI_CACHE_SIZE = 256
 
 
 class PolicyCore:
-    """What the policies of one model share: the model, its numba MPT, the SEI per workspace.
+    """What the policies of one model share: the model, its numba kernels, the SEI per workspace.
 
     Args:
         model: the trained model; put in eval mode and moved to ``device``.
         device: where the PyTorch model runs.
-        fast: whether to build the `FastMPT` snapshot (CPU only).
+        fast: whether to build the `FastMPT` and `FastEISE` snapshots (CPU only); with them the
+            SEI is computed by `FastEISE` for every policy of this core.
     """
 
     def __init__(self, model: TEMPModel, device: str | torch.device = "cpu", fast: bool = True):
         self.device = torch.device(device)
         self.model = model.to(self.device).eval()
-        self.fast = FastMPT(self.model.mpt) if fast and self.device.type == "cpu" else None
+        fast = fast and self.device.type == "cpu"
+        self.fast = FastMPT(self.model.mpt) if fast else None
+        self.fast_eise = FastEISE(self.model.eise) if fast else None
         self._sei: OrderedDict[Workspace, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
         self._lock = threading.Lock()
 
-    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
-        """The SEI of the problem's workspace (EISE once per workspace): tensor and array.
+    def encode(self, occupancy: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
+        """The SEI of one occupancy grid: ``(1, n, width)`` tensor on the device, float32 array.
 
-        The tensor is ``(1, n, width)`` on the core's device; the array a float32 CPU copy.
+        `FastEISE` on a fast core (the tensor then shares the array's memory), else the
+        model's EISE in PyTorch.
         """
+        if self.fast_eise is not None:
+            array = self.fast_eise(occupancy)
+            return torch.from_numpy(array).unsqueeze(0), array
+        grid = torch.from_numpy(np.ascontiguousarray(occupancy, np.float32)).unsqueeze(0)
+        with torch.inference_mode():
+            tensor = self.model.eise(grid.to(self.device))
+        return tensor, tensor.cpu().numpy()[0].astype(np.float32)
+
+    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
+        """The SEI of the problem's workspace (encoded once per workspace): `encode`'s pair."""
         key = problem.workspace
         with self._lock:
             sei = self._sei.get(key)
             if sei is not None:
                 self._sei.move_to_end(key)
                 return sei
-        grid = occupancy_grid(problem.workspace, self.model.encoding_resolution)
-        with torch.inference_mode(), _single_torch_thread(self.fast is not None):
-            tensor = self.model.eise(torch.from_numpy(grid).unsqueeze(0).to(self.device))
-        sei = (tensor, tensor.cpu().numpy()[0].astype(np.float32))
+        sei = self.encode(occupancy_grid(problem.workspace, self.model.encoding_resolution))
         with self._lock:
             self._sei[key] = sei
             if len(self._sei) > SEI_CACHE_SIZE:
@@ -210,6 +199,7 @@ class TEMPPolicy:
         self.attentions: list[np.ndarray] = []
         self.problem: Problem | None = None
         self._sei: torch.Tensor | None = None
+        self._sei_array: np.ndarray | None = None
         self._task_bytes: bytes | None = None  # the task and grid last planned for, read
         self._grid_bytes: bytes | None = None  # lazily from `problem` after a reset
 
@@ -280,7 +270,7 @@ class TEMPPolicy:
         if seed is not None:  # the generator is made when the noise first needs it
             self._rng_seed, self._rng = seed, None
         self.attentions = []
-        self._sei, sei_array = self.core.sei(problem)
+        self._sei, self._sei_array = self.core.sei(problem)
         # The task as the model reads it, float32; PyTorch's tensors are made when first used.
         self._task_arrays = (
             normalize(problem.goal, problem.bounds).astype(np.float32),
@@ -289,7 +279,7 @@ class TEMPPolicy:
         )
         self._task = None
         if self._fast is not None:
-            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+            self._prefix = self._fast.prefix(self._sei_array, *self._task_arrays)
         self._task_bytes = self._grid_bytes = None  # made by `_follow` only when it is called
 
     def _follow(self, observation: dict[str, np.ndarray]) -> None:
@@ -328,9 +318,7 @@ class TEMPPolicy:
         if same_task and same_grid:
             return
         if not same_grid:
-            with torch.inference_mode(), _single_torch_thread(self._fast is not None):
-                grid = torch.from_numpy(np.ascontiguousarray(occupancy)).unsqueeze(0)
-                self._sei = self.model.eise(grid.to(self.device))
+            self._sei, self._sei_array = self.core.encode(occupancy)
             self._grid_bytes = occupancy.tobytes()
         self._task_arrays = tuple(
             np.asarray(observation[key], dtype=np.float32).reshape(-1)
@@ -338,8 +326,7 @@ class TEMPPolicy:
         )
         self._task = None
         if self._fast is not None:
-            sei_array = self._sei.cpu().numpy()[0].astype(np.float32)
-            self._prefix = self._fast.prefix(sei_array, *self._task_arrays)
+            self._prefix = self._fast.prefix(self._sei_array, *self._task_arrays)
         self._task_bytes = task_signature(observation, TASK_KEYS)
         self.problem = None  # the task is the observation's, not a Problem's
 

@@ -1,0 +1,106 @@
+"""`FastEISE`: the EISE encoder for one occupancy grid, as a numba kernel on numpy weights.
+
+The planner encodes every new workspace once: one `EISE` forward pass on one grid. In PyTorch
+that call is dominated by fixed costs, and in a planning loop, where the previous plan has
+pushed the weights out of the cache, it costs several times its warm time. The grid is 0/1
+(`temp_gym.worlds.encoding.occupancy_grid`), so the first layer's product is a sum of the
+weight rows of the occupied cells, and after the ReLU many hidden units are 0,
+so the second layer reads only the rows of the active ones. `FastEISE` does exactly that and
+touches a fraction of the weights.
+
+It computes what `EISE.forward` computes for a batch of one, up to float rounding: sums are
+accumulated in float64 and rounded to float32 once per layer (torch sums in float32, in its
+own order). Any grid values work, not only 0 and 1: a cell of value v adds v times its row,
+and a cell of 0 adds nothing.
+
+Example:
+    >>> fast = FastEISE(model.eise)          # once: copies the encoder's weights
+    >>> sei = fast(grid)                     # (*grid_shape) -> (num_tokens, token_dim) float32
+
+The weights are a snapshot, as `temp_gym.models.fast_mpt.FastMPT`'s: build a new `FastEISE`
+after changing the model's parameters.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+import torch
+
+from temp_gym.models.eise import EISE
+
+
+@numba.njit(cache=True, nogil=True)
+def _encode_kernel(
+    grid: np.ndarray,
+    w1: np.ndarray,
+    b1: np.ndarray,
+    w2: np.ndarray,
+    b2: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out = relu(relu(grid @ w1 + b1) @ w2 + b2)``, skipping zero cells and hidden units.
+
+    ``grid`` is ``(cells,)``, ``w1`` ``(cells, hidden)``, ``w2`` ``(hidden, code)``, all
+    float32; ``out`` is ``(code,)`` float32.
+    """
+    hidden_size = w1.shape[1]
+    code_size = w2.shape[1]
+    hidden = np.zeros(hidden_size, np.float64)
+    for cell in range(grid.shape[0]):
+        value = np.float64(grid[cell])
+        if value != 0.0:  # NaN passes, and spreads as it does in torch
+            row = w1[cell]
+            for unit in range(hidden_size):
+                hidden[unit] += value * row[unit]
+    code = np.zeros(code_size, np.float64)
+    for unit in range(hidden_size):
+        activation = np.float64(np.float32(hidden[unit] + b1[unit]))
+        if activation > 0.0 or activation != activation:  # ReLU; NaN spreads
+            row = w2[unit]
+            for k in range(code_size):
+                code[k] += activation * row[k]
+    for k in range(code_size):
+        value = np.float32(code[k] + b2[k])
+        out[k] = value if value > 0 or value != value else np.float32(0.0)
+
+
+def _weights(layer: torch.nn.Linear) -> tuple[np.ndarray, np.ndarray]:
+    """A linear layer's weight as a contiguous float32 ``(in, out)`` copy, and its bias."""
+    with torch.no_grad():
+        weight = np.array(layer.weight.detach().cpu().numpy().T, np.float32, order="C")
+        bias = np.array(layer.bias.detach().cpu().numpy(), np.float32, order="C")
+    return weight, bias
+
+
+class FastEISE:
+    """An `EISE` encoder's weights as float32 numpy arrays and its one-grid forward in numba.
+
+    Args:
+        eise: the encoder; its parameters are copied (a snapshot).
+    """
+
+    def __init__(self, eise: EISE) -> None:
+        first, _, second, _ = eise.encoder
+        self.grid_shape = eise.grid_shape
+        self.num_tokens = eise.num_tokens
+        self.token_dim = eise.token_dim
+        self._w1, self._b1 = _weights(first)
+        self._w2, self._b2 = _weights(second)
+
+    def __call__(self, occupancy: np.ndarray) -> np.ndarray:
+        """The SEI tokens ``(num_tokens, token_dim)`` float32 of one grid of ``grid_shape``."""
+        grid = np.asarray(occupancy)
+        if grid.shape != self.grid_shape:
+            raise ValueError(
+                f"occupancy: expected a grid of shape {self.grid_shape}, got {grid.shape}"
+            )
+        flat = np.ascontiguousarray(grid, np.float32).reshape(math.prod(self.grid_shape))
+        out = np.empty(self.num_tokens * self.token_dim, np.float32)
+        _encode_kernel(flat, self._w1, self._b1, self._w2, self._b2, out)
+        return out.reshape(self.num_tokens, self.token_dim)
+
+
+__all__ = ["FastEISE"]
