@@ -18,9 +18,14 @@ import time
 
 import numpy as np
 
+from temp_gym.planning import _compiled_anytime as compiled
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
+from temp_gym.worlds.collision.compiled import compiled_context_of
+
+_SLICE = 256
+"""Compiled iterations between two looks at the wall clock."""
 
 
 def finished(tree: Tree, settings: PlanSettings, deadline: float) -> bool:
@@ -37,13 +42,22 @@ def finished(tree: Tree, settings: PlanSettings, deadline: float) -> bool:
 
 
 def grow_anytime(
-    tree: Tree, settings: PlanSettings, rng: np.random.Generator, log: AnytimeLog, informed: bool
+    tree: Tree,
+    settings: PlanSettings,
+    rng: np.random.Generator,
+    log: AnytimeLog,
+    informed: bool,
+    compiled_loop: bool | None = None,
 ) -> None:
     """Extend ``tree`` until a stop rule fires, logging each improvement in ``log``.
 
     ``informed``: Informed RRT*'s sampler (uniform until a solution exists, then the informed
     set of the best cost, which may already be the tree's), else RRT*'s uniform one. The
     sampler is built only when the loop runs at all.
+
+    ``compiled_loop``: run the extensions in the compiled loop (`_compiled_anytime`; True: an
+    error when the checker has no compiled path) or in Python (False); None picks the compiled
+    one whenever the checker has a compiled path. Both grow the same tree.
     """
     deadline = settings.deadline(log.started)
     if finished(tree, settings, deadline):
@@ -54,6 +68,12 @@ def grow_anytime(
         base.set_best_cost(tree.best_cost)
     else:
         base = UniformSampler(problem.bounds)
+    context = compiled_context_of(tree.checker) if compiled_loop is not False else None
+    if compiled_loop and context is None:
+        raise ValueError("compiled_loop: the tree's checker has no compiled path")
+    if context is not None:
+        _grow_compiled(tree, settings, rng, log, base, context, deadline)
+        return
     sampler = GoalBiasedSampler(base, problem.goal, settings.goal_bias)
     while True:
         result = tree.extend(sampler.sample(rng))
@@ -62,6 +82,50 @@ def grow_anytime(
             if informed:
                 base.set_best_cost(tree.best_cost)
         if finished(tree, settings, deadline):
+            return
+
+
+def _grow_compiled(
+    tree: Tree,
+    settings: PlanSettings,
+    rng: np.random.Generator,
+    log: AnytimeLog,
+    base: UniformSampler | InformedSampler,
+    context: tuple,
+    deadline: float,
+) -> None:
+    """`grow_anytime`'s loop with the extensions in `_compiled_anytime.anytime_slice`."""
+    problem = tree.problem
+    goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
+    bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
+    batch = np.empty((0, problem.dim))
+    state = np.zeros(len(compiled.STATE), dtype=np.int64)
+    limits = np.array(
+        [settings.max_nodes, min(settings.sample_limit, np.iinfo(np.int64).max),
+         int(settings.stop_at_first)],
+        dtype=np.int64,
+    )  # fmt: skip
+    target = -math.inf if settings.target_cost is None else float(settings.target_cost)
+    while True:
+        arrays, counters, best_cost, params = tree.compiled_state()
+        status = compiled.anytime_slice(
+            arrays, counters, best_cost, params, goal, bounds, context, rng,
+            float(settings.goal_bias), batch, state, limits, target, _SLICE,
+        )  # fmt: skip
+        tree.load_compiled_state(counters, best_cost)
+        if status == compiled.NEED_BATCH:
+            batch = base.draw_batch(rng)
+            state[compiled.NEXT_ROW], state[compiled.ROWS] = 0, len(batch)
+        elif status == compiled.IMPROVED:
+            log.record_tree(tree)
+            if isinstance(base, InformedSampler) and base.best_cost != tree.best_cost:
+                base.set_best_cost(tree.best_cost)  # a new informed set: the batch is stale
+                state[compiled.NEXT_ROW] = state[compiled.ROWS] = 0
+        elif status == compiled.FULL:
+            tree.grow()
+        elif status == compiled.DONE:
+            return
+        if time.perf_counter() >= deadline:
             return
 
 

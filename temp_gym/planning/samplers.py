@@ -46,6 +46,14 @@ class _BufferedSampler:
     def _draw_batch(self, rng: np.random.Generator) -> np.ndarray:
         raise NotImplementedError
 
+    def draw_batch(self, rng: np.random.Generator) -> np.ndarray:
+        """The next batch ``(rows, d)`` that `sample` would serve row by row, drawn now.
+
+        For loops that serve the rows themselves (the compiled anytime loop); it leaves the
+        sampler's own buffer alone.
+        """
+        return np.ascontiguousarray(self._draw_batch(rng), dtype=np.float64)
+
     def sample(self, rng: np.random.Generator) -> np.ndarray:
         """Return one state of shape ``(d,)`` (a fresh array)."""
         if rng is not self._rng or self._next >= len(self._buffer):

@@ -5,7 +5,8 @@ The hot loops are numba kernels compiled on first use (or loaded from numba's ca
 a first ``temp-plan --time-limit 2`` returned "no solution, 2 nodes". `warm_up` runs the
 planner once on the caller's own problem with a tiny budget before `temp_gym.plan` starts
 timing, so every kernel that planner reaches (tree, sampler, collision checker, the TEMP
-policy's fast MPT, certification) is compiled, and per-process setup (the checker's robot
+policy's fast MPT, certification; the fast checker's Python methods, which OMPL calls) is
+compiled, and per-process setup (the checker's robot
 geometry, torch's first inference) is done. It lists no kernels by name: whatever the planner
 calls is warmed.
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.problem import Problem
-from temp_gym.worlds.checkers import certify_path
+from temp_gym.worlds.checkers import certify_path, make_checker
 
 WARM_UP_NODES = 64
 """Tree nodes of a warm-up plan (half of them attention-based for ``temp``)."""
@@ -77,4 +78,11 @@ def warm_up(
     planners[name](problem.replace(goal=problem.start.tolist()), short)
     toward_goal = problem.start + 1e-3 * (problem.goal - problem.start)
     certify_path(problem, np.stack([problem.start, toward_goal, problem.start]))
+    # Our planners' loops check motions in compiled code; OMPL's callbacks (and Python loops)
+    # call the fast checker's Python methods: compile those too.
+    checker = make_checker(problem)
+    start = np.array(problem.start, dtype=np.float64)  # writable, as the callers' arrays are
+    checker.states_free(start[None])
+    checker.edge_free(start, toward_goal)
+    checker.edges_free(start[None], toward_goal[None])
     return True

@@ -20,6 +20,10 @@ Then the EISE of a planning policy moved to `FastEISE` (numba, float64 sums) fro
 SEI differs from torch's by float rounding (about 1e-6), so the ``temp`` plans of all three
 worlds and the 7D evaluation record (TEMP's path) changed by rounding; their node counts did
 not (checked on 250 test tasks in 2D and 3D). Those nine fingerprints were rewritten the same way.
+Then the anytime loop (RRT*, Informed RRT*, TEMP's classical phase) moved into compiled code
+(`temp_gym.planning._compiled_anytime`), which checks parent candidates one at a time instead
+of in chunks: only ``collision_checks`` changed. With that field blanked in a copy of this
+script, all 85 fingerprints were identical before and after; the plans were rewritten.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.

@@ -89,3 +89,67 @@ def test_plan_settings_normalize_numbers():
         settings.attention_patience is None
         and PlanSettings(attention_patience=0).attention_patience == 0
     )
+
+
+def _grown(problem, seed, informed, compiled_loop, **settings):
+    tree, log, rng = Tree(problem, capacity=16), AnytimeLog(), np.random.default_rng(seed)
+    grow_anytime(tree, PlanSettings(**settings), rng, log, informed, compiled_loop=compiled_loop)
+    return tree, log, rng.random()
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
+@pytest.mark.parametrize("informed", [False, True])
+def test_compiled_loop_grows_the_python_loops_tree(robot, informed):
+    """Node for node, the same tree, log and generator state; the arrays grown on the way."""
+    from temp_gym.worlds.generators import generate_problem
+
+    rng = np.random.default_rng(5)
+    nodes = 500 if robot == "kuka_iiwa14" else 1200
+    rules = [{}, {"stop_at_first": True}, {"max_samples": 700}, {"goal_bias": 0.0}]
+    for index, rule in enumerate(rules):
+        problem = generate_problem(robot, rng, "challenging" if index % 2 else "easy")
+        (tree_c, log_c, rng_c), (tree_p, log_p, rng_p) = (
+            _grown(problem, index, informed, compiled_loop, max_nodes=nodes, **rule)
+            for compiled_loop in (True, False)
+        )
+        n = tree_c.num_nodes
+        assert n == tree_p.num_nodes and n > 16
+        np.testing.assert_array_equal(tree_c.positions[:n], tree_p.positions[:n])
+        np.testing.assert_array_equal(tree_c.costs[:n], tree_p.costs[:n])
+        np.testing.assert_array_equal(tree_c.links[:n], tree_p.links[:n])
+        assert (tree_c.samples, tree_c.sampling_failures, tree_c.best_node, tree_c.best_cost) == (
+            tree_p.samples, tree_p.sampling_failures, tree_p.best_node, tree_p.best_cost,
+        )  # fmt: skip
+        assert (log_c.nodes, log_c.costs) == (log_p.nodes, log_p.costs)
+        assert rng_c == rng_p  # both drew the same random numbers
+
+
+def test_compiled_loop_continues_a_tree_with_a_target_cost(problem_2d):
+    """The classical phase's case: a tree with a solution, grown on to a target cost."""
+    trees = []
+    for compiled_loop in (True, False):
+        tree, log, rng = Tree(problem_2d), AnytimeLog(), np.random.default_rng(2)
+        first = PlanSettings(max_nodes=5000, stop_at_first=True)
+        grow_anytime(tree, first, rng, log, informed=True, compiled_loop=compiled_loop)
+        target = PlanSettings(max_nodes=5000, target_cost=0.9 * tree.best_cost)
+        grow_anytime(tree, target, rng, log, informed=True, compiled_loop=compiled_loop)
+        trees.append((tree.num_nodes, tree.best_cost, log.nodes, log.costs, rng.random()))
+    assert trees[0] == trees[1]
+    assert len(trees[0][2]) >= 2
+
+
+def test_compiled_loop_cannot_be_forced_on_a_checker_without_a_compiled_path(problem_2d):
+    from temp_gym.worlds.checkers import make_checker
+
+    class PythonOnly(type(make_checker(problem_2d))):
+        def compiled_context(self):
+            return None  # the contract's "no compiled path"
+
+    workspace = problem_2d.workspace
+    checker = PythonOnly(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+    tree = Tree(problem_2d, checker=checker)
+    settings = PlanSettings(max_nodes=50)
+    with pytest.raises(ValueError, match="compiled path"):
+        grow_anytime(tree, settings, np.random.default_rng(0), AnytimeLog(), True, True)
+    grow_anytime(tree, settings, np.random.default_rng(0), AnytimeLog(), True)  # Python loop
+    assert tree.num_nodes == 50
