@@ -106,13 +106,19 @@ def _grow_compiled(
         dtype=np.int64,
     )  # fmt: skip
     target = -math.inf if settings.target_cost is None else float(settings.target_cost)
+    iterations = _SLICE
     while True:
         arrays, counters, best_cost, params = tree.compiled_state()
+        began, samples = time.perf_counter(), tree.samples
         status = compiled.anytime_slice(
             arrays, counters, best_cost, params, goal, bounds, context, rng,
-            float(settings.goal_bias), batch, state, limits, target, _SLICE,
+            float(settings.goal_bias), batch, state, limits, target, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
+        if math.isfinite(deadline):  # near the deadline, shorter slices: a small overshoot
+            now = time.perf_counter()
+            per_sample = (now - began) / max(tree.samples - samples, 1)
+            iterations = int(min(_SLICE, max(1.0, (deadline - now) / per_sample / 2)))
         if status == compiled.NEED_BATCH:
             batch = base.draw_batch(rng)
             state[compiled.NEXT_ROW], state[compiled.ROWS] = 0, len(batch)
