@@ -31,19 +31,20 @@ per workspace with the weights of `FAMILY_MIX`); the iiwa has only its own gener
 
 **The out-of-distribution scenes stay held out.** ``examples/ood/{2d,3d}`` (built by
 `temp_gym.evaluation.ood`) are single hand-made structures alone in an empty workspace, at
-fixed round coordinates: walls half a step thick with exactly one opening each (a gap, a
-window, alternating ends or corners), a cup centred on the start, floors, a regular lattice
-of identical pillars. The families share some ideas (walls with openings, cups) but never
-such a scene. ``corridors`` crosses its parallel walls with another wall and fills the
-corridors with baffles and boxes; ``narrow``'s walls are four to nine times as thick (tunnels,
-not slits) and have boxes beside them; ``traps``' cups have random sizes, places and
+fixed round coordinates: walls 0.5 thick with exactly one opening each (a gap, a window, at
+alternating ends or corners), a cup centred on the start, floors, a regular lattice of
+identical pillars. The families share some elements (walls with openings, cups) but never
+such a scene: ``corridors`` crosses its parallel walls with another wall and fills the
+corridors with baffles and boxes; ``narrow``'s walls are about four to nine times as thick
+(tunnels, not slits) and have boxes beside them; ``traps``' cups have random sizes, places and
 openings, among other boxes; ``maze`` fills the whole workspace with a grid of walls;
-``clutter`` and ``boxes`` place boxes at random, not on a lattice. The difference is
-measured where a policy sees it, in the occupancy grid at the robot's encoding resolution:
-``tests/worlds/test_structured.py`` checks that no generated workspace's grid is near the
-grid of an OOD scene, up to mirroring, axis swaps and one-cell shifts. A policy trained on
-these families has still met walls with openings and cups, so its results on the OOD scenes
-measure generalization to unseen layouts of familiar elements, not to unseen elements.
+``clutter`` and ``boxes`` place boxes at random, not on a lattice.
+``tests/worlds/test_structured.py`` measures it: no generated workspace comes near an OOD
+scene's layout, up to mirrors, turns and moves under a cell (on occupancy grids of cells a
+third of a step wide, the share of each one's occupied cells within a cell of the other's).
+A policy trained on these families has still met walls with openings and cups, so its
+results on the OOD scenes measure generalization to unseen layouts of familiar elements, not
+to unseen elements.
 
 Example:
     >>> workspace = generate_structured_workspace("point2d", np.random.default_rng(0), "maze")
@@ -68,6 +69,8 @@ WORKSPACE_FAMILIES = (BOXES, "corridors", "maze", "traps", "narrow", "clutter")
 """The families a single name selects."""
 FAMILY_MIX = {family: 1.0 for family in WORKSPACE_FAMILIES}
 """Relative weights of the families in ``mixed``: equal, so that no structure dominates."""
+FAMILY_NAMES = (*WORKSPACE_FAMILIES, MIXED)
+"""Every name that selects workspaces: a family, or ``mixed``."""
 RASTER_CELL = 0.25
 """Side of the raster cells behind the occupancy and connectivity checks (the 2D reference
 lattice's spacing): a passage twice as wide always has a free cell across it."""
@@ -82,18 +85,13 @@ Boxes = list[tuple[np.ndarray, np.ndarray]]
 """Boxes as ``(lower, upper)`` corners."""
 
 
-def family_choices() -> tuple[str, ...]:
-    """Every name a family can be selected by: the families and ``mixed``."""
-    return (*WORKSPACE_FAMILIES, MIXED)
-
-
 def check_family(robot: str, family: str) -> None:
     """Raise a `ValueError` unless ``family`` is a known name that ``robot`` can draw.
 
     Every robot draws ``boxes`` (its own generator); the others are point worlds only.
     """
-    if family not in family_choices():
-        raise ValueError(f"family: expected one of {family_choices()}, got {family!r}")
+    if family not in FAMILY_NAMES:
+        raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")
     spec = robot_named(robot)
     if family != BOXES and (spec.dim != spec.workspace_dim or spec.dim not in (2, 3)):
         raise ValueError(
