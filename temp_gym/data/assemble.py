@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from temp_gym.data.dataset import CARD, FORMAT_VERSION, TABLES
+from temp_gym.data.dataset import CARD, FORMAT_VERSION, TABLES, workspace_family
 from temp_gym.data.demonstrations import resample_path, task_samples
 from temp_gym.data.format import SAMPLE_KEYS, SPLITS, TASK_KEYS, sample_shapes
 from temp_gym.data.tables import close_table, create_table, file_manifest, write_table
@@ -120,8 +120,9 @@ def _build(root: Path, split: str, settings: dict, units: list, paths: list) -> 
     close_table(staging / "buffer", buffer)
     del buffer
     robot, resolution = settings["robot"], settings["encoding_resolution"]
+    family = workspace_family(settings)
     grids = [
-        occupancy_grid(split_workspace(robot, split, index), resolution)
+        occupancy_grid(split_workspace(robot, split, index, family), resolution)
         for index in range(len(units))
     ]
     wdim = robot_spec(robot).workspace_dim

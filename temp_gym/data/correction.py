@@ -188,12 +188,13 @@ and ``target_mask``)."""
 
 def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.ndarray]:
     """Plan and label ``settings["tasks_per_workspace"]`` new tasks of one training workspace."""
+    from temp_gym.data.dataset import workspace_family
     from temp_gym.models.registry import policy_from_checkpoint
     from temp_gym.worlds.generators import generate_task
     from temp_gym.worlds.splits import split_workspace
 
     started = time.perf_counter()
-    space = split_workspace(settings["robot"], "train", workspace)
+    space = split_workspace(settings["robot"], "train", workspace, workspace_family(settings))
     policy = policy_from_checkpoint(
         settings["checkpoint"], settings["robot"], noise_std=settings["noise_std"],
         horizon=settings["horizon"],
@@ -244,11 +245,14 @@ def correction_settings(
     loaded = load_cached(checkpoint, config.env.robot)
     planner = loaded.meta.get("planner", {})
     noise = config.train_eval.noise_std
+    data = data_settings(config)
+    family = {key: data[key] for key in ("workspace_family",) if key in data}  # if not boxes
     return {
         "robot": config.env.robot,
         "seed": config.data.seed,
         "round": int(round_index),
-        "workspaces": data_settings(config)["workspaces"]["train"],
+        "workspaces": data["workspaces"]["train"],
+        **family,
         "tasks_per_workspace": int(tasks_per_workspace),
         "samples_per_task": int(samples_per_task),
         "max_nodes": int(max_nodes),

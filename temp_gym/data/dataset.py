@@ -23,9 +23,15 @@ from temp_gym.quiet import torchrl_info_silenced
 from temp_gym.worlds.generators import DIFFICULTIES
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
+from temp_gym.worlds.structured import BOXES, check_family
 
 CARD = "dataset_card.json"
 SETTINGS = "settings.json"
+
+
+def workspace_family(settings: dict[str, Any]) -> str:
+    """The workspace family of a dataset's settings (absent: ``boxes``, the default)."""
+    return settings.get("workspace_family", BOXES)
 
 
 def data_dir(config: Config) -> Path:
@@ -73,6 +79,13 @@ def data_settings(config: Config) -> dict[str, Any]:
         raise ConfigError(f"data.attempts: must be at least 1, got {data.attempts}")
     if data.attempts > 1:  # absent means 1: datasets made before the key existed keep theirs
         settings["attempts"] = data.attempts
+    try:
+        check_family(robot, data.workspace_family)
+    except ValueError as error:
+        reason = str(error).removeprefix("family: ")
+        raise ConfigError(f"data.workspace_family: {reason}") from None
+    if data.workspace_family != BOXES:  # absent means boxes: older datasets keep theirs
+        settings["workspace_family"] = data.workspace_family
     if settings["planner"] not in PLANNERS:
         raise ConfigError(f"data.planner: expected one of {sorted(PLANNERS)}")
     if settings["difficulty"] not in DIFFICULTIES:

@@ -12,7 +12,8 @@ Seeds: task ``t`` of workspace ``w`` of split ``s`` uses
 ``SeedSequence([data.seed, code(s), w, t])``, spawned into one child that draws the task
 (`temp_gym.worlds.generators.generate_task`) and one that seeds the planner; any unit, or any
 single task, can be recomputed alone. Workspaces are the fixed pools of
-`temp_gym.worlds.splits`.
+`temp_gym.worlds.splits`, of the family ``data.workspace_family`` (default ``boxes``, the
+robot's own generator; see `temp_gym.worlds.structured`).
 
 The expert is ``data.planner`` (default Informed RRT*: RRT* whose samples, once a solution
 exists, come from the prolate hyperspheroid of the best cost, so it refines to near-optimal
@@ -39,7 +40,14 @@ from typing import Any
 import numpy as np
 
 from temp_gym.config import Config, ConfigError, differing_keys
-from temp_gym.data.dataset import CARD, SETTINGS, data_dir, data_settings, incomplete_reason
+from temp_gym.data.dataset import (
+    CARD,
+    SETTINGS,
+    data_dir,
+    data_settings,
+    incomplete_reason,
+    workspace_family,
+)
 from temp_gym.data.format import SPLITS
 from temp_gym.data.units import (  # noqa: F401  (re-exported: where they lived)
     RECOMPUTE_UNIT,
@@ -85,7 +93,7 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
     by ``path_offsets``; ``status`` holds a `STATUS` code per task.
     """
     started, started_cpu = time.perf_counter(), time.process_time()
-    space = split_workspace(settings["robot"], split, workspace)
+    space = split_workspace(settings["robot"], split, workspace, workspace_family(settings))
     count, dim = settings["tasks_per_workspace"], space.dim
     status = np.full(count, STATUS["no_task"], dtype=np.int64)
     starts = np.zeros((count, dim))

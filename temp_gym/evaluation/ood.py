@@ -1,7 +1,8 @@
 """Hand-made out-of-distribution problems: structures the task generators never draw.
 
-The generators (`temp_gym.worlds.generators`, `temp_gym.worlds.iiwa_world`) scatter a handful
-of independent random boxes. A policy trained on them can learn that clutter, not planning.
+The default generators (`temp_gym.worlds.point_world`, `temp_gym.worlds.iiwa_world`) scatter
+a handful of independent random boxes. A policy trained on them can learn that clutter, not
+planning.
 This family is built to tell the two apart: every problem is a deliberate structure, made of
 thin walls or many small pieces, whose solution leaves the straight line by far:
 
@@ -13,12 +14,14 @@ thin walls or many small pieces, whose solution leaves the straight line by far:
 * ``double_wall``: two walls with their gaps at opposite ends: an S-shaped detour.
 * ``long_detour``: a wall almost across, start and goal on its two sides near the closed end:
   a detour many times the straight line.
-* ``forest``: a lattice of many small pillars, many more and smaller boxes than any
-  generated world has.
+* ``forest``: a lattice of many small pillars, many more and smaller boxes than any world of
+  the default generator has.
 
 and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``pillars``,
 ``long_detour``). Point worlds are ``[0, 20]^d`` as generated ones, with the generators' goal
-radius, so only the structure differs. No training generator produces these layouts.
+radius, so only the structure differs. No training generator produces these layouts: the
+opt-in families of `temp_gym.worlds.structured` have walls with openings, cups and clutter,
+but randomized and never such a scene (``tests/worlds/test_structured.py`` measures it).
 
 The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
 ``python -m temp_gym.evaluation.ood`` rewrites those files from the builders here, and the tests

@@ -16,14 +16,33 @@ import numpy as np
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.difficulty import DIFFICULTIES, check_difficulty
 from temp_gym.worlds.robots import robot_spec
+from temp_gym.worlds.structured import (
+    BOXES,
+    MIXED,
+    check_family,
+    draw_family,
+    generate_structured_workspace,
+)
 
 WORKSPACE_TRIES = 20
 """Workspaces `generate_problem` draws before giving up on a difficulty."""
 
 
-def generate_workspace(robot: str, rng: np.random.Generator) -> Workspace:
-    """Draw a workspace for ``robot`` (its spec's workspace generator)."""
-    return robot_spec(robot).generate_workspace(rng)
+def generate_workspace(robot: str, rng: np.random.Generator, family: str = BOXES) -> Workspace:
+    """Draw a workspace for ``robot`` of a workspace ``family``.
+
+    ``boxes``: the robot's own generator (its spec's); ``mixed``: a family drawn from ``rng``
+    per workspace; any other name: a structured point world (`temp_gym.worlds.structured`).
+
+    Raises:
+        ValueError: an unknown family, or a structured one for a robot that has none.
+    """
+    check_family(robot, family)
+    if family == MIXED:
+        family = draw_family(rng)
+    if family == BOXES:
+        return robot_spec(robot).generate_workspace(rng)
+    return generate_structured_workspace(robot, rng, family)
 
 
 def generate_task(

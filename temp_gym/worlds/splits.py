@@ -9,6 +9,12 @@ training pool holds 320, because a policy trained on 320 workspaces x 50 tasks g
 better to unseen ones than on the paper's 80 x 200 (the shipped 2D policy; its model card gives
 the figures). Growing a pool leaves its first workspaces as they were. The test pool is
 disjoint from both.
+
+**Workspace families** (`temp_gym.worlds.structured`): the pools above are the default family,
+``boxes`` (the robot's own generator), and never change. Any other family, ``mixed`` included,
+has pools of its own: its name joins the seed sequence (``SeedSequence([..., i,
+family code])``, the code being the name's bytes read as an integer), so its workspaces depend
+on neither the default pools nor another family's. Evaluation uses the default test pool.
 """
 
 from __future__ import annotations
@@ -18,7 +24,9 @@ from functools import lru_cache
 import numpy as np
 
 from temp_gym.problem import Workspace
+from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.robots import robot_spec
+from temp_gym.worlds.structured import BOXES, check_family
 
 SPLITS = {"train": 320, "val": 20, "test": 50}
 """Number of workspaces in each split."""
@@ -35,15 +43,32 @@ def _check(split: str, index: int) -> None:
         )
 
 
-def workspace_rng(robot: str, split: str, index: int) -> np.random.Generator:
-    """The generator that draws workspace ``index`` of ``split``."""
+def family_code(family: str) -> int:
+    """A family's entry in the seed sequence: its name's bytes as an integer (stable, unique)."""
+    return int.from_bytes(family.encode("utf-8"), "big")
+
+
+def workspace_rng(robot: str, split: str, index: int, family: str = BOXES) -> np.random.Generator:
+    """The generator that draws workspace ``index`` of ``split`` (of a workspace ``family``)."""
     spec = robot_spec(robot)
     _check(split, index)
-    sequence = np.random.SeedSequence([SPLIT_ENTROPY, spec.seed_code, _SPLIT_CODES[split], index])
-    return np.random.default_rng(sequence)
+    check_family(robot, family)
+    entropy = [SPLIT_ENTROPY, spec.seed_code, _SPLIT_CODES[split], index]
+    if family != BOXES:  # the default family keeps the pools drawn before families existed
+        entropy.append(family_code(family))
+    return np.random.default_rng(np.random.SeedSequence(entropy))
 
 
 @lru_cache(maxsize=256)
-def split_workspace(robot: str, split: str, index: int) -> Workspace:
-    """Workspace ``index`` of ``split`` for ``robot`` (cached; always the same one)."""
-    return robot_spec(robot).generate_workspace(workspace_rng(robot, split, index))
+def split_workspace(robot: str, split: str, index: int, family: str = BOXES) -> Workspace:
+    """Workspace ``index`` of ``split`` for ``robot`` (cached; always the same one).
+
+    ``family`` names a workspace family (`temp_gym.worlds.structured`); the default,
+    ``boxes``, is the robot's own generator, whose pools datasets and checkpoints were made
+    from.
+
+    Example:
+        >>> maze = split_workspace("point2d", "train", 0, "maze")
+    """
+    rng = workspace_rng(robot, split, index, family)
+    return generate_workspace(robot, rng, family)

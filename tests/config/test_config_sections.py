@@ -65,8 +65,10 @@ def test_only_a_robot_or_a_place_has_no_default():
 
 def test_defaults_that_other_layers_also_know_agree_with_them():
     from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH
+    from temp_gym.worlds.structured import BOXES
 
     assert sections.EnvConfig.max_path_length == DEFAULT_MAX_PATH_LENGTH
+    assert sections.DataConfig.workspace_family == BOXES  # the pools datasets were made from
 
 
 @pytest.mark.parametrize("name", ["2d", "3d", "7d"])

@@ -12,6 +12,7 @@ from temp_gym.data.correction import (
     collect_corrections,
     correction_samples,
     correction_settings,
+    correction_unit,
     expert_next_nodes,
     load_corrections,
 )
@@ -111,6 +112,23 @@ def test_a_round_resumes_and_is_verified_on_load(tiny_round):
     target.write_bytes(bytes(data))
     with pytest.raises(StoredFileError, match="targets.npy"):
         load_corrections(out)
+
+
+def test_a_round_plans_in_the_datasets_workspace_family(tiny_round, monkeypatch):
+    import temp_gym.worlds.splits as splits
+    from temp_gym.config import apply_overrides
+
+    config, settings, _ = tiny_round
+    assert "workspace_family" not in settings  # the default: rounds made before keep theirs
+    maze = correction_settings(apply_overrides(config, ["data.workspace_family=maze"]),
+                               settings["checkpoint"], 1, tasks_per_workspace=1,
+                               samples_per_task=5, max_nodes=50)  # fmt: skip
+    assert maze["workspace_family"] == "maze"
+    asked = []
+    real = splits.split_workspace
+    monkeypatch.setattr(splits, "split_workspace", lambda *key: asked.append(key) or real(*key))
+    correction_unit(maze, 0)
+    assert asked == [("point2d", "train", 0, "maze")]
 
 
 def test_training_batches_mix_demonstrations_and_corrections(tiny_round):

@@ -260,3 +260,66 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
     assert budgets[1] == generate.RETRY_BUDGET_GROWTH * budgets[0]
     with pytest.raises(ValueError, match="data.attempts"):
         data_settings(apply_overrides(config, ["data.attempts=0"]))
+
+
+SETTINGS_BEFORE_FAMILIES = {
+    "robot", "encoding_resolution", "max_path_length", "step_size", "seed", "workspaces",
+    "tasks_per_workspace", "difficulty", "planner", "max_nodes", "planner_step_size",
+    "goal_bias",
+}  # fmt: skip
+"""The settings a dataset of the default config recorded before workspace families existed."""
+
+
+def test_the_default_family_leaves_the_recorded_settings_as_they_were(tmp_path):
+    from temp_gym.data.dataset import data_settings
+
+    assert set(data_settings(tiny(tmp_path))) == SETTINGS_BEFORE_FAMILIES
+    boxes = data_settings(tiny(tmp_path, "data.workspace_family=boxes"))
+    assert set(boxes) == SETTINGS_BEFORE_FAMILIES
+    assert data_settings(tiny(tmp_path, "data.workspace_family=mixed"))["workspace_family"] == (
+        "mixed"
+    )
+
+
+def test_an_unknown_family_or_one_the_robot_lacks_is_refused(tmp_path):
+    from temp_gym.config import ConfigError
+    from temp_gym.data.dataset import data_settings
+
+    with pytest.raises(ConfigError, match=r"data.workspace_family: expected one of .*'maze'"):
+        data_settings(tiny(tmp_path, "data.workspace_family=spiral"))
+    iiwa = load_config(ROOT / "configs" / "7d.yaml", [f"data.dir={tmp_path}"])
+    data_settings(iiwa)  # its own generator, the default, is fine
+    with pytest.raises(ConfigError, match="data.workspace_family: 'maze' is drawn in 2D and 3D"):
+        data_settings(apply_overrides(iiwa, ["data.workspace_family=maze"]))
+
+
+def test_a_dataset_of_another_family_records_it_and_refuses_to_mix(tmp_path):
+    from temp_gym.config import ConfigError
+    from temp_gym.data import load_workspaces
+    from temp_gym.data.units import STATUS
+    from temp_gym.worlds.encoding import occupancy_grid
+    from temp_gym.worlds.robots import robot_spec
+
+    small = ("data.tasks_per_workspace=2", "data.workspaces.val=0")
+    root = generate_dataset(tiny(tmp_path, "data.workspace_family=maze", *small), workers=1,
+                            progress=False)  # fmt: skip
+    settings = json.loads((root / "settings.json").read_text())
+    card = json.loads((root / "dataset_card.json").read_text())
+    assert settings["workspace_family"] == card["settings"]["workspace_family"] == "maze"
+    occupancy = load_workspaces(root, "train")["occupancy"].numpy()
+    resolution = settings["encoding_resolution"]
+    for index in range(settings["workspaces"]["train"]):
+        maze = split_workspace("point2d", "train", index, "maze")
+        assert np.array_equal(occupancy[index], occupancy_grid(maze, resolution))
+        assert not np.array_equal(
+            occupancy[index], occupancy_grid(split_workspace("point2d", "train", index), resolution)
+        )
+        unit = read_unit(unit_path(root, "train", index))
+        drawn = unit["status"] != STATUS["no_task"]
+        points = np.concatenate([unit["start"][drawn], unit["goal"][drawn]])
+        assert robot_spec("point2d").make_checker(maze).states_free(points).all()
+    assert not dataset_exists(tiny(tmp_path, *small))
+    for other in ("boxes", "clutter"):
+        with pytest.raises(ConfigError, match="other settings.*workspace_family"):
+            generate_dataset(tiny(tmp_path, f"data.workspace_family={other}", *small),
+                             progress=False)  # fmt: skip
