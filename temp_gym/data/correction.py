@@ -246,7 +246,7 @@ def correction_settings(
     planner = loaded.meta.get("planner", {})
     noise = config.train_eval.noise_std
     data = data_settings(config)
-    family = {key: data[key] for key in ("workspace_family",) if key in data}  # if not boxes
+    family = {"workspace_family": data["workspace_family"]} if "workspace_family" in data else {}
     return {
         "robot": config.env.robot,
         "seed": config.data.seed,

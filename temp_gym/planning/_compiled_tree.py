@@ -43,9 +43,28 @@ STEP, GAMMA, MAX_RADIUS, GOAL_RADIUS_SQ, K_NEAREST = range(len(PARAMETERS))
 FALLBACK_BATCH = 128
 """Uniform fallback samples drawn per batch, as `temp_gym.planning.samplers.UniformSampler`."""
 
+SLICE = 256
+"""Most iterations a compiled planner loop runs between two looks at the wall clock."""
+FIRST_TIMED_SLICE = 8
+"""Iterations of the first slice under a time limit, before the loop's pace is known."""
+
 NO_NODE = -1
 BAD_ACTION = -2
 """`extend` results besides a node index: nothing added, or a NaN/inf normalized action."""
+
+
+def slice_length(deadline: float, now: float, seconds_per_iteration: float) -> int:
+    """Iterations of a compiled loop's next slice: `SLICE`, fewer as ``deadline`` nears.
+
+    At the pace measured so far (``seconds_per_iteration``; 0 when unknown: a short first
+    slice) a slice takes at most half the time left, so a loop that looks at the clock between
+    slices overshoots a time limit by a fraction of it, never by a whole slice.
+    """
+    if not math.isfinite(deadline):
+        return SLICE
+    if seconds_per_iteration <= 0.0:
+        return FIRST_TIMED_SLICE
+    return int(min(SLICE, max(1.0, (deadline - now) / seconds_per_iteration / 2.0)))
 
 
 @numba.njit(cache=True, nogil=True)

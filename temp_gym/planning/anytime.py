@@ -19,13 +19,11 @@ import time
 import numpy as np
 
 from temp_gym.planning import _compiled_anytime as compiled
+from temp_gym.planning._compiled_tree import slice_length
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
-
-_SLICE = 256
-"""Compiled iterations between two looks at the wall clock."""
 
 
 def finished(tree: Tree, settings: PlanSettings, deadline: float) -> bool:
@@ -106,7 +104,7 @@ def _grow_compiled(
         dtype=np.int64,
     )  # fmt: skip
     target = -math.inf if settings.target_cost is None else float(settings.target_cost)
-    iterations = _SLICE
+    iterations = slice_length(deadline, 0.0, 0.0)
     while True:
         arrays, counters, best_cost, params = tree.compiled_state()
         began, samples = time.perf_counter(), tree.samples
@@ -115,10 +113,11 @@ def _grow_compiled(
             float(settings.goal_bias), batch, state, limits, target, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
-        if math.isfinite(deadline):  # near the deadline, shorter slices: a small overshoot
-            now = time.perf_counter()
-            per_sample = (now - began) / max(tree.samples - samples, 1)
-            iterations = int(min(_SLICE, max(1.0, (deadline - now) / per_sample / 2)))
+        now = time.perf_counter()
+        if now >= deadline:
+            return
+        pace = (now - began) / max(tree.samples - samples, 1)  # one sample per iteration
+        iterations = slice_length(deadline, now, pace)
         if status == compiled.NEED_BATCH:
             batch = base.draw_batch(rng)
             state[compiled.NEXT_ROW], state[compiled.ROWS] = 0, len(batch)
@@ -130,8 +129,6 @@ def _grow_compiled(
         elif status == compiled.FULL:
             tree.grow()
         elif status == compiled.DONE:
-            return
-        if time.perf_counter() >= deadline:
             return
 
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from temp_gym.planning import _compiled_attention as compiled
-from temp_gym.planning._compiled_tree import FALLBACK_BATCH, squared_distance
+from temp_gym.planning._compiled_tree import FALLBACK_BATCH, slice_length, squared_distance
 from temp_gym.planning.observation import TreeObserver
 from temp_gym.planning.policy import SamplingPolicy, fast_path, observation_settings
 from temp_gym.planning.samplers import UniformSampler
@@ -52,8 +52,6 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
-_SLICE = 256
-"""Compiled iterations between two looks at the wall clock."""
 STOPS = ("solved", "attention_budget", "budget", "stalled", "time")
 """Why the phase ended: a solution; the attention budget n; the planner's node or sample
 budget; no progress for ``patience`` nodes; the time limit."""
@@ -244,7 +242,7 @@ def _run_compiled(
     uniform: float,
     limits: AttentionLimits,
 ) -> AttentionOutcome:
-    """The compiled loop, in slices of `_SLICE` iterations between looks at the clock."""
+    """The compiled loop, in slices between looks at the clock (`slice_length`)."""
     weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, chunk, max_path_length = (
         proposer
     )
@@ -265,8 +263,10 @@ def _run_compiled(
          MAX_FALLBACK_TRIES],
         dtype=np.int64,
     )  # fmt: skip
+    iterations = slice_length(limits.deadline, 0.0, 0.0)
     while True:
-        if time.perf_counter() >= limits.deadline:
+        began = time.perf_counter()
+        if began >= limits.deadline:
             stop = "time"
             break
         arrays, counters, best_cost, params = tree.compiled_state()
@@ -274,14 +274,17 @@ def _run_compiled(
             arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
             float(goal_bias), float(uniform), weights, prefix_goal, prefix_z, prefix_qkv,
             policy_rng, float(noise_std), proposals, chunk_out, noise, path_rows, state,
-            closest_sq, budget, _SLICE,
+            closest_sq, budget, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
-        if status == compiled.FULL:
+        if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
+            now = time.perf_counter()
+            iterations = slice_length(limits.deadline, now, (now - began) / iterations)
+        elif status == compiled.FULL:
             tree.grow()
         elif status == compiled.NOT_FINITE:
             raise ValueError("action: the policy proposed a sample that is not finite")
-        elif status != compiled.RUNNING:
+        else:
             stop = _COMPILED_STOPS[status]
             break
     calls, used = int(state[compiled.CALLS]), int(state[compiled.PROPOSALS])

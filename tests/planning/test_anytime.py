@@ -153,3 +153,16 @@ def test_compiled_loop_cannot_be_forced_on_a_checker_without_a_compiled_path(pro
         grow_anytime(tree, settings, np.random.default_rng(0), AnytimeLog(), True, True)
     grow_anytime(tree, settings, np.random.default_rng(0), AnytimeLog(), True)  # Python loop
     assert tree.num_nodes == 50
+
+
+def test_compiled_slices_shrink_as_the_deadline_nears():
+    from temp_gym.planning._compiled_tree import FIRST_TIMED_SLICE, SLICE, slice_length
+
+    assert slice_length(math.inf, 0.0, 0.0) == SLICE  # no time limit: whole slices
+    assert slice_length(math.inf, 0.0, 1e-3) == SLICE
+    assert slice_length(10.0, 0.0, 0.0) == FIRST_TIMED_SLICE  # pace unknown yet
+    assert slice_length(10.0, 0.0, 1e-6) == SLICE  # far from the deadline
+    # 10 ms left at 100 us per iteration: half of them, 50.
+    assert slice_length(1.0, 0.99, 1e-4) == 50
+    assert slice_length(1.0, 0.99999, 1e-4) == 1  # at least one iteration
+    assert slice_length(1.0, 1.5, 1e-4) == 1  # past the deadline (the caller stops)
