@@ -352,7 +352,7 @@ def traps(dim: int, size: float, rng: np.random.Generator) -> Boxes:
             outer = rng.uniform(3.0, 8.0 if dim == 2 else 10.0, size=dim) + 2 * half
             lower = rng.uniform(1.5, size - 1.5 - outer)
             upper = lower + outer
-            if not any(np.all(upper > lo - 1.5) and np.all(lower < hi + 1.5) for lo, hi in cups):
+            if _clear_of([(lower, upper)], cups, 1.5):
                 break
         else:
             continue
