@@ -49,7 +49,12 @@ def robot_of(name: str) -> RobotSpec:
 
 def checkpoint_path(spec: RobotSpec) -> Path:
     """Where the policy shipped for ``spec``'s robot is (or would be) stored."""
-    return CHECKPOINT_DIR / f"{spec.short_name}.pt"
+    return Path(_checkpoint_file(spec))
+
+
+def _checkpoint_file(spec: RobotSpec) -> str:
+    # A string: `load_policy` runs on every default plan(), and pathlib costs microseconds.
+    return os.path.join(CHECKPOINT_DIR, f"{spec.short_name}.pt")
 
 
 def shipped_checkpoint(name: str) -> Path:
@@ -62,11 +67,15 @@ def shipped_checkpoint(name: str) -> Path:
     spec = robot_of(name)
     path = checkpoint_path(spec)
     if not path.is_file():
-        raise FileNotFoundError(
-            f"no pretrained policy for {spec.env_id} ships with this build ({path} is missing); "
-            "train one with trainers/bc.py and pass it as policy=TEMPPolicy.from_checkpoint(...)"
-        )
+        raise _not_shipped(spec, path)
     return path
+
+
+def _not_shipped(spec: RobotSpec, path: Path) -> FileNotFoundError:
+    return FileNotFoundError(
+        f"no pretrained policy for {spec.env_id} ships with this build ({path} is missing); "
+        "train one with trainers/bc.py and pass it as policy=TEMPPolicy.from_checkpoint(...)"
+    )
 
 
 @dataclass
@@ -86,7 +95,7 @@ _BY_FILE: dict[str, tuple[tuple[int, int, int], str]] = {}
 _LOCK = threading.Lock()
 
 
-def _file_stamp(path: Path) -> tuple[int, int, int]:
+def _file_stamp(path: str | Path) -> tuple[int, int, int]:
     status = os.stat(path)
     return status.st_size, status.st_mtime_ns, status.st_ino
 
@@ -100,13 +109,15 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
     from temp_gym.models.policy import PolicyCore
     from temp_gym.models.temp import check_compatible, load_checkpoint
 
-    path = Path(path).resolve()
-    key = str(path)
-    stamp = _file_stamp(path)
+    # An absolute path is key enough (the digest dedups links and copies); resolving it would
+    # cost a syscall per path component on every call.
+    key = os.path.abspath(os.fspath(path))
+    stamp = _file_stamp(key)
     with _LOCK:
         known = _BY_FILE.get(key)
         loaded = _BY_DIGEST.get(known[1]) if known is not None and known[0] == stamp else None
     if loaded is None:
+        path = Path(key)
         data = path.read_bytes()
         digest = hashlib.sha256(data).hexdigest()
         with _LOCK:
@@ -121,7 +132,7 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
             _BY_FILE[key] = (stamp, digest)
     if robot is not None:
         model = loaded.core.model
-        check_compatible(model.robot, model.dim, robot, None, source=str(path))
+        check_compatible(model.robot, model.dim, robot, None, source=key)
     return loaded
 
 
@@ -178,4 +189,11 @@ def load_policy(name: str, noise_std: float | None = None, seed: int | None = No
     Algorithm 1, which the ``temp`` planner uses when ``attention_nodes`` is not given, and
     the output noise, used unless ``noise_std`` is given.
     """
-    return policy_from_checkpoint(shipped_checkpoint(name), robot_of(name).name, noise_std, seed)
+    spec = robot_of(name)
+    path = _checkpoint_file(spec)
+    try:  # the cache's one stat is the existence check too
+        return policy_from_checkpoint(path, spec.name, noise_std, seed)
+    except FileNotFoundError as error:
+        if os.path.isfile(path):  # something else was missing
+            raise
+        raise _not_shipped(spec, Path(path)) from error

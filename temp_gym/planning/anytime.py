@@ -123,6 +123,8 @@ def _grow_compiled(
             state[compiled.NEXT_ROW], state[compiled.ROWS] = 0, len(batch)
         elif status == compiled.IMPROVED:
             log.record_tree(tree)
+            if finished(tree, settings, deadline):  # the stop rule the next slice would fire
+                return
             if isinstance(base, InformedSampler) and base.best_cost != tree.best_cost:
                 base.set_best_cost(tree.best_cost)  # a new informed set: the batch is stale
                 state[compiled.NEXT_ROW] = state[compiled.ROWS] = 0

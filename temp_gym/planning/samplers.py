@@ -19,6 +19,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -131,9 +132,17 @@ class InformedSampler(_BufferedSampler):
         self.goal_radius = float(goal_radius)
         self.centre = (self.start + self.goal) / 2.0
         self.c_min = float(np.linalg.norm(self.goal - self.start))
-        self.rotation = rotation_to_world(self.start, self.goal)
         self.best_cost = math.inf
         self._scales = np.full(self.dim, math.inf)
+
+    @functools.cached_property
+    def rotation(self) -> np.ndarray:
+        """`rotation_to_world` of start and goal, computed on first use.
+
+        A planner that stops at its first solution never samples the informed set, so it never
+        pays for the SVD.
+        """
+        return rotation_to_world(self.start, self.goal)
 
     def set_best_cost(self, cost: float) -> None:
         """Shrink the informed set to the solution cost ``cost`` (inf = sample uniformly)."""

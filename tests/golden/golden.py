@@ -24,6 +24,9 @@ Then the anytime loop (RRT*, Informed RRT*, TEMP's classical phase) moved into c
 (`temp_gym.planning._compiled_anytime`), which checks parent candidates one at a time instead
 of in chunks: only ``collision_checks`` changed. With that field blanked in a copy of this
 script, all 85 fingerprints were identical before and after; the plans were rewritten.
+Then the shipped 2D policy changed (a smaller MPT trained on the mixed workspace families):
+only the three 2D ``temp`` plans and the 2D evaluation record (TEMP's path) changed, and were
+rewritten the same way.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.

@@ -67,3 +67,20 @@ def test_shipped_settings_apply_and_a_wrong_robot_is_refused(count_reads):
     assert policy.noise_std == 0.2
     with pytest.raises(ValueError, match="point3d"):
         policy_from_checkpoint(registry.shipped_checkpoint("point2d"), robot="point3d")
+
+
+def test_a_missing_shipped_checkpoint_says_how_to_get_one(monkeypatch, tmp_path):
+    monkeypatch.setattr(registry, "CHECKPOINT_DIR", tmp_path)  # a build that ships none
+    registry.clear_cache()
+    with pytest.raises(FileNotFoundError, match="no pretrained policy for TEMP-2D-v0"):
+        load_policy("point2d")
+    with pytest.raises(FileNotFoundError, match="no pretrained policy for TEMP-2D-v0"):
+        registry.shipped_checkpoint("TEMP-2D-v0")
+
+
+def test_a_relative_path_and_its_absolute_twin_share_one_load(count_reads, tmp_path, monkeypatch):
+    path = tmp_path / "policy.pt"
+    shutil.copy(registry.shipped_checkpoint("point2d"), path)
+    monkeypatch.chdir(tmp_path)
+    assert load_cached("policy.pt") is load_cached(path)
+    assert count_reads == {"bytes": 1, "torch": 1}

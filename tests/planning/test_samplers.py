@@ -84,3 +84,18 @@ def test_same_generator_seed_same_samples():
     again = draw(a, np.random.default_rng(7), 300)
     np.testing.assert_array_equal(first, again)
     assert not math.isnan(first.sum())
+
+
+def test_a_first_solution_run_never_computes_the_informed_rotation(monkeypatch):
+    from temp_gym import Problem, plan
+    from temp_gym.planning import samplers
+
+    def refuse(*args):
+        raise AssertionError("rotation_to_world was computed")
+
+    problem = Problem.load("examples/point2d.json")
+    plan(problem, planner="informed_rrt_star", max_nodes=50)  # the process's warm-up runs first
+    monkeypatch.setattr(samplers, "rotation_to_world", refuse)
+    assert plan(problem, planner="informed_rrt_star", stop_at_first=True).success
+    with pytest.raises(AssertionError, match="rotation_to_world"):  # the anytime run needs it
+        plan(problem, planner="informed_rrt_star", max_nodes=300)

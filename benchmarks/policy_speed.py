@@ -1,0 +1,130 @@
+"""TEMP with different policies (model sizes, training runs) against RRT*, side by side.
+
+    python benchmarks/policy_speed.py --world 2d [--checkpoints runs/.../best.pt ...]
+        [--tasks 50] [--seeds 2] [--budget 10000]
+
+Whether a smaller or otherwise cheaper model pays is a trade: each MPT call costs less, but a
+weaker policy may need more nodes. This measures both in one run. On ``--tasks`` easy and
+``--tasks`` challenging test tasks (unseen workspaces), each policy (the shipped one first,
+then each ``--checkpoints`` entry with the planner settings it carries) and RRT* and Informed
+RRT* are called as users call them, ``plan(problem, policy=..., stop_at_first=True)``, seed by
+seed with the order of the planners alternating, so all see the same machine load. Per row
+and planner: successes, mean and median wall time of the whole call, mean and median nodes to
+the first solution (a failure counts as the budget) and the paired time ratio against RRT*
+and Informed RRT* (sum over the runs, as in `docs/results.md`). Then, per policy, the mean
+time of one MPT call on the paths it was asked about (`FastMPT.predict`).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym import plan
+from temp_gym.config import parse_args, script_parser
+from temp_gym.evaluation.runner import evaluation_problem
+from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
+from temp_gym.worlds.robots import robot_spec, robot_specs
+
+ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
+BASELINES = ("rrt_star", "informed_rrt_star")
+
+
+def test_rows(robot: str, tasks: int) -> dict[str, list]:
+    """The first ``tasks`` test tasks of each evaluation row (easy, challenging; 7D: any)."""
+    return {
+        difficulty: [evaluation_problem(robot, difficulty, i) for i in range(tasks)]
+        for difficulty in robot_spec(robot).evaluation_rows.values()
+    }
+
+
+def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, Path], seeds: int,
+            budget: int) -> dict[str, dict[str, list[tuple[float, int, bool]]]]:  # fmt: skip
+    """Per row and planner: ``(seconds, nodes to the first solution, success)`` per run."""
+    names = list(checkpoints) + list(BASELINES)
+    warm = next(iter(rows.values()))[0]
+    for name in names:  # compile and load before the clock
+        _call(warm, name, checkpoints, robot, 0, budget)
+    runs: dict[str, dict[str, list]] = {row: {n: [] for n in names} for row in rows}
+    for seed in range(seeds):
+        for row, problems in rows.items():
+            for problem in problems:
+                order = names if seed % 2 == 0 else names[::-1]
+                for name in order:
+                    runs[row][name].append(_call(problem, name, checkpoints, robot, seed, budget))
+    return runs
+
+
+def _call(problem, name: str, checkpoints: dict[str, Path], robot: str, seed: int,
+          budget: int) -> tuple[float, int, bool]:  # fmt: skip
+    if name in checkpoints:
+        policy = policy_from_checkpoint(checkpoints[name], robot)
+        began = time.perf_counter()
+        result = plan(problem, policy=policy, seed=seed, max_nodes=budget, stop_at_first=True)
+    else:
+        began = time.perf_counter()
+        result = plan(problem, planner=name, seed=seed, max_nodes=budget, stop_at_first=True)
+    seconds = time.perf_counter() - began
+    nodes = result.nodes_to_first_solution if result.success else budget
+    return seconds, int(nodes), bool(result.success)
+
+
+def mpt_call_seconds(checkpoint: Path, robot: str, problems: list, calls: int = 2000) -> float:
+    """Mean seconds of one `TEMPPolicy.propose_chunk` (the numba MPT) on paths of 1..L/4 rows."""
+    policy = policy_from_checkpoint(checkpoint, robot, noise_std=0.0)
+    rng = np.random.default_rng(0)
+    lengths = rng.integers(1, max(2, policy.max_path_length // 4), size=calls)
+    path = rng.uniform(-1, 1, (policy.max_path_length, policy.model.dim)).astype(np.float32)
+    policy.reset(problems[0])
+    policy.propose_chunk(path, 1)  # the first call from Python loads the kernel: untimed
+    total = 0.0
+    for index, length in enumerate(lengths):
+        policy.reset(problems[index % len(problems)])
+        began = time.perf_counter()
+        policy.propose_chunk(path, int(length))
+        total += time.perf_counter() - began
+    return total / calls
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--world", default="2d", choices=list(ROBOTS), help="the world")
+    parser.add_argument("--checkpoints", nargs="*", type=Path, default=[],
+                        help="bc.py checkpoints to compare with the shipped policy")  # fmt: skip
+    parser.add_argument("--tasks", type=int, default=50, help="test tasks per row")
+    parser.add_argument("--seeds", type=int, default=2, help="planner seeds per task")
+    parser.add_argument("--budget", type=int, default=10_000, help="node budget per run")
+    args = parse_args(parser, argv)
+    robot = ROBOTS[args.world]
+    checkpoints = {"shipped": shipped_checkpoint(robot)}
+    for path in args.checkpoints:
+        if not path.is_file():
+            raise SystemExit(f"--checkpoints: no file {path}")
+        checkpoints[str(path)] = path
+    rows = test_rows(robot, args.tasks)
+    runs = run_all(robot, rows, checkpoints, args.seeds, args.budget)
+    for row, planners in runs.items():
+        print(f"\n**{args.world} {row}**, {args.tasks} tasks x {args.seeds} seeds, to the first "
+              f"solution (whole `plan` call)\n")  # fmt: skip
+        print("| planner | solved | time mean / median (ms) | nodes mean / median | "
+              "time / RRT* | time / IRRT* |\n|---|---:|---:|---:|---:|---:|")  # fmt: skip
+        totals = {b: sum(t for t, _, _ in planners[b]) for b in BASELINES}
+        for name, results in planners.items():
+            times = [t for t, _, _ in results]
+            nodes = [n for _, n, _ in results]
+            solved = sum(ok for _, _, ok in results)
+            print(f"| {name} | {solved}/{len(results)} | {1e3 * statistics.mean(times):.2f} / "
+                  f"{1e3 * statistics.median(times):.2f} | {statistics.mean(nodes):.1f} / "
+                  f"{statistics.median(nodes):.0f} | {sum(times) / totals['rrt_star']:.3f} | "
+                  f"{sum(times) / totals['informed_rrt_star']:.3f} |")  # fmt: skip
+    problems = [p for row in rows.values() for p in row]
+    print("\n| policy | one MPT call (us) |\n|---|---:|")
+    for name, path in checkpoints.items():
+        print(f"| {name} | {1e6 * mpt_call_seconds(path, robot, problems):.1f} |")
+
+
+if __name__ == "__main__":
+    main()
