@@ -166,3 +166,19 @@ def test_compiled_slices_shrink_as_the_deadline_nears():
     assert slice_length(1.0, 0.99, 1e-4) == 50
     assert slice_length(1.0, 0.99999, 1e-4) == 1  # at least one iteration
     assert slice_length(1.0, 1.5, 1e-4) == 1  # past the deadline (the caller stops)
+
+
+def test_compiled_loop_stops_at_the_improvement_that_meets_the_stop_rule(problem_2d, monkeypatch):
+    from temp_gym.planning import _compiled_anytime as compiled
+
+    statuses = []
+    slice_ = compiled.anytime_slice
+
+    def recorded(*args):
+        statuses.append(slice_(*args))
+        return statuses[-1]
+
+    monkeypatch.setattr(compiled, "anytime_slice", recorded)
+    tree = _grown(problem_2d, 0, True, True, max_nodes=10_000, stop_at_first=True)[0]
+    assert tree.best_node >= 0
+    assert statuses[-1] == compiled.IMPROVED  # no further slice only to learn it is done
