@@ -12,7 +12,8 @@ seed with the order of the planners alternating, so all see the same machine loa
 and planner: successes, mean and median wall time of the whole call, mean and median nodes to
 the first solution (a failure counts as the budget) and the paired time ratio against RRT*
 and Informed RRT* (sum over the runs, as in `docs/results.md`). Then, per policy, the mean
-time of one MPT call on the paths it was asked about (`FastMPT.predict`).
+time of one MPT call from Python (`TEMPPolicy.propose_chunk` on the numba MPT, noise off) on
+random paths of 1 to L/4 rows, its first call (which loads the kernel) untimed.
 """
 
 from __future__ import annotations
