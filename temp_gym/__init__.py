@@ -15,9 +15,9 @@ register_envs()
 
 def _shipped_policy(robot: str):
     """The ``temp`` planner's default policy: the one shipped for ``robot`` (imports torch)."""
-    from temp_gym.models.registry import load_policy
+    from temp_gym.models.registry import shipped_policy
 
-    return load_policy(robot)
+    return shipped_policy(robot)
 
 
 set_default_policy(_shipped_policy)  # the planning layer imports no model code itself

@@ -54,8 +54,6 @@ from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import goal_radius_ratio, normalize
 
-_UNUSED_GENERATOR = np.random.default_rng(0)
-"""Stands in for the noise generator of a noiseless policy in compiled code (never drawn)."""
 SEI_CACHE_SIZE = 256
 """Workspaces whose SEI a `PolicyCore` remembers."""
 
@@ -264,12 +262,18 @@ class TEMPPolicy:
         return self.horizon
 
     def reset(self, problem: Problem, seed: int | None = None) -> None:
-        """Encode the problem's workspace (cached per workspace); re-seed the noise if asked."""
-        check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
-        self.problem = problem
+        """Encode the problem's workspace (cached per workspace); re-seed the noise if asked.
+
+        Resetting to the problem the policy already holds (the same, immutable object, not
+        followed away from since) keeps its encoding: only the noise is re-seeded.
+        """
         if seed is not None:  # the generator is made when the noise first needs it
             self._rng_seed, self._rng = seed, None
         self.attentions = []
+        if problem is self.problem and self._sei is not None:
+            return
+        check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
+        self.problem = problem
         self._sei, self._sei_array = self.core.sei(problem)
         # The task as the model reads it, float32; PyTorch's tensors are made when first used.
         self._task_arrays = (
@@ -376,13 +380,13 @@ class TEMPPolicy:
 
         ``(weights, goal, prefix tokens, prefix qkv, noise generator, noise_std, chunk, L)``
         for `temp_gym.planning._compiled_attention`: the `FastMPT` kernel's weights and this
-        problem's prefix (so `reset` first). None on the PyTorch backend or while attention
-        is recorded, which only PyTorch can do.
+        problem's prefix (so `reset` first); the generator is None when ``noise_std`` is 0.
+        None on the PyTorch backend or while attention is recorded, which only PyTorch can do.
         """
         if self._fast is None or self.record_attention or self._prefix is None:
             return None
         prefix = self._prefix
-        noise = self.rng if self.noise_std > 0 else _UNUSED_GENERATOR
+        noise = self.rng if self.noise_std > 0 else None
         return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, noise,
                 self.noise_std, self.chunk, self.max_path_length)  # fmt: skip
 

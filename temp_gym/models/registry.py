@@ -9,10 +9,15 @@ They are ordinary `TEMPModel` checkpoints, read with
 (the model in eval mode, its numba MPT, the SEI of each workspace seen: a `PolicyCore`) keyed
 by the checkpoint file's SHA-256 digest. A later call finds the file unchanged by its size,
 modification time and inode (one ``stat``, no read) and builds a new `TEMPPolicy` on the same
-core, so ``plan(problem)`` with the default planner reads nothing from disk after its first
-call on a robot; a file that changed is read and hashed again, and only a new digest loads new
-weights. Each call still returns its own policy (its own noise generator and problem), so
-concurrent plans do not share state beyond the read-only core.
+core; a file that changed is read and hashed again, and only a new digest loads new weights.
+Each call still returns its own policy (its own noise generator and problem), so concurrent
+plans do not share state beyond the read-only core.
+
+**The planner's default policy** (`shipped_policy`, what ``plan(problem)`` uses when given no
+policy) goes one step further: one `TEMPPolicy` per robot and thread, kept while the
+checkpoint's digest stays the same. The planner resets it (problem and seed) before every
+run, so keeping it changes no result, and a default ``plan(problem)`` after the first on a
+robot builds no policy and reads nothing from disk.
 
 The cached models are shared: do not train them in place (their parameters have
 ``requires_grad`` off to make that fail loudly). To fine-tune, load a private copy with
@@ -159,9 +164,19 @@ def policy_from_checkpoint(
     stall patience. A checkpoint without them gets n = None (all of the planner's
     ``max_nodes``), no noise, its whole chunk and the planner's default patience.
     """
+    return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon)
+
+
+def _policy_on(
+    loaded: LoadedCheckpoint,
+    noise_std: float | None = None,
+    seed: int | None = None,
+    attention_nodes: int | None = None,
+    horizon: int | None = None,
+):
+    """A new `TEMPPolicy` on a cached checkpoint (`policy_from_checkpoint`'s settings)."""
     from temp_gym.models.policy import TEMPPolicy
 
-    loaded = load_cached(path, robot)
     planner = loaded.meta.get("planner", {})
     if noise_std is None:
         noise_std = float(planner.get("noise_std", 0.0))
@@ -189,11 +204,39 @@ def load_policy(name: str, noise_std: float | None = None, seed: int | None = No
     Algorithm 1, which the ``temp`` planner uses when ``attention_nodes`` is not given, and
     the output noise, used unless ``noise_std`` is given.
     """
-    spec = robot_of(name)
+    return _policy_on(_load_shipped(robot_of(name)), noise_std, seed)
+
+
+def _load_shipped(spec: RobotSpec) -> LoadedCheckpoint:
+    """The cached checkpoint shipped for ``spec``'s robot, or `_not_shipped`'s error."""
     path = _checkpoint_file(spec)
     try:  # the cache's one stat is the existence check too
-        return policy_from_checkpoint(path, spec.name, noise_std, seed)
+        return load_cached(path, spec.name)
     except FileNotFoundError as error:
         if os.path.isfile(path):  # something else was missing
             raise
         raise _not_shipped(spec, Path(path)) from error
+
+
+_DEFAULTS = threading.local()
+"""Per thread: robot name -> (the `LoadedCheckpoint`, the planner's default policy on it)."""
+
+
+def shipped_policy(robot: str):
+    """The ``temp`` planner's default policy for ``robot``: the shipped one, kept per thread.
+
+    The same `TEMPPolicy` is returned on every call in a thread while the checkpoint file
+    keeps its digest (the cache's one ``stat`` notices a changed file); the planner resets it
+    before each run, so reusing it changes no result. Other threads get their own, so
+    concurrent plans share nothing but the read-only core. Use `load_policy` for a policy of
+    your own to configure.
+    """
+    spec = robot_of(robot)
+    loaded = _load_shipped(spec)
+    policies = getattr(_DEFAULTS, "policies", None)
+    if policies is None:
+        policies = _DEFAULTS.policies = {}
+    known = policies.get(spec.name)
+    if known is None or known[0] is not loaded:
+        known = policies[spec.name] = (loaded, _policy_on(loaded))
+    return known[1]

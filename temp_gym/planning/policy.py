@@ -101,7 +101,9 @@ class CompiledProposer(Protocol):
         """The policy as the compiled loop runs it, or None when it cannot.
 
         ``(weights, goal, prefix tokens, prefix qkv, noise generator, noise_std, chunk, L)``
-        for the MPT kernel (`temp_gym.planning.mpt_kernel.forward_kernel`).
+        for the MPT kernel (`temp_gym.planning.mpt_kernel.forward_kernel`); the loop draws
+        the output noise, ``normal(0, noise_std, (chunk, d))`` per call, from the generator
+        (None when ``noise_std`` is 0).
         """
         ...
 

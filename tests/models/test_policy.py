@@ -252,3 +252,27 @@ def test_a_temp_policy_meets_the_contract_with_every_fast_path(small_model):
     policy.reset(problem, seed=0)
     path = np.zeros((policy.max_path_length, 2), np.float32)
     assert policy.propose_chunk(path, 1).shape == (policy.chunk, 2)
+
+
+@pytest.mark.parametrize("backend", ["numba", "torch"])
+def test_a_reset_to_the_problem_it_holds_keeps_the_encoding(small_model, backend, monkeypatch):
+    other = Problem.from_dict({**PROBLEM.to_dict(), "start": [3, 17], "goal": [17, 3]})
+    observation = _task_observation(PROBLEM)
+    policy = TEMPPolicy(small_model, noise_std=0.1, backend=backend)
+    policy.reset(PROBLEM, seed=2)
+    first = policy(observation)
+    encodings = []
+    sei = policy.core.sei
+
+    def counted_sei(problem):
+        encodings.append(problem)
+        return sei(problem)
+
+    monkeypatch.setattr(policy.core, "sei", counted_sei)
+    policy.reset(PROBLEM, seed=2)  # the same problem: no encoding, the noise re-seeded
+    np.testing.assert_array_equal(policy(observation), first)
+    assert encodings == []
+    policy(_task_observation(other))  # followed away to another task ...
+    policy.reset(PROBLEM, seed=2)  # ... so the same problem is encoded again
+    assert encodings == [PROBLEM]
+    np.testing.assert_array_equal(policy(observation), first)

@@ -1,6 +1,7 @@
 """The loaded-policy cache: one load per checkpoint content, shared cores, fresh policies."""
 
 import shutil
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +10,13 @@ import torch
 
 from temp_gym import Problem, plan
 from temp_gym.models import registry
-from temp_gym.models.registry import load_cached, load_policy, policy_from_checkpoint
+from temp_gym.models.registry import (
+    load_cached,
+    load_policy,
+    policy_from_checkpoint,
+    shipped_policy,
+)
+from temp_gym.worlds.generators import generate_problem
 
 PROBLEM = Problem.load("examples/point2d.json")
 
@@ -84,3 +91,34 @@ def test_a_relative_path_and_its_absolute_twin_share_one_load(count_reads, tmp_p
     monkeypatch.chdir(tmp_path)
     assert load_cached("policy.pt") is load_cached(path)
     assert count_reads == {"bytes": 1, "torch": 1}
+
+
+def test_the_default_policy_is_kept_per_thread_and_per_digest(count_reads, monkeypatch, tmp_path):
+    first = shipped_policy("point2d")
+    assert shipped_policy("TEMP-2D-v0") is first
+    elsewhere = []
+    thread = threading.Thread(target=lambda: elsewhere.append(shipped_policy("point2d")))
+    thread.start()
+    thread.join()
+    assert elsewhere[0] is not first and elsewhere[0].core is first.core
+    shipped = registry.shipped_checkpoint("point2d")
+    monkeypatch.setattr(registry, "CHECKPOINT_DIR", tmp_path)
+    shutil.copy(shipped, tmp_path / "2d.pt")  # another file, the same digest: the same policy
+    assert shipped_policy("point2d") is first
+    checkpoint = torch.load(shipped, weights_only=True)
+    checkpoint["note"] = "changed"
+    torch.save(checkpoint, tmp_path / "2d.pt")  # a new digest: a new policy on new weights
+    changed = shipped_policy("point2d")
+    assert changed is not first and changed.core is not first.core
+    assert count_reads == {"bytes": 3, "torch": 3}  # one torch.load is this test's own
+
+
+def test_plans_with_the_kept_default_policy_equal_plans_with_a_fresh_one(count_reads):
+    other = generate_problem("point2d", np.random.default_rng(4), "challenging")
+    kept = plan(PROBLEM, seed=3, stop_at_first=True)
+    plan(other, seed=5, stop_at_first=True)  # the kept policy holds another problem ...
+    again = plan(PROBLEM, seed=3, stop_at_first=True)  # ... and is reset back
+    fresh = plan(PROBLEM, seed=3, stop_at_first=True, policy=load_policy("point2d"))
+    for result in (again, fresh):
+        np.testing.assert_array_equal(result.path, kept.path)
+        assert result.nodes == kept.nodes
