@@ -74,7 +74,7 @@ class PolicyCore:
         fast = fast and self.device.type == "cpu"
         self.fast = FastMPT(self.model.mpt) if fast else None
         self.fast_eise = FastEISE(self.model.eise) if fast else None
-        self._sei: OrderedDict[Workspace, tuple[torch.Tensor, np.ndarray]] = OrderedDict()
+        self._sei: OrderedDict[Workspace, tuple[torch.Tensor | None, np.ndarray]] = OrderedDict()
         self._lock = threading.Lock()
 
     def encode(self, occupancy: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
@@ -83,23 +83,39 @@ class PolicyCore:
         `FastEISE` on a fast core (the tensor then shares the array's memory), else the
         model's EISE in PyTorch.
         """
+        return self._with_tensor(self._encode(occupancy))
+
+    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
+        """The SEI of the problem's workspace (encoded once per workspace): `encode`'s pair."""
+        return self._with_tensor(self._cached(problem))
+
+    def sei_array(self, problem: Problem) -> np.ndarray:
+        """`sei`'s float32 array alone: on a fast core no tensor is made (the planner's path)."""
+        return self._cached(problem)[1]
+
+    def _encode(self, occupancy: np.ndarray) -> tuple[torch.Tensor | None, np.ndarray]:
         if self.fast_eise is not None:
-            array = self.fast_eise(occupancy)
-            return torch.from_numpy(array).unsqueeze(0), array
+            return None, self.fast_eise(occupancy)  # the tensor is made when asked for
         grid = torch.from_numpy(np.ascontiguousarray(occupancy, np.float32)).unsqueeze(0)
         with torch.inference_mode():
             tensor = self.model.eise(grid.to(self.device))
         return tensor, tensor.cpu().numpy()[0].astype(np.float32)
 
-    def sei(self, problem: Problem) -> tuple[torch.Tensor, np.ndarray]:
-        """The SEI of the problem's workspace (encoded once per workspace): `encode`'s pair."""
+    @staticmethod
+    def _with_tensor(
+        pair: tuple[torch.Tensor | None, np.ndarray],
+    ) -> tuple[torch.Tensor, np.ndarray]:
+        tensor, array = pair
+        return (torch.from_numpy(array).unsqueeze(0) if tensor is None else tensor), array
+
+    def _cached(self, problem: Problem) -> tuple[torch.Tensor | None, np.ndarray]:
         key = problem.workspace
         with self._lock:
             sei = self._sei.get(key)
             if sei is not None:
                 self._sei.move_to_end(key)
                 return sei
-        sei = self.encode(occupancy_grid(problem.workspace, self.model.encoding_resolution))
+        sei = self._encode(occupancy_grid(problem.workspace, self.model.encoding_resolution))
         with self._lock:
             self._sei[key] = sei
             if len(self._sei) > SEI_CACHE_SIZE:
@@ -270,16 +286,20 @@ class TEMPPolicy:
         if seed is not None:  # the generator is made when the noise first needs it
             self._rng_seed, self._rng = seed, None
         self.attentions = []
-        if problem is self.problem and self._sei is not None:
+        if problem is self.problem and self._sei_array is not None:
             return
         check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
         self.problem = problem
-        self._sei, self._sei_array = self.core.sei(problem)
+        if self._fast is not None:  # the numba path reads the array; `_torch_sample` makes a
+            self._sei, self._sei_array = None, self.core.sei_array(problem)  # tensor if asked
+        else:
+            self._sei, self._sei_array = self.core.sei(problem)
         # The task as the model reads it, float32; PyTorch's tensors are made when first used.
+        goal, start = normalize(np.array([problem.goal, problem.start]), problem.bounds)
         self._task_arrays = (
-            normalize(problem.goal, problem.bounds).astype(np.float32),
+            goal.astype(np.float32),
             np.array([goal_radius_ratio(problem.goal_radius, problem.bounds)], np.float32),
-            normalize(problem.start, problem.bounds).astype(np.float32),
+            start.astype(np.float32),
         )
         self._task = None
         if self._fast is not None:
@@ -296,7 +316,7 @@ class TEMPPolicy:
         """
         keys = ("occupancy", *TASK_KEYS)
         if not carries(observation, keys):
-            if self._sei is not None:
+            if self._sei_array is not None:
                 return
             raise ValueError(
                 f"observation: expected the env's observation with {list(keys)}, or call "
@@ -365,7 +385,7 @@ class TEMPPolicy:
         The planner's path (`temp_gym.planning.attention`): no observation is built per
         step. Noise, when set, is drawn for the whole chunk.
         """
-        if self._sei is None:
+        if self._sei_array is None:
             raise RuntimeError("call policy.reset(problem) before sampling")
         if self._fast is not None and not self.record_attention:
             action = self._fast.predict(self._prefix, path, length, self._out)
@@ -399,6 +419,8 @@ class TEMPPolicy:
                 torch.from_numpy(value).reshape(1, -1).to(self.device)
                 for value in self._task_arrays
             ]
+        if self._sei is None:  # a fast core's reset keeps the array alone
+            self._sei = torch.from_numpy(self._sei_array).unsqueeze(0).to(self.device)
         goal, goal_radius, start = self._task
         with torch.inference_mode():
             sample, weights = self.model.mpt(
