@@ -21,7 +21,8 @@ planning", Thm. 38 and its k-nearest variant), with ``n`` the number of nodes pl
   checker; once per workspace and process: `workspace_free_volume`) and ``zeta_d`` the volume
   of the unit d-ball. ``rewire_factor > 1`` keeps ``gamma`` above the asymptotic-optimality
   bound. ``max_radius`` defaults to ``2 * step_size``: for the budgets we run the cap is what
-  binds.
+  binds, so while a cheap lower bound of ``mu_free`` (`free_volume_floor`) already puts the
+  radius at the cap, the exact volume is not computed (`Tree._gamma_for`; same radii).
 * ``"k_nearest"``: ``k = ceil(rewire_factor * e * (1 + 1/d) * log n)`` nearest nodes.
 
 Example:
@@ -84,6 +85,21 @@ def estimate_free_volume(problem: Problem, checker: CollisionChecker) -> float:
         states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
         fraction = float(np.mean(checker.states_free(states)))
     return max(fraction, 1.0 / _FREE_VOLUME_SAMPLES) * total
+
+
+def free_volume_floor(problem: Problem, checker: CollisionChecker) -> float | None:
+    """A lower bound of `estimate_free_volume` that costs next to nothing, or None.
+
+    From the checker's ``free_volume_floor()`` when it has one (the point robots': the bounds
+    less the sum of the boxes' volumes), clamped as `estimate_free_volume` clamps. `Tree` uses
+    it to put off the exact volume until a tree grows large enough for it to matter.
+    """
+    floor = getattr(checker, "free_volume_floor", None)
+    if floor is None:
+        return None
+    low, high = problem.bounds
+    total = float(np.prod(high - low))
+    return max(float(floor()) / total, 1.0 / _FREE_VOLUME_SAMPLES) * total
 
 
 def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
@@ -194,21 +210,22 @@ class Tree:
         self._bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
         self._goal_radius_sq = problem.goal_radius**2
         dim = self.dim
+        self._gamma: float | None = None  # exact, computed when first needed
+        self._gamma_floor: float | None = None  # a lower bound, while the cap binds anyway
         if neighbourhood == "radius":
-            free_volume = (
-                workspace_free_volume(problem, self.checker)
-                if checker is None  # a caller's own checker may see other free space
-                else estimate_free_volume(problem, self.checker)
-            )
-            self.gamma = (
-                self.rewire_factor
-                * 2.0
-                * (1.0 + 1.0 / dim) ** (1.0 / dim)
-                * (free_volume / unit_ball_volume(dim)) ** (1.0 / dim)
-            )
+            floor = None
+            if checker is None and problem.workspace not in _FREE_VOLUME_CACHE:
+                floor = free_volume_floor(problem, self.checker)
+            if floor is not None:
+                self._gamma_floor = self._radius_gamma(floor)
+            elif checker is None:
+                self._gamma = self._radius_gamma(workspace_free_volume(problem, self.checker))
+            else:  # a caller's own checker may see other free space: not cached
+                self._gamma = self._radius_gamma(estimate_free_volume(problem, self.checker))
         else:
-            self.gamma = self.rewire_factor * math.e * (1.0 + 1.0 / dim)
+            self._gamma = self.rewire_factor * math.e * (1.0 + 1.0 / dim)
         capacity = max(int(capacity), 2)
+        self._gamma_in_use = self._gamma_for(capacity)
         self.positions = np.empty((capacity, dim))
         self.costs = np.empty(capacity)
         self.links = np.empty((capacity, 3), dtype=np.int64)
@@ -251,10 +268,45 @@ class Tree:
         """Indices of the nodes inside the goal region, in insertion order (a copy)."""
         return self._goal_nodes[: self.num_goal_nodes].copy()
 
+    @property
+    def gamma(self) -> float:
+        """``gamma`` of the radius rule (module docstring), or k's factor for k-nearest."""
+        if self._gamma is None:
+            self._gamma = self._radius_gamma(workspace_free_volume(self.problem, self.checker))
+        return self._gamma
+
+    def _radius_gamma(self, free_volume: float) -> float:
+        dim = self.dim
+        return (
+            self.rewire_factor
+            * 2.0
+            * (1.0 + 1.0 / dim) ** (1.0 / dim)
+            * (free_volume / unit_ball_volume(dim)) ** (1.0 / dim)
+        )
+
+    def _gamma_for(self, capacity: int) -> float:
+        """The ``gamma`` the extensions use while the tree has at most ``capacity`` nodes.
+
+        The radius rule takes the smaller of ``gamma * (log n / n) ** (1/d)`` and the cap. While
+        a lower bound of ``gamma`` already reaches the cap for every n up to ``capacity``
+        (``log n / n`` is smallest at n = 2 or n = capacity), the exact ``gamma`` reaches it
+        too and the radius is the cap either way: the bound stands in, and the exact free
+        volume (a coordinate-compression pass over the boxes, costly in 3D) is computed only
+        when a tree grows past that point. Same radii, so the same trees.
+        """
+        floor = self._gamma_floor
+        if self._gamma is None and floor is not None:
+            inverse_dim = 1.0 / self.dim
+            smallest = min(math.log(2) / 2, math.log(capacity) / capacity)
+            # A margin for rounding: the kernels compute the same expression per n.
+            if floor * smallest**inverse_dim >= self.max_radius * (1.0 + 1e-9):
+                return floor
+        return self.gamma
+
     def near_radius(self) -> float:
         """The current near radius (radius rule) before the next insertion."""
         n = self.num_nodes + 1
-        return min(self.gamma * (math.log(n) / n) ** (1.0 / self.dim), self.max_radius)
+        return min(self._gamma_in_use * (math.log(n) / n) ** (1.0 / self.dim), self.max_radius)
 
     def near_count(self) -> int:
         """The current k of the k-nearest rule before the next insertion."""
@@ -302,7 +354,7 @@ class Tree:
             dtype=np.int64,
         )  # fmt: skip
         params = np.array(
-            [self.step_size, self.gamma, self.max_radius, self._goal_radius_sq,
+            [self.step_size, self._gamma_in_use, self.max_radius, self._goal_radius_sq,
              1.0 if self.neighbourhood == "k_nearest" else 0.0]
         )  # fmt: skip
         return arrays, counters, np.array([self.best_cost]), params
@@ -320,6 +372,7 @@ class Tree:
     # ------------------------------------------------------------------ growth
     def _grow(self) -> None:
         capacity = 2 * self.capacity
+        self._gamma_in_use = self._gamma_for(capacity)
         for name in ("positions", "costs", "links"):
             old = getattr(self, name)
             new = np.empty((capacity,) + old.shape[1:], dtype=old.dtype)

@@ -131,3 +131,35 @@ def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
     assert Tree(no_boxes).gamma > first.gamma and len(calls) == 2  # more free space
     Tree(problem_2d, checker=make_checker(problem_2d))  # a caller's checker: not cached
     assert len(calls) == 3
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeypatch):
+    """A tree on the volume's lower bound grows as the tree on the exact volume, node for node."""
+    from temp_gym.planning import tree as tree_module
+    from temp_gym.worlds.checkers import make_checker
+    from temp_gym.worlds.generators import generate_problem
+
+    problem = generate_problem(robot, np.random.default_rng(2), "challenging")
+    monkeypatch.setattr(tree_module, "_FREE_VOLUME_CACHE", type(tree_module._FREE_VOLUME_CACHE)())
+    lazy = Tree(problem, capacity=64)
+    eager = Tree(problem, checker=make_checker(problem), capacity=64)  # exact from the start
+    assert lazy._gamma is None and eager._gamma is not None
+    sampler = UniformSampler(problem.bounds)
+    rng_lazy, rng_eager = np.random.default_rng(5), np.random.default_rng(5)
+    below_cap = set()
+    nodes = 6000 if robot == "point2d" else 3000
+    while lazy.num_nodes < nodes:
+        lazy.extend_with_fallback(sampler.sample(rng_lazy), sampler, rng_lazy, 1000)
+        eager.extend_with_fallback(sampler.sample(rng_eager), sampler, rng_eager, 1000)
+        below_cap.add(eager.near_radius() < eager.max_radius)
+    n = lazy.num_nodes
+    assert n == eager.num_nodes
+    np.testing.assert_array_equal(lazy.positions[:n], eager.positions[:n])
+    np.testing.assert_array_equal(lazy.links[:n], eager.links[:n])
+    np.testing.assert_array_equal(lazy.costs[:n], eager.costs[:n])
+    if robot == "point2d":  # past the point where the cap binds: the exact volume was needed
+        assert True in below_cap and lazy._gamma == eager.gamma
+    else:  # the cap binds throughout: the exact volume was never computed
+        assert below_cap == {False} and lazy._gamma is None
+        assert len(tree_module._FREE_VOLUME_CACHE) == 0

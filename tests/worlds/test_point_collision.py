@@ -118,3 +118,17 @@ def test_exact_free_volume_agrees_with_sampling(robot):
     sampled = checker.states_free(states).mean() * np.prod(high - low)
     # 200k samples: the sampled volume's standard error is under 0.12% of the bounds' volume
     assert checker.free_volume() == pytest.approx(sampled, abs=0.005 * np.prod(high - low))
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+def test_the_free_volume_floor_is_a_lower_bound(robot):
+    rng = np.random.default_rng(8)
+    for index in range(40):  # generated scenes, overlapping boxes among them
+        problem = generate_problem(robot, rng, "challenging" if index % 2 else "easy")
+        checker = make_checker(problem)
+        assert checker.free_volume_floor() <= checker.free_volume()
+    lower = np.array([[2.0, 2.0], [3.0, 3.0], [-4.0, 8.0]])  # an overlap, a box half outside
+    upper = np.array([[4.0, 4.0], [5.0, 5.0], [1.0, 9.0]])
+    checker = checker_with(lower, upper, bounds=np.array([[0.0, 0.0], [10.0, 10.0]]))
+    assert checker.free_volume() == pytest.approx(100.0 - 7.0 - 1.0)
+    assert checker.free_volume_floor() == pytest.approx(100.0 - 8.0 - 1.0)  # overlap twice
