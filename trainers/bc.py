@@ -52,6 +52,7 @@ from tqdm import tqdm
 from temp_gym import training
 from temp_gym.config import (
     Config,
+    ConfigError,
     differing_keys,
     flatten,
     load_config,
@@ -431,9 +432,31 @@ def read_command_line(argv: list[str] | None) -> tuple[Config, argparse.Namespac
     return load_config(args.config, args.overrides), args
 
 
+def check_job(config: Config, skip_eval: bool) -> None:
+    """Refuse, naming the key, settings that would train on nothing or compare on nothing.
+
+    Raises:
+        ConfigError: a non-positive epoch count, batch size or learning rate, or no final
+            comparison tasks without ``--skip-eval``.
+    """
+    train = config.train
+    for key, value in (("train.max_epochs", train.max_epochs),
+                       ("train.batch_size", train.batch_size)):  # fmt: skip
+        if value < 1:
+            raise ConfigError(f"{key}: must be at least 1, got {value}")
+    if not config.optim.lr > 0:
+        raise ConfigError(f"optim.lr: must be positive, got {config.optim.lr}")
+    if not skip_eval and config.train_eval.tasks < 1:
+        raise ConfigError(
+            f"train_eval.tasks: must be at least 1, got {config.train_eval.tasks} (pass "
+            "--skip-eval for no final comparison)"
+        )
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     """Run the job; returns the comparison (None with ``--skip-eval`` or on ranks above 0)."""
     config, args = read_command_line(argv)
+    check_job(config, args.skip_eval)
     began = time.perf_counter()
     run_dir = run_directory(config)
     if args.resume and not (run_dir / "last.pt").exists():

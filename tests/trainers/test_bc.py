@@ -221,3 +221,19 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
     result = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True)
     assert result.success and result.attention["compiled"]
     assert result.attention["policy_calls"] <= result.attention["policy_samples"]
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [("train.max_epochs=0", "train.max_epochs: must be at least 1"),
+     ("train.batch_size=0", "train.batch_size: must be at least 1"),
+     ("optim.lr=0", "optim.lr: must be positive"),
+     ("train_eval.tasks=0", "train_eval.tasks: must be at least 1")],
+)  # fmt: skip
+def test_settings_that_would_train_or_compare_on_nothing_are_refused(tmp_path, override, message):
+    command = [sys.executable, str(ROOT / "trainers" / "bc.py"), "--config",
+               str(ROOT / "configs" / "tiny.yaml"), f"data.dir={tmp_path / 'data'}",
+               f"logger.dir={tmp_path / 'runs'}", override]  # fmt: skip
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and message in done.stderr, done.stderr[-2000:]
+    assert not (tmp_path / "data").exists() and not (tmp_path / "runs").exists()  # before any work
