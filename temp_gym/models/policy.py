@@ -58,6 +58,11 @@ SEI_CACHE_SIZE = 256
 """Workspaces whose SEI a `PolicyCore` remembers."""
 
 
+def _sei_tensor(array: np.ndarray) -> torch.Tensor:
+    """A ``(1, n, width)`` CPU tensor sharing the memory of an SEI array ``(n, width)``."""
+    return torch.from_numpy(array).unsqueeze(0)
+
+
 class PolicyCore:
     """What the policies of one model share: the model, its numba kernels, the SEI per workspace.
 
@@ -106,7 +111,7 @@ class PolicyCore:
         pair: tuple[torch.Tensor | None, np.ndarray],
     ) -> tuple[torch.Tensor, np.ndarray]:
         tensor, array = pair
-        return (torch.from_numpy(array).unsqueeze(0) if tensor is None else tensor), array
+        return (_sei_tensor(array) if tensor is None else tensor), array
 
     def _cached(self, problem: Problem) -> tuple[torch.Tensor | None, np.ndarray]:
         key = problem.workspace
@@ -420,7 +425,7 @@ class TEMPPolicy:
                 for value in self._task_arrays
             ]
         if self._sei is None:  # a fast core's reset keeps the array alone
-            self._sei = torch.from_numpy(self._sei_array).unsqueeze(0).to(self.device)
+            self._sei = _sei_tensor(self._sei_array).to(self.device)
         goal, goal_radius, start = self._task
         with torch.inference_mode():
             sample, weights = self.model.mpt(

@@ -84,6 +84,14 @@ def estimate_free_volume(problem: Problem, checker: CollisionChecker) -> float:
         rng = np.random.default_rng(0)
         states = rng.uniform(low, high, size=(_FREE_VOLUME_SAMPLES, problem.dim))
         fraction = float(np.mean(checker.states_free(states)))
+    return _at_least_a_sliver(fraction, total)
+
+
+def _at_least_a_sliver(fraction: float, total: float) -> float:
+    """``fraction`` of the bounds' volume ``total``, at least ``1 / _FREE_VOLUME_SAMPLES`` of it.
+
+    Monotone in ``fraction``, so a lower bound of the fraction gives a lower bound of the result.
+    """
     return max(fraction, 1.0 / _FREE_VOLUME_SAMPLES) * total
 
 
@@ -99,7 +107,7 @@ def free_volume_floor(problem: Problem, checker: CollisionChecker) -> float | No
         return None
     low, high = problem.bounds
     total = float(np.prod(high - low))
-    return max(float(floor()) / total, 1.0 / _FREE_VOLUME_SAMPLES) * total
+    return _at_least_a_sliver(float(floor()) / total, total)
 
 
 def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
@@ -213,15 +221,12 @@ class Tree:
         self._gamma: float | None = None  # exact, computed when first needed
         self._gamma_floor: float | None = None  # a lower bound, while the cap binds anyway
         if neighbourhood == "radius":
-            floor = None
-            if checker is None and problem.workspace not in _FREE_VOLUME_CACHE:
-                floor = free_volume_floor(problem, self.checker)
-            if floor is not None:
-                self._gamma_floor = self._radius_gamma(floor)
-            elif checker is None:
-                self._gamma = self._radius_gamma(workspace_free_volume(problem, self.checker))
-            else:  # a caller's own checker may see other free space: not cached
+            if checker is not None:  # a caller's own checker may see other free space
                 self._gamma = self._radius_gamma(estimate_free_volume(problem, self.checker))
+            elif problem.workspace not in _FREE_VOLUME_CACHE:  # else `gamma` reads the cache
+                floor = free_volume_floor(problem, self.checker)
+                if floor is not None:
+                    self._gamma_floor = self._radius_gamma(floor)
         else:
             self._gamma = self.rewire_factor * math.e * (1.0 + 1.0 / dim)
         capacity = max(int(capacity), 2)
