@@ -78,7 +78,7 @@ def mpt_call_seconds(checkpoint: Path, robot: str, problems: list, calls: int = 
     policy = policy_from_checkpoint(checkpoint, robot, noise_std=0.0)
     rng = np.random.default_rng(0)
     lengths = rng.integers(1, max(2, policy.max_path_length // 4), size=calls)
-    path = rng.uniform(-1, 1, (policy.max_path_length, policy.model.dim)).astype(np.float32)
+    path = rng.uniform(-1, 1, (policy.max_path_length, policy.dim)).astype(np.float32)
     policy.reset(problems[0])
     policy.propose_chunk(path, 1)  # the first call from Python loads the kernel: untimed
     total = 0.0

@@ -124,11 +124,9 @@ def _solve(path: str, args: argparse.Namespace, policy, out: Path | None):
     if args.planner == "temp":
         extra["attention_nodes"] = args.attention_nodes
         if policy is not None:
-            from temp_gym.models.temp import check_compatible
+            from temp_gym.planning.policy import check_compatible
 
-            check_compatible(
-                policy.robot, policy.model.dim, problem.robot, problem.dim, args.checkpoint
-            )
+            check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
             extra["policy"] = policy
     result = plan(
         problem,

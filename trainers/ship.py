@@ -6,7 +6,9 @@ r"""Ship a trained policy inside the package: a slim checkpoint plus its model c
 
 Writes ``temp_gym/checkpoints/{2d,3d,7d}.pt`` (the model weights and sizes, the planner
 settings `temp_gym.load_policy` applies, and where the weights came from; no optimizer state,
-so it stays well under 10 MB) and the model card ``{2d,3d,7d}.md`` beside it: the data (the
+so it stays well under 10 MB), its inference snapshot ``{2d,3d,7d}.kernels.npz`` (the numba
+kernels' arrays, so a default ``plan`` needs no PyTorch: `temp_gym.models.snapshot`) and the
+model card ``{2d,3d,7d}.md`` beside it: the data (the
 dataset card), the config, the training figures and, once ``trainers/evaluate.py`` has written
 ``results/{env id}/results.json`` for this checkpoint, the evaluation table. Run it again after
 the evaluation to put the figures in the card; the weights are unchanged by that.
@@ -32,6 +34,7 @@ from temp_gym.config import Config, load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR
+from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
 from temp_gym.worlds.robots import robot_specs
 
@@ -326,9 +329,10 @@ def main(argv: list[str] | None = None) -> Path:
         raise SystemExit(f"{path}: {size / 2**20:.1f} MB exceeds the 10 MB limit")
     with atomic_write(path) as handle:
         handle.write(buffer.getvalue())
+    snapshot = write_snapshot(path)  # what a CPU policy runs on, without PyTorch
     card = model_card(env_id, config, source, planner, provenance, model.num_parameters(), size)
     path.with_suffix(".md").write_text(card)
-    print(f"shipped {path} ({size / 2**20:.2f} MB) and {path.with_suffix('.md')}")
+    print(f"shipped {path} ({size / 2**20:.2f} MB), {snapshot} and {path.with_suffix('.md')}")
     return path
 
 

@@ -257,7 +257,7 @@ def correction_settings(
         "samples_per_task": int(samples_per_task),
         "max_nodes": int(max_nodes),
         "clearance": float(clearance),
-        "chunk": int(loaded.core.model.mpt.chunk),
+        "chunk": int(loaded.core.info.chunk),
         "horizon": planner.get("horizon"),
         "noise_std": float(planner.get("noise_std", 0.0) if noise is None else noise),
         "checkpoint": str(Path(checkpoint).resolve()),

@@ -308,7 +308,7 @@ def attention_example(
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
     )  # fmt: skip
-    weights = normalized_group_attention(policy.attentions, policy.model.mpt.num_sei_tokens)
+    weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {
         "group": group,
         "index": 0,

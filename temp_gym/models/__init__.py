@@ -11,27 +11,37 @@
 | `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` (env, `temp` planner) |
 | `temp_gym.models.registry` | the shipped policies: `load_policy`, `shipped_checkpoint` |
 | `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
+| `temp_gym.models.snapshot` | a checkpoint's inference snapshot (numpy), stored beside it |
+
+Importing this package imports nothing heavy: each name is imported from its module when first
+used, so a CPU policy on a stored snapshot runs without PyTorch.
 """
 
-from temp_gym.models.attention import GROUPS, group_attention, normalized_group_attention
-from temp_gym.models.eise import EISE
-from temp_gym.models.fast_eise import FastEISE
-from temp_gym.models.fast_mpt import FastMPT
-from temp_gym.models.loss import TEMPLoss
-from temp_gym.models.mpt import MPT
-from temp_gym.models.policy import TEMPPolicy
-from temp_gym.models.temp import TEMPModel, load_checkpoint
+from importlib import import_module
 
-__all__ = [
-    "EISE",
-    "FastEISE",
-    "FastMPT",
-    "GROUPS",
-    "MPT",
-    "TEMPLoss",
-    "TEMPModel",
-    "TEMPPolicy",
-    "group_attention",
-    "load_checkpoint",
-    "normalized_group_attention",
-]
+_HOMES = {
+    "EISE": "eise",
+    "FastEISE": "fast_eise",
+    "FastMPT": "fast_mpt",
+    "GROUPS": "attention",
+    "MPT": "mpt",
+    "TEMPLoss": "loss",
+    "TEMPModel": "temp",
+    "TEMPPolicy": "policy",
+    "group_attention": "attention",
+    "load_checkpoint": "temp",
+    "normalized_group_attention": "attention",
+}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'temp_gym.models' has no attribute {name!r}")
+    return getattr(import_module(f"temp_gym.models.{home}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_HOMES])

@@ -24,12 +24,15 @@ after changing the model's parameters.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
-import torch
 
-from temp_gym.models.eise import EISE
+if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`eise_arrays`)
+    import torch
+
+    from temp_gym.models.eise import EISE
 
 
 @numba.njit(cache=True, nogil=True)
@@ -69,26 +72,76 @@ def _encode_kernel(
 
 def _weights(layer: torch.nn.Linear) -> tuple[np.ndarray, np.ndarray]:
     """A linear layer's weight as a contiguous float32 ``(in, out)`` copy, and its bias."""
+    import torch
+
     with torch.no_grad():
         weight = np.array(layer.weight.detach().cpu().numpy().T, np.float32, order="C")
         bias = np.array(layer.bias.detach().cpu().numpy(), np.float32, order="C")
     return weight, bias
 
 
+def eise_arrays(eise: EISE) -> dict[str, np.ndarray]:
+    """An `EISE` encoder's inference snapshot: its two layers and its sizes, as numpy (a copy).
+
+    What `FastEISE.from_arrays` reads; the reconstruction decoder is not part of it.
+    """
+    first, _, second, _ = eise.encoder
+    (w1, b1), (w2, b2) = _weights(first), _weights(second)
+    return {
+        "w1": w1, "b1": b1, "w2": w2, "b2": b2,
+        "grid_shape": np.array(eise.grid_shape, np.int64),
+        "num_tokens": np.array(int(eise.num_tokens)),
+        "token_dim": np.array(int(eise.token_dim)),
+    }  # fmt: skip
+
+
 class FastEISE:
     """An `EISE` encoder's weights as float32 numpy arrays and its one-grid forward in numba.
 
     Args:
-        eise: the encoder; its parameters are copied (a snapshot).
+        eise: the encoder; its parameters are copied (a snapshot). `from_arrays` builds one
+            from a stored snapshot instead, without PyTorch.
     """
 
     def __init__(self, eise: EISE) -> None:
-        first, _, second, _ = eise.encoder
-        self.grid_shape = eise.grid_shape
-        self.num_tokens = eise.num_tokens
-        self.token_dim = eise.token_dim
-        self._w1, self._b1 = _weights(first)
-        self._w2, self._b2 = _weights(second)
+        self._load(eise_arrays(eise))
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> FastEISE:
+        """A `FastEISE` on a snapshot `eise_arrays` made.
+
+        Raises:
+            ValueError: when an array is missing or the shapes do not fit one another.
+        """
+        fast = cls.__new__(cls)
+        fast._load(arrays)
+        return fast
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The snapshot this `FastEISE` runs on (`eise_arrays`' dict; do not modify)."""
+        return dict(self._arrays)
+
+    def _load(self, arrays: dict[str, np.ndarray]) -> None:
+        names = ("w1", "b1", "w2", "b2", "grid_shape", "num_tokens", "token_dim")
+        missing = [name for name in names if name not in arrays]
+        if missing:
+            raise ValueError(f"EISE snapshot: missing arrays {missing}")
+        self._arrays = {name: arrays[name] for name in names}
+        self.grid_shape = tuple(int(size) for size in arrays["grid_shape"])
+        self.num_tokens = int(arrays["num_tokens"])
+        self.token_dim = int(arrays["token_dim"])
+        self._w1, self._b1, self._w2, self._b2 = (arrays[name] for name in names[:4])
+        cells, hidden = self._w1.shape
+        if (
+            cells != math.prod(self.grid_shape)
+            or self._b1.shape != (hidden,)
+            or self._w2.shape != (hidden, self.num_tokens * self.token_dim)
+            or self._b2.shape != (self.num_tokens * self.token_dim,)
+        ):
+            raise ValueError(
+                f"EISE snapshot: w1 {self._w1.shape}, w2 {self._w2.shape} do not fit a grid of "
+                f"{self.grid_shape} and {self.num_tokens} tokens of {self.token_dim}"
+            )
 
     def __call__(self, occupancy: np.ndarray) -> np.ndarray:
         """The SEI tokens ``(num_tokens, token_dim)`` float32 of one grid of ``grid_shape``."""

@@ -35,17 +35,108 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
-from temp_gym.models.mpt import MPT
 from temp_gym.planning.mpt_kernel import forward_kernel, prefix_kernel
 
+if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`mpt_arrays`)
+    from temp_gym.models.mpt import MPT
 
-def _array(tensor: torch.Tensor) -> np.ndarray:
+
+def _array(tensor) -> np.ndarray:
     """A contiguous float32 numpy copy of a tensor (never a view of its memory)."""
     return np.array(tensor.detach().cpu().numpy(), dtype=np.float32, order="C", copy=True)
+
+
+WEIGHT_NAMES = (
+    "output_token", "embed_current", "embed_path", "path_position", "ln", "wqkv", "bqkv",
+    "w_split", "out_w", "out_b", "ffn_in_w", "ffn_in_b", "ffn_out_w", "ffn_out_b", "norm",
+    "head_w", "head_b",
+)  # fmt: skip
+"""The weight arguments of `forward_kernel` after the per-problem ones, in its order."""
+
+EMBEDDING_NAMES = ("sei_w", "sei_b", "goal_w", "goal_b", "start_w", "start_b")
+"""The SEI, Goal and Start embeddings (weight transposed, bias), in `prefix_kernel`'s order."""
+
+SIZE_NAMES = ("dim", "num_sei_tokens", "max_path_length", "chunk", "num_heads")
+"""The integer sizes a snapshot stores beside its arrays."""
+
+
+def mpt_arrays(mpt: MPT) -> dict[str, np.ndarray]:
+    """An `MPT`'s batch-1 inference snapshot: named float32 arrays and 0-d sizes (a copy).
+
+    What `FastMPT.from_arrays` reads: the kernels' weights with the attention's
+    1/sqrt(head_dim) folded into the queries, the token positions, the embeddings, the sizes
+    (`SIZE_NAMES`), ``prediction`` and ``offset_scale``. Plain numpy, so it can be stored
+    beside a checkpoint and read back without PyTorch (`temp_gym.models.snapshot`).
+    """
+    import torch  # the only place a FastMPT needs PyTorch: reading the model's parameters
+
+    layers = list(mpt.layers)
+    num_heads = layers[0].attention.num_heads
+    width = mpt.output_token.shape[-1]
+
+    def stack(get) -> np.ndarray:
+        return np.ascontiguousarray(np.stack([_array(get(layer)) for layer in layers]))
+
+    with torch.no_grad():
+        position = mpt.position[0]  # (P, width), torch's token order
+        embeddings = [
+            _array(tensor)
+            for embed in (mpt.embed_sei, mpt.embed_goal, mpt.embed_start)
+            for tensor in (embed.weight.T, embed.bias)
+        ]
+        wqkv = stack(lambda layer: layer.attention.qkv.weight.T)
+        bqkv = stack(lambda layer: layer.attention.qkv.bias)
+        # The attention's 1/sqrt(head_dim) goes into the queries' weights (exact for
+        # head_dim 4, 16, 64, ...: a power of two).
+        scale = np.float32(1.0 / math.sqrt(width // num_heads))
+        wqkv[:, :, :width] *= scale
+        bqkv[:, :width] *= scale
+        weights = [
+            _array(mpt.output_token[0, 0] + mpt.embed_current.bias + position[0]),
+            _array(mpt.embed_current.weight.T),
+            _array(mpt.embed_path.weight.T),
+            _array(mpt.path_position + mpt.embed_path.bias),
+            stack(
+                lambda layer: torch.stack(
+                    [
+                        layer.norm_attention.weight,
+                        layer.norm_attention.bias,
+                        layer.norm_ffn.weight,
+                        layer.norm_ffn.bias,
+                    ]
+                )
+            ),
+            wqkv,
+            bqkv,
+            _split_heads(wqkv),
+            stack(lambda layer: layer.attention.out.weight.T),
+            stack(lambda layer: layer.attention.out.bias),
+            stack(lambda layer: layer.ffn[0].weight.T),
+            stack(lambda layer: layer.ffn[0].bias),
+            stack(lambda layer: layer.ffn[2].weight.T),
+            stack(lambda layer: layer.ffn[2].bias),
+            _array(torch.stack([mpt.norm.weight, mpt.norm.bias])),
+            _array(mpt.head.weight.T),
+            _array(mpt.head.bias),
+        ]
+        arrays = {"position": _array(position)}
+    arrays.update(zip(EMBEDDING_NAMES, embeddings, strict=True))
+    arrays.update(zip(WEIGHT_NAMES, weights, strict=True))
+    sizes = (mpt.dim, mpt.num_sei_tokens, mpt.max_path_length, mpt.chunk, num_heads)
+    arrays.update((name, np.array(int(size))) for name, size in zip(SIZE_NAMES, sizes))
+    arrays["prediction"] = np.array(str(mpt.prediction))
+    arrays["offset_scale"] = np.array(float(mpt.offset_scale), np.float64)
+    return arrays
+
+
+def _split_heads(wqkv: np.ndarray) -> np.ndarray:
+    """``(M, w, 3w)`` -> ``(M, 3, w, w)``: the query, key and value weights apart."""
+    layers, width = wqkv.shape[0], wqkv.shape[1]
+    return np.ascontiguousarray(wqkv.reshape(layers, width, 3, width).transpose(0, 2, 1, 3))
 
 
 @dataclass(frozen=True)
@@ -68,74 +159,53 @@ class FastMPT:
 
     Args:
         mpt: the model; its parameters are copied (a snapshot), so build a new `FastMPT`
-            after changing them.
+            after changing them. `from_arrays` builds one from a stored snapshot instead,
+            without PyTorch.
     """
 
     def __init__(self, mpt: MPT) -> None:
-        self.dim = mpt.dim
-        self.num_sei_tokens = mpt.num_sei_tokens
-        self.max_path_length = mpt.max_path_length
-        self.prediction = mpt.prediction
-        self.chunk = mpt.chunk
-        layers = list(mpt.layers)
-        self.num_heads = layers[0].attention.num_heads
-        self.width = width = mpt.output_token.shape[-1]
+        self._load(mpt_arrays(mpt))
 
-        def stack(get) -> np.ndarray:
-            return np.ascontiguousarray(np.stack([_array(get(layer)) for layer in layers]))
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> FastMPT:
+        """A `FastMPT` on a snapshot `mpt_arrays` made (read-only use of its arrays).
 
-        with torch.no_grad():
-            position = mpt.position[0]  # (P, width), torch's token order
-            self._position = _array(position)
-            self._embeddings = tuple(
-                _array(tensor)
-                for embed in (mpt.embed_sei, mpt.embed_goal, mpt.embed_start)
-                for tensor in (embed.weight.T, embed.bias)
+        Raises:
+            ValueError: when an array is missing or its shape does not fit the sizes.
+        """
+        fast = cls.__new__(cls)
+        fast._load(arrays)
+        return fast
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The snapshot this `FastMPT` runs on (`mpt_arrays`' dict; do not modify)."""
+        return dict(self._arrays)
+
+    def _load(self, arrays: dict[str, np.ndarray]) -> None:
+        expected = ("position", *EMBEDDING_NAMES, *WEIGHT_NAMES, *SIZE_NAMES, "prediction",
+                    "offset_scale")  # fmt: skip
+        missing = [name for name in expected if name not in arrays]
+        if missing:
+            raise ValueError(f"MPT snapshot: missing arrays {missing}")
+        self._arrays = {name: arrays[name] for name in expected}
+        self.dim, self.num_sei_tokens, self.max_path_length, self.chunk, self.num_heads = (
+            int(arrays[name]) for name in SIZE_NAMES
+        )
+        self.prediction = str(arrays["prediction"])
+        self.width = width = int(arrays["output_token"].shape[-1])
+        if arrays["wqkv"].shape[1:] != (width, 3 * width) or arrays["head_w"].shape != (
+            width, self.chunk * self.dim,
+        ):  # fmt: skip
+            raise ValueError(
+                f"MPT snapshot: weights of shapes wqkv {arrays['wqkv'].shape}, head_w "
+                f"{arrays['head_w'].shape} do not fit width {width}, chunk {self.chunk} and "
+                f"d = {self.dim}"
             )
-            self._prefix_position = np.ascontiguousarray(self._position[1:])
-            ln = stack(
-                lambda layer: torch.stack(
-                    [
-                        layer.norm_attention.weight,
-                        layer.norm_attention.bias,
-                        layer.norm_ffn.weight,
-                        layer.norm_ffn.bias,
-                    ]
-                )
-            )
-            wqkv = stack(lambda layer: layer.attention.qkv.weight.T)
-            bqkv = stack(lambda layer: layer.attention.qkv.bias)
-            # The attention's 1/sqrt(head_dim) goes into the queries' weights (exact for
-            # head_dim 4, 16, 64, ...: a power of two).
-            scale = np.float32(1.0 / math.sqrt(width // self.num_heads))
-            wqkv[:, :, :width] *= scale
-            bqkv[:, :width] *= scale
-            w_split = np.ascontiguousarray(
-                wqkv.reshape(len(layers), width, 3, width).transpose(0, 2, 1, 3)
-            )
-            # The arguments of `forward_kernel` after the per-problem ones, in its order.
-            self._weights = (
-                _array(mpt.output_token[0, 0] + mpt.embed_current.bias + position[0]),
-                _array(mpt.embed_current.weight.T),
-                _array(mpt.embed_path.weight.T),
-                _array(mpt.path_position + mpt.embed_path.bias),
-                ln,
-                wqkv,
-                bqkv,
-                w_split,
-                stack(lambda layer: layer.attention.out.weight.T),
-                stack(lambda layer: layer.attention.out.bias),
-                stack(lambda layer: layer.ffn[0].weight.T),
-                stack(lambda layer: layer.ffn[0].bias),
-                stack(lambda layer: layer.ffn[2].weight.T),
-                stack(lambda layer: layer.ffn[2].bias),
-                _array(torch.stack([mpt.norm.weight, mpt.norm.bias])),
-                _array(mpt.head.weight.T),
-                _array(mpt.head.bias),
-                self.num_heads,
-                mpt.offset_scale if mpt.prediction == "offset" else 0.0,
-            )
-        self._ln, self._wqkv, self._bqkv = ln, wqkv, bqkv
+        self._embeddings = tuple(arrays[name] for name in EMBEDDING_NAMES)
+        self._prefix_position = np.ascontiguousarray(arrays["position"][1:])
+        offset_scale = float(arrays["offset_scale"]) if self.prediction == "offset" else 0.0
+        self._weights = (*(arrays[name] for name in WEIGHT_NAMES), self.num_heads, offset_scale)
+        self._ln, self._wqkv, self._bqkv = arrays["ln"], arrays["wqkv"], arrays["bqkv"]
 
     @property
     def kernel_weights(self) -> tuple:

@@ -40,19 +40,25 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
 
 from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
-from temp_gym.models.temp import TEMPModel, check_compatible, load_checkpoint
+from temp_gym.models.snapshot import ModelInfo, Snapshot
+from temp_gym.planning.policy import check_compatible
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import goal_radius_ratio, normalize
+
+if TYPE_CHECKING:  # PyTorch is imported when a model is built or run, not by this module
+    import torch
+
+    from temp_gym.models.temp import TEMPModel
 
 SEI_CACHE_SIZE = 256
 """Workspaces whose SEI a `PolicyCore` remembers."""
@@ -60,7 +66,14 @@ SEI_CACHE_SIZE = 256
 
 def _sei_tensor(array: np.ndarray) -> torch.Tensor:
     """A ``(1, n, width)`` CPU tensor sharing the memory of an SEI array ``(n, width)``."""
+    import torch
+
     return torch.from_numpy(array).unsqueeze(0)
+
+
+def _device_type(device: str | torch.device) -> str:
+    """``"cpu"``, ``"cuda"``, ... of a device or its name, without importing PyTorch."""
+    return str(device).split(":")[0]
 
 
 class PolicyCore:
@@ -71,16 +84,58 @@ class PolicyCore:
         device: where the PyTorch model runs.
         fast: whether to build the `FastMPT` and `FastEISE` snapshots (CPU only); with them the
             SEI is computed by `FastEISE` for every policy of this core.
+
+    `from_snapshot` builds a core without PyTorch, from a checkpoint's stored inference
+    snapshot (`temp_gym.models.snapshot`); its `model` is loaded when first asked for.
     """
 
     def __init__(self, model: TEMPModel, device: str | torch.device = "cpu", fast: bool = True):
+        import torch
+
         self.device = torch.device(device)
-        self.model = model.to(self.device).eval()
+        self._model: TEMPModel | None = model.to(self.device).eval()
+        self._load_model: Callable[[], TEMPModel] | None = None
+        self.info = ModelInfo.of(model)
         fast = fast and self.device.type == "cpu"
-        self.fast = FastMPT(self.model.mpt) if fast else None
-        self.fast_eise = FastEISE(self.model.eise) if fast else None
+        self.fast = FastMPT(model.mpt) if fast else None
+        self.fast_eise = FastEISE(model.eise) if fast else None
         self._sei: OrderedDict[Workspace, tuple[torch.Tensor | None, np.ndarray]] = OrderedDict()
         self._lock = threading.Lock()
+        self._model_lock = threading.Lock()
+
+    @classmethod
+    def from_snapshot(cls, snapshot: Snapshot, load_model: Callable[[], TEMPModel]) -> PolicyCore:
+        """A CPU core on a checkpoint's inference snapshot; imports no PyTorch.
+
+        Args:
+            snapshot: `temp_gym.models.snapshot.read_snapshot`'s, of the checkpoint.
+            load_model: returns the checkpoint's model (with PyTorch); called once, when
+                something first needs the model itself (`model`).
+        """
+        core = cls.__new__(cls)
+        core.device = "cpu"
+        core._model = None
+        core._load_model = load_model
+        core.info = snapshot.info
+        core.fast = FastMPT.from_arrays(snapshot.mpt)
+        core.fast_eise = FastEISE.from_arrays(snapshot.eise)
+        core._sei = OrderedDict()
+        core._lock = threading.Lock()
+        core._model_lock = threading.Lock()
+        return core
+
+    @property
+    def model(self) -> TEMPModel:
+        """The PyTorch model in eval mode (a snapshot's core loads it now, once)."""
+        if self._model is None:
+            with self._model_lock:
+                if self._model is None:
+                    self._model = self._load_model().to(self.device).eval()
+        return self._model
+
+    def holds(self, model: TEMPModel) -> bool:
+        """Whether ``model`` is this core's (loaded) model."""
+        return self._model is model
 
     def encode(self, occupancy: np.ndarray) -> tuple[torch.Tensor, np.ndarray]:
         """The SEI of one occupancy grid: ``(1, n, width)`` tensor on the device, float32 array.
@@ -101,6 +156,8 @@ class PolicyCore:
     def _encode(self, occupancy: np.ndarray) -> tuple[torch.Tensor | None, np.ndarray]:
         if self.fast_eise is not None:
             return None, self.fast_eise(occupancy)  # the tensor is made when asked for
+        import torch
+
         grid = torch.from_numpy(np.ascontiguousarray(occupancy, np.float32)).unsqueeze(0)
         with torch.inference_mode():
             tensor = self.model.eise(grid.to(self.device))
@@ -120,7 +177,7 @@ class PolicyCore:
             if sei is not None:
                 self._sei.move_to_end(key)
                 return sei
-        sei = self._encode(occupancy_grid(problem.workspace, self.model.encoding_resolution))
+        sei = self._encode(occupancy_grid(problem.workspace, self.info.encoding_resolution))
         with self._lock:
             self._sei[key] = sei
             if len(self._sei) > SEI_CACHE_SIZE:
@@ -132,7 +189,8 @@ class TEMPPolicy:
     """A `temp_gym.policies.SamplingPolicy` backed by a `TEMPModel`.
 
     Args:
-        model: the trained model (put in eval mode; kept on CPU unless ``device`` says).
+        model: the trained model (put in eval mode; kept on CPU unless ``device`` says); None
+            with a ``core``, whose model it then is.
         noise_std: standard deviation of the Gaussian output noise (normalized units).
         seed: seed of the noise generator.
         record_attention: keep each step's attention weights in ``attentions`` (PyTorch only;
@@ -145,7 +203,8 @@ class TEMPPolicy:
             policy when ``plan`` is given none (None: all of ``max_nodes``); shipped policies
             carry theirs (`temp_gym.load_policy`).
         core: a `PolicyCore` of ``model`` to share (None: a new one); `load_policy` passes
-            the cached core of its checkpoint.
+            the cached core of its checkpoint, which may be a snapshot's (no PyTorch until
+            the model itself is needed).
         horizon: proposals per call, the first ``horizon`` of the model's chunk (None: all);
             later ones continue a longer guess, so fewer can waste fewer samples.
         attention_patience: the stall patience the ``temp`` planner uses with this policy when
@@ -158,7 +217,7 @@ class TEMPPolicy:
 
     def __init__(
         self,
-        model: TEMPModel,
+        model: TEMPModel | None = None,
         noise_std: float = 0.0,
         seed: int | None = None,
         record_attention: bool = False,
@@ -185,31 +244,33 @@ class TEMPPolicy:
                 f"attention_uniform: expected a number in [0, 1], got {attention_uniform}"
             )
         self.attention_uniform = None if attention_uniform is None else float(attention_uniform)
-        self.device = torch.device(device)
-        if backend == "numba" and (self.device.type != "cpu" or record_attention):
+        self.device = device
+        if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
             raise ValueError(
                 "backend 'numba' runs on the CPU and records no attention; got device "
                 f"{self.device} and record_attention={record_attention}"
             )
-        wants_fast = backend != "torch" and self.device.type == "cpu"
+        wants_fast = backend != "torch" and _device_type(device) == "cpu"
         if core is None:
-            core = PolicyCore(model, self.device, fast=wants_fast)
-        elif core.model is not model or core.device != self.device:
+            if model is None:
+                raise ValueError("TEMPPolicy: give a model, or a core to share")
+            core = PolicyCore(model, device, fast=wants_fast)
+        elif (model is not None and not core.holds(model)) or str(core.device) != str(device):
             raise ValueError("core: a PolicyCore of another model or device")
         self.core = core
-        self.model = core.model
+        self.info = core.info
         self.backend = backend
         self._fast = core.fast if wants_fast else None
         if wants_fast and self._fast is None:
             self._fast = FastMPT(self.model.mpt)
-        chunk = self.model.mpt.chunk
+        chunk = self.info.chunk
         if horizon is not None and not (isinstance(horizon, int) and 1 <= horizon <= chunk):
             raise ValueError(
                 f"horizon: expected an integer in 1..{chunk} (the chunk), got {horizon!r}"
             )
         self.horizon = chunk if horizon is None else horizon
         self._prefix: Prefix | None = None
-        self._out = np.empty((self.horizon, self.model.dim), np.float32)
+        self._out = np.empty((self.horizon, self.info.dim), np.float32)
         self.noise_std = float(noise_std)
         self.seed = seed
         self._rng_seed = seed
@@ -231,6 +292,8 @@ class TEMPPolicy:
         **kwargs,
     ) -> TEMPPolicy:
         """Load a checkpoint (``weights_only=True``); ``robot``/``dim`` are checked if given."""
+        from temp_gym.models.temp import load_checkpoint
+
         model, _ = load_checkpoint(path, robot=robot, dim=dim)
         return cls(model, **kwargs)
 
@@ -239,9 +302,19 @@ class TEMPPolicy:
         self.model.save(path)
 
     @property
+    def model(self) -> TEMPModel:
+        """The PyTorch model (shared by the core; loaded now if the core is a snapshot's)."""
+        return self.core.model
+
+    @property
     def robot(self) -> str:
         """The robot the model was trained for."""
-        return self.model.robot
+        return self.info.robot
+
+    @property
+    def dim(self) -> int:
+        """The dimension d of the robot's configuration space."""
+        return self.info.dim
 
     def fresh(self, **changes: Any) -> TEMPPolicy:
         """A policy of the same model and settings with its own state (noise, problem).
@@ -258,7 +331,7 @@ class TEMPPolicy:
         unknown = set(changes) - set(settings)
         if unknown:
             raise TypeError(f"fresh(): unknown settings {sorted(unknown)}")
-        return TEMPPolicy(self.model, **{**settings, **changes})
+        return TEMPPolicy(None, **{**settings, **changes})
 
     @property
     def rng(self) -> np.random.Generator:
@@ -270,12 +343,12 @@ class TEMPPolicy:
     @property
     def encoding_resolution(self) -> int:
         """Cells per workspace axis of the occupancy grid the model reads."""
-        return self.model.encoding_resolution
+        return self.info.encoding_resolution
 
     @property
     def max_path_length(self) -> int:
         """L: the most path-so-far rows the model reads."""
-        return self.model.max_path_length
+        return self.info.max_path_length
 
     @property
     def chunk(self) -> int:
@@ -293,7 +366,7 @@ class TEMPPolicy:
         self.attentions = []
         if problem is self.problem and self._sei_array is not None:
             return
-        check_compatible(self.model.robot, self.model.dim, problem.robot, problem.dim)
+        check_compatible(self.info.robot, self.info.dim, problem.robot, problem.dim)
         self.problem = problem
         if self._fast is not None:  # the numba path reads the array; `_torch_sample` makes a
             self._sei, self._sei_array = None, self.core.sei_array(problem)  # tensor if asked
@@ -331,17 +404,17 @@ class TEMPPolicy:
             self._task_bytes = problem_signature(self.problem, TASK_KEYS)
         occupancy = np.asarray(observation["occupancy"], dtype=np.float32)
         same_task = task_signature(observation, TASK_KEYS) == self._task_bytes
-        if occupancy.shape != self.model.eise.grid_shape:
+        if occupancy.shape != self.info.grid_shape:
             if same_task and self.problem is not None:
                 return  # an env at another resolution: the grid of reset(problem) stands
             raise ValueError(
-                f"observation['occupancy']: expected shape {self.model.eise.grid_shape} for "
-                f"{self.model.robot} (the model's encoding_resolution "
-                f"{self.model.encoding_resolution}), got {occupancy.shape}; or call "
+                f"observation['occupancy']: expected shape {self.info.grid_shape} for "
+                f"{self.info.robot} (the model's encoding_resolution "
+                f"{self.info.encoding_resolution}), got {occupancy.shape}; or call "
                 "policy.reset(problem) after each env reset"
             )
         if self._grid_bytes is None and self.problem is not None:
-            grid = occupancy_grid(self.problem.workspace, self.model.encoding_resolution)
+            grid = occupancy_grid(self.problem.workspace, self.info.encoding_resolution)
             self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
         same_grid = occupancy.tobytes() == self._grid_bytes
         if same_task and same_grid:
@@ -367,9 +440,9 @@ class TEMPPolicy:
         """
         self._follow(observation)
         path = np.asarray(observation["path"])
-        if path.ndim != 2 or path.shape[1] != self.model.dim:
+        if path.ndim != 2 or path.shape[1] != self.info.dim:
             raise ValueError(
-                f"observation['path']: expected (L, {self.model.dim}) for {self.model.robot}, "
+                f"observation['path']: expected (L, {self.info.dim}) for {self.info.robot}, "
                 f"got {path.shape}"
             )
         length = int(np.asarray(observation["path_length"]).reshape(-1)[0])
@@ -419,6 +492,8 @@ class TEMPPolicy:
         """The PyTorch model's chunk (float32 ``(chunk, d)``); records attention if asked."""
         if self.backend == "numba":
             raise ValueError("backend 'numba' records no attention; use 'auto' or 'torch'")
+        import torch
+
         if self._task is None:
             self._task = [
                 torch.from_numpy(value).reshape(1, -1).to(self.device)

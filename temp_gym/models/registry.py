@@ -19,6 +19,14 @@ checkpoint's digest stays the same. The planner resets it (problem and seed) bef
 run, so keeping it changes no result, and a default ``plan(problem)`` after the first on a
 robot builds no policy and reads nothing from disk.
 
+**Without PyTorch when it can.** Beside a checkpoint may lie its inference snapshot
+(``{stem}.kernels.npz``, `temp_gym.models.snapshot`; ``trainers/ship.py`` writes one for each
+shipped policy). When its stored digest is the checkpoint file's, the cached core is built
+from it: the numba kernels' arrays, with no PyTorch import, which is most of a first
+``plan(problem)``'s time. The PyTorch model is loaded from the same bytes when something
+needs it (``policy.model``, ``backend="torch"``, recorded attention); a checkpoint file
+changed in between is refused, not silently mixed.
+
 The cached models are shared: do not train them in place (their parameters have
 ``requires_grad`` off to make that fail loudly). To fine-tune, load a private copy with
 `temp_gym.models.temp.load_checkpoint`.
@@ -112,7 +120,8 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
         ValueError: not a TEMP checkpoint, or trained for another ``robot`` than asked for.
     """
     from temp_gym.models.policy import PolicyCore
-    from temp_gym.models.temp import check_compatible, load_checkpoint
+    from temp_gym.models.snapshot import read_snapshot
+    from temp_gym.planning.policy import check_compatible
 
     # An absolute path is key enough (the digest dedups links and copies); resolving it would
     # cost a syscall per path component on every call.
@@ -128,17 +137,45 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
         with _LOCK:
             loaded = _BY_DIGEST.get(digest)
         if loaded is None:
-            model, checkpoint = load_checkpoint(path)
-            model.requires_grad_(False)
-            meta = {k: v for k, v in checkpoint.items() if k != "state_dict"}
-            loaded = LoadedCheckpoint(PolicyCore(model), meta, digest)
+            snapshot = read_snapshot(path, digest)
+            if snapshot is not None:
+                core = PolicyCore.from_snapshot(snapshot, _model_loader(path, digest))
+                loaded = LoadedCheckpoint(core, snapshot.meta, digest)
+            else:
+                model, checkpoint = _load_model(path, data)
+                meta = {k: v for k, v in checkpoint.items() if k != "state_dict"}
+                loaded = LoadedCheckpoint(PolicyCore(model), meta, digest)
         with _LOCK:
             _BY_DIGEST[digest] = loaded
             _BY_FILE[key] = (stamp, digest)
     if robot is not None:
-        model = loaded.core.model
-        check_compatible(model.robot, model.dim, robot, None, source=key)
+        info = loaded.core.info
+        check_compatible(info.robot, info.dim, robot, None, source=key)
     return loaded
+
+
+def _load_model(path: Path, data: bytes) -> tuple[Any, dict[str, Any]]:
+    """The frozen model and the checkpoint dict of ``path``'s bytes ``data`` (PyTorch)."""
+    from temp_gym.models.temp import load_checkpoint
+
+    model, checkpoint = load_checkpoint(path, data=data)
+    model.requires_grad_(False)
+    return model, checkpoint
+
+
+def _model_loader(path: Path, digest: str):
+    """Loads the model of a snapshot's checkpoint later, if the file still has ``digest``."""
+
+    def load():
+        data = path.read_bytes()
+        if hashlib.sha256(data).hexdigest() != digest:
+            raise RuntimeError(
+                f"{path} changed since its policy was loaded (SHA-256 {digest[:12]}...); load "
+                "the policy again to use the new file"
+            )
+        return _load_model(path, data)[0]
+
+    return load
 
 
 def clear_cache() -> None:
@@ -185,7 +222,7 @@ def _policy_on(
     if horizon is None:
         horizon = planner.get("horizon")
     return TEMPPolicy(
-        loaded.core.model,
+        None,
         noise_std=noise_std,
         seed=seed,
         attention_nodes=attention_nodes,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import pickle
 import warnings
 from collections.abc import Mapping
@@ -44,6 +45,7 @@ from temp_gym.config.typed import build
 from temp_gym.files import StoredFileError, atomic_write
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
+from temp_gym.planning.policy import check_compatible  # noqa: F401  (re-exported)
 from temp_gym.problem import robot_names
 from temp_gym.worlds.robots import robot_spec
 
@@ -195,12 +197,13 @@ class CheckpointError(StoredFileError):
 NOT_A_CHECKPOINT = "use a checkpoint written by trainers/bc.py or trainers/ship.py"
 
 
-def _read_checkpoint(path: str | Path, map_location) -> dict[str, Any]:
+def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) -> dict[str, Any]:
     """``torch.load(..., weights_only=True)``; every failure becomes a `CheckpointError`."""
+    source = path if data is None else io.BytesIO(data)
     try:
         with warnings.catch_warnings():  # torch warns about foreign pickle protocols
             warnings.simplefilter("ignore")
-            checkpoint = torch.load(path, map_location=map_location, weights_only=True)
+            checkpoint = torch.load(source, map_location=map_location, weights_only=True)
     except (FileNotFoundError, IsADirectoryError, PermissionError):
         raise
     except pickle.UnpicklingError:
@@ -255,19 +258,21 @@ def load_checkpoint(
     robot: str | None = None,
     dim: int | None = None,
     map_location: str | torch.device = "cpu",
+    data: bytes | None = None,
 ) -> tuple[TEMPModel, dict[str, Any]]:
     """Load a checkpoint with ``weights_only=True``; return the model and the raw dict.
 
     Every defect is a `CheckpointError` naming the file: a file torch cannot read (empty,
     truncated, random bytes), one with objects that ``weights_only`` refuses to build, missing
     or ill-typed entries, weights that do not fit the stored model sizes, NaN or inf weights.
+    ``data``, when given, is the file's bytes already read (``path`` then names it in errors).
 
     Raises:
         CheckpointError: the file is not a usable TEMP checkpoint (a `ValueError`).
         ValueError: it was trained for another ``robot`` or dimension ``dim``.
         OSError: the file cannot be opened.
     """
-    checkpoint = _read_checkpoint(path, map_location)
+    checkpoint = _read_checkpoint(path, map_location, data)
     check_compatible(checkpoint["robot"], checkpoint["dim"], robot, dim, source=str(path))
     try:
         model = TEMPModel.from_config(
@@ -283,22 +288,3 @@ def load_checkpoint(
             path, f"its weights do not fit its model_config ({first})", NOT_A_CHECKPOINT
         ) from None
     return model, checkpoint
-
-
-def check_compatible(
-    trained_robot: str,
-    trained_dim: int,
-    robot: str | None,
-    dim: int | None,
-    source: str = "the model",
-) -> None:
-    """Raise a clear `ValueError` when a model for one robot is used for another."""
-    if dim is not None and int(dim) != int(trained_dim):
-        raise ValueError(
-            f"{source} was trained for {trained_robot} (d={trained_dim}) and cannot plan in "
-            f"d={dim}" + (f" ({robot})" if robot else "")
-        )
-    if robot is not None and robot != trained_robot:
-        raise ValueError(
-            f"{source} was trained for robot {trained_robot!r} (d={trained_dim}), not {robot!r}"
-        )

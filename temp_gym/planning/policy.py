@@ -189,6 +189,25 @@ def _reset_takes_seed(reset: Callable[..., Any]) -> bool:
     return takes
 
 
+def check_compatible(
+    trained_robot: str,
+    trained_dim: int,
+    robot: str | None,
+    dim: int | None,
+    source: str = "the model",
+) -> None:
+    """Raise a clear `ValueError` when a policy trained for one robot is used for another."""
+    if dim is not None and int(dim) != int(trained_dim):
+        raise ValueError(
+            f"{source} was trained for {trained_robot} (d={trained_dim}) and cannot plan in "
+            f"d={dim}" + (f" ({robot})" if robot else "")
+        )
+    if robot is not None and robot != trained_robot:
+        raise ValueError(
+            f"{source} was trained for robot {trained_robot!r} (d={trained_dim}), not {robot!r}"
+        )
+
+
 def as_sampling_policy(policy: Any) -> SamplingPolicy:
     """``policy`` itself, or, when its ``reset`` takes no ``seed``, an adapter that drops it.
 
@@ -219,6 +238,7 @@ __all__ = [
     "Proposer",
     "SamplingPolicy",
     "as_sampling_policy",
+    "check_compatible",
     "fast_path",
     "observation_settings",
     "policy_settings",

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 from temp_gym.models import registry
+from temp_gym.models.snapshot import file_digest, read_snapshot
 from temp_gym.models.temp import TEMPModel, load_checkpoint, weights_digest
 from temp_gym.planning.plan import plan
 from temp_gym.worlds.generators import generate_problem
@@ -47,6 +48,8 @@ def test_ship_writes_a_slim_checkpoint_and_a_card(shipped):
     assert checkpoint["provenance"]["digest"] == weights_digest(model.state_dict())
     for name, tensor in model.state_dict().items():
         assert torch.equal(loaded.state_dict()[name], tensor)
+    snapshot = read_snapshot(path, file_digest(path))  # beside it, and of these very bytes
+    assert snapshot is not None and snapshot.meta["planner"]["attention_nodes"] == 40
     card = path.with_suffix(".md").read_text()
     assert "Attention-phase budget n (Algorithm 1): 40 nodes" in card
     assert "Not evaluated yet" in card and "Dataset card unavailable" in card
