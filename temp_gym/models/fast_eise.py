@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
+from temp_gym.models.snapshot import ArrayBacked
+
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`eise_arrays`)
     import torch
 
@@ -95,42 +97,25 @@ def eise_arrays(eise: EISE) -> dict[str, np.ndarray]:
     }  # fmt: skip
 
 
-class FastEISE:
+class FastEISE(ArrayBacked):
     """An `EISE` encoder's weights as float32 numpy arrays and its one-grid forward in numba.
 
     Args:
         eise: the encoder; its parameters are copied (a snapshot). `from_arrays` builds one
-            from a stored snapshot instead, without PyTorch.
+            from a stored snapshot instead (`eise_arrays`' dict), without PyTorch.
     """
 
+    NAMES = ("w1", "b1", "w2", "b2", "grid_shape", "num_tokens", "token_dim")
+    KIND = "EISE snapshot"
+
     def __init__(self, eise: EISE) -> None:
-        self._load(eise_arrays(eise))
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> FastEISE:
-        """A `FastEISE` on a snapshot `eise_arrays` made.
-
-        Raises:
-            ValueError: when an array is missing or the shapes do not fit one another.
-        """
-        fast = cls.__new__(cls)
-        fast._load(arrays)
-        return fast
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The snapshot this `FastEISE` runs on (`eise_arrays`' dict; do not modify)."""
-        return dict(self._arrays)
+        self._set(eise_arrays(eise))
 
     def _load(self, arrays: dict[str, np.ndarray]) -> None:
-        names = ("w1", "b1", "w2", "b2", "grid_shape", "num_tokens", "token_dim")
-        missing = [name for name in names if name not in arrays]
-        if missing:
-            raise ValueError(f"EISE snapshot: missing arrays {missing}")
-        self._arrays = {name: arrays[name] for name in names}
         self.grid_shape = tuple(int(size) for size in arrays["grid_shape"])
         self.num_tokens = int(arrays["num_tokens"])
         self.token_dim = int(arrays["token_dim"])
-        self._w1, self._b1, self._w2, self._b2 = (arrays[name] for name in names[:4])
+        self._w1, self._b1, self._w2, self._b2 = (arrays[name] for name in self.NAMES[:4])
         cells, hidden = self._w1.shape
         if (
             cells != math.prod(self.grid_shape)

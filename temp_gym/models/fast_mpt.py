@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from temp_gym.models.snapshot import ArrayBacked
 from temp_gym.planning.mpt_kernel import forward_kernel, prefix_kernel
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`mpt_arrays`)
@@ -154,40 +155,23 @@ class Prefix:
     qkv: np.ndarray
 
 
-class FastMPT:
+class FastMPT(ArrayBacked):
     """An `MPT`'s weights as float32 numpy arrays and its batch-1 forward pass in numba.
 
     Args:
         mpt: the model; its parameters are copied (a snapshot), so build a new `FastMPT`
-            after changing them. `from_arrays` builds one from a stored snapshot instead,
-            without PyTorch.
+            after changing them. `from_arrays` builds one from a stored snapshot instead
+            (`mpt_arrays`' dict), without PyTorch.
     """
 
+    NAMES = ("position", *EMBEDDING_NAMES, *WEIGHT_NAMES, *SIZE_NAMES, "prediction",
+             "offset_scale")  # fmt: skip
+    KIND = "MPT snapshot"
+
     def __init__(self, mpt: MPT) -> None:
-        self._load(mpt_arrays(mpt))
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> FastMPT:
-        """A `FastMPT` on a snapshot `mpt_arrays` made (read-only use of its arrays).
-
-        Raises:
-            ValueError: when an array is missing or its shape does not fit the sizes.
-        """
-        fast = cls.__new__(cls)
-        fast._load(arrays)
-        return fast
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The snapshot this `FastMPT` runs on (`mpt_arrays`' dict; do not modify)."""
-        return dict(self._arrays)
+        self._set(mpt_arrays(mpt))
 
     def _load(self, arrays: dict[str, np.ndarray]) -> None:
-        expected = ("position", *EMBEDDING_NAMES, *WEIGHT_NAMES, *SIZE_NAMES, "prediction",
-                    "offset_scale")  # fmt: skip
-        missing = [name for name in expected if name not in arrays]
-        if missing:
-            raise ValueError(f"MPT snapshot: missing arrays {missing}")
-        self._arrays = {name: arrays[name] for name in expected}
         self.dim, self.num_sei_tokens, self.max_path_length, self.chunk, self.num_heads = (
             int(arrays[name]) for name in SIZE_NAMES
         )

@@ -134,3 +134,15 @@ def test_a_default_plan_imports_no_torch_and_equals_the_torch_built_policys(monk
 def test_a_policy_needs_a_model_or_a_core():
     with pytest.raises(ValueError, match="give a model, or a core"):
         TEMPPolicy()
+
+
+def test_a_snapshot_missing_an_array_or_of_wrong_shapes_is_refused(tmp_path):
+    model, _ = _saved_model(tmp_path)
+    arrays = mpt_arrays(model.mpt)
+    with pytest.raises(ValueError, match=r"MPT snapshot: missing arrays \['head_w'\]"):
+        FastMPT.from_arrays({k: v for k, v in arrays.items() if k != "head_w"})
+    with pytest.raises(ValueError, match="do not fit"):
+        FastMPT.from_arrays({**arrays, "chunk": np.array(3)})
+    eise = eise_arrays(model.eise)
+    with pytest.raises(ValueError, match="do not fit"):
+        FastEISE.from_arrays({**eise, "grid_shape": np.array([8, 8])})
