@@ -81,6 +81,12 @@ def main(argv: list[str] | None = None) -> dict:
         help="shares of uniform samples in the attention phase to try",
     )
     parser.add_argument(
+        "--family",
+        default="boxes",
+        help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
+        "paper's protocol: boxes); data.workspace_family, the training data's, does not set it",
+    )
+    parser.add_argument(
         "--min-attention-success",
         type=float,
         default=0.9,
@@ -96,12 +102,15 @@ def main(argv: list[str] | None = None) -> dict:
         family = list(load_ood_family(config.env.robot).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
     else:
-        problems = training.draw_problems(config, args.split, args.tasks, eval_config.seed + 20_000)
+        problems = training.draw_problems(
+            config, args.split, args.tasks, eval_config.seed + 20_000, workspace_family=args.family
+        )
     seeds = [eval_config.seed + index for index in range(len(problems))]
     rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
     rrt = training.summarize(rrt_runs, eval_config.max_nodes)
     print(
-        f"{len(problems)} {args.split} tasks; RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
+        f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}); "
+        f"RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
         f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
     )
     print(

@@ -18,6 +18,7 @@ from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.normalization import MAX_RATIO
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS, split_workspace
+from temp_gym.worlds.structured import BOXES, check_family
 
 DIFFICULTIES = ("any", "easy", "challenging", "mixed")
 FALLBACKS = ("random", "none")
@@ -121,6 +122,9 @@ class PlanningEnv(gym.Env):
     * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``.
     * ``encoding_resolution``: cells per axis of the occupancy grid (32 in 2D, 16 in 3D/7D).
     * ``split``: ``train``, ``val`` or ``test`` workspace pool for drawn tasks.
+    * ``workspace_family``: the family of those workspaces (`temp_gym.worlds.structured`;
+      default ``boxes``, the robot's own generator; 2D and 3D point worlds also draw
+      ``corridors``, ``maze``, ``traps``, ``narrow``, ``clutter`` or ``mixed``).
     * ``max_path_length``: L, rows of the ``path`` observation.
     * ``step_penalty``, ``success_reward``, ``target_cost``: see Rewards and Episode End.
     * ``render_mode``: ``rgb_array`` or ``human``.
@@ -143,6 +147,7 @@ class PlanningEnv(gym.Env):
         max_fallback_tries: int = 1000,
         encoding_resolution: int | None = None,
         split: str = "train",
+        workspace_family: str = BOXES,
         max_path_length: int = DEFAULT_MAX_PATH_LENGTH,
         step_penalty: float = 0.01,
         success_reward: float = 1.0,
@@ -156,6 +161,10 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"fallback: expected one of {FALLBACKS}, got {fallback!r}")
         if split not in SPLITS:
             raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
+        try:
+            check_family(robot, workspace_family)
+        except ValueError as error:
+            raise ValueError(f"workspace_{error}") from None
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']}")
         max_nodes = spec.max_nodes if max_nodes is None else max_nodes
@@ -186,6 +195,7 @@ class PlanningEnv(gym.Env):
             spec.encoding_resolution if encoding_resolution is None else int(encoding_resolution)
         )
         self.split = split
+        self.workspace_family = workspace_family
         self.max_path_length = int(max_path_length)
         self.step_penalty = float(step_penalty)
         self.success_reward = float(success_reward)
@@ -227,7 +237,7 @@ class PlanningEnv(gym.Env):
         last_error: RuntimeError | None = None
         for _ in range(20):
             index = int(rng.integers(SPLITS[self.split]))
-            workspace = split_workspace(self.robot, self.split, index)
+            workspace = split_workspace(self.robot, self.split, index, self.workspace_family)
             try:
                 return self.robot_spec.generate_task(workspace, rng, difficulty, self.goal_radius)
             except RuntimeError as error:  # no task of that difficulty here: next workspace

@@ -17,13 +17,17 @@ from temp_gym.config import Config, TrainEvalConfig
 from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Problem
+from temp_gym.worlds.structured import BOXES
 from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
 
 
-def make_env(config: Config, fallback: str = "random", split: str = "test") -> gym.Env:
+def make_env(
+    config: Config, fallback: str = "random", split: str = "test", workspace_family: str = BOXES
+) -> gym.Env:
     """The planning env of the ``env`` section, with ``train_eval``'s tasks and budget.
 
-    Wrapped in `PlanningMetrics`.
+    Its tasks are drawn in ``split``'s workspaces of ``workspace_family`` (the paper's
+    protocol: ``boxes``). Wrapped in `PlanningMetrics`.
     """
     env_config, eval_config = config.env, config.train_eval
     env = gym.make(
@@ -34,15 +38,18 @@ def make_env(config: Config, fallback: str = "random", split: str = "test") -> g
         fallback=fallback,
         encoding_resolution=env_config.encoding_resolution,
         split=split,
+        workspace_family=workspace_family,
         max_path_length=env_config.max_path_length,
         disable_env_checker=True,
     )
     return PlanningMetrics(env)
 
 
-def draw_problems(config: Config, split: str, count: int, seed: int) -> list[Problem]:
+def draw_problems(
+    config: Config, split: str, count: int, seed: int, workspace_family: str = BOXES
+) -> list[Problem]:
     """``count`` tasks drawn by the env from ``split``'s workspaces, task i with seed+i."""
-    env = make_env(config, fallback="none", split=split)
+    env = make_env(config, fallback="none", split=split, workspace_family=workspace_family)
     problems = []
     for index in range(count):
         env.reset(seed=seed + index)

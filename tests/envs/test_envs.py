@@ -227,3 +227,23 @@ def test_difficulty_and_split_draws(difficulty):
     env = gym.make("TEMP-2D-v0", difficulty=difficulty, split="test")
     env.reset(seed=0)
     assert env.unwrapped.problem.robot == "point2d"
+
+
+@pytest.mark.parametrize(("env_id", "family"), [("TEMP-2D-v0", "maze"), ("TEMP-3D-v0", "traps")])
+def test_tasks_are_drawn_in_the_workspaces_of_the_asked_family(env_id, family):
+    from temp_gym.worlds.splits import SPLITS, split_workspace
+
+    env = gym.make(env_id, split="val", workspace_family=family)
+    env.reset(seed=3)
+    workspace = env.unwrapped.problem.workspace
+    robot = env.unwrapped.robot
+    pool = [split_workspace(robot, "val", index, family) for index in range(SPLITS["val"])]
+    boxes = [split_workspace(robot, "val", index) for index in range(SPLITS["val"])]
+    assert workspace in pool and workspace not in boxes
+
+
+def test_a_family_the_robot_cannot_draw_is_refused_when_the_env_is_made():
+    with pytest.raises(ValueError, match="workspace_family: 'maze' is drawn in 2D and 3D"):
+        gym.make("TEMP-7D-v0", workspace_family="maze")
+    with pytest.raises(ValueError, match="workspace_family: expected one of"):
+        gym.make("TEMP-2D-v0", workspace_family="forest")
