@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from temp_gym.models.snapshot import ArrayBacked
+from temp_gym.models.array_backed import ArrayBacked
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`eise_arrays`)
     import torch

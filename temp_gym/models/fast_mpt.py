@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from temp_gym.models.snapshot import ArrayBacked
+from temp_gym.models.array_backed import ArrayBacked
 from temp_gym.planning.mpt_kernel import forward_kernel, prefix_kernel
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`mpt_arrays`)

@@ -37,42 +37,6 @@ SNAPSHOT_FORMAT = 1
 SUFFIX = ".kernels.npz"
 
 
-class ArrayBacked:
-    """Base of the numba inference objects (`FastMPT`, `FastEISE`): they run on named arrays.
-
-    A subclass names the arrays it reads (``NAMES``) and sets itself up from them in
-    ``_load``; `from_arrays` builds one from a stored snapshot, `arrays` returns what it runs on.
-    """
-
-    NAMES: tuple[str, ...] = ()
-    KIND = "snapshot"
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray]):
-        """One on a snapshot's arrays (read-only use of them), without PyTorch.
-
-        Raises:
-            ValueError: when an array is missing or the shapes do not fit one another.
-        """
-        made = cls.__new__(cls)
-        made._set(arrays)
-        return made
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """The named arrays this runs on (do not modify them)."""
-        return dict(self._arrays)
-
-    def _set(self, arrays: dict[str, np.ndarray]) -> None:
-        missing = [name for name in self.NAMES if name not in arrays]
-        if missing:
-            raise ValueError(f"{self.KIND}: missing arrays {missing}")
-        self._arrays = {name: arrays[name] for name in self.NAMES}
-        self._load(self._arrays)
-
-    def _load(self, arrays: dict[str, np.ndarray]) -> None:
-        raise NotImplementedError
-
-
 @dataclass(frozen=True)
 class ModelInfo:
     """What a policy needs to know of its model besides the weights."""
@@ -193,7 +157,6 @@ def _part(arrays: dict[str, np.ndarray], prefix: str) -> dict[str, np.ndarray]:
 
 
 __all__ = [
-    "ArrayBacked",
     "ModelInfo",
     "Snapshot",
     "file_digest",
