@@ -102,16 +102,21 @@ def _outputs(args: argparse.Namespace) -> list[Path | None]:
 
 
 def _policy(args: argparse.Namespace):
-    """The policy of ``--checkpoint`` (loaded once), or None."""
+    """The policy of ``--checkpoint`` (loaded once), or None.
+
+    Loaded as `temp_gym.models.registry.policy_from_checkpoint` loads it: with the planner
+    settings a shipped checkpoint carries (so the shipped file gives the default plan), and
+    from its inference snapshot, without PyTorch, when one lies beside it.
+    """
     if args.planner != "temp":
         if args.checkpoint is not None or args.attention_nodes is not None:
             raise ValueError("--checkpoint and --attention-nodes apply to --planner temp only")
         return None
     if args.checkpoint is None:
         return None
-    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.models.registry import policy_from_checkpoint
 
-    return TEMPPolicy.from_checkpoint(args.checkpoint)
+    return policy_from_checkpoint(args.checkpoint)
 
 
 def _solve(path: str, args: argparse.Namespace, policy, out: Path | None):

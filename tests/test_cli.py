@@ -197,3 +197,20 @@ def test_batch_mode_writes_one_result_per_problem_and_reports_bad_files(tmp_path
 def test_help_shows_every_default():
     done = run_cli("--help")
     assert "(default: 5000)" in done.stdout and "exit status" in done.stdout
+
+
+def test_the_shipped_checkpoint_named_plans_as_the_default(tmp_path):
+    from temp_gym.models.registry import shipped_checkpoint
+
+    paths = {}
+    for name, extra in (
+        ("default", []),
+        ("named", ["--checkpoint", str(shipped_checkpoint("point2d"))]),
+    ):
+        out = tmp_path / f"{name}.json"
+        done = run_cli(
+            "examples/point2d.json", "--stop-at-first", "--seed", 4, "--out", out, *extra
+        )
+        assert done.returncode == 0, done.stderr
+        paths[name] = json.loads(out.read_text())["path"]
+    assert paths["named"] == paths["default"]

@@ -12,7 +12,7 @@
 | `temp_gym.models.registry` | the shipped policies: `load_policy`, `shipped_checkpoint` |
 | `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
 | `temp_gym.models.snapshot` | a checkpoint's inference snapshot (numpy), stored beside it |
-| `temp_gym.models.array_backed` | `ArrayBacked`: the base of `FastMPT` and `FastEISE` (named arrays in) |
+| `temp_gym.models.array_backed` | `ArrayBacked`: what `FastMPT` and `FastEISE` build on |
 
 Importing this package imports nothing heavy: each name is imported from its module when first
 used, so a CPU policy on a stored snapshot runs without PyTorch.
