@@ -14,8 +14,10 @@ checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for a
 table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
-(lowest validation loss), ``last.pt`` (model, optimizer, scheduler, RNG, config: a killed run
-restarted with the same command resumes from it), ``results.yaml`` and the TensorBoard events.
+(lowest validation loss), its inference snapshot ``best.kernels.npz`` (written when training
+ends, `temp_gym.models.snapshot`: ``temp-plan --checkpoint`` then needs no PyTorch),
+``last.pt`` (model, optimizer, scheduler, RNG, config: a killed run restarted with the same
+command resumes from it), ``results.yaml`` and the TensorBoard events.
 A resume under a config that changes training (`RESUMABLE_CHANGES` lists what may change) is
 refused, naming the keys. Reproducibility: with a fixed ``train.threads`` (the main job uses
 1) a run, and a resumed run, give bit-identical weights; with ``null`` torch takes one thread
@@ -64,6 +66,7 @@ from temp_gym.files import StoredFileError
 from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script
 from temp_gym.models.attention import attention_figure, normalized_group_attention
 from temp_gym.models.policy import TEMPPolicy
+from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import CheckpointError, load_checkpoint
 from temp_gym.worlds.robots import robot_spec
 
@@ -479,6 +482,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     if not dist.is_main:
         return None
     print(f"best checkpoint: {best}")
+    if best.exists():  # temp-plan --checkpoint and policy_from_checkpoint then need no PyTorch
+        write_snapshot(best)
     if args.skip_eval:
         return None
     results = compare_with_rrt_star(config, best, run_dir)

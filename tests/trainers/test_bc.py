@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 import torch
 
+from temp_gym.models.snapshot import file_digest, read_snapshot
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -43,6 +45,8 @@ def test_trains_evaluates_and_resumes(tmp_path):
     assert "| TEMP" in output and "| RRT*" in output
     assert list(run_dir.glob("events.out.tfevents*"))
     assert (run_dir / "results.yaml").exists()
+    best = run_dir / "best.pt"  # its snapshot, of these very bytes, beside it
+    assert read_snapshot(best, file_digest(best)) is not None
     last = torch.load(run_dir / "last.pt", weights_only=True)
     assert last["epoch"] == 2 and last["finished"]
 
