@@ -114,3 +114,19 @@ def test_config_parse_args_takes_overrides_out_of_multi_value_options():
     )
     assert args.noise_std == [0.0, 0.03] and args.out == "x=y"
     assert args.overrides == ["a.b=1", "train.seed=1", "+c.d=2"]
+
+
+def test_config_parse_args_leaves_a_single_value_options_value_alone():
+    import argparse
+
+    from temp_gym.config import parse_args
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--policy", action="append")
+    parser.add_argument("--noise-std", type=float, nargs="+")
+    parser.add_argument("overrides", nargs="*")
+    args = parse_args(
+        parser, ["--policy", "shipped=a.pt", "--noise-std", "0", "b.c=1", "--policy=x=y", "d=2"]
+    )
+    assert args.policy == ["shipped=a.pt", "x=y"] and args.noise_std == [0.0]
+    assert args.overrides == ["b.c=1", "d=2"]

@@ -26,10 +26,20 @@ def parse_args(
     The overrides end up in ``args.overrides`` (the parser may declare that positional for
     its help text), so they may also follow an option that takes several values
     (``--noise-std 0 0.03 train.seed=1``). Tokens starting with ``-`` are never overrides,
-    so ``--flag=value`` stays a flag.
+    so ``--flag=value`` stays a flag, and neither is the value of an option that takes exactly
+    one (``--policy shipped=3d.pt`` gives ``--policy`` its value).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    overrides = [token for token in argv if OVERRIDE.match(token)]
-    args = parser.parse_args([token for token in argv if not OVERRIDE.match(token)])
+    single_value = {
+        option
+        for action in parser._actions
+        if action.nargs is None and action.option_strings
+        for option in action.option_strings
+    }
+    overrides, rest = [], []
+    for index, token in enumerate(argv):
+        is_value = index > 0 and argv[index - 1] in single_value
+        (overrides if OVERRIDE.match(token) and not is_value else rest).append(token)
+    args = parser.parse_args(rest)
     args.overrides = list(getattr(args, "overrides", None) or []) + overrides
     return args
