@@ -2,11 +2,14 @@
 
     python benchmarks/policy_speed.py --world 2d [--checkpoints runs/.../best.pt ...]
         [--tasks 50] [--seeds 2] [--budget 10000]
+    python benchmarks/policy_speed.py --checkpoints runs/.../best.pt@noise_std=0.03,horizon=4
 
 Whether a smaller or otherwise cheaper model pays is a trade: each MPT call costs less, but a
 weaker policy may need more nodes. This measures both in one run. On ``--tasks`` easy and
 ``--tasks`` challenging test tasks (unseen workspaces), each policy (the shipped one first,
-then each ``--checkpoints`` entry with the planner settings it carries) and RRT* and Informed
+then each ``--checkpoints`` entry with the planner settings it carries, or those written after
+an ``@``: ``noise_std`` and ``horizon``, as `trainers/tune_planner.py` chose them for a run not
+yet shipped) and RRT* and Informed
 RRT* are called as users call them, ``plan(problem, policy=..., stop_at_first=True)``, seed by
 seed with the order of the planners alternating, so all see the same machine load. Per row
 and planner: successes, mean and median wall time of the whole call, mean and median nodes to
@@ -42,7 +45,28 @@ def test_rows(robot: str, tasks: int) -> dict[str, list]:
     }
 
 
-def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, Path], seeds: int,
+SETTINGS = {"noise_std": float, "horizon": int}
+"""Planner settings a ``--checkpoints`` entry may give after its ``@``."""
+
+
+def parse_entry(entry: str) -> tuple[Path, dict[str, float | int]]:
+    """``PATH[@key=value,...]`` -> the checkpoint and its planner settings (`SETTINGS`)."""
+    path, _, spec = entry.partition("@")
+    settings: dict[str, float | int] = {}
+    for item in filter(None, spec.split(",")):
+        key, sep, value = item.partition("=")
+        if not sep or key not in SETTINGS:
+            raise SystemExit(f"--checkpoints {entry}: expected key=value with a key of "
+                             f"{sorted(SETTINGS)}, got {item!r}")  # fmt: skip
+        try:
+            settings[key] = SETTINGS[key](value)
+        except ValueError:
+            raise SystemExit(f"--checkpoints {entry}: {key} must be a {SETTINGS[key].__name__}, "
+                             f"got {value!r}") from None  # fmt: skip
+    return Path(path), settings
+
+
+def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, tuple], seeds: int,
             budget: int) -> dict[str, dict[str, list[tuple[float, int, bool]]]]:  # fmt: skip
     """Per row and planner: ``(seconds, nodes to the first solution, success)`` per run."""
     names = list(checkpoints) + list(BASELINES)
@@ -59,10 +83,11 @@ def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, Path], see
     return runs
 
 
-def _call(problem, name: str, checkpoints: dict[str, Path], robot: str, seed: int,
+def _call(problem, name: str, checkpoints: dict[str, tuple], robot: str, seed: int,
           budget: int) -> tuple[float, int, bool]:  # fmt: skip
     if name in checkpoints:
-        policy = policy_from_checkpoint(checkpoints[name], robot)
+        path, settings = checkpoints[name]
+        policy = policy_from_checkpoint(path, robot, **settings)
         began = time.perf_counter()
         result = plan(problem, policy=policy, seed=seed, max_nodes=budget, stop_at_first=True)
     else:
@@ -93,18 +118,20 @@ def mpt_call_seconds(checkpoint: Path, robot: str, problems: list, calls: int = 
 def main(argv: list[str] | None = None) -> None:
     parser = script_parser(__doc__.splitlines()[0])
     parser.add_argument("--world", default="2d", choices=list(ROBOTS), help="the world")
-    parser.add_argument("--checkpoints", nargs="*", type=Path, default=[],
-                        help="bc.py checkpoints to compare with the shipped policy")  # fmt: skip
+    parser.add_argument("--checkpoints", nargs="*", default=[],
+                        help="bc.py checkpoints to compare with the shipped policy, each "
+                             "PATH[@noise_std=X,horizon=K]")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=50, help="test tasks per row")
     parser.add_argument("--seeds", type=int, default=2, help="planner seeds per task")
     parser.add_argument("--budget", type=int, default=10_000, help="node budget per run")
     args = parse_args(parser, argv)
     robot = ROBOTS[args.world]
-    checkpoints = {"shipped": shipped_checkpoint(robot)}
-    for path in args.checkpoints:
+    checkpoints = {"shipped": (shipped_checkpoint(robot), {})}
+    for entry in args.checkpoints:
+        path, settings = parse_entry(entry)
         if not path.is_file():
             raise SystemExit(f"--checkpoints: no file {path}")
-        checkpoints[str(path)] = path
+        checkpoints[entry] = (path, settings)
     rows = test_rows(robot, args.tasks)
     runs = run_all(robot, rows, checkpoints, args.seeds, args.budget)
     for row, planners in runs.items():
@@ -123,7 +150,7 @@ def main(argv: list[str] | None = None) -> None:
                   f"{sum(times) / totals['informed_rrt_star']:.3f} |")  # fmt: skip
     problems = [p for row in rows.values() for p in row]
     print("\n| policy | one MPT call (us) |\n|---|---:|")
-    for name, path in checkpoints.items():
+    for name, (path, _) in checkpoints.items():
         print(f"| {name} | {1e6 * mpt_call_seconds(path, robot, problems):.1f} |")
 
 

@@ -130,3 +130,17 @@ def test_config_parse_args_leaves_a_single_value_options_value_alone():
     )
     assert args.policy == ["shipped=a.pt", "x=y"] and args.noise_std == [0.0]
     assert args.overrides == ["b.c=1", "d=2"]
+
+
+def test_policy_speed_reads_planner_settings_after_an_at_sign():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import policy_speed
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    path, settings = policy_speed.parse_entry("runs/x/best.pt@noise_std=0.03,horizon=4")
+    assert path == Path("runs/x/best.pt") and settings == {"noise_std": 0.03, "horizon": 4}
+    assert policy_speed.parse_entry("runs/x/best.pt") == (Path("runs/x/best.pt"), {})
+    for bad in ("a.pt@temperature=1", "a.pt@horizon=four", "a.pt@noise_std"):
+        with pytest.raises(SystemExit, match="--checkpoints"):
+            policy_speed.parse_entry(bad)

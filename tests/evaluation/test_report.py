@@ -92,3 +92,35 @@ def test_make_results_reads_verdicts_off_the_intervals(tmp_path, monkeypatch):
     slower["time"].update(median_low=0.8)
     assert make_results.verdict(slower) == "undecided"
     assert make_results.verdict(None) == "**missed**"
+
+
+def test_make_results_pools_draws_and_keeps_worlds_it_did_not_rerun(tmp_path, monkeypatch):
+    make_results = load_make_results()
+    monkeypatch.chdir(tmp_path)
+    draws = [fake_records(seed=0), fake_records(stall=1.0, seed=1)]
+    write_report(draws[0], tmp_path / "results" / "TEMP-2D-v0", tensorboard=False)
+    write_report(draws[1], tmp_path / "results" / "TEMP-2D-v0-draw1", tensorboard=False)
+    docs = ["--skip-evaluation", "--docs-dir", str(tmp_path / "docs")]
+    page = make_results.main(["--worlds", "2d", "--task-draws", "2", *docs]).read_text()
+    assert "### Spread over draws of test tasks" in page
+    sums = [
+        [sum(r["planners"][n]["time"] for r in records if r["planners"]["rrt_star"]["success"])
+         for n in ("temp", "rrt_star")]
+        for records in draws
+    ]  # fmt: skip
+    each = ", ".join(f"{a / b:.2f}" for a, b in sums)
+    pooled = sum(a for a, _ in sums) / sum(b for _, b in sums)
+    assert f"| 2D easy | rrt_star | {each} | {pooled:.3f} | 48 |" in page
+    checks = [line for line in page.splitlines() if line.startswith("| 2D easy | rrt_star:")]
+    assert len(checks) == 1
+
+    # Without results on the machine, the world's section and its lines stay, marked as kept.
+    (tmp_path / "results" / "TEMP-2D-v0" / "results.json").unlink()
+    kept = make_results.main(["--worlds", "2d", *docs]).read_text()
+    assert make_results.KEPT_NOTE in kept
+    assert checks[0] in kept and "### Spread over draws of test tasks" in kept
+    assert kept.count("## TEMP-2D-v0") == 1 and kept.count(make_results.KEPT_NOTE) == 1
+    again = make_results.main(["--worlds", "3d", *docs]).read_text()
+    assert again.count(make_results.KEPT_NOTE) == 1 and "## TEMP-3D-v0" not in again
+    with pytest.raises(SystemExit):
+        make_results.main(["--task-draws", "0", *docs])
