@@ -91,6 +91,16 @@ def action_nearest_and_steer(positions, count, action, bounds, step_size, out_ne
     return nearest_and_steer(positions, count, out_new, step_size, out_new)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _squared_distance(positions, i, point, dim):
+    """``|positions[i] - point|^2``, summed over the coordinates in order."""
+    sq = 0.0
+    for k in range(dim):
+        diff = positions[i, k] - point[k]
+        sq += diff * diff
+    return sq
+
+
 @numba.njit(cache=True, nogil=True)
 def near_and_parent_candidates(
     positions, costs, count, new, nearest, radius, k_nearest, near_idx, near_dist, cand_idx
@@ -106,26 +116,33 @@ def near_and_parent_candidates(
     Returns ``(num_near, num_candidates)``.
     """
     dim = positions.shape[1]
-    dist = np.empty(count)
-    for i in range(count):
-        sq = 0.0
-        for k in range(dim):
-            diff = positions[i, k] - new[k]
-            sq += diff * diff
-        dist[i] = math.sqrt(sq)
-    if k_nearest > 0 and k_nearest < count:
-        threshold = np.partition(dist, k_nearest - 1)[k_nearest - 1]
-    elif k_nearest > 0:
-        threshold = np.inf
-    else:
-        threshold = radius
     num_near = 0
-    for i in range(count):
-        if dist[i] <= threshold or i == nearest:
-            near_idx[num_near] = i
-            near_dist[num_near] = dist[i]
-            num_near += 1
-    via_nearest = costs[nearest] + dist[nearest]
+    if k_nearest > 0:
+        dist = np.empty(count)
+        for i in range(count):
+            dist[i] = math.sqrt(_squared_distance(positions, i, new, dim))
+        threshold = np.inf
+        if k_nearest < count:
+            threshold = np.partition(dist, k_nearest - 1)[k_nearest - 1]
+        for i in range(count):
+            if dist[i] <= threshold or i == nearest:
+                near_idx[num_near] = i
+                near_dist[num_near] = dist[i]
+                num_near += 1
+    else:
+        # The radius test on squared distances first, with a margin far above rounding, so
+        # the square root is taken only near the ball; the exact test ``sqrt <= radius`` then
+        # decides, as it would on every node: the same near set, the same distances.
+        loose = radius * radius * (1.0 + 1e-9)
+        for i in range(count):
+            sq = _squared_distance(positions, i, new, dim)
+            if sq <= loose or i == nearest:
+                distance = math.sqrt(sq)
+                if distance <= radius or i == nearest:
+                    near_idx[num_near] = i
+                    near_dist[num_near] = distance
+                    num_near += 1
+    via_nearest = costs[nearest] + math.sqrt(_squared_distance(positions, nearest, new, dim))
     through = np.empty(num_near)
     num_cand = 0
     for j in range(num_near):
