@@ -170,18 +170,19 @@ def world_section(key: str, out: Path, docs: Path) -> tuple[str, list[str], list
 
 
 def paired_sums(records: list[dict], baselines: list[str]) -> dict[str, dict[str, list[float]]]:
-    """Per row and baseline: ``[TEMP's time summed, the baseline's]`` over tasks both solved."""
+    """Per row and baseline: ``[TEMP's summed time, the baseline's, tasks]``, both solved."""
     sums: dict[str, dict[str, list[float]]] = {}
     for record in records:
         planners = record["planners"]
         if not planners["temp"].get("success"):
             continue
-        row = sums.setdefault(record["group"], {b: [0.0, 0.0] for b in baselines})
+        row = sums.setdefault(record["group"], {b: [0.0, 0.0, 0] for b in baselines})
         for name in baselines:
             theirs = planners.get(name)
             if theirs and theirs.get("success"):
                 row[name][0] += planners["temp"]["time"]
                 row[name][1] += theirs["time"]
+                row[name][2] += 1
     return sums
 
 
@@ -206,16 +207,8 @@ def spread_section(draws: list[dict]) -> list[str]:
     for row in per_draw[0]:
         for name in baselines:
             pairs = [sums[row][name] for sums in per_draw if row in sums]
-            each = ", ".join(_fmt(a / b if b > 0 else math.nan, 2) for a, b in pairs)
-            temp, theirs = sum(a for a, _ in pairs), sum(b for _, b in pairs)
-            tasks = sum(
-                1
-                for d in draws
-                for r in d.get("records", [])
-                if r["group"] == row
-                and r["planners"]["temp"].get("success")
-                and (r["planners"].get(name) or {}).get("success")
-            )
+            each = ", ".join(_fmt(a / b if b > 0 else math.nan, 2) for a, b, _ in pairs)
+            temp, theirs, tasks = (sum(column) for column in zip(*pairs))
             lines.append(
                 f"| {row} | {name} | {each} | {_fmt(temp / theirs if theirs > 0 else math.nan)} "
                 f"| {tasks} |"
@@ -292,13 +285,11 @@ def main(argv: list[str] | None = None) -> Path:
     sections, ratios, check_lines = [], [], []
     for key in WORLDS:
         out = Path("results") / WORLDS[key]
-        if key in args.worlds:
-            outs = [out] + [
-                Path("results") / f"{WORLDS[key]}-draw{draw}" for draw in range(1, args.task_draws)
-            ]
+        outs = [out] + [
+            Path("results") / f"{WORLDS[key]}-draw{draw}" for draw in range(1, args.task_draws)
+        ]
+        if key in args.worlds and not args.skip_evaluation:
             for draw, where in enumerate(outs):
-                if args.skip_evaluation:
-                    break
                 flags = ["--config", f"configs/{key}.yaml", f"evaluation.out={where}"]
                 flags += [f"evaluation.seed={draw}"] if draw else []
                 if args.workers:

@@ -35,6 +35,16 @@ def lowers(candidate, current):
     return candidate < current - COST_EPS * abs(current)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _squared_distance(positions, i, point, dim):
+    """``|positions[i] - point|^2``, summed over the coordinates in order."""
+    sq = 0.0
+    for k in range(dim):
+        diff = positions[i, k] - point[k]
+        sq += diff * diff
+    return sq
+
+
 @numba.njit(cache=True, nogil=True)
 def nearest_and_steer(positions, count, sample, step_size, out_new):
     """Find the node nearest to ``sample`` and steer from it by at most ``step_size``.
@@ -46,10 +56,7 @@ def nearest_and_steer(positions, count, sample, step_size, out_new):
     best = 0
     best_sq = np.inf
     for i in range(count):
-        sq = 0.0
-        for k in range(dim):
-            diff = positions[i, k] - sample[k]
-            sq += diff * diff
+        sq = _squared_distance(positions, i, sample, dim)
         if sq < best_sq:
             best_sq = sq
             best = i
@@ -89,16 +96,6 @@ def action_nearest_and_steer(positions, count, action, bounds, step_size, out_ne
     if not action_to_sample(action, bounds, out_new):
         return -1, np.nan
     return nearest_and_steer(positions, count, out_new, step_size, out_new)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _squared_distance(positions, i, point, dim):
-    """``|positions[i] - point|^2``, summed over the coordinates in order."""
-    sq = 0.0
-    for k in range(dim):
-        diff = positions[i, k] - point[k]
-        sq += diff * diff
-    return sq
 
 
 @numba.njit(cache=True, nogil=True)
