@@ -46,7 +46,12 @@ FALLBACK_BATCH = 128
 SLICE = 256
 """Most iterations a compiled planner loop runs between two looks at the wall clock."""
 FIRST_TIMED_SLICE = 8
-"""Iterations of the first slice under a time limit, before the loop's pace is known."""
+"""Fewest iterations of the first slice under a time limit, before the loop's pace is known."""
+ASSUMED_FIRST_PACE = 0.05
+"""Seconds per iteration the first timed slice assumes: slower than any iteration we measured
+(a 7D extension with its collision fallbacks), so the first slice stays within half the time
+left, while a generous limit (the evaluation's 60 s) gets a whole slice at once instead of an
+extra round trip to measure a pace that would have allowed it anyway."""
 
 NO_NODE = -1
 BAD_ACTION = -2
@@ -56,14 +61,16 @@ BAD_ACTION = -2
 def slice_length(deadline: float, now: float, seconds_per_iteration: float) -> int:
     """Iterations of a compiled loop's next slice: `SLICE`, fewer as ``deadline`` nears.
 
-    At the pace measured so far (``seconds_per_iteration``; 0 when unknown: a short first
-    slice) a slice takes at most half the time left, so a loop that looks at the clock between
-    slices overshoots a time limit by a fraction of it, never by a whole slice.
+    At the pace measured so far (``seconds_per_iteration``) a slice takes at most half the
+    time left, so a loop that looks at the clock between slices overshoots a time limit by a
+    fraction of it, never by a whole slice. Before the pace is known (0), the first slice
+    assumes `ASSUMED_FIRST_PACE` and runs at least `FIRST_TIMED_SLICE` iterations.
     """
     if not math.isfinite(deadline):
         return SLICE
     if seconds_per_iteration <= 0.0:
-        return FIRST_TIMED_SLICE
+        first = (deadline - now) / ASSUMED_FIRST_PACE / 2.0
+        return int(min(SLICE, max(float(FIRST_TIMED_SLICE), first)))
     return int(min(SLICE, max(1.0, (deadline - now) / seconds_per_iteration / 2.0)))
 
 

@@ -104,7 +104,7 @@ def _grow_compiled(
         dtype=np.int64,
     )  # fmt: skip
     target = -math.inf if settings.target_cost is None else float(settings.target_cost)
-    iterations = slice_length(deadline, 0.0, 0.0)
+    iterations = slice_length(deadline, time.perf_counter(), 0.0)
     while True:
         arrays, counters, best_cost, params = tree.compiled_state()
         began, samples = time.perf_counter(), tree.samples

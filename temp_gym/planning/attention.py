@@ -64,7 +64,8 @@ def default_patience(problem: Problem, step_size: float) -> int:
     its nodes bring the tree closer; ``PATIENCE_PER_STEP`` times that many nodes in a row
     without a closer node means it has lost its way.
     """
-    steps = float(np.linalg.norm(problem.goal - problem.start)) / step_size
+    offset = problem.goal - problem.start
+    steps = math.sqrt(float(offset.dot(offset))) / step_size  # np.linalg.norm's formula
     return max(MIN_PATIENCE, math.ceil(PATIENCE_PER_STEP * steps))
 
 
@@ -244,8 +245,9 @@ class _NoiseBlocks:
     interchangeable for whatever the generator draws next.
     """
 
-    FIRST_ROWS = 16
-    """MPT calls covered by the first block (doubling up to `MAX_ROWS`)."""
+    FIRST_ROWS = 64
+    """MPT calls covered by the first block (doubling up to `MAX_ROWS`): enough for most
+    attention phases that solve, so that they end no slice early to fetch more noise."""
     MAX_ROWS = 4096
     """The largest block, in MPT calls."""
 
@@ -302,7 +304,7 @@ def _run_compiled(
          MAX_FALLBACK_TRIES],
         dtype=np.int64,
     )  # fmt: skip
-    iterations = slice_length(limits.deadline, 0.0, 0.0)
+    iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
     try:
         while True:
             began = time.perf_counter()

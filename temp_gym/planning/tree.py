@@ -36,8 +36,9 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -52,6 +53,7 @@ if TYPE_CHECKING:
 NEIGHBOURHOODS = ("radius", "k_nearest")
 _FREE_VOLUME_SAMPLES = 4096
 _FREE_VOLUME_CACHE: OrderedDict[Workspace, float] = OrderedDict()
+_FREE_VOLUME_FLOOR_CACHE: OrderedDict[Workspace, float | None] = OrderedDict()
 _FREE_VOLUME_CACHE_SIZE = 256
 
 
@@ -121,16 +123,34 @@ def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
     ``checker`` must be ``make_checker(problem)``'s kind; `Tree` asks for no estimate of
     another checker here.
     """
+    return _remembered(_FREE_VOLUME_CACHE, problem, checker, estimate_free_volume)
+
+
+def workspace_free_volume_floor(problem: Problem, checker: CollisionChecker) -> float | None:
+    """`free_volume_floor` for the default checker of ``problem``, remembered per workspace.
+
+    Every `Tree` on a workspace whose exact volume it never needed asks for the floor again;
+    remembered, a new tree in a known workspace skips the pass over the boxes.
+    """
+    return _remembered(_FREE_VOLUME_FLOOR_CACHE, problem, checker, free_volume_floor)
+
+
+def _remembered(
+    cache: OrderedDict, problem: Problem, checker: CollisionChecker, compute: Callable
+) -> Any:
+    """``compute(problem, checker)``, remembered in ``cache`` per workspace.
+
+    The last `_FREE_VOLUME_CACHE_SIZE` workspaces are kept (a value of None too).
+    """
     key = problem.workspace
-    volume = _FREE_VOLUME_CACHE.get(key)
-    if volume is None:
-        volume = estimate_free_volume(problem, checker)
-        _FREE_VOLUME_CACHE[key] = volume
-        if len(_FREE_VOLUME_CACHE) > _FREE_VOLUME_CACHE_SIZE:
-            _FREE_VOLUME_CACHE.popitem(last=False)
-    else:
-        _FREE_VOLUME_CACHE.move_to_end(key)
-    return volume
+    if key in cache:
+        cache.move_to_end(key)
+        return cache[key]
+    value = compute(problem, checker)
+    cache[key] = value
+    if len(cache) > _FREE_VOLUME_CACHE_SIZE:
+        cache.popitem(last=False)
+    return value
 
 
 class Sampler(Protocol):
@@ -224,7 +244,7 @@ class Tree:
             if checker is not None:  # a caller's own checker may see other free space
                 self._gamma = self._radius_gamma(estimate_free_volume(problem, self.checker))
             elif problem.workspace not in _FREE_VOLUME_CACHE:  # else `gamma` reads the cache
-                floor = free_volume_floor(problem, self.checker)
+                floor = workspace_free_volume_floor(problem, self.checker)
                 if floor is not None:
                     self._gamma_floor = self._radius_gamma(floor)
         else:
@@ -252,7 +272,7 @@ class Tree:
         self.samples = 0
         self.sampling_failures = 0
         self.collision_checks = 0
-        if float(np.sum((problem.start - self._goal) ** 2)) <= self._goal_radius_sq:
+        if float(np.add.reduce((problem.start - self._goal) ** 2)) <= self._goal_radius_sq:
             self._goal_nodes[0] = 0
             self.num_goal_nodes = 1
             self.best_node, self.best_cost = 0, 0.0

@@ -5,10 +5,10 @@ The hot loops are numba kernels compiled on first use (or loaded from numba's ca
 a first ``temp-plan --time-limit 2`` returned "no solution, 2 nodes". `warm_up` runs the
 planner once on the caller's own problem with a tiny budget before `temp_gym.plan` starts
 timing, so every kernel that planner reaches (tree, sampler, collision checker, the TEMP
-policy's fast MPT, certification; the fast checker's Python methods, which OMPL calls) is
-compiled, and per-process setup (the checker's robot
-geometry, torch's first inference) is done. It lists no kernels by name: whatever the planner
-calls is warmed.
+policy's fast MPT, certification; the fast checker's Python methods, which OMPL calls; the
+exact free volume, which only some workspaces need) is compiled, and per-process setup (the
+checker's robot geometry, torch's first inference) is done. It lists no kernels by name:
+whatever the planner calls is warmed.
 
 It leaves no trace in results or in the caller's objects: planners seed their own
 generators from ``settings.seed``, the per-workspace caches it fills (free volume,
@@ -85,4 +85,10 @@ def warm_up(
     checker.states_free(start[None])
     checker.edge_free(start, toward_goal)
     checker.edges_free(start[None], toward_goal[None])
+    # A tree computes the exact free volume only in some workspaces (when the cheap bound of
+    # it is not enough for its near radius), so a timed run could be the first to load that
+    # kernel: compute it here, untimed, and cache nothing.
+    exact_volume = getattr(checker, "free_volume", None)
+    if exact_volume is not None:
+        exact_volume()
     return True

@@ -35,4 +35,5 @@ def goal_radius_ratio(goal_radius: float, bounds: np.ndarray) -> float:
 
     The observation, the demonstrations and the policy's task all use this one ratio.
     """
-    return min(float(goal_radius) / float(half_range(bounds).mean()), MAX_RATIO)
+    halves = half_range(bounds)  # np.mean's sum and division, without its Python overhead
+    return min(float(goal_radius) / (float(np.add.reduce(halves)) / halves.shape[0]), MAX_RATIO)

@@ -156,11 +156,20 @@ def test_compiled_loop_cannot_be_forced_on_a_checker_without_a_compiled_path(pro
 
 
 def test_compiled_slices_shrink_as_the_deadline_nears():
-    from temp_gym.planning._compiled_tree import FIRST_TIMED_SLICE, SLICE, slice_length
+    from temp_gym.planning._compiled_tree import (
+        ASSUMED_FIRST_PACE,
+        FIRST_TIMED_SLICE,
+        SLICE,
+        slice_length,
+    )
 
     assert slice_length(math.inf, 0.0, 0.0) == SLICE  # no time limit: whole slices
     assert slice_length(math.inf, 0.0, 1e-3) == SLICE
-    assert slice_length(10.0, 0.0, 0.0) == FIRST_TIMED_SLICE  # pace unknown yet
+    # Pace unknown yet: half the time left at an assumed slow pace, at least FIRST_TIMED_SLICE.
+    assert slice_length(0.1, 0.0, 0.0) == FIRST_TIMED_SLICE
+    assert slice_length(10.0, 0.0, 0.0) == int(10.0 / ASSUMED_FIRST_PACE / 2)
+    assert slice_length(1000.0, 999.9, 0.0) == FIRST_TIMED_SLICE  # the time left, not the limit
+    assert slice_length(60.0, 0.0, 0.0) == SLICE
     assert slice_length(10.0, 0.0, 1e-6) == SLICE  # far from the deadline
     # 10 ms left at 100 us per iteration: half of them, 50.
     assert slice_length(1.0, 0.99, 1e-4) == 50

@@ -72,6 +72,23 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         assert tree_c.num_nodes > 16  # the arrays were grown
 
 
+def test_noise_blocks_refilled_mid_phase_give_the_python_loops_tree(monkeypatch):
+    """With tiny noise blocks the compiled loop fetches noise many times, with the same result."""
+    from temp_gym.planning import attention
+
+    monkeypatch.setattr(attention._NoiseBlocks, "FIRST_ROWS", 1)
+    monkeypatch.setattr(attention._NoiseBlocks, "MAX_ROWS", 4)
+    problem = generate_problem("point2d", np.random.default_rng(3), "challenging")
+    runs = [
+        _grow(problem, _chunked_policy("point2d", 2, noise_std=0.05), 4, compiled_loop)
+        for compiled_loop in (True, False)
+    ]
+    (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
+    _assert_same_tree(tree_c, tree_p)
+    assert out_c.policy_calls == out_p.policy_calls > 8  # many blocks of at most 4 calls
+    assert (rng_c, noise_c) == (rng_p, noise_p)
+
+
 def test_a_chunk_is_used_in_turn_and_dropped_after_a_fallback(wall):
     policy = _chunked_policy("point2d", 4, noise_std=0.0)
     open_world = Problem.from_dict({**wall, "obstacles": []})

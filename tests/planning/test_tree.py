@@ -133,6 +133,28 @@ def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
     assert len(calls) == 3
 
 
+def test_the_free_volume_floor_is_computed_once_per_workspace(problem_2d, monkeypatch):
+    from dataclasses import replace
+
+    from temp_gym.planning import tree as tree_module
+
+    for name in ("_FREE_VOLUME_CACHE", "_FREE_VOLUME_FLOOR_CACHE"):
+        monkeypatch.setattr(tree_module, name, type(getattr(tree_module, name))())
+    calls = []
+    floor = tree_module.free_volume_floor
+
+    def counting(problem, checker):
+        calls.append(problem)
+        return floor(problem, checker)
+
+    monkeypatch.setattr(tree_module, "free_volume_floor", counting)
+    first = Tree(problem_2d)
+    other_query = replace(problem_2d, start=problem_2d.goal, goal=problem_2d.start)
+    second = Tree(other_query)
+    assert len(calls) == 1 and first._gamma_floor == second._gamma_floor is not None
+    assert first._gamma_in_use == second._gamma_in_use
+
+
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])
 def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeypatch):
     """A tree on the volume's lower bound grows as the tree on the exact volume, node for node."""

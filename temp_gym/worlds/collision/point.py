@@ -198,6 +198,7 @@ class PointBoxChecker:
         self._box_lower = np.ascontiguousarray(box_lower, dtype=np.float64).reshape(-1, self.dim)
         self._box_upper = np.ascontiguousarray(box_upper, dtype=np.float64).reshape(-1, self.dim)
         self.description = f"analytic segment-vs-box test, {len(self._box_lower)} boxes"
+        self._context: tuple[np.ndarray, ...] | None = None
 
     def free_volume(self) -> float:
         """The exact volume of the free space: the bounds less the union of the boxes."""
@@ -220,10 +221,12 @@ class PointBoxChecker:
         return total - boxes - 1e-9 * total
 
     def compiled_context(self) -> tuple[np.ndarray, ...]:
-        """Bounds and boxes for `temp_gym.worlds.collision.compiled.motion_free`."""
-        context = (self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper)
-        register_motion_kernel(context, _context_segment_free)
-        return context
+        """Bounds and boxes for `temp_gym.worlds.collision.compiled.motion_free` (made once)."""
+        if self._context is None:
+            context = (self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper)
+            register_motion_kernel(context, _context_segment_free)
+            self._context = context
+        return self._context
 
     def _as_states(self, states: np.ndarray) -> np.ndarray:
         states = np.ascontiguousarray(states, dtype=np.float64)
