@@ -246,6 +246,9 @@ class EvaluationConfig:
     """The attention phase's stall patience; null: the checkpoint's, else the default rule."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
+    warm_runs: bool = True
+    """Before each timed run, an untimed short run of the same planner on another problem,
+    so that the order of the planners does not bias their times."""
     workers: int = 2
     """Processes (``--workers`` overrides it)."""
     out: str | None = None

@@ -83,6 +83,7 @@ def settings_from(
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,
+        warm_runs=section.warm_runs,
     )
     return settings, section
 

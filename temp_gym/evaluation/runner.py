@@ -23,6 +23,7 @@ generator, so a task can be recomputed alone.
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 import time
@@ -82,6 +83,14 @@ class EvaluationSettings:
     """Node budget of those runs."""
     seed: int = 0
     """Seed of the test set and the planners."""
+    warm_runs: bool = True
+    """Before each timed run, the planner first plans `warm_up_problem` briefly, untimed
+    (`warm_run`), so that every timed run starts as a user's loop of ``plan`` calls starts
+    it: the planner's code and data in the CPU's caches. Without it the order biases the
+    times: TEMP, first on each task, starts right after the previous task's OMPL runs, and
+    each baseline right after another planner ran the same tree kernels on the same
+    workspace. Per-workspace caches (the occupancy grid, the EISE encoding, the free volume)
+    are left as they are: the warm-up problem is in a workspace no test task uses."""
 
 
 def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
@@ -98,12 +107,41 @@ def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -
     raise RuntimeError(f"no {difficulty} test task found for {robot}")
 
 
+WARM_RUN_NODES = 64
+"""Tree nodes of a warm run (half of them attention-based for TEMP)."""
+
+
+@functools.lru_cache(maxsize=8)
+def warm_up_problem(robot: str) -> Problem:
+    """The problem of every warm run: an easy task in the first training workspace.
+
+    Training workspaces are never test workspaces (`temp_gym.worlds.splits`), so a warm run
+    fills no per-workspace cache that a timed run reads.
+    """
+    return generate_task(split_workspace(robot, "train", 0), np.random.default_rng(0), "easy")
+
+
+def warm_run(planner: str, policy, settings: EvaluationSettings) -> None:
+    """Plan `warm_up_problem` briefly with ``planner``, untimed (see ``warm_runs``)."""
+    if not settings.warm_runs:
+        return
+    kwargs = {"policy": policy, "attention_nodes": WARM_RUN_NODES // 2} if planner == "temp" else {}
+    plan(
+        warm_up_problem(settings.robot), planner=planner, seed=settings.seed,
+        max_nodes=WARM_RUN_NODES, **kwargs,
+    )  # fmt: skip
+
+
 def evaluate_task(
     problem: Problem, policy, settings: EvaluationSettings, with_curves: bool
 ) -> dict[str, Any]:
-    """The record of one task: TEMP's AP figures and each baseline's figures at tolerance."""
+    """The record of one task: TEMP's AP figures and each baseline's figures at tolerance.
+
+    With ``settings.warm_runs`` each timed run follows a warm run of its planner.
+    """
     seed = settings.seed
     record: dict[str, Any] = {"problem": problem.to_dict(), "planners": {}}
+    warm_run("temp", policy, settings)
     temp = plan(
         problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
@@ -124,6 +162,7 @@ def evaluate_task(
         target = tolerance_target(temp.cost, settings.tau)
         record["target_cost"] = target
         for name in settings.baselines:
+            warm_run(name, None, settings)
             result = plan(
                 problem, planner=name, seed=seed, max_nodes=settings.max_nodes,
                 time_limit=settings.time_limit, target_cost=target,

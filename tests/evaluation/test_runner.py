@@ -13,6 +13,7 @@ from temp_gym.evaluation.runner import (
     evaluate_task,
     evaluation_problem,
     run_evaluation,
+    warm_up_problem,
 )
 from temp_gym.planning.plan import plan
 from temp_gym.policies import UniformPolicy
@@ -38,6 +39,41 @@ def test_test_tasks_are_deterministic_and_of_the_right_difficulty():
     a = evaluation_problem("point2d", "challenging", 3)
     assert a == evaluation_problem("point2d", "challenging", 3)
     assert a != evaluation_problem("point2d", "challenging", 4)
+
+
+def test_each_timed_run_follows_a_warm_run_of_its_planner_that_changes_no_result(monkeypatch):
+    from temp_gym.evaluation import runner
+    from temp_gym.worlds.splits import SPLITS, split_workspace
+
+    warm = warm_up_problem("point2d")
+    tests = {split_workspace("point2d", "test", i) for i in range(SPLITS["test"])}
+    assert warm.workspace not in tests  # warm runs fill no cache a timed run reads
+    calls = []
+
+    def recording(problem, planner="temp", **kwargs):
+        calls.append((planner, problem is warm))
+        return plan(problem, planner=planner, **kwargs)
+
+    monkeypatch.setattr(runner, "plan", recording)
+    problem = evaluation_problem("point2d", "easy", 0)
+    records = {}
+    for warm_runs in (True, False):
+        calls.clear()
+        records[warm_runs] = evaluate_task(
+            problem, make_policy(), settings(warm_runs=warm_runs), with_curves=False
+        )
+        names = ["temp", "rrt_star", "informed_rrt_star"]
+        timed = [(name, False) for name in names]
+        expected = [c for name in timed for c in ([(name[0], True)] if warm_runs else []) + [name]]
+        assert calls == expected
+
+    def without_times(record):
+        return {
+            name: {key: value for key, value in figures.items() if key != "time"}
+            for name, figures in record["planners"].items()
+        }
+
+    assert without_times(records[True]) == without_times(records[False])
 
 
 def test_evaluation_is_resumable_and_reports(tmp_path):
