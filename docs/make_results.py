@@ -326,6 +326,11 @@ def main(argv: list[str] | None = None) -> Path:
         "success is the share of tasks it solved, a baseline's the share where it reached "
         "(1 + 0.05) J within the budget. Times are wall-clock on "
         f"{platform.machine()} CPU cores of a shared 2-core machine, one process per task. "
+        "Each timed run follows an untimed short run of the same planner on a problem in a "
+        "training workspace (`warm_runs` in a world's settings), so that the order in which "
+        "the planners run does not bias their times; a section whose settings lack "
+        "`warm_runs` was measured without them, TEMP then running first on each task and "
+        "each baseline right after another planner on the same workspace. "
         "A world's section may add the spread of its paired time ratios over more draws of "
         "test tasks (`--task-draws`): one draw of 100 tasks is the paper's protocol, and a few "
         "heavy-tailed tasks can move its paired ratio by a factor of two.",
