@@ -27,6 +27,8 @@ script, all 85 fingerprints were identical before and after; the plans were rewr
 Then the shipped 2D policy changed (a smaller MPT trained on the mixed workspace families):
 only the three 2D ``temp`` plans and the 2D evaluation record (TEMP's path) changed, and were
 rewritten the same way.
+Then the shipped 3D policy changed (a tiny MPT trained on the mixed workspace families): only
+the three 3D ``temp`` plans changed, and were rewritten the same way.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.
