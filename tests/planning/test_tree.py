@@ -103,22 +103,30 @@ def test_bad_arguments(problem_2d):
         Tree(problem_2d).extend(np.zeros(3))
 
 
-def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
-    from dataclasses import replace
-
+def _count_calls(monkeypatch, name):
+    """Empty the tree module's free-volume caches; count calls of its function ``name``."""
     from temp_gym.planning import tree as tree_module
-    from temp_gym.problem import Workspace
-    from temp_gym.worlds.checkers import make_checker
 
-    monkeypatch.setattr(tree_module, "_FREE_VOLUME_CACHE", type(tree_module._FREE_VOLUME_CACHE)())
+    for cache in ("_FREE_VOLUME_CACHE", "_FREE_VOLUME_FLOOR_CACHE"):
+        monkeypatch.setattr(tree_module, cache, type(getattr(tree_module, cache))())
     calls = []
-    estimate = tree_module.estimate_free_volume
+    compute = getattr(tree_module, name)
 
     def counting(problem, checker):
         calls.append(problem)
-        return estimate(problem, checker)
+        return compute(problem, checker)
 
-    monkeypatch.setattr(tree_module, "estimate_free_volume", counting)
+    monkeypatch.setattr(tree_module, name, counting)
+    return calls
+
+
+def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
+    from dataclasses import replace
+
+    from temp_gym.problem import Workspace
+    from temp_gym.worlds.checkers import make_checker
+
+    calls = _count_calls(monkeypatch, "estimate_free_volume")
     first = Tree(problem_2d)
     assert first.gamma > 0 and len(calls) == 1
     other_query = replace(problem_2d, start=problem_2d.goal, goal=problem_2d.start)
@@ -136,18 +144,7 @@ def test_free_volume_is_estimated_once_per_workspace(problem_2d, monkeypatch):
 def test_the_free_volume_floor_is_computed_once_per_workspace(problem_2d, monkeypatch):
     from dataclasses import replace
 
-    from temp_gym.planning import tree as tree_module
-
-    for name in ("_FREE_VOLUME_CACHE", "_FREE_VOLUME_FLOOR_CACHE"):
-        monkeypatch.setattr(tree_module, name, type(getattr(tree_module, name))())
-    calls = []
-    floor = tree_module.free_volume_floor
-
-    def counting(problem, checker):
-        calls.append(problem)
-        return floor(problem, checker)
-
-    monkeypatch.setattr(tree_module, "free_volume_floor", counting)
+    calls = _count_calls(monkeypatch, "free_volume_floor")
     first = Tree(problem_2d)
     other_query = replace(problem_2d, start=problem_2d.goal, goal=problem_2d.start)
     second = Tree(other_query)

@@ -60,17 +60,22 @@ SCRIPT = textwrap.dedent(
 )
 
 
-@pytest.mark.parametrize("robot", sorted(PROBLEMS))
-def test_the_timed_run_compiles_nothing(robot):
-    planners = ["rrt_star", "informed_rrt_star", "temp"]
+def _calls_in_a_fresh_process(problems, planners):
+    """SCRIPT's ``[planner, max_nodes, new specializations]`` per planner call."""
     done = subprocess.run(
-        [sys.executable, "-c", SCRIPT, json.dumps(PROBLEMS[robot]), *planners],
+        [sys.executable, "-c", SCRIPT, json.dumps(problems), *planners],
         capture_output=True,
         text=True,
         timeout=600,
     )
     assert done.returncode == 0, done.stderr[-3000:]
-    calls = json.loads(done.stdout.strip().splitlines()[-1])
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("robot", sorted(PROBLEMS))
+def test_the_timed_run_compiles_nothing(robot):
+    planners = ["rrt_star", "informed_rrt_star", "temp"]
+    calls = _calls_in_a_fresh_process(PROBLEMS[robot], planners)
     timed = [call for call in calls if call[1] == 300]
     warm_ups = [call for call in calls if call[1] == WARM_UP_NODES]
     assert [call[0] for call in timed] == planners
@@ -87,14 +92,7 @@ def test_a_workspace_that_needs_the_exact_free_volume_compiles_nothing_either():
     overlapping["start"], overlapping["goal"] = [1, 1], [19, 19]
     problems = [PROBLEMS["point2d"], overlapping]
     planners = ["temp", "rrt_star"]
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT, json.dumps(problems), *planners],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    calls = json.loads(done.stdout.strip().splitlines()[-1])
+    calls = _calls_in_a_fresh_process(problems, planners)
     timed = [call for call in calls if call[1] == 300]
     assert [call[0] for call in timed] == planners * 2
     assert all(call[2] == 0 for call in timed), timed
