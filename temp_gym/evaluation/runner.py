@@ -45,6 +45,7 @@ from temp_gym.files import (
 )
 from temp_gym.jobs import JobError, estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
+from temp_gym.planning.warmup import WARM_UP_NODES
 from temp_gym.problem import Problem
 from temp_gym.worlds.generators import generate_task
 from temp_gym.worlds.splits import SPLITS, split_workspace
@@ -107,10 +108,6 @@ def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -
     raise RuntimeError(f"no {difficulty} test task found for {robot}")
 
 
-WARM_RUN_NODES = 64
-"""Tree nodes of a warm run (half of them attention-based for TEMP)."""
-
-
 @functools.lru_cache(maxsize=8)
 def warm_up_problem(robot: str) -> Problem:
     """The problem of every warm run: an easy task in the first training workspace.
@@ -122,13 +119,16 @@ def warm_up_problem(robot: str) -> Problem:
 
 
 def warm_run(planner: str, policy, settings: EvaluationSettings) -> None:
-    """Plan `warm_up_problem` briefly with ``planner``, untimed (see ``warm_runs``)."""
+    """Plan `warm_up_problem` briefly with ``planner``, untimed (see ``warm_runs``).
+
+    As short as `plan`'s own warm-up (`WARM_UP_NODES`, half attention-based for TEMP).
+    """
     if not settings.warm_runs:
         return
-    kwargs = {"policy": policy, "attention_nodes": WARM_RUN_NODES // 2} if planner == "temp" else {}
+    kwargs = {"policy": policy, "attention_nodes": WARM_UP_NODES // 2} if planner == "temp" else {}
     plan(
         warm_up_problem(settings.robot), planner=planner, seed=settings.seed,
-        max_nodes=WARM_RUN_NODES, **kwargs,
+        max_nodes=WARM_UP_NODES, **kwargs,
     )  # fmt: skip
 
 
