@@ -1,7 +1,8 @@
 r"""Choose a policy's planner settings on validation workspaces: budget n, noise, horizon.
 
     python trainers/tune_planner.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
-        --attention-nodes 50 100 200 400 --noise-std 0 0.03 --horizon 1 2 4 --tasks 60
+        --attention-nodes 50 100 200 400 --noise-std 0 0.03 --horizon 1 2 4 --tasks 60 \\
+        [--max-nodes 10000]
 
 For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
 chunk; 0: all) and stall patience (``--patience``; -1: the default rule) it plans ``--tasks``
@@ -14,6 +15,10 @@ nodes and the mean difference with its 95% paired bootstrap interval. The recomm
 minimizes the mean nodes among the settings whose attention phase solves at least
 ``--min-attention-success`` of the tasks; ``trainers/ship.py --attention-nodes ... --noise-std
 ...`` then ships it.
+
+Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
+``train_eval.max_nodes``: 3000 in 2D and 3D, 5000 in 7D), printed with the table; an n above it is
+refused rather than quietly cut to it.
 """
 
 from __future__ import annotations
@@ -50,6 +55,13 @@ def main(argv: list[str] | None = None) -> dict:
         nargs="+",
         default=[0.0, 0.03],
         help="output noise levels to try",
+    )
+    parser.add_argument(
+        "--max-nodes",
+        type=int,
+        default=None,
+        help="node budget of every run, RRT*'s included (None: train_eval.max_nodes of the "
+        "config); each n must fit in it",
     )
     parser.add_argument("--tasks", type=int, default=60, help="tasks per setting")
     parser.add_argument(
@@ -95,9 +107,19 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
+    eval_config = config.train_eval
+    if args.max_nodes is not None:
+        if args.max_nodes < 1:
+            parser.error(f"--max-nodes: must be at least 1, got {args.max_nodes}")
+        eval_config = dataclasses.replace(eval_config, max_nodes=args.max_nodes)
+    too_large = [n for n in args.attention_nodes if n > eval_config.max_nodes]
+    if too_large:  # n beyond the budget would silently mean n = budget
+        parser.error(
+            f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
+            "(train_eval.max_nodes of the config); pass --max-nodes to raise it"
+        )
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
-    eval_config = config.train_eval
     if args.split == "ood":
         family = list(load_ood_family(config.env.robot).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
@@ -109,9 +131,10 @@ def main(argv: list[str] | None = None) -> dict:
     rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
     rrt = training.summarize(rrt_runs, eval_config.max_nodes)
     print(
-        f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}); "
-        f"RRT*: nodes mean {rrt['nodes_mean']:.1f} median "
-        f"{rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
+        f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}), "
+        f"budget {eval_config.max_nodes} nodes per run; RRT*: nodes mean "
+        f"{rrt['nodes_mean']:.1f} median {rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, "
+        f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
         "| n | noise | horizon | patience | uniform | nodes mean | median | AP solved | success "

@@ -1,0 +1,48 @@
+"""trainers/tune_planner.py: the node budget every run gets, stated and enforced."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _tune_planner():
+    spec = importlib.util.spec_from_file_location("tune_planner", ROOT / "trainers/tune_planner.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+ARGS = ["--config", "configs/2d.yaml", "--checkpoint", "temp_gym/checkpoints/2d.pt"]
+
+
+def test_an_attention_budget_above_the_node_budget_is_refused(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    with pytest.raises(SystemExit):
+        _tune_planner().main([*ARGS, "--attention-nodes", "10000", "--tasks", "1"])
+    assert "exceeds the node budget 3000" in capsys.readouterr().err
+
+
+def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    best = _tune_planner().main(
+        [*ARGS, "--attention-nodes", "40", "--max-nodes", "40", "--noise-std", "0",
+         "--tasks", "3", "--min-attention-success", "0"]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert "budget 40 nodes per run" in out
+    row = next(line for line in out.splitlines() if line.startswith("| 40 |"))
+    mean_nodes = float(row.split("|")[6])
+    assert mean_nodes <= 40  # a failure counts as the budget, never more
+    assert best["attention_nodes"] == 40
+
+
+def test_max_nodes_must_be_positive(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    with pytest.raises(SystemExit):
+        _tune_planner().main([*ARGS, "--max-nodes", "0", "--tasks", "1"])
+    assert "--max-nodes: must be at least 1" in capsys.readouterr().err
