@@ -17,8 +17,8 @@ minimizes the mean nodes among the settings whose attention phase solves at leas
 ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
-``train_eval.max_nodes``: 3000 in 2D and 3D, 5000 in 7D), printed with the table; an n above it is
-refused rather than quietly cut to it.
+``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
+quietly cut to it.
 """
 
 from __future__ import annotations
@@ -108,15 +108,17 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     eval_config = config.train_eval
+    budget_from = "train_eval.max_nodes"
     if args.max_nodes is not None:
-        if args.max_nodes < 1:
-            parser.error(f"--max-nodes: must be at least 1, got {args.max_nodes}")
         eval_config = dataclasses.replace(eval_config, max_nodes=args.max_nodes)
+        budget_from = "--max-nodes"
+    if eval_config.max_nodes < 1:
+        parser.error(f"{budget_from}: must be at least 1, got {eval_config.max_nodes}")
     too_large = [n for n in args.attention_nodes if n > eval_config.max_nodes]
     if too_large:  # n beyond the budget would silently mean n = budget
         parser.error(
             f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
-            "(train_eval.max_nodes of the config); pass --max-nodes to raise it"
+            f"({budget_from}); pass a larger --max-nodes"
         )
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)

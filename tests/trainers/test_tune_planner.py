@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
 
-
-def _tune_planner():
-    spec = importlib.util.spec_from_file_location("tune_planner", ROOT / "trainers/tune_planner.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
+from trainers import tune_planner  # noqa: E402
 
 ARGS = ["--config", "configs/2d.yaml", "--checkpoint", "temp_gym/checkpoints/2d.pt"]
 
@@ -23,13 +18,13 @@ ARGS = ["--config", "configs/2d.yaml", "--checkpoint", "temp_gym/checkpoints/2d.
 def test_an_attention_budget_above_the_node_budget_is_refused(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
     with pytest.raises(SystemExit):
-        _tune_planner().main([*ARGS, "--attention-nodes", "10000", "--tasks", "1"])
+        tune_planner.main([*ARGS, "--attention-nodes", "10000", "--tasks", "1"])
     assert "exceeds the node budget 3000" in capsys.readouterr().err
 
 
 def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
-    best = _tune_planner().main(
+    best = tune_planner.main(
         [*ARGS, "--attention-nodes", "40", "--max-nodes", "40", "--noise-std", "0",
          "--tasks", "3", "--min-attention-success", "0"]
     )  # fmt: skip
@@ -44,5 +39,12 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
 def test_max_nodes_must_be_positive(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
     with pytest.raises(SystemExit):
-        _tune_planner().main([*ARGS, "--max-nodes", "0", "--tasks", "1"])
+        tune_planner.main([*ARGS, "--max-nodes", "0", "--tasks", "1"])
     assert "--max-nodes: must be at least 1" in capsys.readouterr().err
+
+
+def test_a_budget_below_one_from_the_config_is_named_as_such(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    with pytest.raises(SystemExit):
+        tune_planner.main([*ARGS, "--tasks", "1", "train_eval.max_nodes=0"])
+    assert "train_eval.max_nodes: must be at least 1" in capsys.readouterr().err
