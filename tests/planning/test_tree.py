@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_is_tree
+from tree_checks import assert_is_tree
 
 from temp_gym.planning import GoalBiasedSampler, Tree, UniformSampler
 

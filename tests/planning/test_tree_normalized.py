@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import assert_is_tree
+from tree_checks import assert_is_tree
 
 from temp_gym.planning import Tree, UniformSampler
 from temp_gym.worlds.normalization import denormalize
