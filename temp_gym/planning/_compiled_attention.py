@@ -10,11 +10,10 @@ random numbers in the same order, so both grow the same tree (tested node for no
 1. goal bias: with probability ``goal_bias`` the goal is the sample (the chunk is dropped);
    else, with probability ``uniform``, a uniform sample (from the fallback's batch);
 2. otherwise the next proposal of the current chunk, or, when none is left, a new MPT call
-   on the path so far (`temp_gym.planning.mpt_kernel`), with the policy's output noise: the
-   next row of a block the caller drew ahead from the policy's generator (numpy's normal
-   values in the order the Python loop draws them), so no generator crosses into compiled
-   code for it; an exhausted block ends the slice (``NEED_NOISE``) before the iteration draws
-   anything, and the caller hands in the next block;
+   on the path so far (`temp_gym.planning.mpt_kernel`), with the policy's output noise
+   drawn here from the policy's own generator, value by value in the order of numpy's
+   ``normal(0, std, (k, d))`` (numba's ``Generator.normal`` gives numpy's values), so the
+   generator ends where the Python loop leaves it;
 3. `temp_gym.planning._compiled_tree.extend_with_fallback`: nearest, steer, the random
    fallback while the edge collides, choose-parent, insert, rewire; a fallback or a failed
    extension drops the rest of the chunk (its proposals continued the path it predicted);
@@ -43,26 +42,24 @@ from temp_gym.planning._compiled_tree import (
 )
 from temp_gym.planning.mpt_kernel import forward_kernel
 
-STATE = ("pending", "next_row", "calls", "proposals", "stalled", "noise_row")
+STATE = ("pending", "next_row", "calls", "proposals", "stalled")
 """The loop's int64 state, kept between calls: proposals left in the chunk and the next one,
-MPT calls and proposals used so far, nodes since the closest approach improved, the next row
-of the noise block."""
-PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED, NOISE_ROW = range(len(STATE))
+MPT calls and proposals used so far, nodes since the closest approach improved."""
+PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED = range(len(STATE))
 LIMITS = ("attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries")
 """The int64 budgets of the phase."""
 ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES = range(len(LIMITS))
 
-RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE, NEED_NOISE = range(8)
+RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE = range(7)
 """Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
 used up; no progress for ``patience`` nodes; the tree's arrays are full (grow them and call
-again); the policy proposed NaN or inf; the noise block is used up (draw the next, set
-``state[NOISE_ROW]`` to 0 and call again)."""
+again); the policy proposed NaN or inf."""
 
 
 @numba.njit(cache=True, nogil=True)
 def attention_slice(
     arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
-    goal_bias, uniform, weights, prefix_goal, prefix_z, prefix_qkv, noise_std, noise,
+    goal_bias, uniform, weights, prefix_goal, prefix_z, prefix_qkv, noise_std, noise_rng,
     proposals, chunk_out, path_rows, state, closest_sq, limits, max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
@@ -77,8 +74,7 @@ def attention_slice(
         uniform: probability of a uniform sample instead of the policy's.
         weights, prefix_goal, prefix_z, prefix_qkv, noise_std: the policy
             (`TEMPPolicy.compiled_proposer`).
-        noise: float64 ``(m, k, d)``, the policy's output noise for the next MPT calls, one
-            row per call from ``state[NOISE_ROW]`` on (read only when ``noise_std > 0``).
+        noise_rng: the policy's noise generator (drawn from only when ``noise_std > 0``).
         proposals: float64 ``(k, d)`` the current chunk; ``chunk_out`` float32 ``(k, d)`` and
             ``path_rows`` float32 ``(L, d)`` are scratch.
         state, closest_sq, limits: the loop's state (`STATE`), the squared closest approach
@@ -96,8 +92,6 @@ def attention_slice(
             return BUDGET
         if counters[NUM_NODES] >= capacity:
             return FULL
-        if noise_std > 0.0 and state[PENDING] == 0 and state[NOISE_ROW] >= noise.shape[0]:
-            return NEED_NOISE  # this iteration may call the MPT: nothing is drawn yet
         if goal_bias > 0.0 and rng.random() < goal_bias:
             state[PENDING] = 0
             node, samples = extend_with_fallback(
@@ -117,14 +111,11 @@ def attention_slice(
                                               path_rows)  # fmt: skip
                 forward_kernel(path_rows, length, prefix_goal, prefix_z, prefix_qkv, *weights,
                                chunk_out)  # fmt: skip
-                noise_row = state[NOISE_ROW]
-                if noise_std > 0.0:
-                    state[NOISE_ROW] += 1
                 for row in range(chunk):
                     for k in range(dim):
                         value = np.float64(chunk_out[row, k])
                         if noise_std > 0.0:
-                            value += noise[noise_row, row, k]
+                            value += noise_rng.normal(0.0, noise_std)
                         if value != value:  # NaN: the model is broken
                             return NOT_FINITE
                         proposals[row, k] = np.float64(np.float32(min(max(value, -1.0), 1.0)))

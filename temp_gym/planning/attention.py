@@ -234,44 +234,6 @@ _COMPILED_STOPS = {
 }
 
 
-class _NoiseBlocks:
-    """The policy's output noise for the compiled loop, drawn ahead in growing blocks.
-
-    A generator handed to compiled code costs numba microseconds to unbox on every call, so
-    the loop reads the noise from arrays instead: block after block of ``normal(0, std,
-    (rows, k, d))`` from the policy's generator, the values the Python loop would draw one
-    ``(k, d)`` call at a time. `settle` leaves the generator where the Python loop leaves it
-    (the draws of the calls made, not of the whole blocks), so the two loops stay
-    interchangeable for whatever the generator draws next.
-    """
-
-    FIRST_ROWS = 64
-    """MPT calls covered by the first block (doubling up to `MAX_ROWS`): enough for most
-    attention phases that solve, so that they end no slice early to fetch more noise."""
-    MAX_ROWS = 4096
-    """The largest block, in MPT calls."""
-
-    def __init__(self, rng: np.random.Generator, std: float, chunk: int, dim: int) -> None:
-        self._rng, self._std, self._shape = rng, std, (chunk, dim)
-        self._saved = rng.bit_generator.state
-        self._drawn = 0
-        self._rows = self.FIRST_ROWS
-
-    def next_block(self) -> np.ndarray:
-        """The noise of the next MPT calls, float64 ``(rows, k, d)``."""
-        block = self._rng.normal(0.0, self._std, (self._rows, *self._shape))
-        self._drawn += self._rows
-        self._rows = min(2 * self._rows, self.MAX_ROWS)
-        return block
-
-    def settle(self, used: int) -> None:
-        """Rewind the generator to just after the noise of the first ``used`` calls."""
-        if used < self._drawn:
-            self._rng.bit_generator.state = self._saved
-            if used:
-                self._rng.normal(0.0, self._std, (used, *self._shape))
-
-
 def _run_compiled(
     tree: Tree,
     proposer: tuple,
@@ -288,8 +250,7 @@ def _run_compiled(
     problem = tree.problem
     dim = problem.dim
     noise_std = float(noise_std)
-    blocks = _NoiseBlocks(policy_rng, noise_std, chunk, dim) if noise_std > 0 else None
-    noise = blocks.next_block() if blocks is not None else np.empty((0, chunk, dim))
+    noise_rng = policy_rng if noise_std > 0 else rng  # without noise, a placeholder never drawn
     goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
     bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
     buffer = np.empty((FALLBACK_BATCH, dim))
@@ -305,36 +266,29 @@ def _run_compiled(
         dtype=np.int64,
     )  # fmt: skip
     iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
-    try:
-        while True:
-            began = time.perf_counter()
-            if began >= limits.deadline:
-                stop = "time"
-                break
-            arrays, counters, best_cost, params = tree.compiled_state()
-            status = compiled.attention_slice(
-                arrays, counters, best_cost, params, goal, bounds, context, rng, buffer,
-                cursor, float(goal_bias), float(uniform), weights, prefix_goal, prefix_z,
-                prefix_qkv, noise_std, noise, proposals, chunk_out, path_rows, state,
-                closest_sq, budget, iterations,
-            )  # fmt: skip
-            tree.load_compiled_state(counters, best_cost)
-            if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
-                now = time.perf_counter()
-                iterations = slice_length(limits.deadline, now, (now - began) / iterations)
-            elif status == compiled.FULL:
-                tree.grow()
-            elif status == compiled.NEED_NOISE:
-                noise = blocks.next_block()
-                state[compiled.NOISE_ROW] = 0
-            elif status == compiled.NOT_FINITE:
-                raise ValueError("action: the policy proposed a sample that is not finite")
-            else:
-                stop = _COMPILED_STOPS[status]
-                break
-    finally:
-        if blocks is not None:
-            blocks.settle(int(state[compiled.CALLS]))
+    while True:
+        began = time.perf_counter()
+        if began >= limits.deadline:
+            stop = "time"
+            break
+        arrays, counters, best_cost, params = tree.compiled_state()
+        status = compiled.attention_slice(
+            arrays, counters, best_cost, params, goal, bounds, context, rng, buffer,
+            cursor, float(goal_bias), float(uniform), weights, prefix_goal, prefix_z,
+            prefix_qkv, noise_std, noise_rng, proposals, chunk_out, path_rows, state,
+            closest_sq, budget, iterations,
+        )  # fmt: skip
+        tree.load_compiled_state(counters, best_cost)
+        if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
+            now = time.perf_counter()
+            iterations = slice_length(limits.deadline, now, (now - began) / iterations)
+        elif status == compiled.FULL:
+            tree.grow()
+        elif status == compiled.NOT_FINITE:
+            raise ValueError("action: the policy proposed a sample that is not finite")
+        else:
+            stop = _COMPILED_STOPS[status]
+            break
     calls, used = int(state[compiled.CALLS]), int(state[compiled.PROPOSALS])
     return AttentionOutcome(stop, calls, used, compiled=True)
 

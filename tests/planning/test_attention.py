@@ -72,12 +72,12 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         assert tree_c.num_nodes > 16  # the arrays were grown
 
 
-def test_noise_blocks_refilled_mid_phase_give_the_python_loops_tree(monkeypatch):
-    """With tiny noise blocks the compiled loop fetches noise many times, with the same result."""
+def test_slices_of_one_iteration_give_the_python_loops_tree(monkeypatch):
+    """The compiled loop resumed after every iteration (its state, the chunk and both
+    generators carried across calls) grows the same tree and draws the same numbers."""
     from temp_gym.planning import attention
 
-    monkeypatch.setattr(attention._NoiseBlocks, "FIRST_ROWS", 1)
-    monkeypatch.setattr(attention._NoiseBlocks, "MAX_ROWS", 4)
+    monkeypatch.setattr(attention, "slice_length", lambda *args: 1)
     problem = generate_problem("point2d", np.random.default_rng(3), "challenging")
     runs = [
         _grow(problem, _chunked_policy("point2d", 2, noise_std=0.05), 4, compiled_loop)
@@ -85,7 +85,7 @@ def test_noise_blocks_refilled_mid_phase_give_the_python_loops_tree(monkeypatch)
     ]
     (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
     _assert_same_tree(tree_c, tree_p)
-    assert out_c.policy_calls == out_p.policy_calls > 8  # many blocks of at most 4 calls
+    assert out_c.policy_calls == out_p.policy_calls > 8
     assert (rng_c, noise_c) == (rng_p, noise_p)
 
 
