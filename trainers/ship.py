@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -220,6 +221,13 @@ def model_card(
                 if planner.get("attention_patience") is None
                 else f"{planner['attention_patience']} nodes"
             )
+            + (
+                ""
+                if planner.get("attention_near_goal_factor") in (None, 1.0)
+                else f", {planner['attention_near_goal_factor']:g} times longer once the tree's "
+                "closest approach is within `temp_gym.planning.attention.NEAR_GOAL_SHARE` of the "
+                "start-goal distance from the goal"
+            )
             + ".",
             f"- How they were chosen: {planner['chosen_by']}.",
             "",
@@ -272,6 +280,13 @@ def main(argv: list[str] | None = None) -> Path:
         help="stall patience of the attention phase; default: the planner's rule",
     )
     parser.add_argument(
+        "--attention-near-goal-factor",
+        type=float,
+        default=None,
+        help="how many times that patience the attention phase waits near the goal (>= 1); "
+        "default: 1",
+    )
+    parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
     )
     parser.add_argument("--notes", default="", help="for the card: how training went")
@@ -297,6 +312,9 @@ def main(argv: list[str] | None = None) -> Path:
         args.attention_patience is not None and args.attention_patience < 0
     ):
         raise SystemExit("--horizon must be >= 1 and --attention-patience >= 0")
+    factor = args.attention_near_goal_factor
+    if factor is not None and not (math.isfinite(factor) and factor >= 1):
+        raise SystemExit(f"--attention-near-goal-factor must be finite and >= 1, got {factor}")
     config = load_config(args.config, args.overrides)
     env_id = config.env.id
     model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
@@ -307,6 +325,7 @@ def main(argv: list[str] | None = None) -> Path:
         "noise_std": args.noise_std,
         "horizon": args.horizon,
         "attention_patience": args.attention_patience,
+        "attention_near_goal_factor": factor,
         "chosen_by": args.chosen_by,
     }
     provenance = {

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 
 import numpy as np
 import torch
@@ -93,6 +94,13 @@ def main(argv: list[str] | None = None) -> dict:
         help="shares of uniform samples in the attention phase to try",
     )
     parser.add_argument(
+        "--near-goal-factor",
+        type=float,
+        nargs="+",
+        default=[1.0],
+        help="stall-patience factors near the goal to try (1: the same patience everywhere)",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -120,6 +128,9 @@ def main(argv: list[str] | None = None) -> dict:
             f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
             f"({budget_from}); pass a larger --max-nodes"
         )
+    bad = [f for f in args.near_goal_factor if not (math.isfinite(f) and f >= 1)]
+    if bad:
+        parser.error(f"--near-goal-factor {bad[0]}: must be finite and at least 1")
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
     if args.split == "ood":
@@ -139,20 +150,22 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | uniform | nodes mean | median | AP solved | success "
-        "| cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
+        "| n | noise | horizon | patience | near goal | uniform | nodes mean | median | AP solved "
+        "| success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
     settings = itertools.product(
-        args.attention_nodes, args.noise_std, args.horizon, args.patience, args.uniform
-    )
-    for budget, noise, horizon, patience, uniform in settings:
+        args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
+        args.uniform,
+    )  # fmt: skip
+    for budget, noise, horizon, patience, factor, uniform in settings:
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
             attention_patience=None if patience < 0 else patience,
             attention_uniform=uniform,
+            attention_near_goal_factor=factor,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
@@ -160,7 +173,7 @@ def main(argv: list[str] | None = None) -> dict:
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
-            f"| {budget} | {noise} | {policy.chunk} | {patience} | {uniform} | "
+            f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
@@ -171,7 +184,7 @@ def main(argv: list[str] | None = None) -> dict:
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
                     "attention_patience": eval_config.attention_patience,
-                    "attention_uniform": uniform}  # fmt: skip
+                    "attention_uniform": uniform, "attention_near_goal_factor": factor}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

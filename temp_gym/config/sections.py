@@ -215,6 +215,9 @@ class TrainEvalConfig:
     the planner's default rule."""
     attention_uniform: float | None = None
     """Probability of a uniform sample in the attention phase; null: the policy's own."""
+    attention_near_goal_factor: float | None = None
+    """How many times its patience the attention phase waits once the tree is near the goal
+    (at least 1); null: the policy's own, else 1."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -244,6 +247,9 @@ class EvaluationConfig:
     """Proposals used per MPT call; null: the checkpoint's, else the model's whole chunk."""
     attention_patience: int | None = None
     """The attention phase's stall patience; null: the checkpoint's, else the default rule."""
+    attention_near_goal_factor: float | None = None
+    """How many times that patience the attention phase waits near the goal; null: the
+    checkpoint's, else 1."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

@@ -42,9 +42,10 @@ from temp_gym.models.temp import load_checkpoint, weights_digest
 from temp_gym.worlds.robots import robot_spec
 
 PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
-                     "attention_patience": None}  # fmt: skip
+                     "attention_patience": None, "attention_near_goal_factor": None}  # fmt: skip
 """What a null planner setting of the ``evaluation`` section takes when the checkpoint names
-none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule."""
+none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the
+same patience near the goal."""
 
 UNRECORDED = ("tasks", "workers", "out")
 """Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
@@ -56,7 +57,8 @@ def settings_from(
 ) -> tuple[EvaluationSettings, EvaluationConfig]:
     """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
-    ``attention_nodes``, ``noise_std``, ``horizon`` and ``attention_patience`` left null take
+    ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience`` and
+    ``attention_near_goal_factor`` left null take
     the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
     applies to a shipped policy), else `PLANNER_FALLBACKS`; a null ``tasks`` is the robot's
     (its spec's ``evaluation_tasks``).
@@ -80,6 +82,7 @@ def settings_from(
         time_limit=section.time_limit,
         attention_nodes=section.attention_nodes,
         attention_patience=section.attention_patience,
+        attention_near_goal_factor=section.attention_near_goal_factor,
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,

@@ -78,6 +78,8 @@ class EvaluationSettings:
     """TEMP's attention-phase node budget (None: all of ``max_nodes``)."""
     attention_patience: int | None = None
     """TEMP's stall patience (None: `temp_gym.planning.attention.default_patience`)."""
+    attention_near_goal_factor: float | None = None
+    """How many times that patience TEMP waits near the goal (None: the policy's own, else 1)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -146,6 +148,7 @@ def evaluate_task(
         problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
+        attention_near_goal_factor=settings.attention_near_goal_factor,
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
@@ -174,7 +177,11 @@ def evaluate_task(
         record["curves"] = {}
         for name in ("temp", *settings.baselines):
             kwargs = (
-                {"policy": policy, "attention_patience": settings.attention_patience}
+                {
+                    "policy": policy,
+                    "attention_patience": settings.attention_patience,
+                    "attention_near_goal_factor": settings.attention_near_goal_factor,
+                }
                 if name == "temp"
                 else {}
             )
@@ -346,6 +353,7 @@ def attention_example(
         problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
+        attention_near_goal_factor=settings.attention_near_goal_factor,
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

@@ -50,6 +50,7 @@ from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
+from temp_gym.planning.result import near_goal_factor
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
@@ -211,6 +212,9 @@ class TEMPPolicy:
             ``plan`` is given none (None: the planner's default rule).
         attention_uniform: the share of uniform samples the ``temp`` planner mixes into the
             attention phase with this policy when ``plan`` is given none (None: none).
+        attention_near_goal_factor: how many times its stall patience the attention phase
+            waits with this policy once the tree is near the goal, when ``plan`` is given none
+            (None: 1, the same patience everywhere; `temp_gym.planning.attention`).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -228,6 +232,7 @@ class TEMPPolicy:
         horizon: int | None = None,
         attention_patience: int | None = None,
         attention_uniform: float | None = None,
+        attention_near_goal_factor: float | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -244,6 +249,11 @@ class TEMPPolicy:
                 f"attention_uniform: expected a number in [0, 1], got {attention_uniform}"
             )
         self.attention_uniform = None if attention_uniform is None else float(attention_uniform)
+        self.attention_near_goal_factor = (
+            None
+            if attention_near_goal_factor is None
+            else near_goal_factor(attention_near_goal_factor)
+        )
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
             raise ValueError(
@@ -327,6 +337,7 @@ class TEMPPolicy:
             device=self.device, backend=self.backend, attention_nodes=self.attention_nodes,
             core=self.core, horizon=self.horizon, attention_patience=self.attention_patience,
             attention_uniform=self.attention_uniform,
+            attention_near_goal_factor=self.attention_near_goal_factor,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

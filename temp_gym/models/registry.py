@@ -230,6 +230,7 @@ def _policy_on(
         horizon=horizon,
         attention_patience=planner.get("attention_patience"),
         attention_uniform=planner.get("attention_uniform"),
+        attention_near_goal_factor=planner.get("attention_near_goal_factor"),
     )
 
 

@@ -18,7 +18,8 @@ random numbers in the same order, so both grow the same tree (tested node for no
    fallback while the edge collides, choose-parent, insert, rewire; a fallback or a failed
    extension drops the rest of the chunk (its proposals continued the path it predicted);
 4. progress: the tree's closest approach to the goal; ``patience`` nodes in a row without a
-   closer one stall the phase (0: never).
+   closer one stall the phase (0: never), ``near_patience`` once that approach is within
+   ``sqrt(near_sq)`` of the goal.
 
 The loop runs at most ``max_iterations`` iterations per call and returns a status, so the
 caller can check the wall clock, grow the tree's arrays, and call again.
@@ -46,9 +47,12 @@ STATE = ("pending", "next_row", "calls", "proposals", "stalled")
 """The loop's int64 state, kept between calls: proposals left in the chunk and the next one,
 MPT calls and proposals used so far, nodes since the closest approach improved."""
 PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED = range(len(STATE))
-LIMITS = ("attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries")
+LIMITS = (
+    "attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries",
+    "near_patience",
+)  # fmt: skip
 """The int64 budgets of the phase."""
-ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES = range(len(LIMITS))
+ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES, NEAR_PATIENCE = range(len(LIMITS))
 
 RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE = range(7)
 """Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
@@ -60,7 +64,7 @@ again); the policy proposed NaN or inf."""
 def attention_slice(
     arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
     goal_bias, uniform, weights, prefix_goal, prefix_z, prefix_qkv, noise_std, noise_rng,
-    proposals, chunk_out, path_rows, state, closest_sq, limits, max_iterations,
+    proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits, max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
 
@@ -79,6 +83,7 @@ def attention_slice(
             ``path_rows`` float32 ``(L, d)`` are scratch.
         state, closest_sq, limits: the loop's state (`STATE`), the squared closest approach
             to the goal (an array of one) and budgets (`LIMITS`).
+        near_sq: the squared distance to the goal within which ``near_patience`` applies.
     """
     positions, _, links = arrays[0], arrays[1], arrays[2]
     capacity = positions.shape[0]
@@ -141,6 +146,7 @@ def attention_slice(
                 state[STALLED] = 0
             else:
                 state[STALLED] += 1
-                if limits[PATIENCE] > 0 and state[STALLED] >= limits[PATIENCE]:
+                patience = limits[NEAR_PATIENCE] if closest_sq[0] <= near_sq else limits[PATIENCE]
+                if limits[PATIENCE] > 0 and state[STALLED] >= patience:
                     return STALLED_OUT
     return RUNNING

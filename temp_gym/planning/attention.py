@@ -13,12 +13,16 @@ Each iteration:
 3. `Tree.extend_with_fallback`: nearest and steer; while the edge collides, uniform random
    samples replace the proposal (Algorithm 1, lines 5-10); choose-parent, insert, rewire;
 4. stop at the first solution, at the attention budget n, or when the phase stalls: the
-   tree's closest approach to the goal has not improved for ``patience`` nodes in a row
+   tree's closest approach to the goal has not improved for ``patience`` nodes in a row, or
+   ``near_patience`` once that approach is within ``sqrt(near_sq)`` of the goal
    (``patience = 0`` never stalls: Algorithm 1 as written).
 
 The stall rule is how TEMP degrades gracefully: a policy that keeps steering into a trap it
 has not seen in training hands the rest of the budget to classical planning (Informed RRT*
-on the same tree) instead of spending it all. `default_patience` sets it from the problem.
+on the same tree) instead of spending it all. `default_patience` sets it from the problem;
+`near_goal_limits` can make it longer once the tree has come near the goal, where a stall is
+more often the last stretch around an obstacle, which the policy finds given time, than a
+wrong turn (a per-policy setting: it pays for some policies and not for others).
 
 Two implementations grow the same tree from the same seed (tested node for node): the
 compiled loop (`temp_gym.planning._compiled_attention`), used when the policy offers a
@@ -52,6 +56,9 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
+NEAR_GOAL_SHARE = 0.3
+"""`near_goal_limits`: the tree is near the goal once its closest approach is within this share
+of the start-goal distance."""
 STOPS = ("solved", "attention_budget", "budget", "stalled", "time")
 """Why the phase ended: a solution; the attention budget n; the planner's node or sample
 budget; no progress for ``patience`` nodes; the time limit."""
@@ -69,6 +76,17 @@ def default_patience(problem: Problem, step_size: float) -> int:
     return max(MIN_PATIENCE, math.ceil(PATIENCE_PER_STEP * steps))
 
 
+def near_goal_limits(problem: Problem, patience: int, factor: float) -> tuple[float, int]:
+    """``(near_sq, near_patience)``: the stall patience is ``factor`` times longer near the goal.
+
+    Near the goal means a closest approach within `NEAR_GOAL_SHARE` of the start-goal distance
+    (``near_sq`` is that distance squared). Factor 1 leaves the patience as it is everywhere.
+    """
+    offset = problem.goal - problem.start
+    near_sq = NEAR_GOAL_SHARE * NEAR_GOAL_SHARE * float(offset.dot(offset))
+    return near_sq, math.ceil(factor * patience)
+
+
 @dataclass(frozen=True)
 class AttentionLimits:
     """The budgets of one attention phase."""
@@ -81,6 +99,12 @@ class AttentionLimits:
     """The planner's sample budget."""
     patience: int
     """Nodes in a row without a closer approach to the goal before the phase stalls (0: never)."""
+    near_sq: float = -1.0
+    """Squared distance to the goal within which the closest approach is near it (negative:
+    never, the default)."""
+    near_patience: int = 0
+    """The patience once the closest approach is near the goal (with ``patience = 0`` the phase
+    never stalls anywhere)."""
     deadline: float = math.inf
     """``time.perf_counter()`` value at which the phase stops."""
 
@@ -220,7 +244,8 @@ def _run_python(
                 closest_sq, stalled = distance_sq, 0
             else:
                 stalled += 1
-                if limits.patience > 0 and stalled >= limits.patience:
+                patience = limits.near_patience if closest_sq <= limits.near_sq else limits.patience
+                if limits.patience > 0 and stalled >= patience:
                     stop = "stalled"
                     break
     return AttentionOutcome(stop, calls, proposals_used, compiled=False)
@@ -262,9 +287,10 @@ def _run_compiled(
     closest_sq = np.array([squared_distance(problem.start, goal)])
     budget = np.array(
         [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
-         MAX_FALLBACK_TRIES],
+         MAX_FALLBACK_TRIES, limits.near_patience],
         dtype=np.int64,
     )  # fmt: skip
+    near_sq = float(limits.near_sq)
     iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
     while True:
         began = time.perf_counter()
@@ -276,7 +302,7 @@ def _run_compiled(
             arrays, counters, best_cost, params, goal, bounds, context, rng, buffer,
             cursor, float(goal_bias), float(uniform), weights, prefix_goal, prefix_z,
             prefix_qkv, noise_std, noise_rng, proposals, chunk_out, path_rows, state,
-            closest_sq, budget, iterations,
+            closest_sq, near_sq, budget, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
         if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
@@ -299,6 +325,7 @@ __all__ = [
     "MAX_FALLBACK_TRIES",
     "STOPS",
     "default_patience",
+    "near_goal_limits",
     "observer_for",
     "run_attention_phase",
 ]

@@ -63,6 +63,7 @@ def plan(
     attention_nodes: int | None = None,
     attention_patience: int | None = None,
     attention_uniform: float | None = None,
+    attention_near_goal_factor: float | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -105,6 +106,10 @@ def plan(
             the paper's Algorithm 1).
         attention_uniform: ``temp`` only: probability, in the attention phase, of a uniform
             sample instead of the policy's (None: the policy's own setting, else 0).
+        attention_near_goal_factor: ``temp`` only: how many times ``attention_patience`` the
+            attention phase waits once the tree has come within 30% of the start-goal
+            distance of the goal (None: the policy's own setting, else 1; the shipped 3D
+            policy waits 5 times longer there).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -121,6 +126,7 @@ def plan(
         step_size=step_size, goal_bias=goal_bias, target_cost=target_cost,
         max_samples=max_samples, policy=policy, attention_nodes=attention_nodes,
         attention_patience=attention_patience, attention_uniform=attention_uniform,
+        attention_near_goal_factor=attention_near_goal_factor,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

@@ -35,9 +35,10 @@ policy without one (or with None) gets the default:
   (default: the robot's);
 * ``max_path_length``: L, the path-so-far rows of the observation (default
   `DEFAULT_MAX_PATH_LENGTH`);
-* ``attention_nodes``, ``attention_patience``, ``attention_uniform``: the attention phase's
-  budget, stall patience and share of uniform samples when ``plan`` is given none (defaults:
-  all of ``max_nodes``, `temp_gym.planning.attention.default_patience`, 0).
+* ``attention_nodes``, ``attention_patience``, ``attention_uniform``,
+  ``attention_near_goal_factor``: the attention phase's budget, stall patience, share of
+  uniform samples and patience factor near the goal when ``plan`` is given none (defaults:
+  all of ``max_nodes``, `temp_gym.planning.attention.default_patience`, 0, 1).
 
 A policy whose ``reset`` takes the problem alone still works through `as_sampling_policy`
 (``plan`` adapts it, with a ``DeprecationWarning``).
@@ -117,6 +118,7 @@ class PolicySettings:
     attention_nodes: int | None = None
     attention_patience: int | None = None
     attention_uniform: float | None = None
+    attention_near_goal_factor: float | None = None
 
 
 POLICY_SETTINGS = tuple(field.name for field in fields(PolicySettings))

@@ -40,6 +40,14 @@ def _real(value: object, name: str, expected: str) -> float:
         raise ValueError(f"{name}: expected {expected}, got a number beyond float range") from None
 
 
+def near_goal_factor(value: object, name: str = "attention_near_goal_factor") -> float:
+    """A stall-patience factor near the goal: a finite real number of at least 1."""
+    factor = _real(value, name, "a finite number of at least 1")
+    if not (math.isfinite(factor) and factor >= 1.0):
+        raise ValueError(f"{name}: expected a finite number of at least 1, got {value!r}")
+    return factor
+
+
 def _share(value: object, name: str) -> float:
     """A probability: a real number in ``[0, 1]``."""
     share = _real(value, name, "a number in [0, 1]")
@@ -90,6 +98,11 @@ class PlanSettings:
     """``temp`` planner: attention-phase nodes in a row without a closer approach to the goal
     before classical planning takes over (None: `temp_gym.planning.attention.default_patience`;
     0: never, Algorithm 1 as written)."""
+    attention_near_goal_factor: float | None = None
+    """``temp`` planner: how many times that patience the attention phase waits once the tree's
+    closest approach to the goal is within `temp_gym.planning.attention.NEAR_GOAL_SHARE` of the
+    start-goal distance (None: the policy's own setting, else 1, the same patience
+    everywhere)."""
 
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
@@ -127,6 +140,10 @@ class PlanSettings:
                 normalize(name, _count(value, name, minimum))
         if self.attention_uniform is not None:
             normalize("attention_uniform", _share(self.attention_uniform, "attention_uniform"))
+        if self.attention_near_goal_factor is not None:
+            normalize(
+                "attention_near_goal_factor", near_goal_factor(self.attention_near_goal_factor)
+            )
         if self.policy is not None:
             from temp_gym.planning.policy import as_sampling_policy
 

@@ -19,8 +19,9 @@ Our additions to Algorithm 1, each with a setting that turns it off: the goal bi
 and the stall rule (``attention_patience=0``): when the tree's closest approach to the goal
 has not improved for ``attention_patience`` nodes, the policy has lost its way and classical
 planning takes over with the budget left, so TEMP degrades towards Informed RRT* instead of
-spending a whole budget in a trap. The phase runs compiled (no Python per node) for a
-`TEMPPolicy` on the CPU and the built-in checkers.
+spending a whole budget in a trap. A policy may wait longer once the tree is near the goal
+(``attention_near_goal_factor``; the shipped 3D policy does). The phase runs compiled (no
+Python per node) for a `TEMPPolicy` on the CPU and the built-in checkers.
 
 On the goal bias: A learned sampler imitates expert paths
 whose last node lies anywhere in the goal region, and its predictions near the goal average
@@ -47,9 +48,20 @@ from collections.abc import Callable
 import numpy as np
 
 from temp_gym.planning.anytime import grow_anytime
-from temp_gym.planning.attention import AttentionLimits, default_patience, run_attention_phase
+from temp_gym.planning.attention import (
+    AttentionLimits,
+    default_patience,
+    near_goal_limits,
+    run_attention_phase,
+)
 from temp_gym.planning.policy import SamplingPolicy, policy_settings
-from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
+from temp_gym.planning.result import (
+    AnytimeLog,
+    PlanResult,
+    PlanSettings,
+    near_goal_factor,
+    tree_plan_result,
+)
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 
@@ -98,6 +110,15 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         patience = declared.attention_patience
     if patience is None:
         patience = default_patience(problem, tree.step_size)
+    factor = settings.attention_near_goal_factor
+    if factor is None:  # the policy's own, checked as plan() checks its argument
+        factor = declared.attention_near_goal_factor
+        factor = (
+            1.0 if factor is None else near_goal_factor(factor, "policy.attention_near_goal_factor")
+        )
+    near_sq, near_patience = (
+        near_goal_limits(problem, patience, factor) if factor > 1 else (-1.0, 0)
+    )
 
     # ---- attention-based planning (Algorithm 1)
     limits = AttentionLimits(
@@ -105,6 +126,8 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         max_nodes=settings.max_nodes,
         max_samples=settings.sample_limit,
         patience=patience,
+        near_sq=near_sq,
+        near_patience=near_patience,
         deadline=settings.deadline(log.started),
     )
     uniform = settings.attention_uniform

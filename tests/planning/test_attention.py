@@ -8,7 +8,13 @@ from temp_gym import Problem, plan
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.registry import load_policy
 from temp_gym.models.temp import TEMPModel
-from temp_gym.planning.attention import AttentionLimits, default_patience, run_attention_phase
+from temp_gym.planning.attention import (
+    NEAR_GOAL_SHARE,
+    AttentionLimits,
+    default_patience,
+    near_goal_limits,
+    run_attention_phase,
+)
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.generators import generate_problem
 
@@ -22,11 +28,13 @@ def _chunked_policy(robot: str, chunk: int, noise_std: float, horizon=None) -> T
     return TEMPPolicy(model, noise_std=noise_std, horizon=horizon)
 
 
-def _grow(problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05, uniform=0.0):
+def _grow(
+    problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05, uniform=0.0, near=(-1.0, 0)
+):
     policy.reset(problem, seed=seed)
     tree = Tree(problem, capacity=16)  # small: the compiled loop must grow it on the way
     rng = np.random.default_rng(seed)
-    limits = AttentionLimits(1500, 1500, 150_000, patience)
+    limits = AttentionLimits(1500, 1500, 150_000, patience, near_sq=near[0], near_patience=near[1])
     outcome = run_attention_phase(tree, policy, rng, goal_bias, limits, compiled_loop, uniform)
     return tree, outcome, rng.random(), policy.rng.random()
 
@@ -70,6 +78,113 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         )  # fmt: skip
         assert (rng_c, noise_c) == (rng_p, noise_p)  # both generators drew the same numbers
         assert tree_c.num_nodes > 16  # the arrays were grown
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+def test_both_loops_apply_the_near_goal_patience_alike(robot):
+    rng = np.random.default_rng(5)
+    stops = set()
+    for index in range(4):
+        problem = generate_problem(robot, rng, "challenging")
+        distance_sq = float(np.sum((problem.goal - problem.start) ** 2))
+        near = (0.25 * distance_sq, 45)  # within half the distance: 45 nodes, else 15
+        runs = [
+            _grow(
+                problem,
+                _chunked_policy(robot, 2, noise_std=0.05),
+                index,
+                compiled_loop,
+                15,
+                near=near,
+            )  # fmt: skip
+            for compiled_loop in (True, False)
+        ]
+        (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
+        _assert_same_tree(tree_c, tree_p)
+        assert (out_c.stop, out_c.policy_calls, rng_c, noise_c) == (
+            out_p.stop, out_p.policy_calls, rng_p, noise_p,
+        )  # fmt: skip
+        stops.add(out_c.stop)
+    assert "stalled" in stops
+
+
+class Drifting:
+    """A policy that proposes points around where it stands: the tree wanders, never solving."""
+
+    def reset(self, problem, seed=None):
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, observation):
+        last = observation["path"][int(observation["path_length"][0]) - 1]
+        return np.clip(last + self.rng.normal(0.0, 0.02, 2), -1, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize(
+    ("near_sq", "near_patience", "stop"),
+    [(-1.0, 0, "stalled"), (1e9, 400, "stalled"), (1e9, 5000, "attention_budget")],
+)
+def test_near_the_goal_the_phase_waits_near_patience_nodes(wall, near_sq, near_patience, stop):
+    problem = Problem.from_dict({**wall, "obstacles": []})
+    policy = Drifting()
+    policy.reset(problem, seed=0)
+    limits = AttentionLimits(1200, 1200, 100_000, 40, near_sq=near_sq, near_patience=near_patience)
+    tree = Tree(problem)
+    outcome = run_attention_phase(tree, policy, np.random.default_rng(0), 0.0, limits)
+    assert outcome.stop == stop
+    if stop == "stalled":  # the rule's 40 nodes far from the goal, near_patience near it
+        assert tree.num_nodes < (100 if near_sq < 0 else 1200)
+        assert near_sq < 0 or tree.num_nodes > 400
+
+
+def test_near_goal_limits_scale_the_patience(wall):
+    problem = Problem.from_dict(wall)
+    near_sq, near_patience = near_goal_limits(problem, 200, 2.5)
+    distance = float(np.linalg.norm(problem.goal - problem.start))
+    assert near_sq == pytest.approx((NEAR_GOAL_SHARE * distance) ** 2)
+    assert near_patience == 500
+
+
+class DeclaringStuck:
+    """`Stuck` with a declared near-goal factor, as a shipped policy carries one."""
+
+    def __init__(self, factor):
+        self.attention_near_goal_factor = factor
+
+    def reset(self, problem, seed=None):
+        pass
+
+    def __call__(self, observation):
+        return np.array([-1.0, -1.0], np.float32)
+
+
+def test_the_near_goal_factor_comes_from_plan_else_the_policy_else_none(wall, monkeypatch):
+    from temp_gym.planning import temp_planner
+
+    seen = []
+
+    def recording(tree, policy, rng, goal_bias, limits, **kwargs):
+        seen.append(limits)
+        return run_attention_phase(tree, policy, rng, goal_bias, limits, **kwargs)
+
+    monkeypatch.setattr(temp_planner, "run_attention_phase", recording)
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=0, max_nodes=300, stop_at_first=True)
+    plan(problem, policy=Stuck(), **kwargs)  # no factor anywhere: one patience everywhere
+    plan(problem, policy=DeclaringStuck(3), **kwargs)  # the policy's own
+    plan(problem, policy=DeclaringStuck(3), attention_near_goal_factor=2, **kwargs)  # plan's wins
+    plan(problem, policy=Stuck(), attention_patience=50, attention_near_goal_factor=2, **kwargs)
+    patience = default_patience(problem, Tree(problem).step_size)
+    expected = [
+        (patience, -1.0, 0),
+        (patience, *near_goal_limits(problem, patience, 3.0)),
+        (patience, *near_goal_limits(problem, patience, 2.0)),
+        (50, *near_goal_limits(problem, 50, 2.0)),
+    ]
+    assert [(s.patience, s.near_sq, s.near_patience) for s in seen] == expected
+    with pytest.raises(ValueError, match="policy.attention_near_goal_factor"):
+        plan(problem, policy=DeclaringStuck(0.5), **kwargs)
+    with pytest.raises(ValueError, match="attention_near_goal_factor"):
+        plan(problem, policy=Stuck(), attention_near_goal_factor=float("inf"), **kwargs)
 
 
 def test_slices_of_one_iteration_give_the_python_loops_tree(monkeypatch):

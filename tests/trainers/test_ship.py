@@ -101,6 +101,22 @@ def test_without_a_budget_the_attention_phase_gets_all_of_max_nodes(shipped, tmp
     assert "all of the planner's `max_nodes`" in again.with_suffix(".md").read_text()
 
 
+def test_a_near_goal_factor_is_shipped_carried_and_applied(shipped, tmp_path):
+    model, path = shipped
+    args = ["--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(path),
+            f"data.dir={tmp_path / 'no-data'}"]  # fmt: skip
+    out = tmp_path / "near-goal"
+    again = ship.main([*args, "--attention-near-goal-factor", "5", "--out-dir", str(out)])
+    _, checkpoint = load_checkpoint(again, robot="point2d")
+    assert checkpoint["planner"]["attention_near_goal_factor"] == 5.0
+    assert "5 times longer once the tree's closest approach" in again.with_suffix(".md").read_text()
+    policy = registry.policy_from_checkpoint(again)
+    assert policy.attention_near_goal_factor == 5.0
+    assert registry.load_policy("TEMP-2D-v0").attention_near_goal_factor is None  # the fixture's
+    with pytest.raises(SystemExit, match="near-goal-factor"):
+        ship.main([*args, "--attention-near-goal-factor", "0.5", "--out-dir", str(out)])
+
+
 def test_ship_refuses_a_checkpoint_for_another_robot(tmp_path):
     model = TEMPModel.from_config(SMALL, "point3d", 8, 64)
     model.save(tmp_path / "best.pt")

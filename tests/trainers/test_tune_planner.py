@@ -31,7 +31,7 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
     out = capsys.readouterr().out
     assert "budget 40 nodes per run" in out
     row = next(line for line in out.splitlines() if line.startswith("| 40 |"))
-    mean_nodes = float(row.split("|")[6])
+    mean_nodes = float(row.split("|")[7])
     assert mean_nodes <= 40  # a failure counts as the budget, never more
     assert best["attention_nodes"] == 40
 
@@ -48,3 +48,18 @@ def test_a_budget_below_one_from_the_config_is_named_as_such(capsys, monkeypatch
     with pytest.raises(SystemExit):
         tune_planner.main([*ARGS, "--tasks", "1", "train_eval.max_nodes=0"])
     assert "train_eval.max_nodes: must be at least 1" in capsys.readouterr().err
+
+
+def test_near_goal_factors_are_tried_and_checked(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    best = tune_planner.main(
+        [*ARGS, "--attention-nodes", "40", "--max-nodes", "40", "--noise-std", "0",
+         "--near-goal-factor", "1", "4",
+         "--tasks", "2", "--min-attention-success", "0"]
+    )  # fmt: skip
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 40 |")]
+    assert [row.split("|")[5].strip() for row in rows] == ["1", "4"]
+    assert best["attention_near_goal_factor"] in (1.0, 4.0)
+    with pytest.raises(SystemExit):
+        tune_planner.main([*ARGS, "--near-goal-factor", "0.5", "--tasks", "1"])
+    assert "--near-goal-factor 0.5: must be finite and at least 1" in capsys.readouterr().err
