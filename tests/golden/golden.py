@@ -43,6 +43,7 @@ Only the public API that both layouts share is used.
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
 import sys
@@ -219,9 +220,21 @@ def differences(found: dict[str, dict[str, str]], stored: dict[str, dict[str, st
 
 STORED = Path(__file__).with_name("golden.json")
 
-if __name__ == "__main__":
-    if sys.argv[1:] == ["--check"]:  # the whole sample against the stored fingerprints
+
+def main(argv: list[str] | None = None) -> int:
+    """``--check``: compare with the stored fingerprints (exit 1 if they differ); ``OUT``: write."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    action = parser.add_mutually_exclusive_group(required=True)
+    action.add_argument("--check", action="store_true", help="compare with golden.json")
+    action.add_argument("out", nargs="?", type=Path, help="write the fingerprints to this file")
+    args = parser.parse_args(argv)
+    if args.check:  # the whole sample against the stored fingerprints
         lines = differences(fingerprints(), json.loads(STORED.read_text()))
         print("\n".join(lines) or "identical")
-        sys.exit(1 if lines else 0)
-    Path(sys.argv[1]).write_text(json.dumps(fingerprints(), indent=1, sort_keys=True) + "\n")
+        return 1 if lines else 0
+    args.out.write_text(json.dumps(fingerprints(), indent=1, sort_keys=True) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
