@@ -56,7 +56,7 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
-NEAR_GOAL_SHARE = 0.3
+NEAR_GOAL_SHARE = 0.4
 """`near_goal_limits`: the tree is near the goal once its closest approach is within this share
 of the start-goal distance."""
 STOPS = ("solved", "attention_budget", "budget", "stalled", "time")

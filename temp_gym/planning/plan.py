@@ -107,7 +107,7 @@ def plan(
         attention_uniform: ``temp`` only: probability, in the attention phase, of a uniform
             sample instead of the policy's (None: the policy's own setting, else 0).
         attention_near_goal_factor: ``temp`` only: how many times ``attention_patience`` the
-            attention phase waits once the tree has come within 30% of the start-goal
+            attention phase waits once the tree has come within 40% of the start-goal
             distance of the goal (None: the policy's own setting, else 1; the shipped 3D
             policy waits 5 times longer there).
 
