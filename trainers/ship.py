@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import io
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +36,7 @@ from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
+from temp_gym.planning.result import near_goal_factor
 from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
@@ -313,8 +313,11 @@ def main(argv: list[str] | None = None) -> Path:
     ):
         raise SystemExit("--horizon must be >= 1 and --attention-patience >= 0")
     factor = args.attention_near_goal_factor
-    if factor is not None and not (math.isfinite(factor) and factor >= 1):
-        raise SystemExit(f"--attention-near-goal-factor must be finite and >= 1, got {factor}")
+    if factor is not None:  # the planner's own check, naming the flag
+        try:
+            factor = near_goal_factor(factor, "--attention-near-goal-factor")
+        except ValueError as error:
+            raise SystemExit(str(error)) from None
     config = load_config(args.config, args.overrides)
     env_id = config.env.id
     model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)

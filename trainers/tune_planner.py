@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import math
 
 import numpy as np
 import torch
@@ -35,6 +34,7 @@ from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
+from temp_gym.planning.result import near_goal_factor
 from temp_gym.training import plan_episode
 
 
@@ -128,9 +128,11 @@ def main(argv: list[str] | None = None) -> dict:
             f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
             f"({budget_from}); pass a larger --max-nodes"
         )
-    bad = [f for f in args.near_goal_factor if not (math.isfinite(f) and f >= 1)]
-    if bad:
-        parser.error(f"--near-goal-factor {bad[0]}: must be finite and at least 1")
+    try:  # the planner's own check, naming the flag
+        for factor in args.near_goal_factor:
+            near_goal_factor(factor, "--near-goal-factor")
+    except ValueError as error:
+        parser.error(str(error))
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
     if args.split == "ood":
