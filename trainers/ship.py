@@ -18,6 +18,14 @@ the evaluation to put the figures in the card; the weights are unchanged by that
 rewrites only the Evaluation section of a shipped card from ``results/{env id}`` (after a
 re-evaluation of the shipped weights, when their training run is not at hand); it refuses
 results made with other weights, as the card itself would say.
+
+    python trainers/ship.py --update-planner TEMP-2D-v0 attention_follow_fallback=0.25 \
+        "chosen_by=..."
+
+changes planner settings of a shipped checkpoint (`PLANNER_KEYS`; values in YAML) without its
+training run: the weights and their provenance stay, the checkpoint, its snapshot and the
+card's planner section are rewritten. The settings are checked as `load_policy` checks them
+before anything is written.
 """
 
 from __future__ import annotations
@@ -33,10 +41,10 @@ import yaml
 from temp_gym.config import Config, load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
-from temp_gym.models.registry import CHECKPOINT_DIR
+from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
-from temp_gym.planning.result import near_goal_factor
+from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
@@ -103,6 +111,56 @@ def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Pat
     return card_path
 
 
+def update_planner(env_id: str, settings: list[str], out_dir: str | Path = CHECKPOINT_DIR) -> Path:
+    """Change planner settings (``key=value``, `PLANNER_KEYS`) of ``env_id``'s shipped policy.
+
+    The weights and provenance stay; the checkpoint, its snapshot and the card's planner
+    section are rewritten, after the new settings pass the checks `load_policy` applies.
+
+    Raises:
+        SystemExit: an unknown env id or key, a malformed or invalid value, no shipped card.
+    """
+    stems = _checkpoint_stems()
+    if env_id not in stems:
+        raise SystemExit(f"--update-planner: expected one of {list(stems)}, got {env_id!r}")
+    changes = {}
+    for setting in settings:
+        key, equals, value = setting.partition("=")
+        if not equals or key not in PLANNER_KEYS:
+            raise SystemExit(f"--update-planner: expected key=value with a key of {PLANNER_KEYS}, "
+                             f"got {setting!r}")  # fmt: skip
+        changes[key] = value if key == "chosen_by" else yaml.safe_load(value)
+    if not changes:
+        raise SystemExit("--update-planner: give at least one key=value")
+    path = Path(out_dir) / f"{stems[env_id]}.pt"
+    card_path = path.with_suffix(".md")
+    heading, next_heading = "## Planner settings applied by `load_policy`\n", "\n## Data\n"
+    card = card_path.read_text() if card_path.is_file() else ""
+    if heading not in card or next_heading not in card:
+        raise SystemExit(f"{card_path}: no shipped card with a planner section to update")
+    checkpoint = torch.load(path, weights_only=True, map_location="cpu")
+    checkpoint["planner"] = {**checkpoint["planner"], **changes}
+    buffer = io.BytesIO()
+    torch.save(checkpoint, buffer)
+    trial = path.with_name(f".{path.name}.trial")
+    try:  # the checks load_policy applies, on a copy, before anything is replaced
+        trial.write_bytes(buffer.getvalue())
+        policy_from_checkpoint(trial)
+    except ValueError as error:
+        raise SystemExit(f"--update-planner: {error}") from None
+    finally:
+        trial.unlink(missing_ok=True)
+    with atomic_write(path) as handle:
+        handle.write(buffer.getvalue())
+    write_snapshot(path)
+    chunk = model_config_of(checkpoint["model_config"]).chunk
+    head, rest = card.split(heading, 1)
+    tail = rest.split(next_heading, 1)[1]
+    lines = "\n".join(planner_lines(checkpoint["planner"], chunk))
+    card_path.write_text(head + heading + lines + "\n" + next_heading + tail)
+    return path
+
+
 def _logged_scalar(run_dir: Path, tag: str) -> dict[int, float]:
     """``tag``'s values by step from the run's TensorBoard files (the last write of a step wins)."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -157,6 +215,53 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     return lines
 
 
+PLANNER_KEYS = (
+    "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
+    "attention_follow_fallback", "chosen_by",
+)  # fmt: skip
+"""The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
+
+
+def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
+    """The card's lines on the planner settings ``load_policy`` applies."""
+    follow = planner.get("attention_follow_fallback")
+    return [
+        "- Attention-phase budget n (Algorithm 1): "
+        + (
+            "all of the planner's `max_nodes`, the budget every baseline gets"
+            if planner["attention_nodes"] is None
+            else f"{planner['attention_nodes']} nodes"
+        )
+        + "; then classical planning (Informed RRT*).",
+        f"- Output noise: {planner['noise_std']} (normalized units).",
+        f"- Proposals per MPT call (horizon): "
+        f"{planner.get('horizon') or chunk} of the model's chunk of {chunk}.",
+        "- Stall patience of the attention phase: "
+        + (
+            "the planner's default rule (`temp_gym.planning.attention.default_patience`)"
+            if planner.get("attention_patience") is None
+            else f"{planner['attention_patience']} nodes"
+        )
+        + (
+            ""
+            if planner.get("attention_near_goal_factor") in (None, 1.0)
+            else f", {planner['attention_near_goal_factor']:g} times longer once the tree's "
+            "closest approach is within `temp_gym.planning.attention.NEAR_GOAL_SHARE` of the "
+            "start-goal distance from the goal"
+        )
+        + ".",
+        "- After a fallback node (a uniform sample replacing a colliding proposal) that brought "
+        "the tree no closer to the goal, the policy goes on from it "
+        + (
+            "always (Algorithm 1's UpdatePath)."
+            if follow in (None, 1.0)
+            else f"with probability {follow:g}, else from the path it read before "
+            "(`temp_gym.planning.attention`)."
+        ),
+        f"- How they were chosen: {planner['chosen_by']}.",
+    ]
+
+
 def model_card(
     env_id: str,
     config: Config,
@@ -205,31 +310,7 @@ def model_card(
             f"- Weights digest (SHA-256): `{provenance['digest']}`.",
             "",
             "## Planner settings applied by `load_policy`",
-            "- Attention-phase budget n (Algorithm 1): "
-            + (
-                "all of the planner's `max_nodes`, the budget every baseline gets"
-                if planner["attention_nodes"] is None
-                else f"{planner['attention_nodes']} nodes"
-            )
-            + "; then classical planning (Informed RRT*).",
-            f"- Output noise: {planner['noise_std']} (normalized units).",
-            f"- Proposals per MPT call (horizon): "
-            f"{planner.get('horizon') or chunk} of the model's chunk of {chunk}.",
-            "- Stall patience of the attention phase: "
-            + (
-                "the planner's default rule (`temp_gym.planning.attention.default_patience`)"
-                if planner.get("attention_patience") is None
-                else f"{planner['attention_patience']} nodes"
-            )
-            + (
-                ""
-                if planner.get("attention_near_goal_factor") in (None, 1.0)
-                else f", {planner['attention_near_goal_factor']:g} times longer once the tree's "
-                "closest approach is within `temp_gym.planning.attention.NEAR_GOAL_SHARE` of the "
-                "start-goal distance from the goal"
-            )
-            + ".",
-            f"- How they were chosen: {planner['chosen_by']}.",
+            *planner_lines(planner, chunk),
             "",
             "## Data",
             *data_lines,
@@ -287,6 +368,18 @@ def main(argv: list[str] | None = None) -> Path:
         "default: 1",
     )
     parser.add_argument(
+        "--attention-follow-fallback",
+        type=float,
+        default=None,
+        help="probability of going on from a fallback node that got no closer to the goal, in "
+        "[0, 1]; default: 1 (Algorithm 1)",
+    )
+    parser.add_argument(
+        "--update-planner",
+        metavar="ENV_ID",
+        help="only change planner settings of that shipped policy: key=value arguments",
+    )
+    parser.add_argument(
         "--chosen-by", default="tuned on the validation workspaces", help="for the card"
     )
     parser.add_argument("--notes", default="", help="for the card: how training went")
@@ -298,8 +391,16 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument(
         "--out-dir", default=str(CHECKPOINT_DIR), help="where checkpoint and card go"
     )
-    parser.add_argument("overrides", nargs="*", help="the key=value overrides used in training")
+    parser.add_argument(
+        "overrides",
+        nargs="*",
+        help="the key=value overrides used in training (with --update-planner: the settings)",
+    )
     args = parse_args(parser, argv)
+    if args.update_planner:
+        path = update_planner(args.update_planner, args.overrides, args.out_dir)
+        print(f"updated the planner settings of {path}, its snapshot and card")
+        return path
     if args.refresh_evaluation:
         card = refresh_evaluation(args.refresh_evaluation, args.out_dir)
         print(f"refreshed the evaluation section of {card}")
@@ -318,6 +419,12 @@ def main(argv: list[str] | None = None) -> Path:
             factor = near_goal_factor(factor, "--attention-near-goal-factor")
         except ValueError as error:
             raise SystemExit(str(error)) from None
+    follow = args.attention_follow_fallback
+    if follow is not None:
+        try:
+            follow = share(follow, "--attention-follow-fallback")
+        except ValueError as error:
+            raise SystemExit(str(error)) from None
     config = load_config(args.config, args.overrides)
     env_id = config.env.id
     model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
@@ -329,6 +436,7 @@ def main(argv: list[str] | None = None) -> Path:
         "horizon": args.horizon,
         "attention_patience": args.attention_patience,
         "attention_near_goal_factor": factor,
+        "attention_follow_fallback": follow,
         "chosen_by": args.chosen_by,
     }
     provenance = {

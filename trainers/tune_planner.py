@@ -5,7 +5,9 @@ r"""Choose a policy's planner settings on validation workspaces: budget n, noise
         [--max-nodes 10000]
 
 For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
-chunk; 0: all) and stall patience (``--patience``; -1: the default rule) it plans ``--tasks``
+chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the
+goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
+going on from a fallback node (``--follow-fallback``) it plans ``--tasks``
 tasks drawn from the ``val`` workspaces (seen in no test; the test workspaces stay untouched
 until the final measurement, ``--split test`` with the chosen setting) with the ``temp``
 planner up to the first solution, and prints nodes to the first solution (mean and median, a
@@ -34,7 +36,7 @@ from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
-from temp_gym.planning.result import near_goal_factor
+from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.training import plan_episode
 
 
@@ -101,6 +103,14 @@ def main(argv: list[str] | None = None) -> dict:
         help="stall-patience factors near the goal to try (1: the same patience everywhere)",
     )
     parser.add_argument(
+        "--follow-fallback",
+        type=float,
+        nargs="+",
+        default=[1.0],
+        help="probabilities of going on from a fallback node that got no closer to the goal to "
+        "try (1: always, Algorithm 1)",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -131,6 +141,8 @@ def main(argv: list[str] | None = None) -> dict:
     try:  # the planner's own check, naming the flag
         for factor in args.near_goal_factor:
             near_goal_factor(factor, "--near-goal-factor")
+        for follow in args.follow_fallback:
+            share(follow, "--follow-fallback")
     except ValueError as error:
         parser.error(str(error))
     torch.set_num_threads(1)
@@ -152,22 +164,23 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | near goal | uniform | nodes mean | median | AP solved "
-        "| success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
+        "| n | noise | horizon | patience | near goal | uniform | follow | nodes mean | median "
+        "| AP solved | success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
-        args.uniform,
+        args.uniform, args.follow_fallback,
     )  # fmt: skip
-    for budget, noise, horizon, patience, factor, uniform in settings:
+    for budget, noise, horizon, patience, factor, uniform, follow in settings:
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
             attention_patience=None if patience < 0 else patience,
             attention_uniform=uniform,
             attention_near_goal_factor=factor,
+            attention_follow_fallback=follow,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
@@ -176,6 +189,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
+            f"{follow:g} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
@@ -186,7 +200,8 @@ def main(argv: list[str] | None = None) -> dict:
         if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
                     "attention_patience": eval_config.attention_patience,
-                    "attention_uniform": uniform, "attention_near_goal_factor": factor}  # fmt: skip
+                    "attention_uniform": uniform, "attention_near_goal_factor": factor,
+                    "attention_follow_fallback": follow}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

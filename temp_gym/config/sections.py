@@ -218,6 +218,9 @@ class TrainEvalConfig:
     attention_near_goal_factor: float | None = None
     """How many times its patience the attention phase waits once the tree is near the goal
     (at least 1); null: the policy's own, else 1."""
+    attention_follow_fallback: float | None = None
+    """Probability that the policy goes on from a fallback node that got no closer to the
+    goal; null: the policy's own, else 1."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""

@@ -50,7 +50,7 @@ from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
-from temp_gym.planning.result import near_goal_factor
+from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
@@ -215,6 +215,9 @@ class TEMPPolicy:
         attention_near_goal_factor: how many times its stall patience the attention phase
             waits with this policy once the tree is near the goal, when ``plan`` is given none
             (None: 1, the same patience everywhere; `temp_gym.planning.attention`).
+        attention_follow_fallback: probability that the policy goes on from a fallback node
+            that brought the tree no closer to the goal, when ``plan`` is given none (None: 1,
+            always, Algorithm 1's rule; `temp_gym.planning.attention`).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -233,6 +236,7 @@ class TEMPPolicy:
         attention_patience: int | None = None,
         attention_uniform: float | None = None,
         attention_near_goal_factor: float | None = None,
+        attention_follow_fallback: float | None = None,
     ) -> None:
         if noise_std < 0:
             raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
@@ -253,6 +257,11 @@ class TEMPPolicy:
             None
             if attention_near_goal_factor is None
             else near_goal_factor(attention_near_goal_factor)
+        )
+        self.attention_follow_fallback = (
+            None
+            if attention_follow_fallback is None
+            else share(attention_follow_fallback, "attention_follow_fallback")
         )
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
@@ -338,6 +347,7 @@ class TEMPPolicy:
             core=self.core, horizon=self.horizon, attention_patience=self.attention_patience,
             attention_uniform=self.attention_uniform,
             attention_near_goal_factor=self.attention_near_goal_factor,
+            attention_follow_fallback=self.attention_follow_fallback,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

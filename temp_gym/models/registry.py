@@ -231,6 +231,7 @@ def _policy_on(
         attention_patience=planner.get("attention_patience"),
         attention_uniform=planner.get("attention_uniform"),
         attention_near_goal_factor=planner.get("attention_near_goal_factor"),
+        attention_follow_fallback=planner.get("attention_follow_fallback"),
     )
 
 

@@ -17,7 +17,10 @@ random numbers in the same order, so both grow the same tree (tested node for no
 3. `temp_gym.planning._compiled_tree.extend_with_fallback`: nearest, steer, the random
    fallback while the edge collides, choose-parent, insert, rewire; a fallback or a failed
    extension drops the rest of the chunk (its proposals continued the path it predicted);
-4. progress: the tree's closest approach to the goal; ``patience`` nodes in a row without a
+4. the node whose root path the next MPT call reads: the new node, unless it is a fallback
+   node that brought the tree no closer to the goal, which it is with probability
+   ``follow_fallback`` (`temp_gym.planning.attention.follows`);
+5. progress: the tree's closest approach to the goal; ``patience`` nodes in a row without a
    closer one stall the phase (0: never), ``near_patience`` once that approach is within
    ``sqrt(near_sq)`` of the goal.
 
@@ -33,7 +36,6 @@ import numpy as np
 from temp_gym.planning._compiled_tree import (
     BAD_ACTION,
     BEST_NODE,
-    NEWEST,
     NUM_NODES,
     SAMPLES,
     extend_with_fallback,
@@ -43,10 +45,11 @@ from temp_gym.planning._compiled_tree import (
 )
 from temp_gym.planning.mpt_kernel import forward_kernel
 
-STATE = ("pending", "next_row", "calls", "proposals", "stalled")
+STATE = ("pending", "next_row", "calls", "proposals", "stalled", "anchor")
 """The loop's int64 state, kept between calls: proposals left in the chunk and the next one,
-MPT calls and proposals used so far, nodes since the closest approach improved."""
-PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED = range(len(STATE))
+MPT calls and proposals used so far, nodes since the closest approach improved, the node whose
+root path the MPT reads."""
+PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED, ANCHOR = range(len(STATE))
 LIMITS = (
     "attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries",
     "near_patience",
@@ -63,8 +66,9 @@ again); the policy proposed NaN or inf."""
 @numba.njit(cache=True, nogil=True)
 def attention_slice(
     arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
-    goal_bias, uniform, weights, prefix_goal, prefix_z, prefix_qkv, noise_std, noise_rng,
-    proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits, max_iterations,
+    goal_bias, uniform, follow_fallback, weights, prefix_goal, prefix_z, prefix_qkv, noise_std,
+    noise_rng, proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits,
+    max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
 
@@ -76,6 +80,8 @@ def attention_slice(
         rng, buffer, cursor: the planner's generator and the uniform fallback's batch.
         goal_bias: probability of sampling the goal.
         uniform: probability of a uniform sample instead of the policy's.
+        follow_fallback: probability that the MPT goes on from a fallback node that brought
+            the tree no closer to the goal.
         weights, prefix_goal, prefix_z, prefix_qkv, noise_std: the policy
             (`TEMPPolicy.compiled_proposer`).
         noise_rng: the policy's noise generator (drawn from only when ``noise_std > 0``).
@@ -112,7 +118,7 @@ def attention_slice(
             )  # fmt: skip
         else:
             if state[PENDING] == 0:
-                length = normalized_root_path(links, positions, counters[NEWEST], bounds,
+                length = normalized_root_path(links, positions, state[ANCHOR], bounds,
                                               path_rows)  # fmt: skip
                 forward_kernel(path_rows, length, prefix_goal, prefix_z, prefix_qkv, *weights,
                                chunk_out)  # fmt: skip
@@ -141,7 +147,12 @@ def attention_slice(
                 state[PENDING] = 0
         if node >= 0:
             distance_sq = squared_distance(positions[node], goal)
-            if distance_sq < closest_sq[0]:
+            closer = distance_sq < closest_sq[0]
+            if samples == 1 or closer or follow_fallback >= 1.0:
+                state[ANCHOR] = node
+            elif follow_fallback > 0.0 and rng.random() < follow_fallback:
+                state[ANCHOR] = node
+            if closer:
                 closest_sq[0] = distance_sq
                 state[STALLED] = 0
             else:

@@ -12,10 +12,22 @@ Each iteration:
    goal-bias step drops the rest, since they continued a path the tree did not take;
 3. `Tree.extend_with_fallback`: nearest and steer; while the edge collides, uniform random
    samples replace the proposal (Algorithm 1, lines 5-10); choose-parent, insert, rewire;
-4. stop at the first solution, at the attention budget n, or when the phase stalls: the
+4. the path so far the policy reads next (Algorithm 1's UpdatePath) is the root path of the
+   new node; but when that node is a fallback sample that brought the tree no closer to the
+   goal, only with probability ``follow_fallback`` (1 by default, as in Algorithm 1; a draw
+   of the planner's generator when strictly between 0 and 1): otherwise the policy goes on
+   from the path it read before, instead of from wherever the uniform fallback landed;
+5. stop at the first solution, at the attention budget n, or when the phase stalls: the
    tree's closest approach to the goal has not improved for ``patience`` nodes in a row, or
    ``near_patience`` once that approach is within ``sqrt(near_sq)`` of the goal
    (``patience = 0`` never stalls: Algorithm 1 as written).
+
+Going on from a fallback node only sometimes (``follow_fallback`` below 1) is for policies
+that a random anchor throws off: after a fallback, Algorithm 1 makes the policy read the path
+to wherever the uniform sample landed, which often is not where it was heading. It pays in
+nodes for some policies (with their output noise, a repeated path still gives new proposals)
+and not for others (without noise the same path gives the same proposals again), so it is a
+per-policy setting, chosen on validation tasks.
 
 The stall rule is how TEMP degrades gracefully: a policy that keeps steering into a trap it
 has not seen in training hands the rest of the budget to classical planning (Informed RRT*
@@ -140,6 +152,7 @@ def run_attention_phase(
     limits: AttentionLimits,
     compiled_loop: bool | None = None,
     uniform: float = 0.0,
+    follow_fallback: float = 1.0,
 ) -> AttentionOutcome:
     """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
 
@@ -153,6 +166,8 @@ def run_attention_phase(
         compiled_loop: force the compiled loop (True; an error when it cannot run) or the
             Python loop (False); None picks the compiled one whenever it can run.
         uniform: probability of a uniform sample instead of the policy's (after goal bias).
+        follow_fallback: probability that the policy goes on from a fallback node that brought
+            the tree no closer to the goal (1: always, Algorithm 1's UpdatePath).
     """
     compiled_proposer = fast_path(policy, "compiled_proposer")
     proposer = compiled_proposer() if compiled_proposer is not None else None
@@ -164,8 +179,22 @@ def run_attention_phase(
             "MPT) and a checker with a compiled path"
         )
     if can_compile and compiled_loop is not False:
-        return _run_compiled(tree, proposer, context, rng, goal_bias, uniform, limits)
-    return _run_python(tree, policy, rng, goal_bias, uniform, limits)
+        return _run_compiled(
+            tree, proposer, context, rng, goal_bias, uniform, follow_fallback, limits
+        )
+    return _run_python(tree, policy, rng, goal_bias, uniform, follow_fallback, limits)
+
+
+def follows(samples: int, closer: bool, follow_fallback: float, rng: np.random.Generator) -> bool:
+    """Whether the policy goes on from a new node that took ``samples`` samples to add.
+
+    Always from a node added at the first sample or one that brought the tree ``closer`` to
+    the goal; from any other (a fallback node) with probability ``follow_fallback``, drawn
+    from ``rng`` only when that is strictly between 0 and 1.
+    """
+    if samples == 1 or closer or follow_fallback >= 1.0:
+        return True
+    return follow_fallback > 0.0 and rng.random() < follow_fallback
 
 
 def _run_python(
@@ -174,6 +203,7 @@ def _run_python(
     rng: np.random.Generator,
     goal_bias: float,
     uniform: float,
+    follow_fallback: float,
     limits: AttentionLimits,
 ) -> AttentionOutcome:
     """The reference loop: any policy, any checker."""
@@ -183,20 +213,21 @@ def _run_python(
     goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
     propose_chunk = fast_path(policy, "propose_chunk")
     propose_one = fast_path(policy, "propose")
+    anchor = tree.newest  # the node whose root path the policy reads (sigma')
     if propose_chunk is not None:
 
         def propose() -> np.ndarray:
-            return propose_chunk(*observer.path_so_far(tree))
+            return propose_chunk(*observer.path_so_far(tree, anchor))
 
     elif propose_one is not None:
 
         def propose() -> np.ndarray:
-            return propose_one(*observer.path_so_far(tree))[None]
+            return propose_one(*observer.path_so_far(tree, anchor))[None]
 
     else:
 
         def propose() -> np.ndarray:
-            return np.asarray(policy(observer.observe(tree)))[None]
+            return np.asarray(policy(observer.observe(tree, anchor)))[None]
 
     closest_sq = squared_distance(problem.start, goal)
     stalled = calls = proposals_used = 0
@@ -240,7 +271,10 @@ def _run_python(
                 chunk = None
         if result.node >= 0:
             distance_sq = squared_distance(tree.positions[result.node], goal)
-            if distance_sq < closest_sq:
+            closer = distance_sq < closest_sq
+            if follows(result.samples, closer, follow_fallback, rng):
+                anchor = result.node
+            if closer:
                 closest_sq, stalled = distance_sq, 0
             else:
                 stalled += 1
@@ -266,6 +300,7 @@ def _run_compiled(
     rng: np.random.Generator,
     goal_bias: float,
     uniform: float,
+    follow_fallback: float,
     limits: AttentionLimits,
 ) -> AttentionOutcome:
     """The compiled loop, in slices between looks at the clock (`slice_length`)."""
@@ -284,6 +319,7 @@ def _run_compiled(
     chunk_out = np.empty((chunk, dim), np.float32)
     path_rows = np.zeros((max_path_length, dim), np.float32)
     state = np.zeros(len(compiled.STATE), dtype=np.int64)
+    state[compiled.ANCHOR] = tree.newest
     closest_sq = np.array([squared_distance(problem.start, goal)])
     budget = np.array(
         [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
@@ -300,9 +336,9 @@ def _run_compiled(
         arrays, counters, best_cost, params = tree.compiled_state()
         status = compiled.attention_slice(
             arrays, counters, best_cost, params, goal, bounds, context, rng, buffer,
-            cursor, float(goal_bias), float(uniform), weights, prefix_goal, prefix_z,
-            prefix_qkv, noise_std, noise_rng, proposals, chunk_out, path_rows, state,
-            closest_sq, near_sq, budget, iterations,
+            cursor, float(goal_bias), float(uniform), float(follow_fallback), weights,
+            prefix_goal, prefix_z, prefix_qkv, noise_std, noise_rng, proposals, chunk_out,
+            path_rows, state, closest_sq, near_sq, budget, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
         if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one

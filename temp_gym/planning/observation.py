@@ -112,6 +112,7 @@ class TreeObserver:
         # updated in place and copied into every observation.
         self._tree: Tree | None = None
         self._nodes = -1
+        self._node = -1
         self._parts = (
             self._state,
             np.zeros(1, np.int64),
@@ -121,44 +122,55 @@ class TreeObserver:
             self._slices,
         )
 
-    def _sync(self, tree: Tree) -> None:
-        """Bring the state block up to date with ``tree`` if it is another tree or has grown."""
+    def _sync(self, tree: Tree, node: int | None) -> None:
+        """Bring the state block up to date with ``tree`` and the root path of ``node``.
+
+        ``node`` None is the newest node. Only when the tree is another one, has grown, or the
+        node is another one.
+        """
         state, length, params = self._parts[:3]
-        if tree is not self._tree or tree.num_nodes != self._nodes:
+        node = tree.newest if node is None else int(node)
+        if tree is not self._tree or tree.num_nodes != self._nodes or node != self._node:
+            if not 0 <= node < tree.num_nodes:
+                raise ValueError(f"node: expected a node of the tree (0..{tree.num_nodes - 1}), "
+                                 f"got {node}")  # fmt: skip
             update_observation(
                 state,
                 length,
                 tree.links,
                 tree.positions,
                 params,
-                tree.newest,
+                node,
                 tree.best_node,
                 tree.best_cost,
                 tree.num_nodes,
             )
             self._tree = tree
             self._nodes = tree.num_nodes
+            self._node = node
 
-    def path_so_far(self, tree: Tree) -> tuple[np.ndarray, int]:
+    def path_so_far(self, tree: Tree, node: int | None = None) -> tuple[np.ndarray, int]:
         """The ``path`` and ``path_length`` entries of `observe`, without building the rest.
 
         Returns the observer's own ``(L, d)`` float32 rows (a view, valid until the next call:
         read it, do not keep or change it) and the number of valid rows. The TEMP planner's
-        policy reads only these, once per step.
+        policy reads only these, once per step. ``node``: whose root path (None: the newest
+        node's, Algorithm 1's sigma').
         """
-        self._sync(tree)
+        self._sync(tree, node)
         state, length, _, _, path_shape, slices = self._parts
         return state[slices[-1]].reshape(path_shape), int(length[0])
 
-    def observe(self, tree: Tree) -> dict[str, np.ndarray]:
+    def observe(self, tree: Tree, node: int | None = None) -> dict[str, np.ndarray]:
         """A fresh observation of ``tree``: no array is shared with another observation.
 
         The float32 entries but ``occupancy`` are disjoint views of one new block, a copy of
         the observer's state. The state is updated only when ``tree`` is another tree or has
-        grown since the last call: a tree changes only by gaining a node (`Tree.extend`
-        leaves it unchanged otherwise), so a failed extension costs no update.
+        grown since the last call (a tree changes only by gaining a node: `Tree.extend`
+        leaves it unchanged otherwise, so a failed extension costs no update), or when
+        ``node``, whose root path the observation carries (None: the newest node's), changed.
         """
-        self._sync(tree)
+        self._sync(tree, node)
         state, length, _, occupancy, path_shape, slices = self._parts
         block = state.copy()
         start, goal, radius, best_cost, solved, progress, path = slices

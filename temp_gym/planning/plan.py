@@ -64,6 +64,7 @@ def plan(
     attention_patience: int | None = None,
     attention_uniform: float | None = None,
     attention_near_goal_factor: float | None = None,
+    attention_follow_fallback: float | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -110,6 +111,10 @@ def plan(
             attention phase waits once the tree has come within 40% of the start-goal
             distance of the goal (None: the policy's own setting, else 1; the shipped 3D
             policy waits 5 times longer there).
+        attention_follow_fallback: ``temp`` only: probability, in ``[0, 1]``, that the policy
+            goes on from a node the uniform fallback added (its proposal collided) when that
+            node brought the tree no closer to the goal; otherwise it goes on from the path
+            it read before (None: the policy's own setting, else 1, Algorithm 1's rule).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -127,6 +132,7 @@ def plan(
         max_samples=max_samples, policy=policy, attention_nodes=attention_nodes,
         attention_patience=attention_patience, attention_uniform=attention_uniform,
         attention_near_goal_factor=attention_near_goal_factor,
+        attention_follow_fallback=attention_follow_fallback,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

@@ -36,9 +36,10 @@ policy without one (or with None) gets the default:
 * ``max_path_length``: L, the path-so-far rows of the observation (default
   `DEFAULT_MAX_PATH_LENGTH`);
 * ``attention_nodes``, ``attention_patience``, ``attention_uniform``,
-  ``attention_near_goal_factor``: the attention phase's budget, stall patience, share of
-  uniform samples and patience factor near the goal when ``plan`` is given none (defaults:
-  all of ``max_nodes``, `temp_gym.planning.attention.default_patience`, 0, 1).
+  ``attention_near_goal_factor``, ``attention_follow_fallback``: the attention phase's
+  budget, stall patience, share of uniform samples, patience factor near the goal and
+  probability of going on from a fallback node when ``plan`` is given none (defaults: all of
+  ``max_nodes``, `temp_gym.planning.attention.default_patience`, 0, 1, 1).
 
 A policy whose ``reset`` takes the problem alone still works through `as_sampling_policy`
 (``plan`` adapts it, with a ``DeprecationWarning``).
@@ -119,6 +120,7 @@ class PolicySettings:
     attention_patience: int | None = None
     attention_uniform: float | None = None
     attention_near_goal_factor: float | None = None
+    attention_follow_fallback: float | None = None
 
 
 POLICY_SETTINGS = tuple(field.name for field in fields(PolicySettings))

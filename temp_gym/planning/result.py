@@ -48,7 +48,7 @@ def near_goal_factor(value: object, name: str = "attention_near_goal_factor") ->
     return factor
 
 
-def _share(value: object, name: str) -> float:
+def share(value: object, name: str) -> float:
     """A probability: a real number in ``[0, 1]``."""
     share = _real(value, name, "a number in [0, 1]")
     if not 0.0 <= share <= 1.0:
@@ -103,6 +103,11 @@ class PlanSettings:
     closest approach to the goal is within `temp_gym.planning.attention.NEAR_GOAL_SHARE` of the
     start-goal distance (None: the policy's own setting, else 1, the same patience
     everywhere)."""
+    attention_follow_fallback: float | None = None
+    """``temp`` planner: probability that the policy continues from a fallback node (a uniform
+    sample that replaced a colliding proposal) which brought the tree no closer to the goal;
+    otherwise the path so far it reads stays the one it read before (None: the policy's own
+    setting, else 1: always, Algorithm 1's UpdatePath)."""
 
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
@@ -124,7 +129,7 @@ class PlanSettings:
             if not (math.isfinite(step) and step > 0):
                 raise ValueError(f"step_size: expected a positive number or None, got {step}")
             normalize("step_size", step)
-        normalize("goal_bias", _share(self.goal_bias, "goal_bias"))
+        normalize("goal_bias", share(self.goal_bias, "goal_bias"))
         if self.target_cost is not None:
             target = _real(self.target_cost, "target_cost", "a number or None")
             if math.isnan(target):
@@ -139,7 +144,12 @@ class PlanSettings:
             if value is not None:
                 normalize(name, _count(value, name, minimum))
         if self.attention_uniform is not None:
-            normalize("attention_uniform", _share(self.attention_uniform, "attention_uniform"))
+            normalize("attention_uniform", share(self.attention_uniform, "attention_uniform"))
+        if self.attention_follow_fallback is not None:
+            normalize(
+                "attention_follow_fallback",
+                share(self.attention_follow_fallback, "attention_follow_fallback"),
+            )
         if self.attention_near_goal_factor is not None:
             normalize(
                 "attention_near_goal_factor", near_goal_factor(self.attention_near_goal_factor)

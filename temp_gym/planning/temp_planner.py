@@ -11,7 +11,8 @@
 3. while that edge collides, a uniform random sample replaces it (each failure is counted);
 4. find-near and choose-parent;
 5. append and rewire (`Tree.extend_with_fallback` does 2-5 on the shared core);
-6. the path so far becomes the root path of the new node;
+6. the path so far becomes the root path of the new node (with ``attention_follow_fallback``
+   below 1, a fallback node that got no closer to the goal only sometimes becomes it);
 7. stop as soon as a node lies in the goal region.
 
 Our additions to Algorithm 1, each with a setting that turns it off: the goal bias
@@ -20,7 +21,10 @@ and the stall rule (``attention_patience=0``): when the tree's closest approach 
 has not improved for ``attention_patience`` nodes, the policy has lost its way and classical
 planning takes over with the budget left, so TEMP degrades towards Informed RRT* instead of
 spending a whole budget in a trap. A policy may wait longer once the tree is near the goal
-(``attention_near_goal_factor``; the shipped 3D policy does). The phase runs compiled (no
+(``attention_near_goal_factor``; the shipped 3D policy does). A policy may also go on from
+its own last node instead of from a random fallback node that got no closer to the goal
+(``attention_follow_fallback`` below 1, `temp_gym.planning.attention`; no shipped policy
+does). The phase runs compiled (no
 Python per node) for a `TEMPPolicy` on the CPU and the built-in checkers.
 
 On the goal bias: A learned sampler imitates expert paths
@@ -60,6 +64,7 @@ from temp_gym.planning.result import (
     PlanResult,
     PlanSettings,
     near_goal_factor,
+    share,
     tree_plan_result,
 )
 from temp_gym.planning.tree import Tree
@@ -133,7 +138,13 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     uniform = settings.attention_uniform
     if uniform is None:
         uniform = declared.attention_uniform or 0.0
-    outcome = run_attention_phase(tree, policy, rng, settings.goal_bias, limits, uniform=uniform)
+    follow = settings.attention_follow_fallback
+    if follow is None:  # the policy's own, checked as plan() checks its argument
+        follow = declared.attention_follow_fallback
+        follow = 1.0 if follow is None else share(follow, "policy.attention_follow_fallback")
+    outcome = run_attention_phase(
+        tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow
+    )
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,

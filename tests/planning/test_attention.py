@@ -29,13 +29,23 @@ def _chunked_policy(robot: str, chunk: int, noise_std: float, horizon=None) -> T
 
 
 def _grow(
-    problem, policy, seed, compiled_loop, patience=0, goal_bias=0.05, uniform=0.0, near=(-1.0, 0)
+    problem,
+    policy,
+    seed,
+    compiled_loop,
+    patience=0,
+    goal_bias=0.05,
+    uniform=0.0,
+    near=(-1.0, 0),
+    follow=1.0,
 ):
     policy.reset(problem, seed=seed)
     tree = Tree(problem, capacity=16)  # small: the compiled loop must grow it on the way
     rng = np.random.default_rng(seed)
     limits = AttentionLimits(1500, 1500, 150_000, patience, near_sq=near[0], near_patience=near[1])
-    outcome = run_attention_phase(tree, policy, rng, goal_bias, limits, compiled_loop, uniform)
+    outcome = run_attention_phase(
+        tree, policy, rng, goal_bias, limits, compiled_loop, uniform, follow_fallback=follow
+    )
     return tree, outcome, rng.random(), policy.rng.random()
 
 
@@ -54,7 +64,8 @@ def _assert_same_tree(a, b):
     ("robot", "policy_kind", "patience"),
     [("point2d", "shipped", 0), ("point2d", "chunk3", 0), ("point3d", "shipped", 60),
      ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0),
-     ("kuka_iiwa14", "shipped", 0), ("point2d", "shipped-uniform", 0)],
+     ("kuka_iiwa14", "shipped", 0), ("point2d", "shipped-uniform", 0),
+     ("point2d", "shipped-follow0.25", 0), ("point3d", "chunk2-follow0", 40)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)
@@ -62,14 +73,20 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         problem = generate_problem(robot, rng, "challenging" if index % 2 else "easy")
         runs = []
         for compiled_loop in (True, False):
-            if policy_kind.startswith("shipped"):
+            kind, _, follow = policy_kind.partition("-follow")
+            if kind.startswith("shipped"):
                 policy = load_policy(robot, noise_std=0.05)
-            elif "horizon" in policy_kind:
+            elif "horizon" in kind:
                 policy = _chunked_policy(robot, 4, noise_std=0.05, horizon=2)
             else:
-                policy = _chunked_policy(robot, int(policy_kind[-1]), noise_std=0.05)
-            uniform = 0.2 if policy_kind.endswith("uniform") else 0.0
-            runs.append(_grow(problem, policy, index, compiled_loop, patience, uniform=uniform))
+                policy = _chunked_policy(robot, int(kind[-1]), noise_std=0.05)
+            uniform = 0.2 if kind.endswith("uniform") else 0.0
+            follow = float(follow or 1.0)
+            runs.append(
+                _grow(
+                    problem, policy, index, compiled_loop, patience, uniform=uniform, follow=follow
+                )
+            )
         (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
         assert out_c.compiled and not out_p.compiled
         _assert_same_tree(tree_c, tree_p)
@@ -202,6 +219,74 @@ def test_slices_of_one_iteration_give_the_python_loops_tree(monkeypatch):
     _assert_same_tree(tree_c, tree_p)
     assert out_c.policy_calls == out_p.policy_calls > 8
     assert (rng_c, noise_c) == (rng_p, noise_p)
+
+
+class IntoTheWall:
+    """A policy whose every proposal collides (the wall's centre), recording where it stood."""
+
+    def __init__(self):
+        self.stood = []
+
+    def reset(self, problem, seed=None):
+        self.bounds = problem.bounds
+
+    def __call__(self, observation):
+        last = observation["path"][int(observation["path_length"][0]) - 1]
+        low, high = self.bounds
+        self.stood.append(low + (last + 1.0) / 2.0 * (high - low))  # back to world units
+        return np.array([0.0, 0.0], np.float32)  # normalized: (10, 10), inside the wall
+
+
+def test_the_policy_goes_on_from_a_fallback_node_only_with_its_probability(wall):
+    problem = Problem.from_dict(wall)
+
+    def stood(follow):
+        policy = IntoTheWall()
+        policy.reset(problem)
+        limits = AttentionLimits(300, 300, 30_000, 0)
+        rng = np.random.default_rng(0)
+        run_attention_phase(Tree(problem), policy, rng, 0.0, limits, follow_fallback=follow)
+        return [float(np.linalg.norm(x - problem.goal)) for x in policy.stood]
+
+    # Every node is a fallback node: with 0 the policy stands on a new one only when it got
+    # closer to the goal, so its distance to the goal only falls; with 1 (Algorithm 1) it
+    # stands wherever the fallback landed.
+    never = stood(0.0)
+    assert len(never) > 50 and never == sorted(never, reverse=True)
+    always = stood(1.0)
+    assert always != sorted(always, reverse=True)
+    sometimes = stood(0.5)
+    assert sometimes not in (never, always)
+
+
+def test_follow_fallback_one_is_algorithm_1_and_a_share_draws_from_the_planner():
+    problem = generate_problem("point2d", np.random.default_rng(8), "challenging")
+    policy = load_policy("point2d", noise_std=0.05)
+    default = _grow(problem, policy, 1, compiled_loop=True)
+    one = _grow(problem, policy, 1, compiled_loop=True, follow=1.0)
+    _assert_same_tree(default[0], one[0])
+    assert default[2:] == one[2:]  # no draw for the probability 1
+    half = _grow(problem, policy, 1, compiled_loop=True, follow=0.5)
+    assert half[0].num_nodes != one[0].num_nodes or half[2] != one[2]
+
+
+def test_follow_fallback_comes_from_plan_else_the_policy_and_is_checked(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=0, max_nodes=300, stop_at_first=True)
+
+    class Declaring(Stuck):
+        attention_follow_fallback = 0.0
+
+    declared = plan(problem, policy=Declaring(), **kwargs)
+    assert (
+        declared.nodes == plan(problem, policy=Stuck(), attention_follow_fallback=0, **kwargs).nodes
+    )
+    Declaring.attention_follow_fallback = 1.5
+    with pytest.raises(ValueError, match="policy.attention_follow_fallback"):
+        plan(problem, policy=Declaring(), **kwargs)
+    for bad in (-0.1, 1.5, float("nan"), True, "half"):
+        with pytest.raises(ValueError, match="attention_follow_fallback"):
+            plan(problem, policy=Stuck(), attention_follow_fallback=bad, **kwargs)
 
 
 def test_a_chunk_is_used_in_turn_and_dropped_after_a_fallback(wall):

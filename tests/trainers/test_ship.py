@@ -126,3 +126,34 @@ def test_ship_refuses_a_checkpoint_for_another_robot(tmp_path):
             "--checkpoint", str(tmp_path / "best.pt"), "--attention-nodes", "10",
             "--out-dir", str(tmp_path),
         ])  # fmt: skip
+
+
+def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shipped):
+    model, path = shipped
+    out = str(path.parent)
+    card_before = path.with_suffix(".md").read_text()
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_follow_fallback=0.25",
+               "chosen_by=on validation", "--out-dir", out])  # fmt: skip
+    _, checkpoint = load_checkpoint(path, robot="point2d")
+    assert checkpoint["planner"]["attention_follow_fallback"] == 0.25
+    assert checkpoint["planner"]["attention_nodes"] == 40  # the others stay
+    assert checkpoint["provenance"]["digest"] == weights_digest(model.state_dict())
+    snapshot = read_snapshot(path, file_digest(path))  # rewritten for the new bytes
+    assert snapshot is not None and snapshot.meta["planner"]["attention_follow_fallback"] == 0.25
+    card = path.with_suffix(".md").read_text()
+    assert "with probability 0.25, else from the path it read before" in card
+    assert "How they were chosen: on validation." in card
+    assert card.split("## Data")[1] == card_before.split("## Data")[1]  # the rest stays
+    assert registry.policy_from_checkpoint(path).attention_follow_fallback == 0.25
+    for bad, message in [
+        ("attention_follow_fallback=2", "attention_follow_fallback"),
+        ("noise_std=-1", "noise_std"),
+        ("colour=red", "key=value"),
+        ("attention_follow_fallback", "key=value"),
+    ]:
+        with pytest.raises(SystemExit, match=message):
+            ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
+    _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
+    assert unchanged["planner"] == checkpoint["planner"]
+    with pytest.raises(SystemExit, match="expected one of"):
+        ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])

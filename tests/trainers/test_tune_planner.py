@@ -37,6 +37,7 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
         (["train_eval.max_nodes=0"], "train_eval.max_nodes: must be at least 1"),
         (["--near-goal-factor", "0.5"],
          "--near-goal-factor: expected a finite number of at least 1, got 0.5"),
+        (["--follow-fallback", "1.5"], "--follow-fallback: expected a number in [0, 1], got 1.5"),
     ],
 )  # fmt: skip
 def test_a_bad_setting_is_refused_and_named(capsys, monkeypatch, args, message):
