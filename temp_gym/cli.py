@@ -90,6 +90,13 @@ def _outputs(args: argparse.Namespace) -> list[Path | None]:
     """Where each problem's result goes (None: nowhere), checked before any planning."""
     if args.out is not None and len(args.problems) > 1:
         raise ValueError("--out takes one problem; use --out-dir for several")
+    if args.out is not None and args.out_dir is not None:
+        raise ValueError("--out and --out-dir: give one of them")
+    if args.out is not None and Path(args.out).is_dir():
+        raise ValueError(f"--out: {args.out} is a directory")
+    out_dir = None if args.out_dir is None else Path(args.out_dir)
+    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"--out-dir: {args.out_dir} is not a directory")
     if args.out is not None:
         return [Path(args.out)]
     if args.out_dir is None:

@@ -25,6 +25,7 @@ cleanly (no tracebacks from the workers); the caller's units written so far stay
 
 from __future__ import annotations
 
+import argparse
 import multiprocessing
 import os
 import signal
@@ -36,10 +37,21 @@ from temp_gym.jobs import JobError
 BACKENDS = ("local", "ray")
 
 
+def _worker_count(text: str) -> int:
+    """``--workers``: a positive integer (argparse reports anything else as a usage error)."""
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {count}")
+    return count
+
+
 def add_backend_arguments(parser, workers_default: str, unit: str) -> None:
     """The flags of a script whose work units run on a backend: workers, backend, Ray."""
     parser.add_argument(
-        "--workers", type=int, default=None, help=f"processes (None: {workers_default})"
+        "--workers", type=_worker_count, default=None, help=f"processes (None: {workers_default})"
     )
     parser.add_argument("--backend", choices=BACKENDS, default="local", help=f"where {unit} run")
     parser.add_argument(

@@ -31,7 +31,7 @@ import numpy as np
 
 from temp_gym.planning.observation import task_entries
 from temp_gym.planning.policy import SamplingPolicy  # noqa: F401  (the contract, re-exported)
-from temp_gym.planning.result import PlanSettings
+from temp_gym.planning.result import PlanSettings, seed_value
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import denormalize, normalize
@@ -84,7 +84,7 @@ class UniformPolicy:
     """
 
     def __init__(self, seed: int | None = None, goal_bias: float = DEFAULT_GOAL_BIAS) -> None:
-        self.seed = seed
+        self.seed = None if seed is None else seed_value(seed)
         self.goal_bias = goal_bias
         self.problem: Problem | None = None
         self.rng = np.random.default_rng(seed)
@@ -97,7 +97,7 @@ class UniformPolicy:
     def reset(self, problem: Problem, seed: int | None = None) -> None:
         """Start a new episode; ``seed`` (or the constructor's) re-seeds the generator."""
         self.problem = problem
-        self.rng = np.random.default_rng(self.seed if seed is None else seed)
+        self.rng = np.random.default_rng(self.seed if seed is None else seed_value(seed))
         self.base = self._base_sampler(problem)
         self.sampler = GoalBiasedSampler(self.base, problem.goal, self.goal_bias)
         self._bounds = problem.bounds

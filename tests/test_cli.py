@@ -214,3 +214,20 @@ def test_the_shipped_checkpoint_named_plans_as_the_default(tmp_path):
         assert done.returncode == 0, done.stderr
         paths[name] = json.loads(out.read_text())["path"]
     assert paths["named"] == paths["default"]
+
+
+def test_output_flags_are_checked_before_planning(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("")
+    for flags, words in [
+        (["--out", str(tmp_path / "r.json"), "--out-dir", str(tmp_path / "d")], ("--out-dir",)),
+        (["--out", str(tmp_path)], ("--out", "directory")),  # found only after planning before
+        (["--out-dir", str(a_file)], ("--out-dir", "not a directory")),
+    ]:
+        code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50", *flags])
+        assert_one_line_error(code, capsys.readouterr().err, *words)
+    assert not (tmp_path / "d").exists() and not (tmp_path / "r.json").exists()

@@ -68,3 +68,9 @@ def test_informed_policy_names_a_stale_task_and_a_missing_reset():
 def test_a_missing_observation_is_named():
     with pytest.raises(ValueError, match="observation: expected the env's observation dict"):
         UniformPolicy(seed=0)(None)
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, "abc", True])
+def test_a_bad_seed_is_refused_by_name(seed):
+    with pytest.raises(ValueError, match="^seed: expected"):
+        UniformPolicy(seed=seed)

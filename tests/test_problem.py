@@ -1,5 +1,6 @@
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -257,3 +258,17 @@ def test_iiwa_bounds_must_lie_within_the_joint_limits():
     wide[1, 3] += 0.31
     with pytest.raises(ValueError, match="^bounds: wider than the kuka_iiwa14 joint limits at j"):
         Problem.from_dict({**IIWA, "bounds": wide.tolist()})
+
+
+def test_numpy_bounds_are_read_like_lists():
+    raw = json.loads(Path("examples/point2d.json").read_text())
+    as_arrays = {**raw, "bounds": np.array(raw["bounds"])}
+    assert Problem.from_dict(as_arrays) == Problem.from_dict(raw)
+
+
+def test_a_file_too_large_to_be_a_problem_is_refused_unread(monkeypatch):
+    from temp_gym.problem import query
+
+    monkeypatch.setattr(query, "MAX_PROBLEM_BYTES", 100)  # the example file is larger
+    with pytest.raises(ValueError, match="too large to be a problem"):
+        Problem.load("examples/point2d.json")

@@ -29,7 +29,7 @@ INSPECT = textwrap.dedent(
         if action.choices:
             return [str(next(iter(action.choices)))]
         kind = action.type or str
-        value = {int: "1", float: "0.5"}.get(kind, "x")
+        value = {int: "1", float: "0.5", str: "x"}.get(kind, "1")  # a custom type: a count
         return [value, value] if action.nargs in ("+", "*") else [value]
 
     out = {}

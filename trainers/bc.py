@@ -205,8 +205,8 @@ def train(
     path_noise = train_config.path_noise
     augment = train_config.augment and robot_spec(model.robot).cube_symmetric
     history_shape = (model.max_path_length, model.dim)
-    if monitor not in ("loss", "semantic", "recons"):
-        raise ValueError(f"train.monitor: expected loss, semantic or recons, got {monitor!r}")
+    if monitor not in MONITORS:
+        raise ValueError(f"train.monitor: expected one of {MONITORS}, got {monitor!r}")
     bar = tqdm(
         total=max_epochs,
         initial=state["epoch"],
@@ -435,12 +435,17 @@ def read_command_line(argv: list[str] | None) -> tuple[Config, argparse.Namespac
     return load_config(args.config, args.overrides), args
 
 
+MONITORS = ("loss", "semantic", "recons")
+"""The validation losses ``train.monitor`` may choose the best checkpoint on."""
+
+
 def check_job(config: Config, skip_eval: bool) -> None:
     """Refuse, naming the key, settings that would train on nothing or compare on nothing.
 
     Raises:
-        ConfigError: a non-positive epoch count, batch size or learning rate, or no final
-            comparison tasks without ``--skip-eval``.
+        ConfigError: a non-positive epoch count, batch size or learning rate, no final
+            comparison tasks without ``--skip-eval``, an unknown monitor, logger backend or
+            device, or a model section that builds no model.
     """
     train = config.train
     for key, value in (("train.max_epochs", train.max_epochs),
@@ -454,6 +459,22 @@ def check_job(config: Config, skip_eval: bool) -> None:
             f"train_eval.tasks: must be at least 1, got {config.train_eval.tasks} (pass "
             "--skip-eval for no final comparison)"
         )
+    # What training would only find after the dataset is built: check it first.
+    if train.monitor not in MONITORS:
+        raise ConfigError(f"train.monitor: expected one of {MONITORS}, got {train.monitor!r}")
+    if config.logger.backend not in ("tensorboard", ""):
+        raise ConfigError(
+            f"logger.backend: expected 'tensorboard' or '', got {config.logger.backend!r}"
+        )
+    try:
+        if train.device != "auto":  # auto: CUDA when there is one (`training.Distributed`)
+            torch.device(train.device)
+    except RuntimeError as error:
+        raise ConfigError(f"train.device: {error}") from None
+    try:  # the model section (widths, heads, prediction, dropout), as training builds it
+        training.make_model(config)
+    except ValueError as error:
+        raise ConfigError(f"model: {error}") from None
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:

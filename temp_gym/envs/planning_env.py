@@ -183,6 +183,17 @@ class PlanningEnv(gym.Env):
                 f"encoding_resolution: expected a positive integer, got {encoding_resolution!r}"
             )
         _check_target_cost(target_cost, "target_cost")
+        if not _is_integer(max_fallback_tries) or max_fallback_tries < 0:
+            raise ValueError(
+                f"max_fallback_tries: expected a non-negative integer, got {max_fallback_tries!r}"
+            )
+        for name, value in (("step_penalty", step_penalty), ("success_reward", success_reward)):
+            if (
+                not isinstance(value, numbers.Real)
+                or isinstance(value, bool)
+                or not (math.isfinite(value))
+            ):
+                raise ValueError(f"{name}: expected a finite number, got {value!r}")
         self.robot = robot
         self.robot_spec = spec
         self.difficulty = difficulty

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from temp_gym.config import Config, EvaluationConfig, load_config, parse_args, script_parser
+from temp_gym.config.errors import ConfigError
 from temp_gym.config.typed import to_dict
 from temp_gym.distributed import add_backend_arguments
 from temp_gym.evaluation.report import write_report
@@ -72,6 +73,8 @@ def settings_from(
     }
     section = dataclasses.replace(section, **resolved)
     spec = robot_spec(robot)
+    if section.tasks is not None and section.tasks < 1:
+        raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")
     tasks = section.tasks or spec.evaluation_tasks
     groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
     settings = EvaluationSettings(

@@ -50,7 +50,7 @@ from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
-from temp_gym.planning.result import near_goal_factor, share
+from temp_gym.planning.result import near_goal_factor, noise_level, seed_value, share
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
@@ -238,8 +238,9 @@ class TEMPPolicy:
         attention_near_goal_factor: float | None = None,
         attention_follow_fallback: float | None = None,
     ) -> None:
-        if noise_std < 0:
-            raise ValueError(f"noise_std: must be non-negative, got {noise_std}")
+        noise_std = noise_level(noise_std)
+        if seed is not None:
+            seed = seed_value(seed)
         if backend not in self.BACKENDS:
             raise ValueError(f"backend: expected one of {self.BACKENDS}, got {backend!r}")
         if attention_nodes is not None and int(attention_nodes) < 1:
@@ -383,7 +384,7 @@ class TEMPPolicy:
         followed away from since) keeps its encoding: only the noise is re-seeded.
         """
         if seed is not None:  # the generator is made when the noise first needs it
-            self._rng_seed, self._rng = seed, None
+            self._rng_seed, self._rng = seed_value(seed), None
         self.attentions = []
         if problem is self.problem and self._sei_array is not None:
             return

@@ -68,6 +68,8 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
+MAX_PATIENCE = 2**53
+"""The longest patience, the planner's largest node budget: more nodes than any tree holds."""
 NEAR_GOAL_SHARE = 0.4
 """`near_goal_limits`: the tree is near the goal once its closest approach is within this share
 of the start-goal distance."""
@@ -85,7 +87,16 @@ def default_patience(problem: Problem, step_size: float) -> int:
     """
     offset = problem.goal - problem.start
     steps = math.sqrt(float(offset.dot(offset))) / step_size  # np.linalg.norm's formula
-    return max(MIN_PATIENCE, math.ceil(PATIENCE_PER_STEP * steps))
+    return max(MIN_PATIENCE, _ceil_count(PATIENCE_PER_STEP * steps))
+
+
+def _ceil_count(nodes: float) -> int:
+    """``ceil(nodes)`` held to `MAX_PATIENCE`.
+
+    A patience no tree can reach (a step size far below the start-goal distance, a huge
+    factor) then means "never stalls" instead of an overflow.
+    """
+    return MAX_PATIENCE if not nodes < MAX_PATIENCE else math.ceil(nodes)
 
 
 def near_goal_limits(problem: Problem, patience: int, factor: float) -> tuple[float, int]:
@@ -96,7 +107,7 @@ def near_goal_limits(problem: Problem, patience: int, factor: float) -> tuple[fl
     """
     offset = problem.goal - problem.start
     near_sq = NEAR_GOAL_SHARE * NEAR_GOAL_SHARE * float(offset.dot(offset))
-    return near_sq, math.ceil(factor * patience)
+    return near_sq, _ceil_count(factor * patience)
 
 
 @dataclass(frozen=True)

@@ -122,7 +122,7 @@ def plan(
     """
     if not isinstance(problem, Problem):
         raise ValueError(f"problem: expected a Problem, got {type(problem).__name__}")
-    if planner not in PLANNERS:
+    if not isinstance(planner, str) or planner not in PLANNERS:
         raise ValueError(
             f"planner: unknown planner {planner!r}; expected one of {sorted(PLANNERS)}"
         )

@@ -48,6 +48,21 @@ def near_goal_factor(value: object, name: str = "attention_near_goal_factor") ->
     return factor
 
 
+def seed_value(value: object, name: str = "seed") -> int:
+    """A seed of a generator: a non-negative integer (not bool), as numpy takes it."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 0:
+        raise ValueError(f"{name}: expected a non-negative integer, got {value!r}")
+    return int(value)
+
+
+def noise_level(value: object, name: str = "noise_std") -> float:
+    """A standard deviation of output noise: a finite real number of at least 0 (not bool)."""
+    level = _real(value, name, "a finite number of at least 0")
+    if not (math.isfinite(level) and level >= 0.0):
+        raise ValueError(f"{name}: expected a finite number of at least 0, got {value!r}")
+    return level
+
+
 def share(value: object, name: str) -> float:
     """A probability: a real number in ``[0, 1]``."""
     share = _real(value, name, "a number in [0, 1]")
@@ -113,16 +128,15 @@ class PlanSettings:
         def normalize(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
 
-        seed = self.seed
-        if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
-            raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-        normalize("seed", int(seed))
+        normalize("seed", seed_value(self.seed))
         normalize("max_nodes", _count(self.max_nodes, "max_nodes"))
         if self.time_limit is not None:
             limit = _real(self.time_limit, "time_limit", "a non-negative number or None")
             if not limit >= 0:
                 raise ValueError(f"time_limit: expected a non-negative number or None, got {limit}")
             normalize("time_limit", limit)
+        if not isinstance(self.stop_at_first, (bool, np.bool_)):
+            raise ValueError(f"stop_at_first: expected True or False, got {self.stop_at_first!r}")
         normalize("stop_at_first", bool(self.stop_at_first))
         if self.step_size is not None:
             step = _real(self.step_size, "step_size", "a positive number or None")

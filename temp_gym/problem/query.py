@@ -145,7 +145,7 @@ class Problem:
         dim, wdim = robot.dim, robot.workspace_dim
         if "bounds" in data:
             raw = data["bounds"]
-            if not isinstance(raw, (list, tuple)) or len(raw) != 2:
+            if not isinstance(raw, (list, tuple, np.ndarray)) or len(raw) != 2:
                 raise ValueError("bounds: expected [lower, upper]")
             bounds = np.stack(
                 [float_vector(raw[0], "bounds[0]", dim), float_vector(raw[1], "bounds[1]", dim)]
@@ -180,13 +180,27 @@ class Problem:
 
     @classmethod
     def load(cls, path: str | Path) -> Problem:
-        """Read a problem from a UTF-8 JSON file; any defect raises a `ValueError` naming it."""
-        raw = Path(path).read_bytes()
+        """Read a problem from a UTF-8 JSON file; any defect raises a `ValueError` naming it.
+
+        A file beyond `MAX_PROBLEM_BYTES` (or a stream without end, such as ``/dev/zero``) is
+        refused after reading that much, not read into memory whole.
+        """
+        with open(path, "rb") as handle:
+            raw = handle.read(MAX_PROBLEM_BYTES + 1)
+        if len(raw) > MAX_PROBLEM_BYTES:
+            raise ValueError(
+                f"{path}: larger than {MAX_PROBLEM_BYTES // 2**20} MB, too large to be a problem"
+            )
         return cls.from_dict(parse_problem_json(raw, str(path)))
 
     def save(self, path: str | Path) -> None:
         """Write the problem as JSON (floats are written with full precision)."""
         Path(path).write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+
+
+MAX_PROBLEM_BYTES = 64 * 2**20
+"""`Problem.load` refuses larger files: that is hundreds of thousands of boxes, far more than
+any collision checker here plans among."""
 
 
 def _boxes(obstacles: Any, wdim: int) -> tuple[np.ndarray, np.ndarray]:

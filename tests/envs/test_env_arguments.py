@@ -18,6 +18,10 @@ import temp_gym  # noqa: F401  (registers the envs)
         ({"max_nodes": 3000.0}, "max_nodes"),
         ({"target_cost": float("nan")}, "target_cost"),  # was ignored
         ({"step_size": float("inf")}, "step_size"),
+        ({"max_fallback_tries": float("nan")}, "max_fallback_tries"),  # failed at the first step
+        ({"max_fallback_tries": -3}, "max_fallback_tries"),
+        ({"step_penalty": float("nan")}, "step_penalty"),  # gave NaN rewards
+        ({"success_reward": "1"}, "success_reward"),
     ],
 )
 def test_bad_constructor_arguments_are_rejected_by_name(kwargs, field):

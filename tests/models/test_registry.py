@@ -124,3 +124,19 @@ def test_plans_with_the_kept_default_policy_equal_plans_with_a_fresh_one(count_r
     for result in (again, fresh):
         np.testing.assert_array_equal(result.path, kept.path)
         assert result.nodes == kept.nodes
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [({"noise_std": float("inf")}, "noise_std"), ({"noise_std": float("nan")}, "noise_std"),
+     ({"noise_std": True}, "noise_std"), ({"noise_std": -0.1}, "noise_std"),
+     ({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"), ({"seed": "abc"}, "seed")],
+)  # fmt: skip
+def test_a_bad_noise_or_seed_is_refused_when_the_policy_is_made(kwargs, name):
+    # inf noise gave box corners for every action; a bad seed failed at the first sample
+    with pytest.raises(ValueError, match=f"^{name}: expected"):
+        load_policy("TEMP-2D-v0", **kwargs)
+    policy = load_policy("TEMP-2D-v0")
+    if name == "seed":
+        with pytest.raises(ValueError, match="^seed: expected"):
+            policy.reset(generate_problem("point2d", np.random.default_rng(0)), seed=kwargs["seed"])

@@ -84,6 +84,10 @@ def test_informed_is_no_worse_on_average(problem_2d):
         ({"goal_bias": 1.5}, "goal_bias"),
         ({"target_cost": math.nan}, "target_cost"),
         ({"max_samples": 0}, "max_samples"),
+        ({"stop_at_first": "no"}, "stop_at_first"),  # was truthy: stopped at the first
+        ({"stop_at_first": None}, "stop_at_first"),
+        ({"planner": ["temp"]}, "planner"),  # was a TypeError (unhashable)
+        ({"attention_follow_fallback": 2.0}, "attention_follow_fallback"),
     ],
 )
 def test_bad_arguments_raise(problem_2d, kwargs, match):
@@ -127,3 +131,14 @@ def test_start_in_goal_region_is_a_two_state_path_of_cost_zero(problem_2d, plann
 def test_huge_numbers_are_value_errors_naming_the_argument(problem_2d, kwargs, match):
     with pytest.raises(ValueError, match=f"^{match}"):
         plan(problem_2d, "rrt_star", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"step_size": 1e-17}, {"step_size": 5e-324}, {"attention_near_goal_factor": 1e30},
+     {"attention_patience": 2**53, "attention_near_goal_factor": 2000}],
+)  # fmt: skip
+def test_a_patience_beyond_any_tree_means_never_stall_not_an_overflow(problem_2d, kwargs):
+    # Each of these made the stall patience (or its near-goal multiple) overflow an int64.
+    result = plan(problem_2d, planner="temp", max_nodes=60, **kwargs)
+    assert result.nodes <= 60 and result.attention["stop"] != "stalled"

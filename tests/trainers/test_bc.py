@@ -232,7 +232,14 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
     [("train.max_epochs=0", "train.max_epochs: must be at least 1"),
      ("train.batch_size=0", "train.batch_size: must be at least 1"),
      ("optim.lr=0", "optim.lr: must be positive"),
-     ("train_eval.tasks=0", "train_eval.tasks: must be at least 1")],
+     ("train_eval.tasks=0", "train_eval.tasks: must be at least 1"),
+     # found only after the dataset was built, with a traceback, before 2026-11-24:
+     ("train.monitor=foo", "train.monitor: expected one of"),
+     ("model.num_heads=3", "model: token_dim 32 is not divisible by num_heads 3"),
+     ("model.prediction=foo", "model: prediction: expected"),
+     ("model.dropout=2", "model: dropout probability"),
+     ("train.device=foo", "train.device:"),
+     ("logger.backend=foo", "logger.backend: expected")],
 )  # fmt: skip
 def test_settings_that_would_train_or_compare_on_nothing_are_refused(tmp_path, override, message):
     command = [sys.executable, str(ROOT / "trainers" / "bc.py"), "--config",

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 import torch
 
+from temp_gym.config.errors import ConfigError
 from temp_gym.models.temp import TEMPModel, weights_digest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -64,3 +65,18 @@ def test_config_is_required_and_every_flag_shows_its_default(capsys):
         evaluate.main(["--help"])
     text = capsys.readouterr().out
     assert "(default: local)" in text and "(default: None)" in text
+
+
+def test_zero_tasks_or_workers_are_refused_not_replaced(tmp_path, capsys):
+    TEMPModel.from_config(SMALL, "point2d", 16, 64).save(tmp_path / "best.pt")
+    args = [
+        "--config",
+        str(ROOT / "configs" / "tiny.yaml"),
+        "--checkpoint",
+        str(tmp_path / "best.pt"),
+    ]
+    with pytest.raises(ConfigError, match="evaluation.tasks: expected at least 1"):
+        evaluate.main([*args, "evaluation.tasks=0"])  # was the robot's full 100 per row
+    with pytest.raises(SystemExit):
+        evaluate.main([*args, "--workers", "0"])  # was the config's workers
+    assert "--workers: expected a positive integer" in capsys.readouterr().err
