@@ -40,6 +40,8 @@ from temp_gym.evaluation.runner import (
 )
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.planning.plan import PLANNERS
+from temp_gym.planning.result import PlanSettings
 from temp_gym.worlds.robots import robot_spec
 
 PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
@@ -73,8 +75,7 @@ def settings_from(
     }
     section = dataclasses.replace(section, **resolved)
     spec = robot_spec(robot)
-    if section.tasks is not None and section.tasks < 1:
-        raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")
+    _check_section(section)
     tasks = section.tasks or spec.evaluation_tasks
     groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
     settings = EvaluationSettings(
@@ -92,6 +93,32 @@ def settings_from(
         warm_runs=section.warm_runs,
     )
     return settings, section
+
+
+def _check_section(section: EvaluationConfig) -> None:
+    """Refuse, naming the key, what the planners would refuse task by task in the workers."""
+    if section.tasks is not None and section.tasks < 1:
+        raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")
+    for key, least in (("curve_tasks", 0), ("curve_nodes", 1)):
+        if getattr(section, key) < least:
+            raise ConfigError(f"evaluation.{key}: expected at least {least}, got "
+                              f"{getattr(section, key)}")  # fmt: skip
+    unknown = [name for name in section.baselines if name not in PLANNERS or name == "temp"]
+    if unknown:
+        baselines = sorted(set(PLANNERS) - {"temp"})
+        raise ConfigError(
+            f"evaluation.baselines: unknown planner {unknown[0]!r}; expected some of {baselines}"
+        )
+    try:  # plan()'s own checks of the budgets and TEMP's settings
+        PlanSettings(
+            max_nodes=section.max_nodes,
+            time_limit=section.time_limit,
+            attention_nodes=section.attention_nodes,
+            attention_patience=section.attention_patience,
+            attention_near_goal_factor=section.attention_near_goal_factor,
+        )
+    except ValueError as error:
+        raise ConfigError(f"evaluation.{error}") from None
 
 
 def main(argv: list[str] | None = None) -> str:
@@ -122,6 +149,10 @@ def main(argv: list[str] | None = None) -> str:
         seed=settings.seed,
         horizon=section.horizon,
     )
+    try:  # the policy's own checks (noise, horizon against the chunk), before any worker runs
+        make_policy()
+    except ValueError as error:
+        raise ConfigError(f"evaluation.{error}") from None
     out = Path(section.out or Path("results") / config.env.id)
     digest = weights_digest(stored["state_dict"])
     try:

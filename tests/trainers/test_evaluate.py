@@ -67,16 +67,28 @@ def test_config_is_required_and_every_flag_shows_its_default(capsys):
     assert "(default: local)" in text and "(default: None)" in text
 
 
-def test_zero_tasks_or_workers_are_refused_not_replaced(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [("evaluation.tasks=0", "evaluation.tasks: expected at least 1"),  # ran the full 100
+     ("evaluation.curve_tasks=-1", "evaluation.curve_tasks: expected at least 0"),  # ran
+     # these failed in the workers, with a traceback:
+     ("evaluation.time_limit=-1", "evaluation.time_limit: expected a non-negative"),
+     ("evaluation.max_nodes=0", "evaluation.max_nodes: expected an integer"),
+     ("evaluation.baselines=[foo]", "evaluation.baselines: unknown planner 'foo'"),
+     ("evaluation.noise_std=-1", "evaluation.noise_std: expected a finite number"),
+     ("evaluation.horizon=9", "evaluation.horizon: expected an integer in 1..")],
+)  # fmt: skip
+def test_bad_evaluation_settings_are_refused_by_name_before_any_task(tmp_path, override, message):
     TEMPModel.from_config(SMALL, "point2d", 16, 64).save(tmp_path / "best.pt")
-    args = [
-        "--config",
-        str(ROOT / "configs" / "tiny.yaml"),
-        "--checkpoint",
-        str(tmp_path / "best.pt"),
-    ]
-    with pytest.raises(ConfigError, match="evaluation.tasks: expected at least 1"):
-        evaluate.main([*args, "evaluation.tasks=0"])  # was the robot's full 100 per row
+    args = ["--config", str(ROOT / "configs" / "tiny.yaml"),
+            "--checkpoint", str(tmp_path / "best.pt"),
+            f"evaluation.out={tmp_path / 'results'}"]  # fmt: skip
+    with pytest.raises(ConfigError, match=message):
+        evaluate.main([*args, override])
+    assert not (tmp_path / "results").exists()
+
+
+def test_zero_workers_are_refused_not_replaced(tmp_path, capsys):
     with pytest.raises(SystemExit):
-        evaluate.main([*args, "--workers", "0"])  # was the config's workers
+        evaluate.main(["--config", str(ROOT / "configs" / "tiny.yaml"), "--workers", "0"])
     assert "--workers: expected a positive integer" in capsys.readouterr().err
