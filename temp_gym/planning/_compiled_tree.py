@@ -89,17 +89,19 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
     """`Tree.extend` on a tree's arrays: returns the new node, `NO_NODE` or `BAD_ACTION`.
 
     ``arrays`` is ``(positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx,
-    stack, new)``; the caller guarantees room for one more node.
+    stack, new, grid)``; the caller guarantees room for one more node.
     """
-    positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx, stack, new = arrays
+    positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx, stack, new, grid = arrays
     count = counters[NUM_NODES]
     step = params[STEP]
     if normalized:
-        nearest, distance = action_nearest_and_steer(positions, count, sample, bounds, step, new)
+        nearest, distance = action_nearest_and_steer(
+            positions, count, sample, bounds, step, new, grid, near_idx
+        )
         if nearest < 0:
             return BAD_ACTION
     else:
-        nearest, distance = nearest_and_steer(positions, count, sample, step, new)
+        nearest, distance = nearest_and_steer(positions, count, sample, step, new, grid, near_idx)
     counters[SAMPLES] += 1
     if not distance > 0.0:
         counters[FAILURES] += 1
@@ -117,7 +119,7 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
         n = count + 1
         radius = min(params[GAMMA] * (math.log(n) / n) ** (1.0 / dim), params[MAX_RADIUS])
     num_near, num_cand = near_and_parent_candidates(
-        positions, costs, count, new, nearest, radius, k, near_idx, near_dist, cand_idx
+        positions, costs, count, new, nearest, radius, k, near_idx, near_dist, cand_idx, grid
     )
     parent = nearest
     for j in range(num_cand):

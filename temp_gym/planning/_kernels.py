@@ -18,6 +18,8 @@ import math
 import numba
 import numpy as np
 
+from temp_gym.planning._grid import grid_nearest, in_use, within_box
+
 PARENT = 0
 FIRST_CHILD = 1
 NEXT_SIBLING = 2
@@ -46,12 +48,8 @@ def _squared_distance(positions, i, point, dim):
 
 
 @numba.njit(cache=True, nogil=True)
-def nearest_and_steer(positions, count, sample, step_size, out_new):
-    """Find the node nearest to ``sample`` and steer from it by at most ``step_size``.
-
-    Writes the steered state into ``out_new`` and returns ``(nearest, distance)`` where
-    ``distance`` is from the nearest node to ``sample`` (before steering).
-    """
+def _scan_nearest(positions, count, sample):
+    """``(node, squared distance)`` of the first node nearest ``sample``, scanning them all."""
     dim = positions.shape[1]
     best = 0
     best_sq = np.inf
@@ -60,6 +58,23 @@ def nearest_and_steer(positions, count, sample, step_size, out_new):
         if sq < best_sq:
             best_sq = sq
             best = i
+    return best, best_sq
+
+
+@numba.njit(cache=True, nogil=True)
+def nearest_and_steer(positions, count, sample, step_size, out_new, grid, scratch):
+    """Find the node nearest to ``sample`` and steer from it by at most ``step_size``.
+
+    Writes the steered state into ``out_new`` and returns ``(nearest, distance)`` where
+    ``distance`` is from the nearest node to ``sample`` (before steering). A big point-robot
+    tree is searched through its ``grid`` (`temp_gym.planning._grid`, the same answer as the
+    scan); ``scratch`` holds ``count`` int64.
+    """
+    dim = positions.shape[1]
+    if in_use(grid, count, sample):
+        best, best_sq = grid_nearest(positions, count, sample, grid, scratch)
+    else:
+        best, best_sq = _scan_nearest(positions, count, sample)
     distance = math.sqrt(best_sq)
     scale = 1.0
     if distance > step_size:
@@ -86,7 +101,7 @@ def action_to_sample(action, bounds, out) -> bool:
 
 # Not nogil: the env calls this once per step, and releasing the GIL costs ~0.1 us.
 @numba.njit(cache=True)
-def action_nearest_and_steer(positions, count, action, bounds, step_size, out_new):
+def action_nearest_and_steer(positions, count, action, bounds, step_size, out_new, grid, scratch):
     """`action_to_sample` then `nearest_and_steer`, in one call: the env's extension.
 
     Returns ``(nearest, distance)`` as `nearest_and_steer` does, or ``(-1, nan)`` (and does
@@ -95,12 +110,46 @@ def action_nearest_and_steer(positions, count, action, bounds, step_size, out_ne
     """
     if not action_to_sample(action, bounds, out_new):
         return -1, np.nan
-    return nearest_and_steer(positions, count, out_new, step_size, out_new)
+    return nearest_and_steer(positions, count, out_new, step_size, out_new, grid, scratch)
+
+
+@numba.njit(cache=True, nogil=True)
+def _grid_near_set(
+    positions, count, new, nearest, radius, loose, grid, near_idx, near_dist, listed
+):
+    """The scan's near set (below) from the nodes of the grid cells the ball meets.
+
+    ``listed`` (room for ``count``) receives those nodes, ascending; ``nearest`` joins the
+    set at its place in index order whether or not it is within ``radius``.
+    """
+    dim = positions.shape[1]
+    num_listed = within_box(positions, count, new, radius, grid, listed)
+    num_near = 0
+    unlisted_nearest = True
+    for j in range(num_listed + 1):
+        i = listed[j] if j < num_listed else count  # past the list: nearest, if left
+        if unlisted_nearest and nearest < i:  # its place in index order
+            near_idx[num_near] = nearest
+            near_dist[num_near] = math.sqrt(_squared_distance(positions, nearest, new, dim))
+            num_near += 1
+            unlisted_nearest = False
+        if j == num_listed:
+            break
+        sq = _squared_distance(positions, i, new, dim)
+        if sq <= loose or i == nearest:
+            distance = math.sqrt(sq)
+            if distance <= radius or i == nearest:
+                near_idx[num_near] = i
+                near_dist[num_near] = distance
+                num_near += 1
+                if i == nearest:
+                    unlisted_nearest = False
+    return num_near
 
 
 @numba.njit(cache=True, nogil=True)
 def near_and_parent_candidates(
-    positions, costs, count, new, nearest, radius, k_nearest, near_idx, near_dist, cand_idx
+    positions, costs, count, new, nearest, radius, k_nearest, near_idx, near_dist, cand_idx, grid
 ):
     """Collect the near set of ``new`` and the parent candidates cheaper than ``nearest``.
 
@@ -131,14 +180,19 @@ def near_and_parent_candidates(
         # the square root is taken only near the ball; the exact test ``sqrt <= radius`` then
         # decides, as it would on every node: the same near set, the same distances.
         loose = radius * radius * (1.0 + 1e-9)
-        for i in range(count):
-            sq = _squared_distance(positions, i, new, dim)
-            if sq <= loose or i == nearest:
-                distance = math.sqrt(sq)
-                if distance <= radius or i == nearest:
-                    near_idx[num_near] = i
-                    near_dist[num_near] = distance
-                    num_near += 1
+        if in_use(grid, count, new):  # the nodes of the cells the ball meets, ascending
+            num_near = _grid_near_set(
+                positions, count, new, nearest, radius, loose, grid, near_idx, near_dist, cand_idx
+            )
+        else:
+            for i in range(count):
+                sq = _squared_distance(positions, i, new, dim)
+                if sq <= loose or i == nearest:
+                    distance = math.sqrt(sq)
+                    if distance <= radius or i == nearest:
+                        near_idx[num_near] = i
+                        near_dist[num_near] = distance
+                        num_near += 1
     via_nearest = costs[nearest] + math.sqrt(_squared_distance(positions, nearest, new, dim))
     through = np.empty(num_near)
     num_cand = 0

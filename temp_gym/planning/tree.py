@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from temp_gym.planning import _grid
 from temp_gym.planning import _kernels as kernels
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision import CollisionChecker
@@ -260,6 +261,8 @@ class Tree:
         self._stack = np.empty(capacity, dtype=np.int64)
         self._goal_nodes = np.empty(capacity, dtype=np.int64)
         self._new = np.empty(dim)
+        self._grid = _grid.NO_GRID
+        self._grid_for(capacity)
         self.positions[0] = problem.start
         self.costs[0] = 0.0
         self.links[0] = (-1, -1, -1)
@@ -372,7 +375,7 @@ class Tree:
         again after `grow`.
         """
         arrays = (self.positions, self.costs, self.links, self._goal_nodes, self._near_idx,
-                  self._near_dist, self._cand_idx, self._stack, self._new)  # fmt: skip
+                  self._near_dist, self._cand_idx, self._stack, self._new, self._grid)  # fmt: skip
         counters = np.array(
             [self.num_nodes, self.num_goal_nodes, self.newest, self.best_node, self.samples,
              self.sampling_failures, self.collision_checks],
@@ -410,6 +413,17 @@ class Tree:
         self._near_dist = np.empty(capacity)
         self._cand_idx = np.empty(capacity, dtype=np.int64)
         self._stack = np.empty(capacity, dtype=np.int64)
+        self._grid_for(capacity)
+
+    def _grid_for(self, capacity: int) -> None:
+        """Room for ``capacity`` nodes in the tree's grid (`temp_gym.planning._grid`).
+
+        The grid is made once the arrays outgrow `_grid.GRID_MIN_NODES` (point robots only).
+        """
+        if self._grid is not _grid.NO_GRID:
+            self._grid = _grid.grown(self._grid, capacity)
+        elif capacity > _grid.GRID_MIN_NODES and self.dim <= 3:
+            self._grid = _grid.make_grid(self._bounds, self.max_radius, capacity)
 
     # ------------------------------------------------------------------ extension
     def extend(self, sample: np.ndarray, normalized: bool = False) -> ExtendResult:
@@ -436,13 +450,20 @@ class Tree:
         new = self._new
         if normalized:
             nearest, distance = kernels.action_nearest_and_steer(
-                self.positions, self.num_nodes, sample, self._bounds, self.step_size, new
-            )
+                self.positions, self.num_nodes, sample, self._bounds, self.step_size, new,
+                self._grid, self._near_idx,
+            )  # fmt: skip
             if nearest < 0:
                 raise ValueError(f"action: must be finite, got {sample.tolist()}")
         else:
             nearest, distance = kernels.nearest_and_steer(
-                self.positions, self.num_nodes, sample, self.step_size, new
+                self.positions,
+                self.num_nodes,
+                sample,
+                self.step_size,
+                new,
+                self._grid,
+                self._near_idx,
             )
         self.samples += 1
         if not distance > 0.0:
@@ -469,6 +490,7 @@ class Tree:
             self._near_idx,
             self._near_dist,
             self._cand_idx,
+            self._grid,
         )
         parent = nearest
         chunk = self.parent_check_chunk

@@ -182,3 +182,35 @@ def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeyp
     else:  # the cap binds throughout: the exact volume was never computed
         assert below_cap == {False} and lazy._gamma is None
         assert len(tree_module._FREE_VOLUME_CACHE) == 0
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+@pytest.mark.parametrize("planner", ["rrt_star", "informed_rrt_star", "temp"])
+def test_the_grid_grows_the_scans_trees(monkeypatch, robot, planner):
+    """Nearest and near queries through the grid (`temp_gym.planning._grid`) give every
+    planner the tree it grows by scanning, node for node, compiled loops and Python alike."""
+    from temp_gym import plan
+    from temp_gym.planning import _grid
+    from temp_gym.worlds.generators import generate_problem
+
+    problem = generate_problem(robot, np.random.default_rng(21), "challenging")
+    results = []
+    for min_nodes in (0, 10**9):  # every query through the grid; none
+        monkeypatch.setattr(_grid, "GRID_MIN_NODES", min_nodes)
+        results.append(plan(problem, planner=planner, seed=3, max_nodes=1500))
+        tree = Tree(problem, capacity=16)  # the Python extension, growing its arrays
+        rng = np.random.default_rng(4)
+        for _ in range(700):
+            tree.extend(rng.uniform(problem.bounds[0] - 1.0, problem.bounds[1] + 1.0))
+        results.append(tree)
+    with_grid, scanned, grid_tree, scan_tree = results[0], results[2], results[1], results[3]
+    assert with_grid.nodes == scanned.nodes == 1500
+    assert with_grid.cost == scanned.cost
+    for key in ("nodes", "best_cost"):  # the history's times differ, of course
+        np.testing.assert_array_equal(with_grid.history[key], scanned.history[key])
+    np.testing.assert_array_equal(with_grid.path, scanned.path)
+    n = grid_tree.num_nodes
+    assert n == scan_tree.num_nodes > 300
+    np.testing.assert_array_equal(grid_tree.positions[:n], scan_tree.positions[:n])
+    np.testing.assert_array_equal(grid_tree.links[:n], scan_tree.links[:n])
+    np.testing.assert_array_equal(grid_tree.costs[:n], scan_tree.costs[:n])
