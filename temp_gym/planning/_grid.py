@@ -175,9 +175,12 @@ def within_box(positions, count, point, reach, grid, out) -> int:
     return found
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def squared_distance_to(positions, i, point, dim):
-    """``|positions[i] - point|^2``, summed over the coordinates in order (the scans' sum)."""
+    """``|positions[i] - point|^2``, summed over the coordinates in order.
+
+    The tree kernels' one formula, so that the grid and the scans compare the same numbers.
+    """
     sq = 0.0
     for k in range(dim):
         diff = positions[i, k] - point[k]

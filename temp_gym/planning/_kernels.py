@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from temp_gym.planning._grid import grid_nearest, in_use, within_box
+from temp_gym.planning._grid import squared_distance_to as _squared_distance
 
 PARENT = 0
 FIRST_CHILD = 1
@@ -35,16 +36,6 @@ COST_EPS = 1e-10
 def lowers(candidate, current):
     """Whether cost ``candidate`` is below ``current`` by more than ``COST_EPS`` of it."""
     return candidate < current - COST_EPS * abs(current)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _squared_distance(positions, i, point, dim):
-    """``|positions[i] - point|^2``, summed over the coordinates in order."""
-    sq = 0.0
-    for k in range(dim):
-        diff = positions[i, k] - point[k]
-        sq += diff * diff
-    return sq
 
 
 @numba.njit(cache=True, nogil=True)
@@ -113,6 +104,24 @@ def action_nearest_and_steer(positions, count, action, bounds, step_size, out_ne
     return nearest_and_steer(positions, count, out_new, step_size, out_new, grid, scratch)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _join_if_near(positions, i, new, nearest, radius, loose, near_idx, near_dist, num_near, dim):
+    """Append node ``i`` to the near set if within ``radius`` (``nearest`` always); the count.
+
+    The radius test on squared distances first, with the ``loose`` margin far above rounding,
+    so that the square root is taken only near the ball; the exact test ``sqrt <= radius``
+    then decides, as it would on every node: the same near set, the same distances.
+    """
+    sq = _squared_distance(positions, i, new, dim)
+    if sq <= loose or i == nearest:
+        distance = math.sqrt(sq)
+        if distance <= radius or i == nearest:
+            near_idx[num_near] = i
+            near_dist[num_near] = distance
+            return num_near + 1
+    return num_near
+
+
 @numba.njit(cache=True, nogil=True)
 def _grid_near_set(
     positions, count, new, nearest, radius, loose, grid, near_idx, near_dist, listed
@@ -129,21 +138,15 @@ def _grid_near_set(
     for j in range(num_listed + 1):
         i = listed[j] if j < num_listed else count  # past the list: nearest, if left
         if unlisted_nearest and nearest < i:  # its place in index order
-            near_idx[num_near] = nearest
-            near_dist[num_near] = math.sqrt(_squared_distance(positions, nearest, new, dim))
-            num_near += 1
+            num_near = _join_if_near(positions, nearest, new, nearest, radius, loose, near_idx,
+                                     near_dist, num_near, dim)  # fmt: skip
             unlisted_nearest = False
         if j == num_listed:
             break
-        sq = _squared_distance(positions, i, new, dim)
-        if sq <= loose or i == nearest:
-            distance = math.sqrt(sq)
-            if distance <= radius or i == nearest:
-                near_idx[num_near] = i
-                near_dist[num_near] = distance
-                num_near += 1
-                if i == nearest:
-                    unlisted_nearest = False
+        num_near = _join_if_near(positions, i, new, nearest, radius, loose, near_idx, near_dist,
+                                 num_near, dim)  # fmt: skip
+        if i == nearest:
+            unlisted_nearest = False
     return num_near
 
 
@@ -176,23 +179,15 @@ def near_and_parent_candidates(
                 near_dist[num_near] = dist[i]
                 num_near += 1
     else:
-        # The radius test on squared distances first, with a margin far above rounding, so
-        # the square root is taken only near the ball; the exact test ``sqrt <= radius`` then
-        # decides, as it would on every node: the same near set, the same distances.
-        loose = radius * radius * (1.0 + 1e-9)
+        loose = radius * radius * (1.0 + 1e-9)  # `_join_if_near` says why
         if in_use(grid, count, new):  # the nodes of the cells the ball meets, ascending
             num_near = _grid_near_set(
                 positions, count, new, nearest, radius, loose, grid, near_idx, near_dist, cand_idx
             )
         else:
             for i in range(count):
-                sq = _squared_distance(positions, i, new, dim)
-                if sq <= loose or i == nearest:
-                    distance = math.sqrt(sq)
-                    if distance <= radius or i == nearest:
-                        near_idx[num_near] = i
-                        near_dist[num_near] = distance
-                        num_near += 1
+                num_near = _join_if_near(positions, i, new, nearest, radius, loose, near_idx,
+                                         near_dist, num_near, dim)  # fmt: skip
     via_nearest = costs[nearest] + math.sqrt(_squared_distance(positions, nearest, new, dim))
     through = np.empty(num_near)
     num_cand = 0
