@@ -462,10 +462,10 @@ def check_job(config: Config, skip_eval: bool) -> None:
     # What training would only find after the dataset is built: check it first.
     if train.monitor not in MONITORS:
         raise ConfigError(f"train.monitor: expected one of {MONITORS}, got {train.monitor!r}")
-    if config.logger.backend not in ("tensorboard", ""):
-        raise ConfigError(
-            f"logger.backend: expected 'tensorboard' or '', got {config.logger.backend!r}"
-        )
+    try:
+        training.check_logger_backend(config.logger.backend)
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
     try:
         if train.device != "auto":  # auto: CUDA when there is one (`training.Distributed`)
             torch.device(train.device)

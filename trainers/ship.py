@@ -88,16 +88,21 @@ def _evaluation_section(env_id: str, digest: str) -> str:
     )
 
 
+def _shipped_path(env_id: str, out_dir: str | Path, flag: str) -> Path:
+    """The shipped checkpoint of ``env_id`` in ``out_dir``; an unknown id exits naming ``flag``."""
+    stems = _checkpoint_stems()
+    if env_id not in stems:
+        raise SystemExit(f"{flag}: expected one of {list(stems)}, got {env_id!r}")
+    return Path(out_dir) / f"{stems[env_id]}.pt"
+
+
 def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Path:
     """Rewrite the Evaluation section of ``env_id``'s shipped card from ``results/{env id}``.
 
     Raises:
         SystemExit: if the card or checkpoint is missing, or the results are of other weights.
     """
-    stems = _checkpoint_stems()
-    if env_id not in stems:
-        raise SystemExit(f"--refresh-evaluation: expected one of {list(stems)}, got {env_id!r}")
-    path = Path(out_dir) / f"{stems[env_id]}.pt"
+    path = _shipped_path(env_id, out_dir, "--refresh-evaluation")
     card_path = path.with_suffix(".md")
     marker = "\n## Evaluation\n"
     if not (path.is_file() and card_path.is_file() and marker in card_path.read_text()):
@@ -120,9 +125,7 @@ def update_planner(env_id: str, settings: list[str], out_dir: str | Path = CHECK
     Raises:
         SystemExit: an unknown env id or key, a malformed or invalid value, no shipped card.
     """
-    stems = _checkpoint_stems()
-    if env_id not in stems:
-        raise SystemExit(f"--update-planner: expected one of {list(stems)}, got {env_id!r}")
+    path = _shipped_path(env_id, out_dir, "--update-planner")
     changes = {}
     for setting in settings:
         key, equals, value = setting.partition("=")
@@ -132,7 +135,6 @@ def update_planner(env_id: str, settings: list[str], out_dir: str | Path = CHECK
         changes[key] = value if key == "chosen_by" else yaml.safe_load(value)
     if not changes:
         raise SystemExit("--update-planner: give at least one key=value")
-    path = Path(out_dir) / f"{stems[env_id]}.pt"
     card_path = path.with_suffix(".md")
     heading, next_heading = "## Planner settings applied by `load_policy`\n", "\n## Data\n"
     card = card_path.read_text() if card_path.is_file() else ""

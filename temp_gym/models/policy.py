@@ -249,11 +249,9 @@ class TEMPPolicy:
         if attention_patience is not None and int(attention_patience) < 0:
             raise ValueError(f"attention_patience: expected >= 0 or None, got {attention_patience}")
         self.attention_patience = None if attention_patience is None else int(attention_patience)
-        if attention_uniform is not None and not 0.0 <= float(attention_uniform) <= 1.0:
-            raise ValueError(
-                f"attention_uniform: expected a number in [0, 1], got {attention_uniform}"
-            )
-        self.attention_uniform = None if attention_uniform is None else float(attention_uniform)
+        self.attention_uniform = (
+            None if attention_uniform is None else share(attention_uniform, "attention_uniform")
+        )
         self.attention_near_goal_factor = (
             None
             if attention_near_goal_factor is None

@@ -88,8 +88,7 @@ NO_GRID = np.zeros(LISTS + 1)
 
 def grown(grid: np.ndarray, capacity: int) -> np.ndarray:
     """``grid`` with room for ``capacity`` nodes (the filed nodes' links copied)."""
-    cells = int(np.prod(grid[CELLS : CELLS + 3]))
-    start = LISTS + cells
+    start = _links(grid)
     more = np.empty(start + capacity)
     more[: start + int(grid[FILED])] = grid[: start + int(grid[FILED])]
     return more
@@ -109,6 +108,12 @@ def _axis_cell(x, origin, side, count):
     return int(math.floor(cell))
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _links(grid):
+    """Where the per-node links begin: past the header and every cell's first node."""
+    return LISTS + int(grid[CELLS]) * int(grid[CELLS + 1]) * int(grid[CELLS + 2])
+
+
 @numba.njit(cache=True, nogil=True)
 def _cell_of(point, grid, dim):
     """The flat index of the cell holding ``point`` (axis 0 slowest)."""
@@ -123,8 +128,7 @@ def _cell_of(point, grid, dim):
 def _file_new_nodes(positions, count, grid):
     """File the nodes added since the last query (positions never change once added)."""
     dim = positions.shape[1]
-    cells = int(grid[CELLS]) * int(grid[CELLS + 1]) * int(grid[CELLS + 2])
-    following = LISTS + cells
+    following = _links(grid)
     for node in range(int(grid[FILED]), count):
         head = LISTS + _cell_of(positions[node], grid, dim)
         grid[following + node] = grid[head]
@@ -160,7 +164,7 @@ def within_box(positions, count, point, reach, grid, out) -> int:
         low[k] = _axis_cell(point[k] - reach, grid[ORIGIN + k], side, grid[CELLS + k])
         high[k] = _axis_cell(point[k] + reach, grid[ORIGIN + k], side, grid[CELLS + k])
     count_1, count_2 = int(grid[CELLS + 1]), int(grid[CELLS + 2])
-    following = LISTS + int(grid[CELLS]) * count_1 * count_2
+    following = _links(grid)
     found = 0
     for a in range(low[0], high[0] + 1):
         for b in range(low[1], high[1] + 1):

@@ -55,6 +55,7 @@ from temp_gym.planning import _compiled_attention as compiled
 from temp_gym.planning._compiled_tree import FALLBACK_BATCH, slice_length, squared_distance
 from temp_gym.planning.observation import TreeObserver
 from temp_gym.planning.policy import SamplingPolicy, fast_path, observation_settings
+from temp_gym.planning.result import MAX_COUNT
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
@@ -68,8 +69,6 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
-MAX_PATIENCE = 2**53
-"""The longest patience, the planner's largest node budget: more nodes than any tree holds."""
 NEAR_GOAL_SHARE = 0.4
 """`near_goal_limits`: the tree is near the goal once its closest approach is within this share
 of the start-goal distance."""
@@ -91,12 +90,12 @@ def default_patience(problem: Problem, step_size: float) -> int:
 
 
 def _ceil_count(nodes: float) -> int:
-    """``ceil(nodes)`` held to `MAX_PATIENCE`.
+    """``ceil(nodes)`` held to the planner's largest node budget (`MAX_COUNT`).
 
     A patience no tree can reach (a step size far below the start-goal distance, a huge
     factor) then means "never stalls" instead of an overflow.
     """
-    return MAX_PATIENCE if not nodes < MAX_PATIENCE else math.ceil(nodes)
+    return MAX_COUNT if not nodes < MAX_COUNT else math.ceil(nodes)
 
 
 def near_goal_limits(problem: Problem, patience: int, factor: float) -> tuple[float, int]:

@@ -41,6 +41,7 @@ from temp_gym.training.logs import (
     LAYOUT,
     TAG_DESCRIPTIONS,
     Logger,
+    check_logger_backend,
     describe_tag,
     make_logger,
 )
@@ -58,6 +59,7 @@ __all__ = [
     "Logger",
     "SplitData",
     "augment_symmetry",
+    "check_logger_backend",
     "chunk_rows",
     "describe_tag",
     "draw_problems",

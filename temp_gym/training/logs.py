@@ -79,6 +79,16 @@ def describe_tag(tag: str) -> str | None:
     return TAG_DESCRIPTIONS.get(tag)
 
 
+LOGGER_BACKENDS = ("tensorboard", "")
+"""``logger.backend``: TensorBoard, or none ("")."""
+
+
+def check_logger_backend(backend: str) -> None:
+    """Refuse a ``logger.backend`` other than `LOGGER_BACKENDS`, naming the key."""
+    if backend not in LOGGER_BACKENDS:
+        raise ValueError(f"logger.backend: expected 'tensorboard' or '', got {backend!r}")
+
+
 class Logger:
     """TensorBoard writer behind a small interface; ``backend=""`` makes every call a no-op.
 
@@ -87,13 +97,12 @@ class Logger:
     """
 
     def __init__(self, backend: str, log_dir: Path) -> None:
+        check_logger_backend(backend)
         self.writer = None
         if backend == "tensorboard":
             from torch.utils.tensorboard import SummaryWriter
 
             self.writer = SummaryWriter(log_dir=str(log_dir))
-        elif backend:
-            raise ValueError(f"logger.backend: expected 'tensorboard' or '', got {backend!r}")
         self.log_dir = log_dir
         self._described: set[str] = set()
 
