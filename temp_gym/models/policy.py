@@ -38,6 +38,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
@@ -184,6 +185,12 @@ class PolicyCore:
             if len(self._sei) > SEI_CACHE_SIZE:
                 self._sei.popitem(last=False)
         return sei
+
+
+@functools.lru_cache(maxsize=256)
+def _seeded_state(seed: int) -> dict:
+    """The state of ``numpy.random.default_rng(seed)``'s bit generator (PCG64); not mutated."""
+    return np.random.PCG64(seed).state
 
 
 class TEMPPolicy:
@@ -382,7 +389,13 @@ class TEMPPolicy:
         followed away from since) keeps its encoding: only the noise is re-seeded.
         """
         if seed is not None:  # the generator is made when the noise first needs it
-            self._rng_seed, self._rng = seed_value(seed), None
+            self._rng_seed = seed_value(seed)
+            if self._rng is not None and type(self._rng.bit_generator) is np.random.PCG64:
+                # default_rng(seed)'s state, set on the generator already made: seeding a
+                # new one costs several times more, once per plan
+                self._rng.bit_generator.state = _seeded_state(self._rng_seed)
+            else:
+                self._rng = None
         self.attentions = []
         if problem is self.problem and self._sei_array is not None:
             return

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numba
 
 from temp_gym.planning._compiled_tree import BEST_NODE, NUM_NODES, SAMPLES, extend
+from temp_gym.planning._generator import generator_at
 
 STATE = ("coin_pending", "next_row", "rows")
 """The loop's int64 state, kept between calls: whether the goal-bias coin already chose the
@@ -40,8 +41,8 @@ the best cost improved; the tree's arrays are full (grow them and call again).""
 
 @numba.njit(cache=True, nogil=True)
 def anytime_slice(
-    arrays, counters, best_cost, params, goal, bounds, context, rng, goal_bias, batch, state,
-    limits, target_cost, max_iterations,
+    arrays, counters, best_cost, params, goal, bounds, context, rng_address, goal_bias, batch,
+    state, limits, target_cost, max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` anytime iterations; return a status.
 
@@ -50,11 +51,13 @@ def anytime_slice(
         arrays, counters, best_cost, params: the tree (`Tree.compiled_state`).
         goal, bounds: the problem's goal and ``(2, d)`` bounds.
         context: the checker's compiled context.
-        rng, goal_bias: the planner's generator and the probability of sampling the goal.
+        rng_address, goal_bias: the planner's generator (its `_generator.address`) and the
+            probability of sampling the goal.
         batch: float64 ``(rows, d)`` the sampler's current batch (valid rows: ``state``).
         state, limits, target_cost: the loop's state (`STATE`), its stop rules (`LIMITS`) and
             the cost at which it stops (``-inf``: none).
     """
+    rng = generator_at(rng_address)
     capacity = arrays[0].shape[0]
     for _ in range(max_iterations):
         if counters[BEST_NODE] >= 0 and (limits[STOP_AT_FIRST] != 0 or best_cost[0] <= target_cost):

@@ -43,6 +43,7 @@ from temp_gym.planning._compiled_tree import (
     normalized_root_path,
     squared_distance,
 )
+from temp_gym.planning._generator import generator_at
 from temp_gym.planning.mpt_kernel import forward_kernel
 
 STATE = ("pending", "next_row", "calls", "proposals", "stalled", "anchor")
@@ -65,9 +66,9 @@ again); the policy proposed NaN or inf."""
 
 @numba.njit(cache=True, nogil=True)
 def attention_slice(
-    arrays, counters, best_cost, params, goal, bounds, context, rng, buffer, cursor,
+    arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer, cursor,
     goal_bias, uniform, follow_fallback, weights, prefix_goal, prefix_z, prefix_qkv, noise_std,
-    noise_rng, proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits,
+    noise_address, proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits,
     max_iterations,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
@@ -77,20 +78,23 @@ def attention_slice(
         arrays, counters, best_cost, params: the tree (`Tree.compiled_state`).
         goal, bounds: the problem's goal (world units) and ``(2, d)`` bounds.
         context: the checker's compiled context.
-        rng, buffer, cursor: the planner's generator and the uniform fallback's batch.
+        rng_address, buffer, cursor: the planner's generator (its `_generator.address`) and
+            the uniform fallback's batch.
         goal_bias: probability of sampling the goal.
         uniform: probability of a uniform sample instead of the policy's.
         follow_fallback: probability that the MPT goes on from a fallback node that brought
             the tree no closer to the goal.
         weights, prefix_goal, prefix_z, prefix_qkv, noise_std: the policy
             (`TEMPPolicy.compiled_proposer`).
-        noise_rng: the policy's noise generator (drawn from only when ``noise_std > 0``).
+        noise_address: the policy's noise generator, by address (drawn from only when
+            ``noise_std > 0``).
         proposals: float64 ``(k, d)`` the current chunk; ``chunk_out`` float32 ``(k, d)`` and
             ``path_rows`` float32 ``(L, d)`` are scratch.
         state, closest_sq, limits: the loop's state (`STATE`), the squared closest approach
             to the goal (an array of one) and budgets (`LIMITS`).
         near_sq: the squared distance to the goal within which ``near_patience`` applies.
     """
+    rng, noise_rng = generator_at(rng_address), generator_at(noise_address)
     positions, _, links = arrays[0], arrays[1], arrays[2]
     capacity = positions.shape[0]
     chunk, dim = proposals.shape

@@ -20,6 +20,7 @@ import numpy as np
 
 from temp_gym.planning import _compiled_anytime as compiled
 from temp_gym.planning._compiled_tree import slice_length
+from temp_gym.planning._generator import address
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
 from temp_gym.planning.tree import Tree
@@ -104,12 +105,13 @@ def _grow_compiled(
         dtype=np.int64,
     )  # fmt: skip
     target = -math.inf if settings.target_cost is None else float(settings.target_cost)
+    rng_address = address(rng)  # `rng` stays alive here while the slices draw from it
     iterations = slice_length(deadline, time.perf_counter(), 0.0)
     while True:
         arrays, counters, best_cost, params = tree.compiled_state()
         began, samples = time.perf_counter(), tree.samples
         status = compiled.anytime_slice(
-            arrays, counters, best_cost, params, goal, bounds, context, rng,
+            arrays, counters, best_cost, params, goal, bounds, context, rng_address,
             float(settings.goal_bias), batch, state, limits, target, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)

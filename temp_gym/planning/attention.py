@@ -53,6 +53,7 @@ import numpy as np
 
 from temp_gym.planning import _compiled_attention as compiled
 from temp_gym.planning._compiled_tree import FALLBACK_BATCH, slice_length, squared_distance
+from temp_gym.planning._generator import address
 from temp_gym.planning.observation import TreeObserver
 from temp_gym.planning.policy import SamplingPolicy, fast_path, observation_settings
 from temp_gym.planning.result import MAX_COUNT
@@ -321,6 +322,8 @@ def _run_compiled(
     dim = problem.dim
     noise_std = float(noise_std)
     noise_rng = policy_rng if noise_std > 0 else rng  # without noise, a placeholder never drawn
+    # Both generators stay alive in this frame while the slices draw from them by address.
+    rng_address, noise_address = address(rng), address(noise_rng)
     goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
     bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
     buffer = np.empty((FALLBACK_BATCH, dim))
@@ -345,9 +348,9 @@ def _run_compiled(
             break
         arrays, counters, best_cost, params = tree.compiled_state()
         status = compiled.attention_slice(
-            arrays, counters, best_cost, params, goal, bounds, context, rng, buffer,
+            arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer,
             cursor, float(goal_bias), float(uniform), float(follow_fallback), weights,
-            prefix_goal, prefix_z, prefix_qkv, noise_std, noise_rng, proposals, chunk_out,
+            prefix_goal, prefix_z, prefix_qkv, noise_std, noise_address, proposals, chunk_out,
             path_rows, state, closest_sq, near_sq, budget, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)

@@ -64,6 +64,21 @@ def test_noise_makes_repeated_calls_differ_and_is_seeded(small_model):
     np.testing.assert_array_equal(again(observation), first)
 
 
+def test_reset_with_a_seed_restarts_the_noise_as_a_new_policy_with_that_seed(small_model):
+    observation = _observation()
+    policy = TEMPPolicy(small_model, noise_std=0.1, seed=3)
+    policy.reset(PROBLEM)
+    policy(observation)  # the generator is made and drawn from
+    for seed in (7, 3, 7):
+        policy.reset(PROBLEM, seed=seed)
+        fresh = TEMPPolicy(small_model, noise_std=0.1, seed=seed)
+        fresh.reset(PROBLEM)
+        for _ in range(3):
+            np.testing.assert_array_equal(policy(observation), fresh(observation))
+    policy.reset(PROBLEM, seed=11)
+    np.testing.assert_array_equal(policy.rng.random(4), np.random.default_rng(11).random(4))
+
+
 def test_propose_from_the_path_alone_equals_the_observation_call(small_model):
     env = gym.make("TEMP-2D-v0", fallback="random", encoding_resolution=16, max_path_length=16)
     observation, _ = env.reset(seed=0, options={"problem": PROBLEM})
