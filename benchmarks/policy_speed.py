@@ -1,7 +1,7 @@
 """TEMP with different policies (model sizes, training runs) against RRT*, side by side.
 
     python benchmarks/policy_speed.py --world 2d [--checkpoints runs/.../best.pt ...]
-        [--tasks 50] [--seeds 2] [--budget 10000]
+        [--tasks 50] [--seeds 2] [--budget 10000] [--split test|val] [--fresh-encoding]
     python benchmarks/policy_speed.py --checkpoints runs/.../best.pt@noise_std=0.03,horizon=4
 
 Whether a smaller or otherwise cheaper model pays is a trade: each MPT call costs less, but a
@@ -17,6 +17,13 @@ the first solution (a failure counts as the budget) and the paired time ratio ag
 and Informed RRT* (sum over the runs, as in `docs/results.md`). Then, per policy, the mean
 time of one MPT call from Python (`TEMPPolicy.propose_chunk` on the numba MPT, noise off) on
 random paths of 1 to L/4 rows, its first call (which loads the kernel) untimed.
+
+``--split val`` measures on ``2 x --tasks`` validation tasks instead (the `boxes` workspaces
+`trainers/tune_planner.py` draws from, with its seeds), so that choosing between policies by
+time, like choosing by nodes, reads no test task. ``--fresh-encoding`` makes each TEMP call
+encode its workspace again (`PolicyCore.clear_encodings`), as every call of the paper's
+protocol does, where each test task has its own workspace; without it a workspace met before
+reuses its encoding, which favours the larger encoders.
 """
 
 from __future__ import annotations
@@ -27,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from temp_gym import plan
-from temp_gym.config import parse_args, script_parser
+from temp_gym import plan, training
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.worlds.robots import robot_spec, robot_specs
@@ -66,8 +73,16 @@ def parse_entry(entry: str) -> tuple[Path, dict[str, float | int]]:
     return Path(path), settings
 
 
+def val_rows(world: str, tasks: int) -> dict[str, list]:
+    """``tasks`` validation tasks of configs/{world}.yaml, as `trainers/tune_planner.py` draws."""
+    config = load_config(f"configs/{world}.yaml", [])
+    seed = config.train_eval.seed + 20_000
+    return {"val": training.draw_problems(config, "val", tasks, seed)}
+
+
 def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, tuple], seeds: int,
-            budget: int) -> dict[str, dict[str, list[tuple[float, int, bool]]]]:  # fmt: skip
+            budget: int, fresh_encoding: bool = False,
+            ) -> dict[str, dict[str, list[tuple[float, int, bool]]]]:  # fmt: skip
     """Per row and planner: ``(seconds, nodes to the first solution, success)`` per run."""
     names = list(checkpoints) + list(BASELINES)
     warm = next(iter(rows.values()))[0]
@@ -79,15 +94,19 @@ def run_all(robot: str, rows: dict[str, list], checkpoints: dict[str, tuple], se
             for problem in problems:
                 order = names if seed % 2 == 0 else names[::-1]
                 for name in order:
-                    runs[row][name].append(_call(problem, name, checkpoints, robot, seed, budget))
+                    runs[row][name].append(
+                        _call(problem, name, checkpoints, robot, seed, budget, fresh_encoding)
+                    )
     return runs
 
 
 def _call(problem, name: str, checkpoints: dict[str, tuple], robot: str, seed: int,
-          budget: int) -> tuple[float, int, bool]:  # fmt: skip
+          budget: int, fresh_encoding: bool = False) -> tuple[float, int, bool]:  # fmt: skip
     if name in checkpoints:
         path, settings = checkpoints[name]
         policy = policy_from_checkpoint(path, robot, **settings)
+        if fresh_encoding:
+            policy.core.clear_encodings()
         began = time.perf_counter()
         result = plan(problem, policy=policy, seed=seed, max_nodes=budget, stop_at_first=True)
     else:
@@ -124,7 +143,21 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--tasks", type=int, default=50, help="test tasks per row")
     parser.add_argument("--seeds", type=int, default=2, help="planner seeds per task")
     parser.add_argument("--budget", type=int, default=10_000, help="node budget per run")
+    parser.add_argument(
+        "--split",
+        default="test",
+        choices=["test", "val"],
+        help="test tasks per evaluation row, or 2 x --tasks validation tasks",
+    )
+    parser.add_argument(
+        "--fresh-encoding",
+        action="store_true",
+        help="each TEMP call encodes its workspace again, as in the protocol",
+    )
     args = parse_args(parser, argv)
+    for flag in ("tasks", "seeds", "budget"):
+        if getattr(args, flag) < 1:
+            parser.error(f"--{flag}: must be positive, got {getattr(args, flag)}")
     robot = ROBOTS[args.world]
     checkpoints = {"shipped": (shipped_checkpoint(robot), {})}
     for entry in args.checkpoints:
@@ -132,11 +165,19 @@ def main(argv: list[str] | None = None) -> None:
         if not path.is_file():
             raise SystemExit(f"--checkpoints: no file {path}")
         checkpoints[entry] = (path, settings)
-    rows = test_rows(robot, args.tasks)
-    runs = run_all(robot, rows, checkpoints, args.seeds, args.budget)
+    if args.split == "val":
+        rows = val_rows(args.world, 2 * args.tasks)
+    else:
+        rows = test_rows(robot, args.tasks)
+    runs = run_all(robot, rows, checkpoints, args.seeds, args.budget, args.fresh_encoding)
+    encoding = (
+        "each TEMP call encoding its workspace again"
+        if args.fresh_encoding
+        else "encodings kept per workspace"
+    )
     for row, planners in runs.items():
-        print(f"\n**{args.world} {row}**, {args.tasks} tasks x {args.seeds} seeds, to the first "
-              f"solution (whole `plan` call)\n")  # fmt: skip
+        print(f"\n**{args.world} {row}**, {len(rows[row])} tasks x {args.seeds} seeds, to the "
+              f"first solution (whole `plan` call; {encoding})\n")  # fmt: skip
         print("| planner | solved | time mean / median (ms) | nodes mean / median | "
               "time / RRT* | time / IRRT* |\n|---|---:|---:|---:|---:|---:|")  # fmt: skip
         totals = {b: sum(t for t, _, _ in planners[b]) for b in BASELINES}

@@ -144,3 +144,19 @@ def test_policy_speed_reads_planner_settings_after_an_at_sign():
     for bad in ("a.pt@temperature=1", "a.pt@horizon=four", "a.pt@noise_std"):
         with pytest.raises(SystemExit, match="--checkpoints"):
             policy_speed.parse_entry(bad)
+
+
+def test_policy_speed_draws_validation_tasks_as_tune_planner_does():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import policy_speed
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    from temp_gym import training
+    from temp_gym.config import load_config
+
+    rows = policy_speed.val_rows("2d", 3)
+    config = load_config("configs/2d.yaml", [])
+    expected = training.draw_problems(config, "val", 3, config.train_eval.seed + 20_000)
+    assert list(rows) == ["val"] and rows["val"] == expected
+    assert all(problem.robot == "point2d" for problem in rows["val"])

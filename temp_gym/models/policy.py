@@ -151,6 +151,16 @@ class PolicyCore:
         """The SEI of the problem's workspace (encoded once per workspace): `encode`'s pair."""
         return self._with_tensor(self._cached(problem))
 
+    def clear_encodings(self) -> None:
+        """Forget every workspace's SEI: the next plan in each workspace encodes it again.
+
+        What a policy pays on a workspace it has not seen, as in the paper's protocol, where
+        every test task has its own (`benchmarks/policy_speed.py --fresh-encoding`); it also
+        frees the memory the encodings hold.
+        """
+        with self._lock:
+            self._sei.clear()
+
     def sei_array(self, problem: Problem) -> np.ndarray:
         """`sei`'s float32 array alone: on a fast core no tensor is made (the planner's path)."""
         return self._cached(problem)[1]

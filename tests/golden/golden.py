@@ -29,6 +29,9 @@ only the three 2D ``temp`` plans and the 2D evaluation record (TEMP's path) chan
 rewritten the same way.
 Then the shipped 3D policy changed (a tiny MPT trained on the mixed workspace families): only
 the three 3D ``temp`` plans changed, and were rewritten the same way.
+Then the shipped 2D policy changed (the same tiny MPT with an EISE of hidden width 32, no output
+noise): only the three 2D ``temp`` plans and the 2D evaluation record changed, and were
+rewritten the same way.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.

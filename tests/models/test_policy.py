@@ -292,3 +292,25 @@ def test_a_reset_to_the_problem_it_holds_keeps_the_encoding(small_model, backend
     policy.reset(PROBLEM, seed=2)  # ... so the same problem is encoded again
     assert encodings == [PROBLEM]
     np.testing.assert_array_equal(policy(observation), first)
+
+
+def test_clear_encodings_makes_the_next_reset_encode_the_workspace_again(small_model, monkeypatch):
+    core = TEMPPolicy(small_model).core
+    first = TEMPPolicy(None, core=core)
+    first.reset(PROBLEM)
+    grids = []
+    encode = core._encode
+
+    def counted(occupancy):
+        grids.append(occupancy)
+        return encode(occupancy)
+
+    monkeypatch.setattr(core, "_encode", counted)
+    second = TEMPPolicy(None, core=core)
+    second.reset(PROBLEM)  # the workspace's encoding is cached in the shared core
+    assert grids == []
+    core.clear_encodings()
+    third = TEMPPolicy(None, core=core)
+    third.reset(PROBLEM)
+    assert len(grids) == 1
+    np.testing.assert_array_equal(third._sei_array, first._sei_array)
