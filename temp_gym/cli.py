@@ -126,8 +126,8 @@ def _policy(args: argparse.Namespace):
     return policy_from_checkpoint(args.checkpoint)
 
 
-def _solve(path: str, args: argparse.Namespace, policy, out: Path | None):
-    """Plan one problem file and write its result; bad input raises `ValueError`/`OSError`."""
+def _solve(path: str, args: argparse.Namespace, policy):
+    """Plan one problem file; bad input raises `ValueError`/`OSError`."""
     from temp_gym.planning import plan
     from temp_gym.problem import Problem
 
@@ -150,10 +150,16 @@ def _solve(path: str, args: argparse.Namespace, policy, out: Path | None):
         step_size=args.step_size,
         **extra,
     )
-    if out is not None:
+    return result
+
+
+def _write(result, out: Path, flag: str) -> None:
+    """Write ``result`` as JSON to ``out``; a failure names the flag and the file."""
+    try:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(result.to_dict()) + "\n")
-    return result
+    except OSError as error:
+        raise OSError(f"{flag}: cannot write {out} ({error.strerror or error})") from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -172,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     status = SOLVED
     for path, out in zip(args.problems, outputs):
         try:
-            result = _solve(path, args, policy, out)
+            result = _solve(path, args, policy)
         except (OSError, ValueError, ImportError) as error:
             _error(f"{path}: {error}" if batch and path not in str(error) else error)
             status = BAD_INPUT
@@ -181,6 +187,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             _error("interrupted")
             return INTERRUPTED
         print(f"{path}: {result.summary()}" if batch else result.summary(), flush=True)
+        if out is not None:  # after the summary, so a failed write loses no figure
+            try:
+                _write(result, out, "--out" if args.out is not None else "--out-dir")
+            except OSError as error:
+                _error(error)
+                status = BAD_INPUT
+                continue
         if not result.success and status == SOLVED:
             status = NO_PATH
     return status

@@ -111,6 +111,13 @@ class UniformPolicy:
         if task == self._task:
             return
         goal = np.asarray(observation["goal"], dtype=np.float64)
+        if goal.ndim != 1 or (self._bounds is not None and goal.shape != self._bounds[0].shape):
+            expected = "(d,)" if self._bounds is None else f"({self._bounds.shape[1]},)"
+            raise ValueError(
+                f"observation['goal']: expected shape {expected}, got {goal.shape}: one env's "
+                "observation of the robot given to reset (call the policy per sub-env of a "
+                "vector env)"
+            )
         if self._bounds is None:  # never reset: sample the normalized box itself
             self._bounds = np.stack([-np.ones_like(goal), np.ones_like(goal)])
             self.base = UniformSampler(self._bounds)

@@ -231,3 +231,17 @@ def test_output_flags_are_checked_before_planning(tmp_path, capsys):
         code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50", *flags])
         assert_one_line_error(code, capsys.readouterr().err, *words)
     assert not (tmp_path / "d").exists() and not (tmp_path / "r.json").exists()
+
+
+def test_an_output_that_cannot_be_written_is_named_after_the_summary(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")  # a file where the output's directory would have to be
+    code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50",
+                 "--out", str(blocker / "r.json")])  # fmt: skip
+    captured = capsys.readouterr()
+    assert "rrt_star seed=0" in captured.out  # the plan's figures are not lost
+    assert_one_line_error(code, captured.err, "--out", "cannot write", str(blocker / "r.json"))

@@ -74,3 +74,16 @@ def test_a_missing_observation_is_named():
 def test_a_bad_seed_is_refused_by_name(seed):
     with pytest.raises(ValueError, match="^seed: expected"):
         UniformPolicy(seed=seed)
+
+
+def test_uniform_policy_names_another_robots_or_a_batched_observation():
+    two = gym.make("TEMP-2D-v0")
+    two.reset(seed=0)
+    three_observation, _ = gym.make("TEMP-3D-v0").reset(seed=0)
+    policy = UniformPolicy(seed=0)
+    policy.reset(two.unwrapped.problem)
+    with pytest.raises(ValueError, match=r"expected shape \(2,\), got \(3,\)"):
+        policy(three_observation)
+    batch, _ = gym.make_vec("TEMP-2D-v0", num_envs=2).reset(seed=0)
+    with pytest.raises(ValueError, match="per sub-env of a vector env"):
+        UniformPolicy(seed=0)(batch)

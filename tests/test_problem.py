@@ -272,3 +272,16 @@ def test_a_file_too_large_to_be_a_problem_is_refused_unread(monkeypatch):
     monkeypatch.setattr(query, "MAX_PROBLEM_BYTES", 100)  # the example file is larger
     with pytest.raises(ValueError, match="too large to be a problem"):
         Problem.load("examples/point2d.json")
+
+
+def test_negative_zero_makes_no_other_problem_or_workspace():
+    data = Problem.load("examples/point2d.json").to_dict()
+    positive = Problem.from_dict({**data, "bounds": [[0.0, 0.0], [20.0, 20.0]]})
+    negative = Problem.from_dict({**data, "bounds": [[-0.0, 0.0], [20.0, 20.0]]})
+    assert positive == negative and hash(positive) == hash(negative)
+    assert positive.workspace == negative.workspace
+    assert hash(positive.workspace) == hash(negative.workspace)
+    assert len({positive, negative}) == 1 and len({positive.workspace, negative.workspace}) == 1
+    assert not np.signbit(negative.bounds).any()
+    moved = Problem.from_dict({**data, "bounds": [[-1.0, 0.0], [20.0, 20.0]], "start": [-0.0, 1.0]})
+    assert not np.signbit(moved.start).any() and moved.start.tolist() == [0.0, 1.0]

@@ -354,10 +354,10 @@ def _read_unit(path: Path) -> dict[str, np.ndarray]:
 
 def load_corrections(directory: str | Path) -> dict[str, np.ndarray]:
     """The verified sample columns of a finished round (memory-mapped, never unpickled)."""
-    from temp_gym.data.tables import read_table, verify_table
+    from temp_gym.data.tables import checked_manifest, read_table, verify_table
     from temp_gym.files import read_json
 
     root = Path(directory)
     card = read_json(root / CARD_NAME, f"no finished correction round in {root}: rerun it")
-    verify_table(root, TABLE, card["files"])
+    verify_table(root, TABLE, checked_manifest(root / CARD_NAME, card, "rerun the round"))
     return read_table(root / TABLE)

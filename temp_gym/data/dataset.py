@@ -15,7 +15,7 @@ import numpy as np
 
 from temp_gym.config import Config, ConfigError
 from temp_gym.data.format import SPLITS
-from temp_gym.data.tables import read_table, verify_table
+from temp_gym.data.tables import checked_manifest, read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import robot_names
@@ -117,14 +117,25 @@ def read_card(root: str | Path) -> dict[str, Any]:
     """
     path = Path(root) / CARD
     card = read_json(path, f"no complete dataset in {root}: {GENERATE}")
-    if not isinstance(card, dict) or card.get("format") != FORMAT_VERSION:
-        raise StoredFileError(
-            path,
-            f"written by an older temp-gym (format {card.get('format', 1)!r} where "
-            f"{FORMAT_VERSION} is read; its replay buffer was saved with pickle and it lists "
-            "no checksums)",
-            f"{GENERATE}: it keeps the planned units and rebuilds the tables",
-        )
+    rebuild = f"{GENERATE}: it keeps the planned units and rebuilds the tables"
+    if not isinstance(card, dict):
+        raise StoredFileError(path, "damaged (not a JSON object)", rebuild)
+    version = card.get("format", 1)
+    if version != FORMAT_VERSION:
+        if isinstance(version, int) and not isinstance(version, bool) and version > FORMAT_VERSION:
+            problem = (
+                f"written by a newer temp-gym (format {version} where {FORMAT_VERSION} is read)"
+            )
+            raise StoredFileError(path, problem, "update temp-gym, or " + rebuild)
+        if version == 1:
+            problem = (
+                f"written by an older temp-gym (format 1 where {FORMAT_VERSION} is read; its "
+                "replay buffer was saved with pickle and it lists no checksums)"
+            )
+        else:
+            problem = f"damaged (format {version!r} where {FORMAT_VERSION} is read)"
+        raise StoredFileError(path, problem, rebuild)
+    checked_manifest(path, card, rebuild)
     return card
 
 

@@ -88,6 +88,33 @@ def file_manifest(root: Path, directories: list[Path]) -> dict[str, dict[str, An
     return manifest
 
 
+def checked_manifest(card_path: Path, card: object, remedy: str) -> dict[str, dict[str, Any]]:
+    """The ``files`` list of a card (`file_manifest`'s form), or a `StoredFileError` naming it.
+
+    A card edited by hand, truncated to another JSON value or written by something else must
+    stop the load with the card's name, not a ``KeyError`` deep in the reader: every entry
+    needs an integer ``bytes`` and a hexadecimal ``sha256``.
+    """
+    files = card.get("files") if isinstance(card, dict) else None
+    if not isinstance(files, dict):
+        raise StoredFileError(card_path, "damaged (no 'files' list of its tables)", remedy)
+    for name, entry in files.items():
+        if not (
+            isinstance(entry, dict)
+            and isinstance(entry.get("bytes"), int)
+            and not isinstance(entry.get("bytes"), bool)
+            and entry["bytes"] >= 0
+            and isinstance(entry.get("sha256"), str)
+            and len(entry["sha256"]) == 64
+        ):
+            raise StoredFileError(
+                card_path,
+                f"damaged (its entry for {name!r} needs an integer 'bytes' and a 'sha256')",
+                remedy,
+            )
+    return files
+
+
 def verify_table(root: Path, table: str, manifest: Mapping[str, Mapping[str, Any]]) -> None:
     """Check the files of ``root/table`` against the card's manifest, or raise naming one.
 

@@ -102,7 +102,12 @@ class PlanningEnv(gym.Env):
     ## Episode End
     * Termination: the goal region is first reached; or, when a target cost is set
       (``target_cost`` argument or ``options["target_cost"]``), when the best cost is at most it.
-    * Truncation: the tree has ``max_nodes`` nodes.
+    * Truncation: the tree has ``max_nodes`` nodes, or it has drawn ``max_samples`` samples
+      (fallback ones included; default ``100 * max_nodes``, the planners' sample budget), so
+      that an episode of colliding actions ends too (with ``fallback="none"`` a colliding
+      action adds no node).
+    * A start already in the goal region is solved at reset (``solved`` is 1); the first step
+      then terminates the episode, without the success reward, which reaching the goal earns.
 
     ``info`` carries ``nodes``, ``samples``, ``sampling_failures``, ``collision_checks``,
     ``best_cost`` (world units, inf before a solution), ``success``, ``added``, ``collided``;
@@ -115,7 +120,8 @@ class PlanningEnv(gym.Env):
     * ``robot``: a registered robot's name (set by the registered id; `temp_gym.worlds.robots`).
     * ``difficulty``: ``any``, ``easy``, ``challenging`` or ``mixed`` (easy or challenging with
       equal chance) for drawn tasks.
-    * ``max_nodes``: truncation budget (default: the robot's, 3000 in 2D/3D and 5000 in 7D).
+    * ``max_nodes``: truncation budget (default: the robot's, 3000 in 2D/3D and 5000 in 7D);
+      ``max_samples``: the sample budget (default ``100 * max_nodes``).
       ``step_size``: steering step (world units; default
       `temp_gym.planning.tree.default_step_size`). ``goal_radius``: goal radius of drawn tasks
       (default: the robot's).
@@ -141,6 +147,7 @@ class PlanningEnv(gym.Env):
         *,
         difficulty: str = "any",
         max_nodes: int | None = None,
+        max_samples: int | None = None,
         step_size: float | None = None,
         goal_radius: float | None = None,
         fallback: str = "random",
@@ -170,6 +177,8 @@ class PlanningEnv(gym.Env):
         max_nodes = spec.max_nodes if max_nodes is None else max_nodes
         if not _is_integer(max_nodes) or max_nodes < 2:
             raise ValueError(f"max_nodes: expected an integer of at least 2, got {max_nodes!r}")
+        if max_samples is not None and (not _is_integer(max_samples) or max_samples < 1):
+            raise ValueError(f"max_samples: expected a positive integer, got {max_samples!r}")
         if not _is_integer(max_path_length) or max_path_length < 2:
             raise ValueError(f"max_path_length: must be at least 2, got {max_path_length!r}")
         if step_size is not None and not _is_positive(step_size):
@@ -177,10 +186,11 @@ class PlanningEnv(gym.Env):
         if goal_radius is not None and not _is_positive(goal_radius):
             raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
         if encoding_resolution is not None and (
-            not _is_integer(encoding_resolution) or encoding_resolution < 1
+            not _is_integer(encoding_resolution) or encoding_resolution < 2
         ):
             raise ValueError(
-                f"encoding_resolution: expected a positive integer, got {encoding_resolution!r}"
+                f"encoding_resolution: expected an integer of at least 2, got "
+                f"{encoding_resolution!r}"
             )
         _check_target_cost(target_cost, "target_cost")
         if not _is_integer(max_fallback_tries) or max_fallback_tries < 0:
@@ -198,6 +208,7 @@ class PlanningEnv(gym.Env):
         self.robot_spec = spec
         self.difficulty = difficulty
         self.max_nodes = int(max_nodes)
+        self.max_samples = 100 * self.max_nodes if max_samples is None else int(max_samples)
         self.step_size = step_size
         self.goal_radius = goal_radius
         self.fallback = fallback
@@ -269,6 +280,11 @@ class PlanningEnv(gym.Env):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start a new planning query (see Starting State)."""
         super().reset(seed=seed)
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(
+                f"options: expected a dict such as {{'problem': problem}}, got "
+                f"{type(options).__name__}"
+            )
         options = options or {}
         unknown = set(options) - {"problem", "target_cost"}
         if unknown:
@@ -321,7 +337,9 @@ class PlanningEnv(gym.Env):
             terminated = solved and tree.best_cost <= self.target_cost
         else:
             terminated = solved
-        truncated = not terminated and tree.num_nodes >= self.max_nodes
+        truncated = not terminated and (
+            tree.num_nodes >= self.max_nodes or tree.samples >= self.max_samples
+        )
         observation = self._observer.observe(tree)
         info = self._info(result.node >= 0, result.collided, terminated or truncated)
         if self.render_mode == "human":
@@ -386,6 +404,18 @@ class PlanningEnv(gym.Env):
         else:
             self._artist.set_data(image)
         plt.pause(1.0 / self.metadata["render_fps"])
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The env for `copy.deepcopy` and pickle, without its renderer and figure.
+
+        A renderer holds a connection (the iiwa's pybullet client) that a copy cannot share:
+        closing the copy would close the original's, and an unpickled id names no server. A
+        copy makes its own on its first `render`.
+        """
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        state["_figure"] = None
+        return state
 
     def close(self) -> None:
         """Release the renderer's pybullet client and any window; safe to call twice."""

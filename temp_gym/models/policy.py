@@ -41,7 +41,7 @@ from __future__ import annotations
 import functools
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -450,12 +450,28 @@ class TEMPPolicy:
         if occupancy.shape != self.info.grid_shape:
             if same_task and self.problem is not None:
                 return  # an env at another resolution: the grid of reset(problem) stands
+            goal = np.asarray(observation["goal"])
+            batched = goal.ndim == 2 and goal.shape[0] == occupancy.shape[0] > 0
+            if batched and occupancy.shape[1:] == self.info.grid_shape:
+                raise ValueError(
+                    f"observation['occupancy']: a batch of {occupancy.shape[0]} grids (a vector "
+                    "env's observation); the policy takes one env's observation: call it per "
+                    "env, on each sub-observation"
+                )
             raise ValueError(
                 f"observation['occupancy']: expected shape {self.info.grid_shape} for "
                 f"{self.info.robot} (the model's encoding_resolution "
                 f"{self.info.encoding_resolution}), got {occupancy.shape}; or call "
                 "policy.reset(problem) after each env reset"
             )
+        for key, size in (("goal", self.info.dim), ("start", self.info.dim), ("goal_radius", 1)):
+            value = np.asarray(observation[key])
+            if value.size != size:
+                raise ValueError(
+                    f"observation[{key!r}]: expected {size} values for {self.info.robot} "
+                    f"(d={self.info.dim}), got shape {value.shape}: an observation of another "
+                    "robot's env?"
+                )
         if self._grid_bytes is None and self.problem is not None:
             grid = occupancy_grid(self.problem.workspace, self.info.encoding_resolution)
             self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
@@ -481,6 +497,14 @@ class TEMPPolicy:
         The task is read from the observation: an observation of another task than the last
         one (e.g. after an env reset without ``policy.reset``) is followed, not ignored.
         """
+        if not isinstance(observation, Mapping):
+            raise ValueError(
+                f"observation: expected the env's observation dict, got "
+                f"{type(observation).__name__}"
+            )
+        missing = [key for key in ("path", "path_length") if key not in observation]
+        if missing:
+            raise ValueError(f"observation: no {missing} (the env's observation has them)")
         self._follow(observation)
         path = np.asarray(observation["path"])
         if path.ndim != 2 or path.shape[1] != self.info.dim:
@@ -489,6 +513,10 @@ class TEMPPolicy:
                 f"got {path.shape}"
             )
         length = int(np.asarray(observation["path_length"]).reshape(-1)[0])
+        if not 1 <= length <= len(path):
+            raise ValueError(f"observation['path_length']: expected 1 .. {len(path)}, got {length}")
+        if not np.all(np.isfinite(path[:length])):
+            raise ValueError("observation['path']: its valid rows must be finite")
         return self.propose(path, length)
 
     def propose(self, path: np.ndarray, length: int) -> np.ndarray:

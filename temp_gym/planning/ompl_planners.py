@@ -102,18 +102,40 @@ class _Counters:
         self.first_check_pending = False
 
 
+MIN_EXTENT = 1e-12
+"""Shortest diagonal of the bounds OMPL plans in: its longest valid segment (1% of the
+diagonal) must be a positive double well above rounding, or ``SpaceInformation.setup`` fails."""
+
+
 def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> PlanResult:
-    """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result."""
+    """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result.
+
+    A start already in the goal region is a solution of cost 0, returned as our planners
+    return it (the path ``[start, start]``), without OMPL: its InformedRRTstar cannot even set
+    up its informed set when start and goal coincide.
+
+    Raises:
+        ValueError: bounds narrower than `MIN_EXTENT` across, which OMPL cannot plan in.
+    """
     if name not in OMPL_PLANNERS:
         raise ValueError(f"planner: unknown OMPL planner {name!r}; expected one of {OMPL_PLANNERS}")
     seed = ompl_seed(settings.seed)
+    extent = float(np.linalg.norm(problem.bounds[1] - problem.bounds[0]))
+    if not extent >= MIN_EXTENT:
+        raise ValueError(
+            f"bounds: OMPL's planners need bounds at least {MIN_EXTENT:g} across (the "
+            f"diagonal), got {extent:g}; our planners (rrt_star, informed_rrt_star, temp) "
+            "plan in them"
+        )
+    started = time.perf_counter()
+    if float(np.sum((problem.start - problem.goal) ** 2)) <= problem.goal_radius**2:
+        return _start_in_goal(problem, settings, name, started)
     ob, og, ou = _import_ompl()
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     global _SEEDED
     if not _SEEDED:
         ou.RNG.setSeed(seed)
         _SEEDED = True
-    started = time.perf_counter()
     dim = problem.dim
     checker = make_checker(problem)
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
@@ -244,3 +266,31 @@ def _make_motion_validator(ob, si, checker: CollisionChecker, counters: _Counter
             return free
 
     return EdgeMotionValidator(si)
+
+
+def _start_in_goal(
+    problem: Problem, settings: PlanSettings, name: str, started: float
+) -> PlanResult:
+    """The result for a start that lies in the goal region: the path ``[start, start]``."""
+    path = np.array([problem.start, problem.start], dtype=np.float64)
+    if not certify_path(problem, path):  # a start in collision: no path at all
+        path = None
+    log = AnytimeLog(started)
+    if path is not None:
+        log.record(1, time.perf_counter() - started, 0.0)
+    history = log.as_arrays()
+    return PlanResult(
+        planner=name,
+        success=path is not None,
+        path=path,
+        cost=0.0 if path is not None else math.inf,
+        nodes=1,
+        samples=0,
+        sampling_failures=0,
+        collision_checks=0,
+        wall_time=time.perf_counter() - started,
+        time_to_first_solution=float(history["time"][0]) if path is not None else None,
+        nodes_to_first_solution=1 if path is not None else None,
+        history=history,
+        seed=settings.seed,
+    )

@@ -72,7 +72,10 @@ def plan(
     ``time_limit`` seconds, the first solution (``stop_at_first``), a solution costing at
     most ``target_cost``. A returned path is certified by the exact collision checker, starts
     at ``problem.start`` and ends inside the goal region. The same seed gives the same result
-    (wall times aside) unless the time limit is what stopped the run.
+    (wall times aside) unless the time limit is what stopped the run; OMPL's planners are the
+    exception: OMPL takes one seed per process, at its first run, and later runs continue its
+    stream (`temp_gym.planning.ompl_planners`), so only the same sequence of OMPL runs in a
+    fresh process repeats them.
 
     What the time limit and the reported times cover: the planner's run, from building its
     tree (collision checker, per-workspace set-up, TEMP's workspace encoding) to the end of

@@ -88,6 +88,7 @@ class Problem:
                 raise ValueError(
                     f"{name}: {point.tolist()} is outside the bounds {bounds.tolist()}"
                 )
+        start, goal = start + 0.0, goal + 0.0  # -0.0 as 0.0, as `Workspace` stores its arrays
         for array in (start, goal):
             array.setflags(write=False)
         object.__setattr__(self, "start", start)

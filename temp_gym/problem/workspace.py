@@ -67,6 +67,8 @@ class Workspace:
             raise ValueError(
                 f"obstacles[{bad}].half_extents: must be positive, got {halves[bad].tolist()}"
             )
+        # -0.0 becomes 0.0: equal workspaces must have equal bytes, which equality and hash read
+        bounds, centers, halves = bounds + 0.0, centers + 0.0, halves + 0.0
         for array in (bounds, centers, halves):
             array.setflags(write=False)
         object.__setattr__(self, "bounds", bounds)

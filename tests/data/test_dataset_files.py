@@ -125,6 +125,38 @@ def test_a_dataset_of_the_old_format_says_how_to_regenerate(dataset):
         load_split(dataset, "train")
 
 
+def _damage_card(dataset, change):
+    card = card_of(dataset)
+    (dataset / "dataset_card.json").write_text(json.dumps(change(card)))
+
+
+def _first_entry(card):
+    return card["files"][next(iter(card["files"]))]
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda card: [], "not a JSON object"),
+        (lambda card: "a card", "not a JSON object"),
+        (lambda card: {k: v for k, v in card.items() if k != "files"}, "no 'files' list"),
+        (lambda card: {**card, "files": []}, "no 'files' list"),
+        (lambda card: {**card, "files": dict.fromkeys(card["files"])}, "needs an integer"),
+        (lambda card: (_first_entry(card).pop("bytes"), card)[1], "needs an integer 'bytes'"),
+        (lambda card: (_first_entry(card).update(bytes="1016"), card)[1], "needs an integer"),
+        (lambda card: (_first_entry(card).pop("sha256"), card)[1], "a 'sha256'"),
+        (lambda card: {**card, "format": 3}, "newer temp-gym .format 3"),
+        (lambda card: {**card, "format": "2"}, r"damaged \(format '2'"),
+    ],
+)
+def test_a_damaged_or_foreign_card_is_named_in_one_error(dataset, change, message):
+    _damage_card(dataset, change)
+    with pytest.raises(StoredFileError, match=message) as caught:
+        load_split(dataset, "train")
+    assert "dataset_card.json" in str(caught.value)
+    assert not dataset_exists(tiny(dataset))
+
+
 def test_a_missing_table_is_not_done_and_is_repaired(dataset):
     before = load_tasks(dataset, "val")["task_id"].clone()
     samples = load_split(dataset, "train")[0][:]["target"].clone()

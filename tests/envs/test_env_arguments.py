@@ -14,6 +14,9 @@ import temp_gym  # noqa: F401  (registers the envs)
         ({"goal_radius": float("nan")}, "goal_radius"),
         ({"encoding_resolution": 0}, "encoding_resolution"),  # was silently the default
         ({"encoding_resolution": 2.5}, "encoding_resolution"),
+        ({"encoding_resolution": 1}, "encoding_resolution"),  # failed at reset() instead
+        ({"max_samples": 0}, "max_samples"),
+        ({"max_samples": 10.5}, "max_samples"),
         ({"max_nodes": float("inf")}, "max_nodes"),  # was an OverflowError
         ({"max_nodes": 3000.0}, "max_nodes"),
         ({"target_cost": float("nan")}, "target_cost"),  # was ignored
@@ -50,3 +53,25 @@ def test_explicit_valid_values_are_used_not_replaced():
     assert env.problem.goal_radius == 0.25
     assert observation["occupancy"].shape == (8, 8)
     assert env.max_nodes == 50
+
+
+def test_options_that_are_not_a_dict_are_rejected_as_such():
+    env = gym.make("TEMP-2D-v0").unwrapped
+    with pytest.raises(ValueError, match="^options: expected a dict"):
+        env.reset(seed=0, options="problem")  # was "unknown keys ['b', 'e', ...]"
+
+
+def test_an_episode_of_colliding_actions_is_truncated_by_the_sample_budget():
+    problem = temp_gym.Problem.load("examples/point2d.json")
+    inside = problem.workspace.obstacle_centers[0]  # the tree grows to the box, then stops
+    low, high = problem.bounds
+    action = (2.0 * (inside - low) / (high - low) - 1.0).astype(np.float32)
+    env = gym.make("TEMP-2D-v0", fallback="none", max_nodes=50, max_samples=60).unwrapped
+    env.reset(seed=0, options={"problem": problem})
+    for step in range(1, 61):
+        _, _, terminated, truncated, info = env.step(action)
+        assert not terminated and info["samples"] == step
+        assert truncated == (step == 60)
+    assert info["nodes"] < 50 and not info["added"]  # the node budget never ended it
+    default = gym.make("TEMP-2D-v0", max_nodes=50).unwrapped
+    assert default.max_samples == 5000

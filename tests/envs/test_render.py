@@ -277,3 +277,22 @@ def test_iiwa_title_band(iiwa_problems, renderer):
     assert titled.shape == plain.shape
     assert not np.array_equal(titled[:20], plain[:20])
     np.testing.assert_array_equal(titled[60:], plain[60:])
+
+
+def test_a_copied_or_pickled_7d_env_renders_and_leaves_the_original_rendering(iiwa_problems):
+    import copy
+    import pickle
+
+    import gymnasium as gym
+
+    env = gym.make("TEMP-7D-v0", render_mode="rgb_array").unwrapped
+    env.reset(seed=0, options={"problem": iiwa_problems[0]})
+    image = env.render()
+    twin = copy.deepcopy(env)
+    twin.close()  # closes only its own connection (it had none yet)
+    np.testing.assert_array_equal(env.render(), image)
+    for other in (copy.deepcopy(env), pickle.loads(pickle.dumps(env))):
+        np.testing.assert_array_equal(other.render(), image)  # its own renderer
+        other.close()
+    np.testing.assert_array_equal(env.render(), image)
+    env.close()

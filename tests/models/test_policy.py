@@ -314,3 +314,27 @@ def test_clear_encodings_makes_the_next_reset_encode_the_workspace_again(small_m
     third.reset(PROBLEM)
     assert len(grids) == 1
     np.testing.assert_array_equal(third._sei_array, first._sei_array)
+
+
+def test_observations_a_policy_cannot_read_are_named_not_crashed_on(small_model):
+    policy = TEMPPolicy(small_model)
+    observation = _observation()
+    cases = [
+        ([1, 2], "expected the env's observation dict"),
+        ({k: v for k, v in observation.items() if k != "path"}, r"no \['path'\]"),
+        ({**observation, "path": np.full_like(observation["path"], np.nan)}, "must be finite"),
+        ({**observation, "path_length": np.array([0])}, "path_length"),
+        ({**observation, "goal": np.zeros(3, np.float32)}, r"observation\['goal'\].*another robot"),
+        (
+            {
+                **observation,
+                "occupancy": np.stack([observation["occupancy"]] * 2),
+                "goal": np.stack([observation["goal"]] * 2),
+            },
+            "a batch of 2 grids",
+        ),
+    ]
+    for bad, message in cases:
+        with pytest.raises(ValueError, match=message):
+            policy(bad)
+    assert policy(observation).shape == (2,)  # the policy still plans after the refusals

@@ -106,3 +106,28 @@ def test_ompl_seed_mapping_is_one_to_one_and_bounded():
     assert ompl_seed(MAX_SEED) == 2**64 - 1
     with pytest.raises(ValueError, match="seed"):
         ompl_seed(MAX_SEED + 1)
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
+def test_a_start_in_the_goal_region_is_a_solution_of_cost_zero_as_for_our_planners(planner):
+    problem = Problem.from_dict({
+        "robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2], "goal": [2, 2],
+        "goal_radius": 0.5, "obstacles": [],
+    })  # fmt: skip
+    ours = plan(problem, planner="rrt_star", seed=0, max_nodes=50)
+    result = plan(problem, planner=planner, seed=0, max_nodes=50)
+    assert result.success and result.cost == 0.0 == ours.cost
+    np.testing.assert_array_equal(result.path, ours.path)
+    assert result.nodes_to_first_solution == 1 == ours.nodes_to_first_solution
+    assert result.history["best_cost"].tolist() == [0.0]
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
+def test_bounds_too_small_for_ompl_are_a_clear_error(planner):
+    problem = Problem.from_dict({
+        "robot": "point2d", "bounds": [[0, 0], [1e-29, 1e-29]], "start": [0, 0],
+        "goal": [1e-29, 1e-29], "goal_radius": 1e-30, "obstacles": [],
+    })  # fmt: skip
+    plan(problem, planner="rrt_star", seed=0, max_nodes=50)  # ours take them
+    with pytest.raises(ValueError, match="bounds: OMPL's planners need bounds"):
+        plan(problem, planner=planner, seed=0, max_nodes=50)

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from temp_gym import Problem, plan
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision.point import PointBoxChecker
 from temp_gym.worlds.generators import generate_problem
@@ -107,6 +108,36 @@ def test_union_volume_counts_overlaps_once_and_clips_to_the_bounds():
         np.array([[0.0] * 3, [0.25] * 3]), np.array([[0.5] * 3, [1.0] * 3]), *cube
     )
     assert nested == pytest.approx(0.125 + 0.75**3 - 0.25**3)
+
+
+def test_union_volume_estimates_when_the_exact_grid_would_be_too_big(monkeypatch):
+    from temp_gym.worlds.collision import point
+
+    rng = np.random.default_rng(1)
+    centers = rng.uniform(4.0, 16.0, (60, 3))
+    lower, upper = centers - 1.5, centers + 1.5
+    bounds = np.array([[0.0] * 3, [20.0] * 3])
+    exact = point.union_volume(lower, upper, *bounds)  # 120^3 cells: within the limit
+    monkeypatch.setattr(point, "MAX_UNION_CELLS", 1000)
+    estimate = point.union_volume(lower, upper, *bounds)
+    assert estimate != exact  # the estimate ran ...
+    assert estimate == pytest.approx(exact, rel=0.03)  # ... and agrees within its noise
+    assert point.union_volume(lower, upper, *bounds) == estimate  # seeded: the same each call
+
+
+def test_many_overlapping_3d_boxes_plan_without_exhausting_memory():
+    # 1000 boxes cut each axis into ~2000 intervals: the exact grid would need 8e9 cells
+    rng = np.random.default_rng(0)
+    centers = rng.uniform(6.0, 14.0, (1000, 3))
+    problem = Problem.from_dict({
+        "robot": "point3d", "bounds": [[0.0] * 3, [20.0] * 3], "start": [1.0] * 3,
+        "goal": [19.0] * 3, "goal_radius": 0.5,
+        "obstacles": [{"center": c.tolist(), "half_extents": [1.0] * 3} for c in centers],
+    })  # fmt: skip
+    checker = make_checker(problem)
+    assert 0.0 < checker.free_volume() < 8000.0
+    result = plan(problem, planner="rrt_star", max_nodes=2000, stop_at_first=True)
+    assert result.success
 
 
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])

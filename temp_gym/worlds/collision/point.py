@@ -162,6 +162,33 @@ def _union_volume(lower, upper) -> float:
     return volume
 
 
+@numba.njit(cache=True, nogil=True)
+def _covered_share(samples, lower, upper) -> float:
+    """The share of ``samples`` ``(N, d)`` inside at least one box ``[lower[i], upper[i]]``."""
+    count, dim = lower.shape
+    covered = 0
+    for s in range(samples.shape[0]):
+        for b in range(count):
+            inside = True
+            for k in range(dim):
+                if samples[s, k] < lower[b, k] or samples[s, k] > upper[b, k]:
+                    inside = False
+                    break
+            if inside:
+                covered += 1
+                break
+    return covered / samples.shape[0]
+
+
+MAX_UNION_CELLS = 2**24
+"""Most cells of the grid `union_volume` computes exactly on (64 MB of counts, a second or so);
+beyond, it estimates. The boxes' faces cut each axis, so the grid grows as ``(2 n)^d`` for n
+boxes: a few thousand boxes in 2D, about 120 in 3D, more when boxes share coordinates."""
+UNION_SAMPLES = 2**14
+"""Seeded uniform samples of `union_volume`'s estimate: about 0.4% of the bounds' volume at
+worst (one standard deviation), ample for the rewiring radius, which is all it serves."""
+
+
 def union_volume(
     box_lower: np.ndarray, box_upper: np.ndarray, lower_bounds: np.ndarray, upper_bounds: np.ndarray
 ) -> float:
@@ -169,16 +196,28 @@ def union_volume(
 
     Exact, by coordinate compression: the box faces cut each axis into intervals, and every
     cell of that grid is either inside some box or outside all of them, so overlaps count once
-    and parts outside the bounds not at all.
+    and parts outside the bounds not at all. When that grid would exceed `MAX_UNION_CELLS`
+    cells (many boxes in 3D), memory and time would grow as ``(2 n)^d``; the volume is then
+    estimated from `UNION_SAMPLES` uniform samples of the bounds with a fixed seed, so it is
+    still the same number on every call.
     """
     lower = np.clip(box_lower, lower_bounds, upper_bounds)
     upper = np.clip(box_upper, lower_bounds, upper_bounds)
     kept = np.all(upper > lower, axis=1)
     if not np.any(kept):
         return 0.0
-    return float(
-        _union_volume(np.ascontiguousarray(lower[kept]), np.ascontiguousarray(upper[kept]))
-    )
+    lower = np.ascontiguousarray(lower[kept])
+    upper = np.ascontiguousarray(upper[kept])
+    cells = 1
+    for k in range(lower.shape[1]):
+        cells *= len(np.unique(np.concatenate((lower[:, k], upper[:, k])))) - 1
+        if cells > MAX_UNION_CELLS:
+            rng = np.random.default_rng(0)
+            low = np.asarray(lower_bounds, dtype=np.float64)
+            high = np.asarray(upper_bounds, dtype=np.float64)
+            samples = rng.uniform(low, high, size=(UNION_SAMPLES, lower.shape[1]))
+            return float(_covered_share(samples, lower, upper) * np.prod(high - low))
+    return float(_union_volume(lower, upper))
 
 
 class PointBoxChecker:
@@ -201,7 +240,11 @@ class PointBoxChecker:
         self._context: tuple[np.ndarray, ...] | None = None
 
     def free_volume(self) -> float:
-        """The exact volume of the free space: the bounds less the union of the boxes."""
+        """The volume of the free space: the bounds less the union of the boxes.
+
+        Exact, unless the boxes cut the bounds into more than `MAX_UNION_CELLS` cells; then a
+        seeded estimate (`union_volume`).
+        """
         total = float(np.prod(self._upper_bounds - self._lower_bounds))
         return total - union_volume(
             self._box_lower, self._box_upper, self._lower_bounds, self._upper_bounds
