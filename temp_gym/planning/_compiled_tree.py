@@ -89,7 +89,24 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
     """`Tree.extend` on a tree's arrays: returns the new node, `NO_NODE` or `BAD_ACTION`.
 
     ``arrays`` is ``(positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx,
-    stack, new, grid)``; the caller guarantees room for one more node.
+    stack, new, grid)``; the caller guarantees room for one more node. Parent candidates are
+    counted as checked one at a time (`extend_detailed` with a chunk of 1).
+    """
+    return extend_detailed(
+        arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, 1
+    )[0]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")  # `extend`'s body: its copy is as fast
+def extend_detailed(
+    arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, check_chunk
+):  # fmt: skip
+    """`extend`, returning ``(node, nearest, rewired)`` as `Tree.extend` reports them.
+
+    ``nearest`` is the node the sample was steered from (-1 with `BAD_ACTION`), ``rewired``
+    how many nodes were rewired through the new one. ``check_chunk``: the parent candidates
+    are counted in ``collision_checks`` as `Tree.extend` checks them, in chunks of that many
+    up to the chunk holding the first free one (the tree is the same either way).
     """
     positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx, stack, new, grid = arrays
     count = counters[NUM_NODES]
@@ -99,17 +116,17 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
             positions, count, sample, bounds, step, new, grid, near_idx
         )
         if nearest < 0:
-            return BAD_ACTION
+            return BAD_ACTION, -1, 0
     else:
         nearest, distance = nearest_and_steer(positions, count, sample, step, new, grid, near_idx)
     counters[SAMPLES] += 1
     if not distance > 0.0:
         counters[FAILURES] += 1
-        return NO_NODE
+        return NO_NODE, nearest, 0
     counters[CHECKS] += 1
     if not motion_free(context, positions[nearest], new):
         counters[FAILURES] += 1
-        return NO_NODE
+        return NO_NODE, nearest, 0
     dim = positions.shape[1]
     radius = 0.0
     k = 0
@@ -122,11 +139,13 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
         positions, costs, count, new, nearest, radius, k, near_idx, near_dist, cand_idx, grid
     )
     parent = nearest
+    checked = num_cand
     for j in range(num_cand):
-        counters[CHECKS] += 1
         if motion_free(context, positions[cand_idx[j]], new):
             parent = cand_idx[j]
+            checked = min((j // check_chunk + 1) * check_chunk, num_cand)
             break
+    counters[CHECKS] += checked
     node = count
     cost, reached_goal, num_rewire = insert_node(
         positions, costs, links, node, new, parent, goal, params[GOAL_RADIUS_SQ], near_idx,
@@ -140,6 +159,7 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
         if cost < best_cost[0]:
             counters[BEST_NODE] = node
             best_cost[0] = cost
+    rewired = 0
     if num_rewire > 0:
         free = np.empty(num_rewire, dtype=np.bool_)
         for j in range(num_rewire):
@@ -152,7 +172,7 @@ def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, n
         if rewired > 0 and best >= 0:
             counters[BEST_NODE] = best
             best_cost[0] = costs[best]
-    return node
+    return node, nearest, rewired
 
 
 @numba.njit(cache=True, nogil=True)

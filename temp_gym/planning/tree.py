@@ -42,10 +42,11 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from temp_gym.planning import _grid
+from temp_gym.planning import _compiled_tree, _grid
 from temp_gym.planning import _kernels as kernels
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision import CollisionChecker
+from temp_gym.worlds.collision.compiled import compiled_context_of
 from temp_gym.worlds.robots import robot_spec
 
 if TYPE_CHECKING:
@@ -198,6 +199,12 @@ class Tree:
         max_radius: Cap of the near radius; defaults to ``2 * step_size``.
         parent_check_chunk: Parent candidates are collision-checked in cost order, this many
             per batched call, stopping at the first free one. Small for expensive checkers.
+        compiled_extend: Run each `extend` as one compiled call
+            (`temp_gym.planning._compiled_tree.extend_detailed`, with the checker's compiled
+            motion check) instead of driving the kernels and the checker from Python: the same
+            tree, result and counters, at about half the cost of a call. None (default): when
+            the checker has a compiled path; False: never (the reference path); True: an
+            error without one.
         capacity: Initial node capacity; doubles when full.
 
     Counters for wrappers and results: `num_nodes`, `samples`, `sampling_failures`,
@@ -215,6 +222,7 @@ class Tree:
         max_radius: float | None = None,
         parent_check_chunk: int = 8,
         capacity: int = 1024,
+        compiled_extend: bool | None = None,
     ) -> None:
         if neighbourhood not in NEIGHBOURHOODS:
             raise ValueError(
@@ -227,6 +235,10 @@ class Tree:
             raise ValueError(f"rewire_factor: must be positive, got {rewire_factor}")
         if parent_check_chunk < 1:
             raise ValueError(f"parent_check_chunk: must be at least 1, got {parent_check_chunk}")
+        if compiled_extend not in (None, True, False):
+            raise ValueError(
+                f"compiled_extend: expected None, True or False, got {compiled_extend!r}"
+            )
         self.problem = problem
         self.checker = make_checker(problem) if checker is None else checker
         self.dim = problem.dim
@@ -235,6 +247,8 @@ class Tree:
         self.rewire_factor = float(rewire_factor)
         self.max_radius = 2.0 * step_size if max_radius is None else float(max_radius)
         self.parent_check_chunk = int(parent_check_chunk)
+        self._compiled_extend = compiled_extend
+        self._extend_context: tuple | None | bool = False  # False: not looked up yet
         self._goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
         self._bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
         self._goal_radius_sq = problem.goal_radius**2
@@ -447,6 +461,11 @@ class Tree:
         if sample.shape != (self.dim,):
             name = "action" if normalized else "sample"
             raise ValueError(f"{name}: expected shape ({self.dim},), got {sample.shape}")
+        context = self._extend_context
+        if context is False:
+            context = self._extend_context = self._compiled_context()
+        if context is not None:
+            return self._extend_compiled(sample, normalized, context)
         new = self._new
         if normalized:
             nearest, distance = kernels.action_nearest_and_steer(
@@ -553,6 +572,38 @@ class Tree:
         return ExtendResult(
             node, nearest, False, reached_goal, self.best_cost < best_before, rewired, 1, 0, checks
         )
+
+    def _compiled_context(self) -> tuple | None:
+        """The checker's compiled context for `_extend_compiled`, or None (`compiled_extend`)."""
+        if self._compiled_extend is False:
+            return None
+        context = compiled_context_of(self.checker)
+        if context is None and self._compiled_extend:
+            raise ValueError("compiled_extend: the tree's checker has no compiled path")
+        return context
+
+    def _extend_compiled(
+        self, sample: np.ndarray, normalized: bool, context: tuple
+    ) -> ExtendResult:
+        """`extend` as one compiled call; the `ExtendResult` the Python path gives."""
+        if self.num_nodes == self.capacity:  # room for the node (the Python path grows later,
+            self._grow()  # just before inserting: the radius only matters there, so the same)
+        arrays, counters, best_cost, params = self.compiled_state()
+        checks, goal_nodes, best_before = self.collision_checks, self.num_goal_nodes, self.best_cost
+        node, nearest, rewired = _compiled_tree.extend_detailed(
+            arrays, counters, best_cost, params, self._goal, self._bounds, context, sample,
+            normalized, self.parent_check_chunk,
+        )  # fmt: skip
+        if node == _compiled_tree.BAD_ACTION:  # the tree is unchanged
+            raise ValueError(f"action: must be finite, got {sample.tolist()}")
+        self.load_compiled_state(counters, best_cost)
+        checks = self.collision_checks - checks
+        if node < 0:  # a zero-length step checks nothing; a colliding one its edge
+            return ExtendResult(-1, nearest, checks > 0, False, False, 0, 1, 1, checks)
+        return ExtendResult(
+            node, nearest, False, self.num_goal_nodes > goal_nodes, self.best_cost < best_before,
+            rewired, 1, 0, checks,
+        )  # fmt: skip
 
     def extend_with_fallback(
         self,

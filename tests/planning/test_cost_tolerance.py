@@ -36,7 +36,7 @@ def absolute_kernels() -> dict:
 
 def grow(problem: Problem, seed: int, nodes: int) -> Tree:
     rng = np.random.default_rng(seed)
-    tree = Tree(problem)
+    tree = Tree(problem, compiled_extend=False)  # the Python path, whose kernels are patched
     sampler = GoalBiasedSampler(UniformSampler(problem.bounds), problem.goal, 0.05)
     while tree.num_nodes < nodes and tree.samples < 100 * nodes:
         tree.extend(sampler.sample(rng))

@@ -214,3 +214,77 @@ def test_the_grid_grows_the_scans_trees(monkeypatch, robot, planner):
     np.testing.assert_array_equal(grid_tree.positions[:n], scan_tree.positions[:n])
     np.testing.assert_array_equal(grid_tree.links[:n], scan_tree.links[:n])
     np.testing.assert_array_equal(grid_tree.costs[:n], scan_tree.costs[:n])
+
+
+def _robot_problem(robot):
+    from temp_gym.evaluation.runner import evaluation_problem
+
+    return evaluation_problem(robot, "any" if robot == "kuka_iiwa14" else "challenging", 0)
+
+
+@pytest.mark.parametrize(
+    "robot, neighbourhood, chunk",
+    [
+        ("point2d", "radius", 8),
+        ("point2d", "radius", 1),
+        ("point2d", "k_nearest", 3),
+        ("point3d", "radius", 8),
+        ("kuka_iiwa14", "radius", 2),
+    ],
+)
+def test_compiled_extend_gives_the_reference_results_and_tree(robot, neighbourhood, chunk):
+    """Tree.extend in one compiled call: every ExtendResult, counter and array as the Python
+    path that drives the kernels and the checker (compiled_extend=False) gives them."""
+    if robot == "kuka_iiwa14":
+        pytest.importorskip("pybullet")
+    problem = _robot_problem(robot)
+    settings = dict(neighbourhood=neighbourhood, parent_check_chunk=chunk, capacity=64)
+    compiled = Tree(problem, compiled_extend=True, **settings)
+    reference = Tree(problem, compiled_extend=False, **settings)
+    rng = np.random.default_rng(7)
+    low, high = problem.bounds
+    count = 600 if robot == "kuka_iiwa14" else 1500
+    samples = rng.uniform(low, high, (count, problem.dim))
+    samples[::7] = problem.goal  # the goal, over and over: zero-length steps once it is reached
+    actions = rng.uniform(-1.2, 1.2, (count, problem.dim))  # normalized, some out of the box
+    for index in range(count):
+        normalized = index % 3 == 0
+        sample = actions[index] if normalized else samples[index]
+        assert compiled.extend(sample, normalized) == reference.extend(sample, normalized), index
+    for name in ("num_nodes", "num_goal_nodes", "newest", "best_node", "best_cost", "samples",
+                 "sampling_failures", "collision_checks"):  # fmt: skip
+        assert getattr(compiled, name) == getattr(reference, name), name
+    n = compiled.num_nodes
+    assert n > 100 and compiled.capacity > 64  # grown on the way
+    np.testing.assert_array_equal(compiled.positions[:n], reference.positions[:n])
+    np.testing.assert_array_equal(compiled.costs[:n], reference.costs[:n])
+    np.testing.assert_array_equal(compiled.links[:n], reference.links[:n])
+    assert_is_tree(compiled)
+    with pytest.raises(ValueError, match="action: must be finite"):
+        compiled.extend(np.full(problem.dim, np.nan), normalized=True)
+    assert compiled.num_nodes == n and compiled.samples == reference.samples  # unchanged
+
+
+def test_compiled_extend_is_checked(problem_2d):
+    class PythonOnly:  # a checker of the user's, without a compiled path
+        def __init__(self, checker):
+            self.checker = checker
+
+        def states_free(self, states):
+            return self.checker.states_free(states)
+
+        def edge_free(self, start, end):
+            return self.checker.edge_free(start, end)
+
+        def edges_free(self, starts, ends):
+            return self.checker.edges_free(starts, ends)
+
+    from temp_gym.worlds.checkers import make_checker
+
+    checker = PythonOnly(make_checker(problem_2d))
+    tree = Tree(problem_2d, checker=checker)  # the default: the Python path, silently
+    assert tree.extend(np.array([5.0, 5.0])).node == 1
+    with pytest.raises(ValueError, match="compiled_extend: the tree's checker"):
+        Tree(problem_2d, checker=checker, compiled_extend=True).extend(np.array([5.0, 5.0]))
+    with pytest.raises(ValueError, match="compiled_extend: expected"):
+        Tree(problem_2d, compiled_extend="yes")
