@@ -202,7 +202,7 @@ class Tree:
         compiled_extend: Run each `extend` as one compiled call
             (`temp_gym.planning._compiled_tree.extend_detailed`, with the checker's compiled
             motion check) instead of driving the kernels and the checker from Python: the same
-            tree, result and counters, at about half the cost of a call. None (default): when
+            tree, result and counters, for less time per call. None (default): when
             the checker has a compiled path; False: never (the reference path); True: an
             error without one.
         capacity: Initial node capacity; doubles when full.
