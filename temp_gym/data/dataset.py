@@ -156,13 +156,13 @@ def incomplete_reason(root: Path, settings: dict[str, Any]) -> str | None:
         return str(error)
     if card.get("settings") != settings:
         return "its card was written with other settings"
-    for name, entry in card.get("files", {}).items():
+    for name, entry in card["files"].items():  # `read_card` checked the list
         path = root / name
         if not path.is_file():
             return f"{path} is missing"
-        if path.stat().st_size != entry.get("bytes"):
-            return f"{path} has {path.stat().st_size} bytes, the card says {entry.get('bytes')}"
-    listed = {tuple(name.split("/", 2)[:2]) for name in card.get("files", {})}
+        if path.stat().st_size != entry["bytes"]:
+            return f"{path} has {path.stat().st_size} bytes, the card says {entry['bytes']}"
+    listed = {tuple(name.split("/", 2)[:2]) for name in card["files"]}
     for split in SPLITS:
         for table in TABLES:
             if (split, table) not in listed:

@@ -93,7 +93,7 @@ def checked_manifest(card_path: Path, card: object, remedy: str) -> dict[str, di
 
     A card edited by hand, truncated to another JSON value or written by something else must
     stop the load with the card's name, not a ``KeyError`` deep in the reader: every entry
-    needs an integer ``bytes`` and a hexadecimal ``sha256``.
+    needs a non-negative integer ``bytes`` and a 64-character ``sha256``.
     """
     files = card.get("files") if isinstance(card, dict) else None
     if not isinstance(files, dict):

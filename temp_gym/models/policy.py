@@ -464,20 +464,20 @@ class TEMPPolicy:
                 f"{self.info.encoding_resolution}), got {occupancy.shape}; or call "
                 "policy.reset(problem) after each env reset"
             )
-        for key, size in (("goal", self.info.dim), ("start", self.info.dim), ("goal_radius", 1)):
-            value = np.asarray(observation[key])
-            if value.size != size:
-                raise ValueError(
-                    f"observation[{key!r}]: expected {size} values for {self.info.robot} "
-                    f"(d={self.info.dim}), got shape {value.shape}: an observation of another "
-                    "robot's env?"
-                )
         if self._grid_bytes is None and self.problem is not None:
             grid = occupancy_grid(self.problem.workspace, self.info.encoding_resolution)
             self._grid_bytes = np.asarray(grid, dtype=np.float32).tobytes()
         same_grid = occupancy.tobytes() == self._grid_bytes
         if same_task and same_grid:
             return
+        for key, size in (("goal", self.info.dim), ("start", self.info.dim), ("goal_radius", 1)):
+            value = np.asarray(observation[key])  # a new task: read only if it fits the model
+            if value.size != size:
+                raise ValueError(
+                    f"observation[{key!r}]: expected {size} values for {self.info.robot} "
+                    f"(d={self.info.dim}), got shape {value.shape}: an observation of another "
+                    "robot's env?"
+                )
         if not same_grid:
             self._sei, self._sei_array = self.core.encode(occupancy)
             self._grid_bytes = occupancy.tobytes()

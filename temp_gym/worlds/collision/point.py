@@ -162,24 +162,6 @@ def _union_volume(lower, upper) -> float:
     return volume
 
 
-@numba.njit(cache=True, nogil=True)
-def _covered_share(samples, lower, upper) -> float:
-    """The share of ``samples`` ``(N, d)`` inside at least one box ``[lower[i], upper[i]]``."""
-    count, dim = lower.shape
-    covered = 0
-    for s in range(samples.shape[0]):
-        for b in range(count):
-            inside = True
-            for k in range(dim):
-                if samples[s, k] < lower[b, k] or samples[s, k] > upper[b, k]:
-                    inside = False
-                    break
-            if inside:
-                covered += 1
-                break
-    return covered / samples.shape[0]
-
-
 MAX_UNION_CELLS = 2**24
 """Most cells of the grid `union_volume` computes exactly on (64 MB of counts, a second or so);
 beyond, it estimates. The boxes' faces cut each axis, so the grid grows as ``(2 n)^d`` for n
@@ -216,7 +198,8 @@ def union_volume(
             low = np.asarray(lower_bounds, dtype=np.float64)
             high = np.asarray(upper_bounds, dtype=np.float64)
             samples = rng.uniform(low, high, size=(UNION_SAMPLES, lower.shape[1]))
-            return float(_covered_share(samples, lower, upper) * np.prod(high - low))
+            covered = np.count_nonzero(~_states_free(samples, low, high, lower, upper))
+            return float(covered / UNION_SAMPLES * np.prod(high - low))
     return float(_union_volume(lower, upper))
 
 
