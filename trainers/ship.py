@@ -44,6 +44,7 @@ from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
+from temp_gym.planning.attention import RESUME_AFTER
 from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.worlds.robots import robot_specs
 
@@ -219,7 +220,7 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
 
 PLANNER_KEYS = (
     "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
-    "attention_follow_fallback", "chosen_by",
+    "attention_follow_fallback", "attention_resume", "chosen_by",
 )  # fmt: skip
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
 
@@ -227,6 +228,7 @@ PLANNER_KEYS = (
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
     """The card's lines on the planner settings ``load_policy`` applies."""
     follow = planner.get("attention_follow_fallback")
+    resume = planner.get("attention_resume")
     return [
         "- Attention-phase budget n (Algorithm 1): "
         + (
@@ -260,6 +262,17 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
             else f"with probability {follow:g}, else from the path it read before "
             "(`temp_gym.planning.attention`)."
         ),
+        "- After a stall, classical planning adds "
+        + (
+            f"{RESUME_AFTER:g} x the stall patience in nodes (the planner's default, "
+            "`temp_gym.planning.attention.RESUME_AFTER`)"
+            if resume is None
+            else f"{resume:g} x the stall patience in nodes"
+        )
+        + ", then the attention phase resumes from the newest node, in turns until the first "
+        "solution."
+        if resume != 0
+        else "- After a stall, classical planning keeps the rest of the budget.",
         f"- How they were chosen: {planner['chosen_by']}.",
     ]
 

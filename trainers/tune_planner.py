@@ -36,7 +36,8 @@ from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
-from temp_gym.planning.result import near_goal_factor, share
+from temp_gym.planning.attention import RESUME_AFTER
+from temp_gym.planning.result import near_goal_factor, resume_factor, share
 from temp_gym.training import plan_episode
 
 
@@ -111,6 +112,14 @@ def main(argv: list[str] | None = None) -> dict:
         "try (1: always, Algorithm 1)",
     )
     parser.add_argument(
+        "--resume",
+        type=float,
+        nargs="+",
+        default=[RESUME_AFTER],
+        help="classical nodes, in stall patiences, before the attention phase resumes after a "
+        "stall, to try (0: never)",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -143,6 +152,8 @@ def main(argv: list[str] | None = None) -> dict:
             near_goal_factor(factor, "--near-goal-factor")
         for follow in args.follow_fallback:
             share(follow, "--follow-fallback")
+        for resume in args.resume:
+            resume_factor(resume, "--resume")
     except ValueError as error:
         parser.error(str(error))
     torch.set_num_threads(1)
@@ -164,16 +175,17 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | near goal | uniform | follow | nodes mean | median "
+        "| n | noise | horizon | patience | near goal | uniform | follow | resume | nodes mean "
+        "| median "
         "| AP solved | success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
-        args.uniform, args.follow_fallback,
+        args.uniform, args.follow_fallback, args.resume,
     )  # fmt: skip
-    for budget, noise, horizon, patience, factor, uniform, follow in settings:
+    for budget, noise, horizon, patience, factor, uniform, follow, resume in settings:
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
@@ -181,6 +193,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_uniform=uniform,
             attention_near_goal_factor=factor,
             attention_follow_fallback=follow,
+            attention_resume=resume,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
@@ -189,7 +202,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
-            f"{follow:g} | "
+            f"{follow:g} | {resume:g} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
@@ -201,7 +214,7 @@ def main(argv: list[str] | None = None) -> dict:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
-                    "attention_follow_fallback": follow}  # fmt: skip
+                    "attention_follow_fallback": follow, "attention_resume": resume}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

@@ -221,6 +221,9 @@ class TrainEvalConfig:
     attention_follow_fallback: float | None = None
     """Probability that the policy goes on from a fallback node that got no closer to the
     goal; null: the policy's own, else 1."""
+    attention_resume: float | None = None
+    """Classical nodes, in stall patiences, before the attention phase resumes after a stall
+    (0: never); null: the policy's own, else the planner's default."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -253,6 +256,9 @@ class EvaluationConfig:
     attention_near_goal_factor: float | None = None
     """How many times that patience the attention phase waits near the goal; null: the
     checkpoint's, else 1."""
+    attention_resume: float | None = None
+    """Classical nodes, in stall patiences, before a stalled attention phase resumes (0:
+    never); null: the checkpoint's, else the planner's default."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

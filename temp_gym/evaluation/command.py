@@ -40,15 +40,18 @@ from temp_gym.evaluation.runner import (
 )
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
+from temp_gym.planning.attention import RESUME_AFTER
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.planning.result import PlanSettings
 from temp_gym.worlds.robots import robot_spec
 
 PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
-                     "attention_patience": None, "attention_near_goal_factor": None}  # fmt: skip
+                     "attention_patience": None, "attention_near_goal_factor": None,
+                     "attention_resume": RESUME_AFTER}  # fmt: skip
 """What a null planner setting of the ``evaluation`` section takes when the checkpoint names
 none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the
-same patience near the goal."""
+same patience near the goal, the planner's default resume after a stall (recorded as a
+number, so that records made with another default do not mix)."""
 
 UNRECORDED = ("tasks", "workers", "out")
 """Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
@@ -60,8 +63,8 @@ def settings_from(
 ) -> tuple[EvaluationSettings, EvaluationConfig]:
     """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
-    ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience`` and
-    ``attention_near_goal_factor`` left null take
+    ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience``,
+    ``attention_near_goal_factor`` and ``attention_resume`` left null take
     the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
     applies to a shipped policy), else `PLANNER_FALLBACKS`; a null ``tasks`` is the robot's
     (its spec's ``evaluation_tasks``).
@@ -87,6 +90,7 @@ def settings_from(
         attention_nodes=section.attention_nodes,
         attention_patience=section.attention_patience,
         attention_near_goal_factor=section.attention_near_goal_factor,
+        attention_resume=section.attention_resume,
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,
@@ -116,6 +120,7 @@ def _check_section(section: EvaluationConfig) -> None:
             attention_nodes=section.attention_nodes,
             attention_patience=section.attention_patience,
             attention_near_goal_factor=section.attention_near_goal_factor,
+            attention_resume=section.attention_resume,
         )
     except ValueError as error:
         raise ConfigError(f"evaluation.{error}") from None

@@ -80,6 +80,9 @@ class EvaluationSettings:
     """TEMP's stall patience (None: `temp_gym.planning.attention.default_patience`)."""
     attention_near_goal_factor: float | None = None
     """How many times that patience TEMP waits near the goal (None: the policy's own, else 1)."""
+    attention_resume: float | None = None
+    """Classical nodes, in stall patiences, before TEMP's stalled attention phase resumes
+    (None: the policy's own, else the planner's default)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -149,6 +152,7 @@ def evaluate_task(
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
+        attention_resume=settings.attention_resume,
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
@@ -181,6 +185,7 @@ def evaluate_task(
                     "policy": policy,
                     "attention_patience": settings.attention_patience,
                     "attention_near_goal_factor": settings.attention_near_goal_factor,
+                    "attention_resume": settings.attention_resume,
                 }
                 if name == "temp"
                 else {}
@@ -354,6 +359,7 @@ def attention_example(
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
+        attention_resume=settings.attention_resume,
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

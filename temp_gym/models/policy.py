@@ -51,7 +51,13 @@ from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
-from temp_gym.planning.result import near_goal_factor, noise_level, seed_value, share
+from temp_gym.planning.result import (
+    near_goal_factor,
+    noise_level,
+    resume_factor,
+    seed_value,
+    share,
+)
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import occupancy_grid
@@ -235,6 +241,9 @@ class TEMPPolicy:
         attention_follow_fallback: probability that the policy goes on from a fallback node
             that brought the tree no closer to the goal, when ``plan`` is given none (None: 1,
             always, Algorithm 1's rule; `temp_gym.planning.attention`).
+        attention_resume: classical nodes, in stall patiences, before the attention phase
+            resumes after a stall, when ``plan`` is given none (None: the planner's
+            `temp_gym.planning.attention.RESUME_AFTER`; 0: never).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -254,6 +263,7 @@ class TEMPPolicy:
         attention_uniform: float | None = None,
         attention_near_goal_factor: float | None = None,
         attention_follow_fallback: float | None = None,
+        attention_resume: float | None = None,
     ) -> None:
         noise_std = noise_level(noise_std)
         if seed is not None:
@@ -278,6 +288,9 @@ class TEMPPolicy:
             None
             if attention_follow_fallback is None
             else share(attention_follow_fallback, "attention_follow_fallback")
+        )
+        self.attention_resume = (
+            None if attention_resume is None else resume_factor(attention_resume)
         )
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
@@ -364,6 +377,7 @@ class TEMPPolicy:
             attention_uniform=self.attention_uniform,
             attention_near_goal_factor=self.attention_near_goal_factor,
             attention_follow_fallback=self.attention_follow_fallback,
+            attention_resume=self.attention_resume,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

@@ -36,6 +36,13 @@ on the same tree) instead of spending it all. `default_patience` sets it from th
 more often the last stretch around an obstacle, which the policy finds given time, than a
 wrong turn (a per-policy setting: it pays for some policies and not for others).
 
+A stall need not end the policy's part: the ``temp`` planner (`temp_gym.planning.temp_planner`)
+lets classical planning add `resume_nodes` nodes and then resumes the phase on the grown tree
+(``resumed=True``): the policy reads the root path of the newest node, a classical one, so it
+sets out from somewhere it has not been, and progress counts from the tree's closest approach.
+A policy that stalls from one place often finds the way from another; classical planning
+alone keeps the probabilistic completeness either way.
+
 Two implementations grow the same tree from the same seed (tested node for node): the
 compiled loop (`temp_gym.planning._compiled_attention`), used when the policy offers a
 compiled proposer (`TEMPPolicy.compiled_proposer`: the numba MPT) and the checker a compiled
@@ -70,6 +77,9 @@ PATIENCE_PER_STEP = 10.0
 """`default_patience`: nodes without progress allowed per steering step of start-goal distance."""
 MIN_PATIENCE = 200
 """`default_patience` never allows fewer nodes than this."""
+RESUME_AFTER = 1.0
+"""The ``temp`` planner's default ``attention_resume``: after a stall, classical planning adds
+one stall patience of nodes before the attention phase resumes."""
 NEAR_GOAL_SHARE = 0.4
 """`near_goal_limits`: the tree is near the goal once its closest approach is within this share
 of the start-goal distance."""
@@ -97,6 +107,14 @@ def _ceil_count(nodes: float) -> int:
     factor) then means "never stalls" instead of an overflow.
     """
     return MAX_COUNT if not nodes < MAX_COUNT else math.ceil(nodes)
+
+
+def resume_nodes(patience: int, factor: float) -> int:
+    """Classical nodes between a stall and the resumed attention phase: ``factor`` patiences.
+
+    At least one node, held to the planner's largest node budget (`MAX_COUNT`).
+    """
+    return max(1, _ceil_count(factor * patience))
 
 
 def near_goal_limits(problem: Problem, patience: int, factor: float) -> tuple[float, int]:
@@ -164,6 +182,7 @@ def run_attention_phase(
     compiled_loop: bool | None = None,
     uniform: float = 0.0,
     follow_fallback: float = 1.0,
+    resumed: bool = False,
 ) -> AttentionOutcome:
     """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
 
@@ -179,7 +198,15 @@ def run_attention_phase(
         uniform: probability of a uniform sample instead of the policy's (after goal bias).
         follow_fallback: probability that the policy goes on from a fallback node that brought
             the tree no closer to the goal (1: always, Algorithm 1's UpdatePath).
+        resumed: the phase resumes on a tree that an earlier phase and classical planning
+            grew: progress counts from the tree's closest approach to the goal instead of
+            the start's. Either way the policy first reads the root path of the tree's
+            newest node (the root itself on a new tree).
     """
+    problem = tree.problem
+    closest_sq = (
+        closest_approach_sq(tree) if resumed else squared_distance(problem.start, problem.goal)
+    )
     compiled_proposer = fast_path(policy, "compiled_proposer")
     proposer = compiled_proposer() if compiled_proposer is not None else None
     context = compiled_context_of(tree.checker)
@@ -191,9 +218,15 @@ def run_attention_phase(
         )
     if can_compile and compiled_loop is not False:
         return _run_compiled(
-            tree, proposer, context, rng, goal_bias, uniform, follow_fallback, limits
+            tree, proposer, context, rng, goal_bias, uniform, follow_fallback, limits, closest_sq
         )
-    return _run_python(tree, policy, rng, goal_bias, uniform, follow_fallback, limits)
+    return _run_python(tree, policy, rng, goal_bias, uniform, follow_fallback, limits, closest_sq)
+
+
+def closest_approach_sq(tree: Tree) -> float:
+    """The squared distance from the goal to the tree's node nearest to it."""
+    offsets = tree.positions[: tree.num_nodes] - tree.problem.goal
+    return float(np.min(np.einsum("ij,ij->i", offsets, offsets)))
 
 
 def follows(samples: int, closer: bool, follow_fallback: float, rng: np.random.Generator) -> bool:
@@ -216,6 +249,7 @@ def _run_python(
     uniform: float,
     follow_fallback: float,
     limits: AttentionLimits,
+    closest_sq: float,
 ) -> AttentionOutcome:
     """The reference loop: any policy, any checker."""
     problem = tree.problem
@@ -240,7 +274,6 @@ def _run_python(
         def propose() -> np.ndarray:
             return np.asarray(policy(observer.observe(tree, anchor)))[None]
 
-    closest_sq = squared_distance(problem.start, goal)
     stalled = calls = proposals_used = 0
     chunk: np.ndarray | None = None
     next_row = 0
@@ -313,6 +346,7 @@ def _run_compiled(
     uniform: float,
     follow_fallback: float,
     limits: AttentionLimits,
+    closest_sq: float,
 ) -> AttentionOutcome:
     """The compiled loop, in slices between looks at the clock (`slice_length`)."""
     weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, chunk, max_path_length = (
@@ -333,7 +367,7 @@ def _run_compiled(
     path_rows = np.zeros((max_path_length, dim), np.float32)
     state = np.zeros(len(compiled.STATE), dtype=np.int64)
     state[compiled.ANCHOR] = tree.newest
-    closest_sq = np.array([squared_distance(problem.start, goal)])
+    closest = np.array([closest_sq])
     budget = np.array(
         [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
          MAX_FALLBACK_TRIES, limits.near_patience],
@@ -351,7 +385,7 @@ def _run_compiled(
             arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer,
             cursor, float(goal_bias), float(uniform), float(follow_fallback), weights,
             prefix_goal, prefix_z, prefix_qkv, noise_std, noise_address, proposals, chunk_out,
-            path_rows, state, closest_sq, near_sq, budget, iterations,
+            path_rows, state, closest, near_sq, budget, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
         if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
@@ -372,9 +406,12 @@ __all__ = [
     "AttentionLimits",
     "AttentionOutcome",
     "MAX_FALLBACK_TRIES",
+    "RESUME_AFTER",
     "STOPS",
+    "closest_approach_sq",
     "default_patience",
     "near_goal_limits",
     "observer_for",
+    "resume_nodes",
     "run_attention_phase",
 ]

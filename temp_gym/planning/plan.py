@@ -65,6 +65,7 @@ def plan(
     attention_uniform: float | None = None,
     attention_near_goal_factor: float | None = None,
     attention_follow_fallback: float | None = None,
+    attention_resume: float | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -118,6 +119,10 @@ def plan(
             goes on from a node the uniform fallback added (its proposal collided) when that
             node brought the tree no closer to the goal; otherwise it goes on from the path
             it read before (None: the policy's own setting, else 1, Algorithm 1's rule).
+        attention_resume: ``temp`` only: after the attention phase stalls, classical planning
+            adds this many stall patiences of nodes, then the attention phase resumes from
+            the newest node, in turns until the first solution (None: the policy's own
+            setting, else 1; 0: never, classical planning keeps the rest of the budget).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -136,6 +141,7 @@ def plan(
         attention_patience=attention_patience, attention_uniform=attention_uniform,
         attention_near_goal_factor=attention_near_goal_factor,
         attention_follow_fallback=attention_follow_fallback,
+        attention_resume=attention_resume,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

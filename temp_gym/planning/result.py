@@ -48,6 +48,18 @@ def near_goal_factor(value: object, name: str = "attention_near_goal_factor") ->
     return factor
 
 
+def resume_factor(value: object, name: str = "attention_resume") -> float:
+    """A resume factor: a finite real number of at least 0 (0: never resume).
+
+    It counts the classical nodes between a stall and the resumed attention phase in stall
+    patiences (`PlanSettings.attention_resume`).
+    """
+    factor = _real(value, name, "a finite number of at least 0")
+    if not (math.isfinite(factor) and factor >= 0.0):
+        raise ValueError(f"{name}: expected a finite number of at least 0, got {value!r}")
+    return factor
+
+
 def seed_value(value: object, name: str = "seed") -> int:
     """A seed of a generator: a non-negative integer (not bool), as numpy takes it."""
     if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 0:
@@ -123,6 +135,12 @@ class PlanSettings:
     sample that replaced a colliding proposal) which brought the tree no closer to the goal;
     otherwise the path so far it reads stays the one it read before (None: the policy's own
     setting, else 1: always, Algorithm 1's UpdatePath)."""
+    attention_resume: float | None = None
+    """``temp`` planner: after the attention phase stalls, classical planning adds this many
+    times the stall patience in nodes, then the attention phase resumes from the newest node,
+    in turns until the first solution (None: the policy's own setting, else
+    `temp_gym.planning.attention.RESUME_AFTER`; 0: never, classical planning keeps the rest
+    of the budget)."""
 
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
@@ -164,6 +182,8 @@ class PlanSettings:
                 "attention_follow_fallback",
                 share(self.attention_follow_fallback, "attention_follow_fallback"),
             )
+        if self.attention_resume is not None:
+            normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:
             normalize(
                 "attention_near_goal_factor", near_goal_factor(self.attention_near_goal_factor)
@@ -219,7 +239,8 @@ class PlanResult:
     """``temp`` planner only: the attention-based phase's ``solved``, ``nodes``, ``time``,
     ``cost``, ``samples``, ``policy_samples`` and ``sampling_failures`` (what the paper
     reports for TEMP), ``policy_calls``, ``stop`` (why it ended,
-    `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled)."""
+    `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled), all of
+    the first phase; and ``resumes``, how many times the phase resumed after a stall."""
 
     def cost_at(self, nodes: int) -> float:
         """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""

@@ -24,8 +24,11 @@ spending a whole budget in a trap. A policy may wait longer once the tree is nea
 (``attention_near_goal_factor``; the shipped 3D policy does). A policy may also go on from
 its own last node instead of from a random fallback node that got no closer to the goal
 (``attention_follow_fallback`` below 1, `temp_gym.planning.attention`; no shipped policy
-does). The phase runs compiled (no
-Python per node) for a `TEMPPolicy` on the CPU and the built-in checkers.
+does). After a stall, classical planning and the attention phase take turns until the first
+solution (``attention_resume``, default `temp_gym.planning.attention.RESUME_AFTER`; 0: classical
+planning keeps the rest of the budget): Informed RRT* adds ``attention_resume`` stall patiences
+of nodes, then the phase resumes from the newest node with the same stop rules. The phase runs
+compiled (no Python per node) for a `TEMPPolicy` on the CPU and the built-in checkers.
 
 On the goal bias: A learned sampler imitates expert paths
 whose last node lies anywhere in the goal region, and its predictions near the goal average
@@ -36,7 +39,8 @@ the time, exactly as the baselines do, made it 100% (2D: the median AP nodes fel
 
 The AP phase's time, nodes and cost are what the paper reports for TEMP; `PlanResult` keeps
 them in ``attention`` (``solved``, ``nodes``, ``time``, ``cost``, ``samples``,
-``policy_samples``, ``sampling_failures``).
+``policy_samples``, ``sampling_failures``): the first phase's, before any stall, plus
+``resumes``, the number of resumed phases.
 
 **Classical planning (CP)** then continues the same tree with informed sampling (Informed
 RRT*) until ``max_nodes``, ``time_limit`` or ``target_cost``, for asymptotic optimality; with
@@ -47,15 +51,18 @@ policy proposes.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import numpy as np
 
 from temp_gym.planning.anytime import grow_anytime
 from temp_gym.planning.attention import (
+    RESUME_AFTER,
     AttentionLimits,
     default_patience,
     near_goal_limits,
+    resume_nodes,
     run_attention_phase,
 )
 from temp_gym.planning.policy import SamplingPolicy, policy_settings
@@ -64,6 +71,7 @@ from temp_gym.planning.result import (
     PlanResult,
     PlanSettings,
     near_goal_factor,
+    resume_factor,
     share,
     tree_plan_result,
 )
@@ -156,10 +164,65 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         "sampling_failures": tree.sampling_failures,
         "stop": outcome.stop,
         "compiled": outcome.compiled,
+        "resumes": 0,
     }
     if attention["solved"]:
         log.record(tree.num_nodes, attention["time"], tree.best_cost)
 
+    # ---- after a stall: classical planning and the resumed attention phase in turns
+    resume = settings.attention_resume
+    if resume is None:  # the policy's own, checked as plan() checks its argument
+        resume = declared.attention_resume
+        resume = (
+            RESUME_AFTER if resume is None else resume_factor(resume, "policy.attention_resume")
+        )
+    if outcome.stop == "stalled" and resume > 0:
+        attention["resumes"] = _resume_until_solved(
+            tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
+            uniform, follow,
+        )  # fmt: skip
+
     # ---- classical planning: Informed RRT* on the same tree
     grow_anytime(tree, settings, rng, log, informed=True)
     return tree_plan_result(problem, tree, "temp", settings, log, attention=attention)
+
+
+def _resume_until_solved(
+    tree: Tree,
+    policy: SamplingPolicy,
+    rng: np.random.Generator,
+    log: AnytimeLog,
+    settings: PlanSettings,
+    limits: AttentionLimits,
+    classical_nodes: int,
+    uniform: float,
+    follow: float,
+) -> int:
+    """After a stall: ``classical_nodes`` of Informed RRT*, then the attention phase again.
+
+    The resumed phase starts from the newest node, a classical one (so the policy reads a
+    path it has not read before) and counts progress from the tree's closest approach; it
+    ends by the same stop rules. Turns go on while a phase stalls, until the first solution
+    or the node, sample or time budget. Returns the number of resumed phases.
+    """
+    resumes = 0
+    while True:
+        classical = dataclasses.replace(
+            settings,
+            max_nodes=min(settings.max_nodes, tree.num_nodes + classical_nodes),
+            stop_at_first=True,
+        )
+        grow_anytime(tree, classical, rng, log, informed=True)
+        if tree.best_node >= 0 or tree.num_nodes >= settings.max_nodes:
+            return resumes
+        if tree.samples >= settings.sample_limit:
+            return resumes
+        outcome = run_attention_phase(
+            tree, policy, rng, settings.goal_bias, limits, uniform=uniform,
+            follow_fallback=follow, resumed=True,
+        )  # fmt: skip
+        resumes += 1
+        if tree.best_node >= 0:
+            log.record_tree(tree)
+        if outcome.stop != "stalled":
+            return resumes

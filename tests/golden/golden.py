@@ -32,6 +32,10 @@ the three 3D ``temp`` plans changed, and were rewritten the same way.
 Then the shipped 2D policy changed (the same tiny MPT with an EISE of hidden width 32, no output
 noise): only the three 2D ``temp`` plans and the 2D evaluation record changed, and were
 rewritten the same way.
+Then a stalled attention phase resumes after classical planning (``attention_resume``): TEMP's
+``attention`` record gained a ``resumes`` count, so the eight ``temp`` plans changed. No plan
+of the sample stalls: with that key left out, all 85 fingerprints were identical before and
+after, with resuming on and off. The eight were rewritten the same way.
 
 The test recomputes the whole sample, section by section (seconds once numba's caches are
 warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.

@@ -1,5 +1,7 @@
 """The attention phase: compiled and Python loops grow the same trees; chunks; the stall rule."""
 
+from unittest.mock import ANY
+
 import numpy as np
 import pytest
 import torch
@@ -11,8 +13,10 @@ from temp_gym.models.temp import TEMPModel
 from temp_gym.planning.attention import (
     NEAR_GOAL_SHARE,
     AttentionLimits,
+    closest_approach_sq,
     default_patience,
     near_goal_limits,
+    resume_nodes,
     run_attention_phase,
 )
 from temp_gym.planning.tree import Tree
@@ -180,7 +184,8 @@ def test_the_near_goal_factor_comes_from_plan_else_the_policy_else_none(wall, mo
     seen = []
 
     def recording(tree, policy, rng, goal_bias, limits, **kwargs):
-        seen.append(limits)
+        if not kwargs.get("resumed"):  # the first phase of each plan; resumed ones share it
+            seen.append(limits)
         return run_attention_phase(tree, policy, rng, goal_bias, limits, **kwargs)
 
     monkeypatch.setattr(temp_planner, "run_attention_phase", recording)
@@ -322,6 +327,100 @@ def test_a_stalled_attention_phase_hands_over_to_classical_planning(wall):
     algorithm_1 = plan(problem, attention_patience=0, attention_nodes=200, **kwargs)
     assert algorithm_1.attention["stop"] == "attention_budget"
     assert algorithm_1.attention["nodes"] == 200
+
+
+def _classical_tree(problem, seed, nodes, low=None, high=None):
+    """A tree that RRT* grew to ``nodes`` nodes from uniform samples in ``[low, high]``."""
+    tree = Tree(problem, capacity=16)
+    rng = np.random.default_rng(seed)
+    low = problem.bounds[0] if low is None else np.asarray(low, float)
+    high = problem.bounds[1] if high is None else np.asarray(high, float)
+    while tree.num_nodes < nodes:
+        tree.extend(rng.uniform(low, high))
+    assert tree.best_node < 0
+    return tree
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+def test_a_resumed_phase_grows_the_same_tree_in_both_loops(robot):
+    rng = np.random.default_rng(5)
+    problem = generate_problem(robot, rng, "challenging")
+    runs = []
+    for compiled_loop in (True, False):
+        tree = _classical_tree(problem, 3, 40)
+        closest = closest_approach_sq(tree)
+        policy = load_policy(robot, noise_std=0.05)
+        policy.reset(problem, seed=1)
+        planner_rng = np.random.default_rng(1)
+        limits = AttentionLimits(1500, 1500, 150_000, 30)
+        outcome = run_attention_phase(
+            tree, policy, planner_rng, 0.05, limits, compiled_loop, resumed=True
+        )
+        runs.append((tree, outcome, planner_rng.random(), policy.rng.random()))
+        assert closest_approach_sq(tree) <= closest
+    (tree_c, out_c, *draws_c), (tree_p, out_p, *draws_p) = runs
+    _assert_same_tree(tree_c, tree_p)
+    assert (out_c.stop, out_c.policy_calls) == (out_p.stop, out_p.policy_calls)
+    assert draws_c == draws_p
+
+
+def test_a_resumed_phase_counts_progress_from_the_trees_closest_approach(wall):
+    problem = Problem.from_dict(wall)
+    region = ([6.0, 6.0], [9.0, 14.0])  # left of the wall, within 13 of the goal
+    grown = _classical_tree(problem, 0, 300, *region)
+    offsets = grown.positions[: grown.num_nodes] - problem.goal
+    assert closest_approach_sq(grown) == pytest.approx(np.min(np.sum(offsets**2, axis=1)))
+    ends = {}
+    for resumed in (False, True):
+        tree = _classical_tree(problem, 0, 300, *region)
+        limits = AttentionLimits(3000, 3000, 300_000, 25)
+        outcome = run_attention_phase(
+            tree, Stuck(), np.random.default_rng(0), 0.0, limits, resumed=resumed
+        )
+        assert outcome.stop == "stalled"
+        ends[resumed] = tree.num_nodes - 300
+    # The stuck policy heads for the far corner from the newest node. From the start's
+    # distance (16), its first node counts as progress; from the tree's closest approach
+    # (near the wall) none does, so the resumed phase stalls after exactly `patience` nodes.
+    assert ends[True] == 25 and ends[False] > ends[True]
+
+
+def test_a_stalled_phase_resumes_after_classical_planning_until_the_first_solution(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=0, max_nodes=3000, stop_at_first=True, goal_bias=0.0,
+                  attention_patience=30)  # fmt: skip
+    resumed = plan(problem, policy=Stuck(), attention_resume=0.5, **kwargs)
+    assert resumed.success and resumed.attention["stop"] == "stalled"
+    assert resumed.attention["resumes"] >= 1
+    patient = plan(problem, policy=Stuck(), attention_resume=100, **kwargs)
+    assert patient.success and patient.attention["resumes"] == 0  # classical planning solved it
+    never = plan(problem, policy=Stuck(), attention_resume=0, **kwargs)
+    assert never.success and never.attention["resumes"] == 0
+    # the first phase is the same
+    assert resumed.attention == {**never.attention, "resumes": ANY, "time": ANY}
+    assert resume_nodes(30, 0.5) == 15 and resume_nodes(30, 1e-9) == 1
+    assert resume_nodes(200, 1e300) == resume_nodes(200, 1e301)  # held to the largest budget
+
+
+def test_attention_resume_comes_from_plan_else_the_policy_and_is_checked(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=0, max_nodes=3000, stop_at_first=True,
+                  attention_patience=30)  # fmt: skip
+
+    class Declaring(Stuck):
+        attention_resume = 0.0
+
+    declared = plan(problem, policy=Declaring(), **kwargs)
+    assert declared.attention["resumes"] == 0
+    assert declared.nodes == plan(problem, policy=Stuck(), attention_resume=0, **kwargs).nodes
+    Declaring.attention_resume = -1.0
+    with pytest.raises(ValueError, match="policy.attention_resume"):
+        plan(problem, policy=Declaring(), **kwargs)
+    for bad in (-0.5, float("nan"), float("inf"), True, "once"):
+        with pytest.raises(ValueError, match="attention_resume"):
+            plan(problem, policy=Stuck(), attention_resume=bad, **kwargs)
+    with pytest.raises(ValueError, match="attention_resume"):
+        TEMPPolicy(load_policy("point2d").core, attention_resume=-1)
 
 
 def test_default_patience_grows_with_the_distance_in_steps(wall):

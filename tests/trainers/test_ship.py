@@ -145,7 +145,14 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     assert "How they were chosen: on validation." in card
     assert card.split("## Data")[1] == card_before.split("## Data")[1]  # the rest stays
     assert registry.policy_from_checkpoint(path).attention_follow_fallback == 0.25
+    assert "(the planner's default, `temp_gym.planning.attention.RESUME_AFTER`)" in card
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_resume=0", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).attention_resume == 0.0
+    assert "After a stall, classical planning keeps the rest of the budget." in (
+        path.with_suffix(".md").read_text()
+    )
     for bad, message in [
+        ("attention_resume=-1", "attention_resume"),
         ("attention_follow_fallback=2", "attention_follow_fallback"),
         ("noise_std=-1", "noise_std"),
         ("colour=red", "key=value"),
@@ -154,6 +161,6 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         with pytest.raises(SystemExit, match=message):
             ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
-    assert unchanged["planner"] == checkpoint["planner"]
+    assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 0}
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
