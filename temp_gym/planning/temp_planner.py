@@ -65,7 +65,7 @@ from temp_gym.planning.attention import (
     resume_nodes,
     run_attention_phase,
 )
-from temp_gym.planning.policy import SamplingPolicy, policy_settings
+from temp_gym.planning.policy import PolicySettings, SamplingPolicy, policy_settings
 from temp_gym.planning.result import (
     AnytimeLog,
     PlanResult,
@@ -123,12 +123,9 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         patience = declared.attention_patience
     if patience is None:
         patience = default_patience(problem, tree.step_size)
-    factor = settings.attention_near_goal_factor
-    if factor is None:  # the policy's own, checked as plan() checks its argument
-        factor = declared.attention_near_goal_factor
-        factor = (
-            1.0 if factor is None else near_goal_factor(factor, "policy.attention_near_goal_factor")
-        )
+    factor = _given_or_declared(
+        settings, declared, "attention_near_goal_factor", near_goal_factor, default=1.0
+    )
     near_sq, near_patience = (
         near_goal_limits(problem, patience, factor) if factor > 1 else (-1.0, 0)
     )
@@ -146,10 +143,10 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     uniform = settings.attention_uniform
     if uniform is None:
         uniform = declared.attention_uniform or 0.0
-    follow = settings.attention_follow_fallback
-    if follow is None:  # the policy's own, checked as plan() checks its argument
-        follow = declared.attention_follow_fallback
-        follow = 1.0 if follow is None else share(follow, "policy.attention_follow_fallback")
+    follow = _given_or_declared(settings, declared, "attention_follow_fallback", share, default=1.0)
+    resume = _given_or_declared(
+        settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
+    )
     outcome = run_attention_phase(
         tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow
     )
@@ -170,12 +167,6 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         log.record(tree.num_nodes, attention["time"], tree.best_cost)
 
     # ---- after a stall: classical planning and the resumed attention phase in turns
-    resume = settings.attention_resume
-    if resume is None:  # the policy's own, checked as plan() checks its argument
-        resume = declared.attention_resume
-        resume = (
-            RESUME_AFTER if resume is None else resume_factor(resume, "policy.attention_resume")
-        )
     if outcome.stop == "stalled" and resume > 0:
         attention["resumes"] = _resume_until_solved(
             tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
@@ -185,6 +176,25 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     # ---- classical planning: Informed RRT* on the same tree
     grow_anytime(tree, settings, rng, log, informed=True)
     return tree_plan_result(problem, tree, "temp", settings, log, attention=attention)
+
+
+def _given_or_declared(
+    settings: PlanSettings,
+    declared: PolicySettings,
+    name: str,
+    check: Callable[[object, str], float],
+    default: float,
+) -> float:
+    """Setting ``name``: ``plan()``'s (already checked), else the policy's, else ``default``.
+
+    A policy's declared value is checked as ``plan()`` checks its argument, naming it
+    ``policy.<name>``.
+    """
+    given = getattr(settings, name)
+    if given is not None:
+        return given
+    value = getattr(declared, name)
+    return default if value is None else check(value, f"policy.{name}")
 
 
 def _resume_until_solved(
