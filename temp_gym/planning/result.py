@@ -40,12 +40,21 @@ def _real(value: object, name: str, expected: str) -> float:
         raise ValueError(f"{name}: expected {expected}, got a number beyond float range") from None
 
 
+def _finite_at_least(value: object, name: str, least: float) -> float:
+    """``float(value)`` for a finite real number of at least ``least`` (not bool).
+
+    Anything else is a `ValueError` naming ``name``.
+    """
+    expected = f"a finite number of at least {least:g}"
+    number = _real(value, name, expected)
+    if not (math.isfinite(number) and number >= least):
+        raise ValueError(f"{name}: expected {expected}, got {value!r}")
+    return number
+
+
 def near_goal_factor(value: object, name: str = "attention_near_goal_factor") -> float:
     """A stall-patience factor near the goal: a finite real number of at least 1."""
-    factor = _real(value, name, "a finite number of at least 1")
-    if not (math.isfinite(factor) and factor >= 1.0):
-        raise ValueError(f"{name}: expected a finite number of at least 1, got {value!r}")
-    return factor
+    return _finite_at_least(value, name, 1.0)
 
 
 def resume_factor(value: object, name: str = "attention_resume") -> float:
@@ -54,10 +63,7 @@ def resume_factor(value: object, name: str = "attention_resume") -> float:
     It counts the classical nodes between a stall and the resumed attention phase in stall
     patiences (`PlanSettings.attention_resume`).
     """
-    factor = _real(value, name, "a finite number of at least 0")
-    if not (math.isfinite(factor) and factor >= 0.0):
-        raise ValueError(f"{name}: expected a finite number of at least 0, got {value!r}")
-    return factor
+    return _finite_at_least(value, name, 0.0)
 
 
 def seed_value(value: object, name: str = "seed") -> int:
@@ -69,10 +75,7 @@ def seed_value(value: object, name: str = "seed") -> int:
 
 def noise_level(value: object, name: str = "noise_std") -> float:
     """A standard deviation of output noise: a finite real number of at least 0 (not bool)."""
-    level = _real(value, name, "a finite number of at least 0")
-    if not (math.isfinite(level) and level >= 0.0):
-        raise ValueError(f"{name}: expected a finite number of at least 0, got {value!r}")
-    return level
+    return _finite_at_least(value, name, 0.0)
 
 
 def share(value: object, name: str) -> float:
