@@ -228,3 +228,93 @@ def test_checkers_share_the_robot_geometry_but_not_its_arrays():
     np.testing.assert_array_equal(
         IiwaSphereChecker(joint_limits(), *boxes).states_free(states), expected
     )
+
+
+def _box_distances(checker, poses, j):
+    """fcl distances of link j's oriented box, hull and mesh to every box, no pruning."""
+    import fcl
+
+    from temp_gym.worlds.collision.iiwa_exact import _transform
+
+    request = fcl.DistanceRequest()
+    hull_pose = poses[j].copy()
+    hull_pose[:3, 3] += hull_pose[:3, :3] @ checker._local_center[j]
+    checker._link_boxes[j].setTransform(_transform(hull_pose))
+    checker._link_hulls[j].setTransform(_transform(poses[j]))
+    checker._links[j].setTransform(_transform(poses[j]))
+    return np.array(
+        [
+            [max(fcl.distance(shape, box, request, fcl.DistanceResult()), 0.0) for box in
+             checker._boxes]
+            for shape in (checker._link_boxes[j], checker._link_hulls[j], checker._links[j])
+        ]
+    )  # fmt: skip
+
+
+def test_box_clearances_are_the_tiered_minimum_over_every_box_and_bound_the_meshes(workspaces):
+    from temp_gym.worlds.collision.iiwa_exact import (
+        DISTANCE_TOLERANCE,
+        EXACT_DISTANCE_BELOW,
+        MESH_DISTANCE_BELOW,
+    )
+    from temp_gym.worlds.iiwa14.kinematics import forward_kinematics
+
+    rng = np.random.default_rng(3)
+    links = np.arange(1, 8)
+    tiers = np.zeros(3, dtype=int)
+    for workspace in workspaces:
+        _, exact = _checkers(workspace)
+        for state in rng.uniform(LIMITS[0], LIMITS[1], size=(40, 7)):
+            poses = forward_kinematics(state)[0]
+            pruned = exact._clearances(poses, links)
+            gaps = exact._aabb_gaps(poses)
+            for j in links:
+                box, hull, mesh = _box_distances(exact, poses, j)
+                hull = np.maximum(hull - DISTANCE_TOLERANCE, 0.0)
+                tiered = np.where(
+                    box >= EXACT_DISTANCE_BELOW,
+                    box,
+                    np.where(hull >= MESH_DISTANCE_BELOW, hull, mesh),
+                )
+                assert pruned[j] == tiered.min()  # pruning leaves out no box that matters
+                assert pruned[j] <= mesh.min()  # a lower bound on the mesh's distance
+                assert np.all(gaps[j] <= box + 1e-12)  # the pruning bound is a lower bound
+                which = np.argmin(tiered)
+                tiers[0 if box[which] >= EXACT_DISTANCE_BELOW else
+                      1 if hull[which] >= MESH_DISTANCE_BELOW else 2] += 1  # fmt: skip
+    assert np.all(tiers > 20), tiers  # every tier decided some clearances
+
+
+def test_lazy_step_equals_measuring_every_link_and_pair(workspaces):
+    """`_advance` measures few links and pairs but returns what measuring all of them gives."""
+    from temp_gym.worlds.collision.iiwa_exact import EXACT_DISTANCE_BELOW, MIN_CLEARANCE
+    from temp_gym.worlds.iiwa14.kinematics import forward_kinematics
+
+    rng = np.random.default_rng(8)
+    checked = blocked = 0
+    for workspace in workspaces:
+        _, exact = _checkers(workspace)
+        for _ in range(60):
+            start = rng.uniform(LIMITS[0], LIMITS[1])
+            delta = rng.normal(0, 0.3, size=7) * (rng.random(7) < 0.7)  # some joints still
+            sweep = np.abs(delta) @ exact._motion_radii
+            moving = np.flatnonzero(sweep > 0)
+            pair_sweep = exact._pair_motion @ np.abs(delta)
+            moving_pairs = np.flatnonzero(pair_sweep > 0)
+            if len(moving) + len(moving_pairs) == 0:
+                continue
+            poses = forward_kinematics(start)[0]
+            advance, closest = exact._advance(poses, moving, sweep, moving_pairs, pair_sweep)
+            links = exact._clearances(poses, moving)[moving]
+            pairs = exact._hulls.clearances(poses, EXACT_DISTANCE_BELOW)[moving_pairs]
+            every = min(links.min(initial=np.inf), pairs.min(initial=np.inf))
+            assert (closest <= MIN_CLEARANCE) == (every <= MIN_CLEARANCE)
+            if every <= MIN_CLEARANCE:
+                blocked += 1
+                continue
+            assert advance == min(
+                np.min(links / sweep[moving], initial=np.inf),
+                np.min(pairs / pair_sweep[moving_pairs], initial=np.inf),
+            )
+            checked += 1
+    assert checked > 150 and blocked > 20, (checked, blocked)

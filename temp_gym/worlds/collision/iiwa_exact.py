@@ -25,8 +25,10 @@ rate ``W_ab = sum_{a <= i < b} |b_i - a_i| R[i, b]`` (at most ``W_a + W_b``), so
 padded clearance ``d_ab`` cannot touch while ``t`` advances by less than ``d_ab / W_ab``
 (`temp_gym.worlds.iiwa14.kinematics.relative_motion_radii`). The checker walks
 the segment with steps of ``0.9`` times the smallest of these; ``d_j`` is the fcl mesh-box
-distance, or, for boxes farther than ``EXACT_DISTANCE_BELOW``, the (cheaper, smaller) distance
-from the link's oriented bounding box, and ``d_ab`` the hull distance or, for far pairs, the
+distance where the link is within ``MESH_DISTANCE_BELOW`` of a box, and otherwise a cheaper,
+smaller bound: the distance from the link's convex hull, or, for boxes farther than
+``EXACT_DISTANCE_BELOW``, from its oriented bounding box (boxes whose world-AABB gap rules
+them out are not measured at all); ``d_ab`` is the hull distance or, for far pairs, the
 distance between the hulls' bounding spheres. It gives up, returning *not free*, when a
 clearance drops to ``MIN_CLEARANCE`` or after ``max_steps`` steps: the answer is then "not
 certified", which is what a certifier must say when unsure.
@@ -40,7 +42,12 @@ import fcl
 import numpy as np
 
 from temp_gym.worlds.collision.iiwa_inputs import as_bounds, as_boxes, as_state, as_states
-from temp_gym.worlds.collision.iiwa_self import SELF_COLLISION_GAP, LinkHulls
+from temp_gym.worlds.collision.iiwa_self import (
+    DISTANCE_TOLERANCE,
+    SELF_COLLISION_GAP,
+    LinkHulls,
+    hull_models,
+)
 from temp_gym.worlds.iiwa14.acm import enabled_pairs, link_name
 from temp_gym.worlds.iiwa14.kinematics import (
     NUM_LINKS,
@@ -54,7 +61,9 @@ from temp_gym.worlds.iiwa14.kinematics import (
 MIN_CLEARANCE = 1e-9
 """Clearance (m) at or below which a motion is not certified."""
 EXACT_DISTANCE_BELOW = 0.1
-"""Bounding-box clearances (m) below this are refined with fcl's mesh distance."""
+"""Bounding-box clearances (m) below this are refined with the link's convex hull."""
+MESH_DISTANCE_BELOW = 0.01
+"""Hull clearances (m) below this are refined with fcl's mesh distance."""
 STEP_SAFETY = 0.9
 """Fraction of the provably safe step taken, so that the motion never reaches a box."""
 
@@ -80,6 +89,22 @@ def _link_models() -> tuple[fcl.BVHModel, ...]:
     checker wraps it in collision objects of its own, which carry the poses.
     """
     return tuple(_mesh_model(vertices, faces) for vertices, faces in link_meshes())
+
+
+@functools.lru_cache(maxsize=1)
+def _link_bounds() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each link mesh's local bounding box (centers, half extents; 8 x 3) and motion radii.
+
+    Computed once per process from the meshes (read-only arrays): every checker, and `plan`
+    makes one per call to certify its path, shares them.
+    """
+    lows = np.array([vertices.min(axis=0) for vertices, _ in link_meshes()])
+    highs = np.array([vertices.max(axis=0) for vertices, _ in link_meshes()])
+    mesh_radii = np.array([np.linalg.norm(v, axis=1).max() for v, _ in link_meshes()])
+    arrays = ((lows + highs) / 2, (highs - lows) / 2, motion_radii(mesh_radii))
+    for array in arrays:
+        array.setflags(write=False)
+    return arrays
 
 
 @functools.lru_cache(maxsize=1)
@@ -137,18 +162,12 @@ class IiwaExactChecker:
             fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(c))
             for c, h in zip(self._box_center, self._box_half)
         ]
-        self._links, self._link_boxes = [], []
-        local_center, local_half = [], []
-        for model, (vertices, _faces) in zip(_link_models(), link_meshes()):
-            self._links.append(fcl.CollisionObject(model, fcl.Transform()))
-            lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-            local_center.append((lo + hi) / 2)
-            local_half.append((hi - lo) / 2)
-            self._link_boxes.append(fcl.CollisionObject(fcl.Box(*(hi - lo)), fcl.Transform()))
-        self._local_center = np.array(local_center)
-        self._local_half = np.array(local_half)
-        mesh_radii = np.array([np.linalg.norm(v, axis=1).max() for v, _ in link_meshes()])
-        self._motion_radii = motion_radii(mesh_radii)
+        self._link_hulls = [fcl.CollisionObject(model, fcl.Transform()) for model in hull_models()]
+        self._links = [fcl.CollisionObject(model, fcl.Transform()) for model in _link_models()]
+        self._local_center, self._local_half, self._motion_radii = _link_bounds()
+        self._link_boxes = [
+            fcl.CollisionObject(fcl.Box(*(2 * half)), fcl.Transform()) for half in self._local_half
+        ]
         self._pair_motion = relative_motion_radii(self._motion_radii, self._hulls.pairs)
         # link_0 never moves (its pose is the identity): test it once.
         self.base_free = not any(self._pair_collides(0, b) for b in range(len(self._boxes)))
@@ -189,35 +208,132 @@ class IiwaExactChecker:
             inside &= (states >= self._limits[0]) & (states <= self._limits[1])
         return np.all(inside, axis=1)
 
+    def _aabb_gaps(self, poses: np.ndarray) -> np.ndarray:
+        """``(8, M)`` distances from each link's world AABB to each box: cheap lower bounds.
+
+        The world AABB of a link's oriented bounding box contains that box, so its distance
+        to an obstacle is at most the oriented box's, and at most the mesh's.
+        """
+        rotations = poses[:, :3, :3]
+        centers = np.einsum("jik,jk->ji", rotations, self._local_center) + poses[:, :3, 3]
+        halves = np.einsum("jik,jk->ji", np.abs(rotations), self._local_half)
+        gap = np.abs(centers[:, None, :] - self._box_center) - halves[:, None, :]
+        gap = np.maximum(gap - self._box_half, 0.0)
+        return np.sqrt(np.einsum("jbk,jbk->jb", gap, gap))
+
     def _clearances(self, poses: np.ndarray, links: np.ndarray) -> np.ndarray:
-        """Lower bounds on each link's distance to the nearest box (``inf`` without boxes)."""
+        """Lower bounds on each link's distance to the nearest box (``inf`` without boxes).
+
+        Per box, the cheapest of three nested bounds that is informative: the fcl distance
+        of the link's oriented bounding box when it is at least `EXACT_DISTANCE_BELOW`, else
+        that of the link's convex hull (less fcl's GJK tolerance) when it is at least
+        `MESH_DISTANCE_BELOW`, else fcl's mesh distance. Each is a lower bound on the mesh
+        distance (box contains hull contains mesh), and where a link comes close to a box the
+        mesh distance itself is used, so certification still fails only on the meshes.
+        Link ``j``'s clearance is the minimum over the boxes. They are visited nearest first by
+        the world-AABB gap (`_aabb_gaps`, a lower bound on all three), and the visit stops at
+        the first box whose gap is no less than the clearance so far: the boxes left out
+        could not lower it, so fcl is called on the few boxes near the link.
+        """
         clearance = np.full(NUM_LINKS, np.inf)
-        request = fcl.DistanceRequest()
+        if not self._boxes:
+            return clearance
+        gaps = self._aabb_gaps(poses)
         for j in links:
-            hull = self._link_boxes[j]
-            pose = poses[j].copy()
-            pose[:3, 3] += pose[:3, :3] @ self._local_center[j]
-            hull.setTransform(_transform(pose))
-            bounds = np.array(
-                [fcl.distance(hull, box, request, fcl.DistanceResult()) for box in self._boxes]
-            )
-            bounds[bounds < 0] = 0.0  # fcl reports -1 for intersecting boxes
-            best = np.inf
-            posed = False
-            for b in np.argsort(bounds):
-                if bounds[b] >= best:
-                    break
-                if bounds[b] >= EXACT_DISTANCE_BELOW:
-                    best = bounds[b]
-                    break
-                if not posed:
-                    self._links[j].setTransform(_transform(poses[j]))
-                    posed = True
-                distance = fcl.distance(self._links[j], self._boxes[b], request,
-                                        fcl.DistanceResult())  # fmt: skip
-                best = min(best, distance if distance > 0 else 0.0)
-            clearance[j] = best
+            clearance[j] = self._link_clearance(poses, j, gaps[j])
         return clearance
+
+    def _link_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
+        """Link ``j``'s clearance of `_clearances`, given its world-AABB ``gaps`` (M,)."""
+        request = fcl.DistanceRequest()
+        best = np.inf
+        box_posed = hull_posed = mesh_posed = False
+        for b in np.argsort(gaps, kind="stable"):
+            # Every bound below is at least the gap less fcl's tolerance: stop once no box
+            # left can lower the clearance.
+            if gaps[b] - DISTANCE_TOLERANCE >= best:
+                break
+            if not box_posed:
+                pose = poses[j].copy()
+                pose[:3, 3] += pose[:3, :3] @ self._local_center[j]
+                self._link_boxes[j].setTransform(_transform(pose))
+                box_posed = True
+            bound = fcl.distance(self._link_boxes[j], self._boxes[b], request,
+                                 fcl.DistanceResult())  # fmt: skip
+            bound = max(bound, 0.0)  # fcl reports -1 for intersecting shapes
+            if bound >= best:
+                continue
+            if bound >= EXACT_DISTANCE_BELOW:
+                best = bound
+                continue
+            if not hull_posed:
+                self._link_hulls[j].setTransform(_transform(poses[j]))
+                hull_posed = True
+            bound = fcl.distance(self._link_hulls[j], self._boxes[b], request,
+                                 fcl.DistanceResult())  # fmt: skip
+            bound = max(bound - DISTANCE_TOLERANCE, 0.0)
+            if bound >= best:
+                continue
+            if bound >= MESH_DISTANCE_BELOW:
+                best = bound
+                continue
+            if not mesh_posed:
+                self._links[j].setTransform(_transform(poses[j]))
+                mesh_posed = True
+            distance = fcl.distance(self._links[j], self._boxes[b], request,
+                                    fcl.DistanceResult())  # fmt: skip
+            best = min(best, max(distance, 0.0))
+        return best
+
+    def _pair_clearance(self, poses: np.ndarray, p: int, sphere_clearance: float) -> float:
+        """Pair ``p``'s clearance of `LinkHulls.clearances` (its bounding spheres' given)."""
+        if sphere_clearance >= EXACT_DISTANCE_BELOW:
+            return sphere_clearance
+        a, b = self._hulls.pairs[p]
+        return self._hulls.distance(poses, a, b) - SELF_COLLISION_GAP
+
+    def _advance(
+        self,
+        poses: np.ndarray,
+        moving: np.ndarray,
+        sweep: np.ndarray,
+        moving_pairs: np.ndarray,
+        pair_sweep: np.ndarray,
+    ) -> tuple[float, float]:
+        """``(advance, closest)`` at one pose of a segment: the largest safe step in ``t``.
+
+        ``advance`` is the minimum of clearance over motion rate over the moving links
+        (`_clearances`) and link pairs (`LinkHulls.clearances`); ``closest`` is the smallest
+        of those clearances, or a value above `MIN_CLEARANCE` when none is at or below it.
+        Both are what measuring every link and pair gives, but a link or pair is measured
+        only when its cheap lower bound (world-AABB gap, bounding spheres, less fcl's
+        tolerance) could still lower ``advance`` or reach `MIN_CLEARANCE`: most links are
+        far from every box compared with the one that limits the step.
+        """
+        bounds, rates, which = [], [], []
+        if len(moving):
+            gaps = self._aabb_gaps(poses)
+            bounds.extend(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
+            rates.extend(sweep[moving])
+            which.extend(int(j) for j in moving)
+        if len(moving_pairs):
+            spheres = self._hulls.sphere_gaps(poses)[moving_pairs] - SELF_COLLISION_GAP
+            bounds.extend(spheres - DISTANCE_TOLERANCE)
+            rates.extend(pair_sweep[moving_pairs])
+            which.extend(-1 - k for k in range(len(moving_pairs)))
+        bounds, rates = np.asarray(bounds), np.asarray(rates)
+        advance = closest = np.inf
+        for k in np.argsort(bounds / rates, kind="stable"):
+            if bounds[k] > MIN_CLEARANCE and bounds[k] / rates[k] >= advance:
+                continue
+            if which[k] >= 0:
+                value = self._link_clearance(poses, which[k], gaps[which[k]])
+            else:
+                pair = -1 - which[k]
+                value = self._pair_clearance(poses, moving_pairs[pair], spheres[pair])
+            closest = min(closest, value)
+            advance = min(advance, value / rates[k])
+        return float(advance), float(closest)
 
     # ------------------------------------------------------------------ protocol
     def states_free(self, states: np.ndarray) -> np.ndarray:
@@ -264,16 +380,10 @@ class IiwaExactChecker:
         t = 0.0
         for _ in range(self.max_steps):
             poses = forward_kinematics(start + t * delta)[0]
-            clearance = self._clearances(poses, moving)[moving]
-            pair_clearance = self._hulls.clearances(poses, EXACT_DISTANCE_BELOW)[moving_pairs]
-            closest = min(clearance.min(initial=np.inf), pair_clearance.min(initial=np.inf))
+            advance, closest = self._advance(poses, moving, sweep, moving_pairs, pair_sweep)
             if closest <= MIN_CLEARANCE:
                 return False
-            advance = min(
-                np.min(clearance / sweep[moving], initial=np.inf),
-                np.min(pair_clearance / pair_sweep[moving_pairs], initial=np.inf),
-            )
-            t += STEP_SAFETY * float(advance)
+            t += STEP_SAFETY * advance
             if t >= 1.0:
                 return True
         return False
@@ -296,4 +406,10 @@ class IiwaExactChecker:
         return all(self.edge_free(a, b) for a, b in zip(path[:-1], path[1:]))
 
 
-__all__ = ["EXACT_DISTANCE_BELOW", "MIN_CLEARANCE", "IiwaExactChecker", "base_link_collides"]
+__all__ = [
+    "EXACT_DISTANCE_BELOW",
+    "MESH_DISTANCE_BELOW",
+    "MIN_CLEARANCE",
+    "IiwaExactChecker",
+    "base_link_collides",
+]

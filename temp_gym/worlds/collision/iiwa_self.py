@@ -41,13 +41,28 @@ def _hull_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.Convex:
 
 
 @functools.lru_cache(maxsize=1)
-def _hull_models() -> tuple[fcl.Convex, ...]:
+def hull_models() -> tuple[fcl.Convex, ...]:
     """Each link's convex hull as fcl geometry, built once per process.
 
     The geometry never changes; every `LinkHulls` wraps it in collision objects of its own,
     which carry the poses.
     """
     return tuple(_hull_model(vertices, faces) for vertices, faces in link_hulls())
+
+
+@functools.lru_cache(maxsize=1)
+def _bounding_spheres() -> tuple[np.ndarray, np.ndarray]:
+    """Each hull's bounding sphere (box center, farthest vertex), for the broad phase.
+
+    ``(8, 3)`` centers and ``(8,)`` radii in the link frames, computed once per process
+    (read-only arrays).
+    """
+    hulls = link_hulls()
+    centers = np.array([(v.min(axis=0) + v.max(axis=0)) / 2 for v, _ in hulls])
+    radii = np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(hulls, centers)])
+    centers.setflags(write=False)
+    radii.setflags(write=False)
+    return centers, radii
 
 
 def _transform(pose: np.ndarray) -> fcl.Transform:
@@ -68,13 +83,8 @@ class LinkHulls:
 
     def __init__(self, pairs: np.ndarray) -> None:
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-        hulls = link_hulls()
-        self._objects = [fcl.CollisionObject(model, fcl.Transform()) for model in _hull_models()]
-        # Each hull's bounding sphere (box-center and farthest vertex) for the broad phase.
-        self._sphere_centers = np.array([(v.min(axis=0) + v.max(axis=0)) / 2 for v, _ in hulls])
-        self._sphere_radii = np.array(
-            [np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(hulls, self._sphere_centers)]
-        )
+        self._objects = [fcl.CollisionObject(model, fcl.Transform()) for model in hull_models()]
+        self._sphere_centers, self._sphere_radii = _bounding_spheres()
         self._request = fcl.DistanceRequest()
 
     def sphere_gaps(self, poses: np.ndarray) -> np.ndarray:
@@ -120,4 +130,4 @@ class LinkHulls:
         return clearance
 
 
-__all__ = ["DISTANCE_TOLERANCE", "SELF_COLLISION_GAP", "LinkHulls"]
+__all__ = ["DISTANCE_TOLERANCE", "SELF_COLLISION_GAP", "LinkHulls", "hull_models"]
