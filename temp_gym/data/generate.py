@@ -24,10 +24,12 @@ budget, up to that many attempts), steering with
 path with the exact checker; a plan without a certified path counts as failed and is not
 stored.
 
-Budgets (``configs/*.yaml``) are sized so a paper-scale dataset (100 workspaces x 200 tasks)
-takes at most 20 min (2D, 3D) or 60 min (7D) on 2 cores: 2D 2000 nodes with a 2.0 step,
+Budgets (``configs/*.yaml``) are sized so a paper-scale dataset (about 20,000 plans) takes
+at most 20 min (2D, 3D) or about 80 min (7D) on 2 cores: 2D 2000 nodes with a 2.0 step,
 3D 1500 nodes with a 3.0 step (a longer expert step refines much faster in 3D: mean cost
-within ~2% of a 10,000-node run), 7D 1000 nodes with the env's 0.5 rad step.
+within ~2% of a 10,000-node run), 7D 1500 nodes with the env's 0.5 rad step and 3 attempts
+(1500, 6000, 24,000 nodes; the arm's trees scan every node, so a fourth attempt's 96,000
+nodes would cost minutes on each task no attempt solves).
 ``benchmarks/demonstrations.py`` measures the per-plan cost of a config.
 """
 

@@ -245,44 +245,33 @@ class IiwaExactChecker:
 
     def _link_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
         """Link ``j``'s clearance of `_clearances`, given its world-AABB ``gaps`` (M,)."""
+        box_pose = poses[j].copy()
+        box_pose[:3, 3] += box_pose[:3, :3] @ self._local_center[j]
+        # (shape, its pose, what fcl may overshoot by, the bound that needs no finer shape)
+        tiers = (
+            (self._link_boxes[j], box_pose, 0.0, EXACT_DISTANCE_BELOW),
+            (self._link_hulls[j], poses[j], DISTANCE_TOLERANCE, MESH_DISTANCE_BELOW),
+            (self._links[j], poses[j], 0.0, 0.0),
+        )
+        posed = [False, False, False]
         request = fcl.DistanceRequest()
         best = np.inf
-        box_posed = hull_posed = mesh_posed = False
         for b in np.argsort(gaps, kind="stable"):
-            # Every bound below is at least the gap less fcl's tolerance: stop once no box
+            # Every tier's bound is at least the gap less fcl's tolerance: stop once no box
             # left can lower the clearance.
             if gaps[b] - DISTANCE_TOLERANCE >= best:
                 break
-            if not box_posed:
-                pose = poses[j].copy()
-                pose[:3, 3] += pose[:3, :3] @ self._local_center[j]
-                self._link_boxes[j].setTransform(_transform(pose))
-                box_posed = True
-            bound = fcl.distance(self._link_boxes[j], self._boxes[b], request,
-                                 fcl.DistanceResult())  # fmt: skip
-            bound = max(bound, 0.0)  # fcl reports -1 for intersecting shapes
-            if bound >= best:
-                continue
-            if bound >= EXACT_DISTANCE_BELOW:
-                best = bound
-                continue
-            if not hull_posed:
-                self._link_hulls[j].setTransform(_transform(poses[j]))
-                hull_posed = True
-            bound = fcl.distance(self._link_hulls[j], self._boxes[b], request,
-                                 fcl.DistanceResult())  # fmt: skip
-            bound = max(bound - DISTANCE_TOLERANCE, 0.0)
-            if bound >= best:
-                continue
-            if bound >= MESH_DISTANCE_BELOW:
-                best = bound
-                continue
-            if not mesh_posed:
-                self._links[j].setTransform(_transform(poses[j]))
-                mesh_posed = True
-            distance = fcl.distance(self._links[j], self._boxes[b], request,
-                                    fcl.DistanceResult())  # fmt: skip
-            best = min(best, max(distance, 0.0))
+            for tier, (shape, pose, tolerance, enough) in enumerate(tiers):
+                if not posed[tier]:
+                    shape.setTransform(_transform(pose))
+                    posed[tier] = True
+                found = fcl.distance(shape, self._boxes[b], request, fcl.DistanceResult())
+                bound = max(found - tolerance, 0.0)  # fcl reports -1 for intersecting shapes
+                if bound >= best:  # finer shapes are farther still: this box cannot lower it
+                    break
+                if bound >= enough:
+                    best = bound
+                    break
         return best
 
     def _pair_clearance(self, poses: np.ndarray, p: int, sphere_clearance: float) -> float:

@@ -1,0 +1,105 @@
+"""What certifying a returned 7D path costs: the exact checker on planners' paths, per path.
+
+    python benchmarks/certification.py [--tasks 60] [--paths paths.npz] [--repeats 3]
+
+`temp_gym.plan` certifies every path it returns with the exact checker (fcl on the iiwa's
+meshes and hulls, `temp_gym.worlds.collision.iiwa_exact`); on the arm that certification can
+be most of a plan call. This plans ``--tasks`` validation tasks of ``configs/7d.yaml`` with
+TEMP (the shipped policy) and Informed RRT* up to their first solutions, then times
+`certify_path` on each returned path (a new exact checker per call, as `plan` makes one; best
+of ``--repeats``) and reports per planner the mean and median milliseconds per path, the
+edges per path, and the mean whole `plan` call for scale.
+
+``--paths FILE`` stores the problems and paths the first time and reads them afterwards, so
+that two checkouts (say, before and after a change to the checker, run alternately) certify
+the very same paths.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym import plan, training
+from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.problem import Problem
+from temp_gym.worlds.checkers import certify_path
+
+PLANNERS = ("temp", "informed_rrt_star")
+
+
+def _planned(tasks: int, max_nodes: int) -> list[dict]:
+    """``[{planner, problem, path, plan_s}]`` for the validation tasks each planner solved."""
+    config = load_config("configs/7d.yaml")
+    problems = training.draw_problems(config, "val", tasks, config.train_eval.seed + 20_000)
+    plan(problems[0], planner="temp", seed=0, max_nodes=50)  # load kernels and the policy
+    runs = []
+    for seed, problem in enumerate(problems):
+        for planner in PLANNERS:
+            result = plan(problem, planner=planner, seed=seed, max_nodes=max_nodes,
+                          stop_at_first=True)  # fmt: skip
+            if result.success:
+                runs.append({"planner": planner, "problem": problem, "path": result.path,
+                             "plan_s": result.wall_time})  # fmt: skip
+    return runs
+
+
+def _save(runs: list[dict], path: Path) -> None:
+    records = [
+        {"planner": r["planner"], "problem": r["problem"].to_dict(), "path": r["path"].tolist(),
+         "plan_s": r["plan_s"]}
+        for r in runs
+    ]  # fmt: skip
+    path.write_text(json.dumps(records))
+
+
+def _load(path: Path) -> list[dict]:
+    records = json.loads(path.read_text())
+    return [
+        {"planner": r["planner"], "problem": Problem.from_dict(r["problem"]),
+         "path": np.asarray(r["path"]), "plan_s": r["plan_s"]}
+        for r in records
+    ]  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("--tasks", type=int, default=60, help="7D validation tasks")
+    parser.add_argument("--max-nodes", type=int, default=10_000, help="node budget per plan")
+    parser.add_argument("--paths", type=Path, default=None, help="store or reuse the paths")
+    parser.add_argument("--repeats", type=int, default=3, help="timed certifications per path")
+    args = parse_args(parser, argv)
+    if args.paths is not None and args.paths.exists():
+        runs = _load(args.paths)
+    else:
+        runs = _planned(args.tasks, args.max_nodes)
+        if args.paths is not None:
+            _save(runs, args.paths)
+    certify_path(runs[0]["problem"], runs[0]["path"])  # geometry and kernels loaded
+    seconds = [np.inf] * len(runs)
+    for _ in range(args.repeats):
+        for k, run in enumerate(runs):
+            started = time.perf_counter()
+            if not certify_path(run["problem"], run["path"]):
+                raise SystemExit(f"path {k} ({run['planner']}) is no longer certified")
+            seconds[k] = min(seconds[k], time.perf_counter() - started)
+    print(f"{len(runs)} paths, certification best of {args.repeats}\n")
+    print("| planner | paths | edges per path | certify mean / median (ms) | plan() mean (ms) |")
+    print("|---|---:|---:|---:|---:|")
+    for planner in PLANNERS:
+        mine = [k for k, run in enumerate(runs) if run["planner"] == planner]
+        if not mine:
+            continue
+        ms = [1e3 * seconds[k] for k in mine]
+        edges = statistics.mean(len(runs[k]["path"]) - 1 for k in mine)
+        whole = statistics.mean(1e3 * runs[k]["plan_s"] for k in mine)
+        print(f"| {planner} | {len(mine)} | {edges:.1f} | {statistics.mean(ms):.2f} / "
+              f"{statistics.median(ms):.2f} | {whole:.1f} |")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
