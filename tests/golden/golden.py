@@ -37,8 +37,20 @@ Then a stalled attention phase resumes after classical planning (``attention_res
 of the sample stalls: with that key left out, all 85 fingerprints were identical before and
 after, with resuming on and off. The eight were rewritten the same way.
 
-The test recomputes the whole sample, section by section (seconds once numba's caches are
-warm); ``python tests/golden/golden.py --check`` does the same and prints what differs.
+Then the fingerprints turned out to depend on the machine: a CI run on another CPU failed on
+the eight ``temp`` plans and the 7D evaluation record, and an AMD machine differed on those
+and on a 7D Informed RRT* plan. OpenBLAS picks
+its kernel for the CPU when it loads, and the MPT's products (numba's ``np.dot``) and Informed
+RRT*'s rotation (an SVD) round differently with each kernel. With the kernel the stored file
+was made with (``OPENBLAS_CORETYPE=SkylakeX``), all 85 fingerprints were identical on an AMD
+machine. So the fingerprints are now computed in a child process with OpenBLAS's Haswell
+kernel (AVX2 and FMA, which every x86-64 machine since 2013 has), and the ten that depend on
+it were rewritten under that kernel, all else identical. The numba code itself gave the same
+bits on Intel and AMD hosts (no kernel allows reassociation beyond LayerNorm's row sums).
+
+The test recomputes the whole sample, section by section, each in a child process with the
+kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
+does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
 
 The sample: in each world, evaluation test tasks and generated problems; every built-in
 planner (``rrt_star``, ``informed_rrt_star``, ``temp`` with the shipped policy) on them; an
@@ -53,6 +65,9 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
+import platform
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -64,6 +79,9 @@ ENV_IDS = {"point2d": "TEMP-2D-v0", "point3d": "TEMP-3D-v0", "kuka_iiwa14": "TEM
 PLANNERS = ("rrt_star", "informed_rrt_star", "temp")
 NODES = {"point2d": 400, "point3d": 400, "kuka_iiwa14": 300}
 TIME_KEYS = ("time", "wall")
+SECTIONS = ("problems", "plans", "env", "dataset", "evaluation")
+PINNED_ENV = {"OPENBLAS_CORETYPE": "Haswell"}
+"""What the fingerprints are computed under: OpenBLAS's kernel, which otherwise follows the CPU."""
 
 
 def digest(value) -> str:
@@ -203,16 +221,41 @@ def evaluation_records(found: dict[str, object]) -> dict[str, str]:
     return out
 
 
-def fingerprints() -> dict[str, dict[str, str]]:
-    """Every fingerprint of the sample, by section."""
-    found = problems()
-    return {
-        "problems": {name: digest(problem.to_dict()) for name, problem in found.items()},
-        "plans": plans(found),
-        "env": env_trees(),
-        "dataset": dataset(),
-        "evaluation": evaluation_records(found),
+def fingerprints(sections: tuple[str, ...] = SECTIONS) -> dict[str, dict[str, str]]:
+    """The fingerprints of the sample, by section (all of them by default)."""
+    found = problems() if {"problems", "plans", "evaluation"} & set(sections) else {}
+    compute = {
+        "problems": lambda: {name: digest(p.to_dict()) for name, p in found.items()},
+        "plans": lambda: plans(found),
+        "env": env_trees,
+        "dataset": dataset,
+        "evaluation": lambda: evaluation_records(found),
     }
+    return {section: compute[section]() for section in sections}
+
+
+def pinned_kernel_supported() -> bool:
+    """Whether this CPU runs OpenBLAS's Haswell kernel: x86-64 with AVX2 and FMA (Linux)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return False
+    try:
+        flags = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return False
+    line = next((line for line in flags.splitlines() if line.startswith("flags")), "")
+    return {"avx2", "fma"} <= set(line.split())
+
+
+def is_pinned() -> bool:
+    """Whether this process runs under `PINNED_ENV`."""
+    return all(os.environ.get(key) == value for key, value in PINNED_ENV.items())
+
+
+def run_pinned(argv: list[str]) -> subprocess.CompletedProcess:
+    """This script with ``argv`` in a child process under `PINNED_ENV` (output captured)."""
+    env = {**os.environ, **PINNED_ENV}
+    command = [sys.executable, str(Path(__file__).resolve()), *argv]
+    return subprocess.run(command, env=env, capture_output=True, text=True, check=False)
 
 
 def differences(found: dict[str, dict[str, str]], stored: dict[str, dict[str, str]]) -> list[str]:
@@ -229,16 +272,31 @@ STORED = Path(__file__).with_name("golden.json")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``--check``: compare with the stored fingerprints (exit 1 if they differ); ``OUT``: write."""
+    """``--check``: compare with the stored fingerprints (exit 1 if they differ); ``OUT``: write.
+
+    Runs itself again under `PINNED_ENV` unless it already does (numpy has loaded OpenBLAS by
+    the time this runs, too late to pin its kernel here).
+    """
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     action = parser.add_mutually_exclusive_group(required=True)
     action.add_argument("--check", action="store_true", help="compare with golden.json")
     action.add_argument("out", nargs="?", type=Path, help="write the fingerprints to this file")
+    parser.add_argument(
+        "--section", choices=SECTIONS, action="append", help="only these sections (repeatable)"
+    )
     args = parser.parse_args(argv)
-    if args.check:  # the whole sample against the stored fingerprints
-        lines = differences(fingerprints(), json.loads(STORED.read_text()))
+    if not is_pinned():
+        child = run_pinned(sys.argv[1:] if argv is None else argv)
+        print(child.stdout, end="")
+        print(child.stderr, end="", file=sys.stderr)
+        return child.returncode
+    sections = tuple(args.section or SECTIONS)
+    if args.check:  # the sample against the stored fingerprints
+        lines = differences(fingerprints(sections), json.loads(STORED.read_text()))
         print("\n".join(lines) or "identical")
         return 1 if lines else 0
+    if args.section:
+        parser.error("writing takes the whole sample: leave out --section")
     args.out.write_text(json.dumps(fingerprints(), indent=1, sort_keys=True) + "\n")
     return 0
 
