@@ -205,7 +205,7 @@ def main(argv: list[str] | None = None) -> dict:
             f"{follow:g} | {resume:g} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
-            f"{solved:.2f} | {row['success']:.2f} | {row['cost']:.2f} | "
+            f"{solved:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
             f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
             f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
             flush=True,
