@@ -274,13 +274,6 @@ class IiwaExactChecker:
                     break
         return best
 
-    def _pair_clearance(self, poses: np.ndarray, p: int, sphere_clearance: float) -> float:
-        """Pair ``p``'s clearance of `LinkHulls.clearances` (its bounding spheres' given)."""
-        if sphere_clearance >= EXACT_DISTANCE_BELOW:
-            return sphere_clearance
-        a, b = self._hulls.pairs[p]
-        return self._hulls.distance(poses, a, b) - SELF_COLLISION_GAP
-
     def _advance(
         self,
         poses: np.ndarray,
@@ -319,7 +312,9 @@ class IiwaExactChecker:
                 value = self._link_clearance(poses, which[k], gaps[which[k]])
             else:
                 pair = -1 - which[k]
-                value = self._pair_clearance(poses, moving_pairs[pair], spheres[pair])
+                value = self._hulls.pair_clearance(
+                    poses, moving_pairs[pair], spheres[pair], EXACT_DISTANCE_BELOW
+                )
             closest = min(closest, value)
             advance = min(advance, value / rates[k])
         return float(advance), float(closest)

@@ -125,9 +125,20 @@ class LinkHulls:
         """
         clearance = self.sphere_gaps(poses) - SELF_COLLISION_GAP
         for p in np.flatnonzero(clearance < exact_below):
-            a, b = self.pairs[p]
-            clearance[p] = self.distance(poses, a, b) - SELF_COLLISION_GAP
+            clearance[p] = self.pair_clearance(poses, p, clearance[p], exact_below)
         return clearance
+
+    def pair_clearance(
+        self, poses: np.ndarray, p: int, sphere_clearance: float, exact_below: float
+    ) -> float:
+        """Pair ``p``'s entry of `clearances`, given its padded bounding-sphere clearance.
+
+        For callers that measure pairs one at a time (the exact checker's lazy step).
+        """
+        if sphere_clearance >= exact_below:
+            return float(sphere_clearance)
+        a, b = self.pairs[p]
+        return self.distance(poses, a, b) - SELF_COLLISION_GAP
 
 
 __all__ = ["DISTANCE_TOLERANCE", "SELF_COLLISION_GAP", "LinkHulls", "hull_models"]
