@@ -99,19 +99,21 @@ def _at_least_a_sliver(fraction: float, total: float) -> float:
     return max(fraction, 1.0 / _FREE_VOLUME_SAMPLES) * total
 
 
-def free_volume_floor(problem: Problem, checker: CollisionChecker) -> float | None:
-    """A lower bound of `estimate_free_volume` that costs next to nothing, or None.
+def free_volume_floor(problem: Problem, checker: CollisionChecker) -> float:
+    """A lower bound of `estimate_free_volume` that costs next to nothing.
 
     From the checker's ``free_volume_floor()`` when it has one (the point robots': the bounds
-    less the sum of the boxes' volumes), clamped as `estimate_free_volume` clamps. `Tree` uses
-    it to put off the exact volume until a tree grows large enough for it to matter.
+    less the sum of the boxes' volumes), else the sliver `estimate_free_volume` never goes
+    below (``1 / _FREE_VOLUME_SAMPLES`` of the bounds: the iiwa's, whose free space only a
+    Monte Carlo estimate measures), clamped as `estimate_free_volume` clamps. `Tree` uses it
+    to put off the exact volume until a tree grows large enough for it to matter; in the
+    iiwa's seven dimensions even the sliver puts the radius at its cap for thousands of nodes.
     """
-    floor = getattr(checker, "free_volume_floor", None)
-    if floor is None:
-        return None
     low, high = problem.bounds
     total = float(np.prod(high - low))
-    return _at_least_a_sliver(float(floor()) / total, total)
+    floor = getattr(checker, "free_volume_floor", None)
+    fraction = 0.0 if floor is None else float(floor()) / total
+    return _at_least_a_sliver(fraction, total)
 
 
 def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
@@ -128,7 +130,7 @@ def workspace_free_volume(problem: Problem, checker: CollisionChecker) -> float:
     return _remembered(_FREE_VOLUME_CACHE, problem, checker, estimate_free_volume)
 
 
-def workspace_free_volume_floor(problem: Problem, checker: CollisionChecker) -> float | None:
+def workspace_free_volume_floor(problem: Problem, checker: CollisionChecker) -> float:
     """`free_volume_floor` for the default checker of ``problem``, remembered per workspace.
 
     Every `Tree` on a workspace whose exact volume it never needed asks for the floor again;
@@ -142,7 +144,7 @@ def _remembered(
 ) -> Any:
     """``compute(problem, checker)``, remembered in ``cache`` per workspace.
 
-    The last `_FREE_VOLUME_CACHE_SIZE` workspaces are kept (a value of None too).
+    The last `_FREE_VOLUME_CACHE_SIZE` workspaces are kept.
     """
     key = problem.workspace
     if key in cache:
@@ -260,8 +262,7 @@ class Tree:
                 self._gamma = self._radius_gamma(estimate_free_volume(problem, self.checker))
             elif problem.workspace not in _FREE_VOLUME_CACHE:  # else `gamma` reads the cache
                 floor = workspace_free_volume_floor(problem, self.checker)
-                if floor is not None:
-                    self._gamma_floor = self._radius_gamma(floor)
+                self._gamma_floor = self._radius_gamma(floor)
         else:
             self._gamma = self.rewire_factor * math.e * (1.0 + 1.0 / dim)
         capacity = max(int(capacity), 2)
@@ -333,8 +334,9 @@ class Tree:
         a lower bound of ``gamma`` already reaches the cap for every n up to ``capacity``
         (``log n / n`` is smallest at n = 2 or n = capacity), the exact ``gamma`` reaches it
         too and the radius is the cap either way: the bound stands in, and the exact free
-        volume (a coordinate-compression pass over the boxes, costly in 3D) is computed only
-        when a tree grows past that point. Same radii, so the same trees.
+        volume (a coordinate-compression pass over the boxes, costly in 3D; a Monte Carlo
+        estimate for the iiwa) is computed only when a tree grows past that point. Same radii,
+        so the same trees.
         """
         floor = self._gamma_floor
         if self._gamma is None and floor is not None:

@@ -152,7 +152,7 @@ def test_the_free_volume_floor_is_computed_once_per_workspace(problem_2d, monkey
     assert first._gamma_in_use == second._gamma_in_use
 
 
-@pytest.mark.parametrize("robot", ["point2d", "point3d"])
+@pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
 def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeypatch):
     """A tree on the volume's lower bound grows as the tree on the exact volume, node for node."""
     from temp_gym.planning import tree as tree_module
@@ -167,7 +167,7 @@ def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeyp
     sampler = UniformSampler(problem.bounds)
     rng_lazy, rng_eager = np.random.default_rng(5), np.random.default_rng(5)
     below_cap = set()
-    nodes = 6000 if robot == "point2d" else 3000
+    nodes = {"point2d": 6000, "point3d": 3000, "kuka_iiwa14": 1500}[robot]
     while lazy.num_nodes < nodes:
         lazy.extend_with_fallback(sampler.sample(rng_lazy), sampler, rng_lazy, 1000)
         eager.extend_with_fallback(sampler.sample(rng_eager), sampler, rng_eager, 1000)
@@ -182,6 +182,24 @@ def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeyp
     else:  # the cap binds throughout: the exact volume was never computed
         assert below_cap == {False} and lazy._gamma is None
         assert len(tree_module._FREE_VOLUME_CACHE) == 0
+
+
+def test_a_checker_without_a_floor_of_its_own_gets_the_sliver(problem_2d):
+    """The iiwa's checker measures no free volume; its floor is the least estimate there is."""
+    from temp_gym.planning import tree as tree_module
+    from temp_gym.worlds.checkers import make_checker
+    from temp_gym.worlds.generators import generate_problem
+
+    problem = generate_problem("kuka_iiwa14", np.random.default_rng(4), "easy")
+    checker = make_checker(problem)
+    assert not hasattr(checker, "free_volume_floor")
+    low, high = problem.bounds
+    sliver = float(np.prod(high - low)) / tree_module._FREE_VOLUME_SAMPLES
+    floor = tree_module.free_volume_floor(problem, checker)
+    assert floor == pytest.approx(sliver)
+    assert floor <= tree_module.estimate_free_volume(problem, checker)
+    point = make_checker(problem_2d)  # a floor of its own: at most its exact volume
+    assert tree_module.free_volume_floor(problem_2d, point) <= point.free_volume()
 
 
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])

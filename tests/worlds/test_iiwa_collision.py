@@ -146,6 +146,29 @@ def test_base_link_against_floor_is_exact():
     assert not IiwaExactChecker(LIMITS, *touching).states_free(np.zeros(7))[0]
 
 
+def test_base_link_suspects_are_the_boxes_a_base_sphere_touches(monkeypatch):
+    """`_base_free`'s array test picks exactly the boxes `sphere_hits_box` picks, in order."""
+    from temp_gym.worlds.collision import iiwa_exact, iiwa_fast
+    from temp_gym.worlds.collision.iiwa_fast_kernels import sphere_hits_box
+
+    centers, radii = iiwa_fast._robot_geometry()[2][0]  # link_0's spheres
+    rng = np.random.default_rng(8)
+    lower = rng.uniform(-0.6, 0.5, size=(400, 3))
+    boxes = np.hstack([lower + rng.uniform(0.01, 0.3, size=(400, 3)) / 2,
+                       rng.uniform(0.005, 0.15, size=(400, 3))])  # fmt: skip
+    expected = [
+        b for b in range(len(boxes))
+        if any(sphere_hits_box(*c, r, boxes, b) for c, r in zip(centers, radii))
+    ]  # fmt: skip
+    assert 0 < len(expected) < len(boxes)
+    seen = []
+    monkeypatch.setattr(iiwa_exact, "base_link_collides", lambda s: seen.append(s) or False)
+    assert iiwa_fast._base_free(boxes, centers, radii)
+    np.testing.assert_array_equal(seen[0], boxes[expected])
+    assert iiwa_fast._base_free(boxes[[b for b in range(400) if b not in expected]], centers,
+                                radii) and len(seen) == 1  # fmt: skip
+
+
 def test_without_boxes_only_self_collision_blocks():
     empty = (np.zeros((0, 3)), np.zeros((0, 3)))
     # In the middle half of every joint's range the arm cannot fold into itself.
