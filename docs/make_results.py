@@ -332,6 +332,10 @@ def main(argv: list[str] | None = None) -> Path:
         "the planners run does not bias their times; a section whose settings lack "
         "`warm_runs` was measured without them, TEMP then running first on each task and "
         "each baseline right after another planner on the same workspace. "
+        "Each timed run also starts on a workspace the planners have forgotten (the tree's "
+        "free volume, TEMP's occupancy grid and encoding: `fresh_workspaces`), as a user's "
+        "first plan on a new workspace; in a section whose settings lack `fresh_workspaces` "
+        "TEMP, first on each task, paid the tree's set-up and the baselines found it cached. "
         "A world's section may add the spread of its paired time ratios over more draws of "
         "test tasks (`--task-draws`): one draw of 100 tasks is the paper's protocol, and a few "
         "heavy-tailed tasks can move its paired ratio by a factor of two.",

@@ -95,6 +95,7 @@ def settings_from(
         curve_nodes=section.curve_nodes,
         seed=section.seed,
         warm_runs=section.warm_runs,
+        fresh_workspaces=section.fresh_workspaces,
     )
     return settings, section
 

@@ -45,6 +45,7 @@ from temp_gym.files import (
 )
 from temp_gym.jobs import JobError, estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
+from temp_gym.planning.tree import forget_workspace
 from temp_gym.planning.warmup import WARM_UP_NODES
 from temp_gym.problem import Problem
 from temp_gym.worlds.generators import generate_task
@@ -95,8 +96,18 @@ class EvaluationSettings:
     it: the planner's code and data in the CPU's caches. Without it the order biases the
     times: TEMP, first on each task, starts right after the previous task's OMPL runs, and
     each baseline right after another planner ran the same tree kernels on the same
-    workspace. Per-workspace caches (the occupancy grid, the EISE encoding, the free volume)
-    are left as they are: the warm-up problem is in a workspace no test task uses."""
+    workspace. It fills no per-workspace cache a timed run reads (the occupancy grid, the
+    EISE encoding, the free volume): the warm-up problem is in a workspace no test task
+    uses. Those caches are ``fresh_workspaces``' concern."""
+    fresh_workspaces: bool = True
+    """Before each timed run, what the planners keep per workspace is forgotten for the
+    task's workspace, so that every timed run pays its set-up as a user's first plan on a
+    new workspace does: `Tree`'s free volume and its floor
+    (`temp_gym.planning.tree.forget_workspace`), and a policy's encoding of it when the
+    policy has ``forget_workspace`` (`TEMPPolicy`: the SEI and the occupancy grids). Without
+    it only the first planner on a task, TEMP, pays the tree's set-up, the baselines find it
+    cached, and TEMP finds its encoding cached when the same worker planned in that
+    workspace before (test task ``i`` lives in workspace ``i mod 50``)."""
 
 
 def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
@@ -137,16 +148,30 @@ def warm_run(planner: str, policy, settings: EvaluationSettings) -> None:
     )  # fmt: skip
 
 
+def start_timed_run(planner: str, problem: Problem, policy, settings: EvaluationSettings) -> None:
+    """What comes before each timed run: its warm run, then a fresh workspace.
+
+    The settings' ``warm_runs`` and ``fresh_workspaces`` say which.
+    """
+    warm_run(planner, policy, settings)
+    if settings.fresh_workspaces:
+        forget_workspace(problem.workspace)
+        forget_policy_workspace = getattr(policy, "forget_workspace", None)
+        if forget_policy_workspace is not None:  # a TEMPPolicy: its SEI and grids
+            forget_policy_workspace(problem.workspace)
+
+
 def evaluate_task(
     problem: Problem, policy, settings: EvaluationSettings, with_curves: bool
 ) -> dict[str, Any]:
     """The record of one task: TEMP's AP figures and each baseline's figures at tolerance.
 
-    With ``settings.warm_runs`` each timed run follows a warm run of its planner.
+    Each timed run follows `start_timed_run`: a warm run of its planner (``warm_runs``), and
+    the workspace's tree set-up forgotten (``fresh_workspaces``).
     """
     seed = settings.seed
     record: dict[str, Any] = {"problem": problem.to_dict(), "planners": {}}
-    warm_run("temp", policy, settings)
+    start_timed_run("temp", problem, policy, settings)
     temp = plan(
         problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
@@ -169,7 +194,7 @@ def evaluate_task(
         target = tolerance_target(temp.cost, settings.tau)
         record["target_cost"] = target
         for name in settings.baselines:
-            warm_run(name, None, settings)
+            start_timed_run(name, problem, None, settings)
             result = plan(
                 problem, planner=name, seed=seed, max_nodes=settings.max_nodes,
                 time_limit=settings.time_limit, target_cost=target,

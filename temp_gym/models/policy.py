@@ -60,7 +60,7 @@ from temp_gym.planning.result import (
 )
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
-from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.encoding import clear_occupancy_grids, occupancy_grid
 from temp_gym.worlds.normalization import goal_radius_ratio, normalize
 
 if TYPE_CHECKING:  # PyTorch is imported when a model is built or run, not by this module
@@ -166,6 +166,11 @@ class PolicyCore:
         """
         with self._lock:
             self._sei.clear()
+
+    def forget(self, workspace: Workspace) -> None:
+        """Forget one workspace's SEI: the next plan in it encodes it again."""
+        with self._lock:
+            self._sei.pop(workspace, None)
 
     def sei_array(self, problem: Problem) -> np.ndarray:
         """`sei`'s float32 array alone: on a fast core no tensor is made (the planner's path)."""
@@ -405,6 +410,18 @@ class TEMPPolicy:
     def chunk(self) -> int:
         """Samples proposed per call of the model (`propose_chunk`): the ``horizon``."""
         return self.horizon
+
+    def forget_workspace(self, workspace: Workspace) -> None:
+        """Forget everything kept of ``workspace``: its SEI, and the occupancy grids.
+
+        The next `reset` to a problem in it encodes it again, as on a workspace never seen:
+        what the paper's protocol times (`temp_gym.evaluation.runner`, ``fresh_workspaces``).
+        The occupancy grids are cached by content, all together (`clear_occupancy_grids`).
+        """
+        self.core.forget(workspace)
+        clear_occupancy_grids()
+        if self.problem is not None and self.problem.workspace == workspace:
+            self.problem = None  # so that a reset to the same problem encodes it again
 
     def reset(self, problem: Problem, seed: int | None = None) -> None:
         """Encode the problem's workspace (cached per workspace); re-seed the noise if asked.

@@ -157,6 +157,18 @@ def _remembered(
     return value
 
 
+def forget_workspace(workspace: Workspace) -> None:
+    """Forget what `Tree` remembers of ``workspace`` (its free volume and the volume's floor).
+
+    The next `Tree` on it then pays that set-up again, as the first plan on a new workspace
+    does. The paper's protocol calls this before every timed run, so that each planner, not
+    only the first to run on a test task's workspace, is timed as a user's first plan there
+    (`temp_gym.evaluation.runner`, ``fresh_workspaces``).
+    """
+    _FREE_VOLUME_CACHE.pop(workspace, None)
+    _FREE_VOLUME_FLOOR_CACHE.pop(workspace, None)
+
+
 class Sampler(Protocol):
     """Anything that draws one configuration from an explicit generator."""
 

@@ -40,6 +40,11 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     return _grid(key).copy()  # a fresh array: callers may write to it
 
 
+def clear_occupancy_grids() -> None:
+    """Forget every cached grid: the next `occupancy_grid` of each workspace computes it."""
+    _grid.cache_clear()
+
+
 @functools.lru_cache(maxsize=128)
 def _grid(key: tuple) -> np.ndarray:
     """The grid of a (region, obstacles, resolution) key, computed once per key.

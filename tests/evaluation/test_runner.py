@@ -76,6 +76,52 @@ def test_each_timed_run_follows_a_warm_run_of_its_planner_that_changes_no_result
     assert without_times(records[True]) == without_times(records[False])
 
 
+def test_each_timed_run_starts_on_a_workspace_nothing_remembers(monkeypatch):
+    """With ``fresh_workspaces`` no timed run finds the task's workspace in a planner's cache:
+    neither the tree's free volume nor TEMP's encoding; the records are the same either way."""
+    from temp_gym.evaluation import runner
+    from temp_gym.models.registry import load_policy
+    from temp_gym.planning import tree as tree_module
+
+    problem = evaluation_problem("point2d", "easy", 1)
+    policy = load_policy("TEMP-2D-v0")
+    seen = []
+
+    def recording(planned, planner="temp", **kwargs):
+        if planned is problem:  # a timed run
+            space = planned.workspace
+            seen.append(
+                (
+                    planner,
+                    space in tree_module._FREE_VOLUME_FLOOR_CACHE
+                    or space in tree_module._FREE_VOLUME_CACHE,
+                    space in policy.core._sei,
+                )
+            )
+        return plan(planned, planner=planner, **kwargs)
+
+    monkeypatch.setattr(runner, "plan", recording)
+    records = {}
+    for fresh in (True, False):
+        for _ in range(2):  # the second pass meets the workspace again
+            seen.clear()
+            records[fresh] = evaluate_task(
+                problem, policy, settings(fresh_workspaces=fresh), with_curves=False
+            )
+        # the policy's encoding matters to TEMP's run alone
+        remembered = [tree or (sei and name == "temp") for name, tree, sei in seen]
+        assert [name for name, *_ in seen] == ["temp", "rrt_star", "informed_rrt_star"]
+        assert not any(remembered) if fresh else all(remembered)
+
+    def without_times(record):
+        return {
+            name: {key: value for key, value in figures.items() if key != "time"}
+            for name, figures in record["planners"].items()
+        }
+
+    assert without_times(records[True]) == without_times(records[False])
+
+
 def test_evaluation_is_resumable_and_reports(tmp_path):
     records = run_evaluation(settings(), make_policy, tmp_path, workers=1, progress=False)
     assert len(records) == 4

@@ -316,6 +316,33 @@ def test_clear_encodings_makes_the_next_reset_encode_the_workspace_again(small_m
     np.testing.assert_array_equal(third._sei_array, first._sei_array)
 
 
+def test_forget_workspace_makes_the_next_reset_encode_it_again(small_model, monkeypatch):
+    from temp_gym.worlds import encoding
+
+    other = Problem.from_dict({**PROBLEM.to_dict(), "start": [3, 17], "goal": [17, 3]})
+    policy = TEMPPolicy(small_model)
+    policy.reset(PROBLEM)
+    kept = policy._sei_array.copy()
+    encodings = []
+    encode = policy.core._encode
+
+    def counted_encode(occupancy):
+        encodings.append(occupancy)
+        return encode(occupancy)
+
+    monkeypatch.setattr(policy.core, "_encode", counted_encode)
+    policy.reset(other)  # the same workspace: its encoding is remembered
+    assert encodings == []
+    policy.forget_workspace(PROBLEM.workspace)
+    assert encoding._grid.cache_info().currsize == 0  # the grids are forgotten too
+    policy.reset(other)  # a problem in the forgotten workspace: encoded again
+    assert len(encodings) == 1 and encoding._grid.cache_info().misses == 1
+    policy.forget_workspace(PROBLEM.workspace)
+    policy.reset(other)  # even the problem the policy holds
+    assert len(encodings) == 2
+    np.testing.assert_array_equal(policy._sei_array, kept)
+
+
 def test_observations_a_policy_cannot_read_are_named_not_crashed_on(small_model):
     policy = TEMPPolicy(small_model)
     observation = _observation()

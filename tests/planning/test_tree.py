@@ -152,6 +152,23 @@ def test_the_free_volume_floor_is_computed_once_per_workspace(problem_2d, monkey
     assert first._gamma_in_use == second._gamma_in_use
 
 
+def test_a_forgotten_workspace_pays_its_set_up_again_and_gets_the_same_tree(
+    problem_2d, monkeypatch
+):
+    from temp_gym.planning.tree import forget_workspace
+
+    floors = _count_calls(monkeypatch, "free_volume_floor")
+    first = Tree(problem_2d)
+    Tree(problem_2d)
+    assert len(floors) == 1  # remembered
+    forget_workspace(problem_2d.workspace)
+    again = Tree(problem_2d)
+    assert len(floors) == 2  # paid again, as on a new workspace
+    assert again.gamma == first.gamma
+    forget_workspace(problem_2d.workspace)
+    forget_workspace(problem_2d.workspace)  # forgetting what is not remembered is no error
+
+
 @pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
 def test_the_exact_free_volume_waits_until_it_can_change_a_radius(robot, monkeypatch):
     """A tree on the volume's lower bound grows as the tree on the exact volume, node for node."""
