@@ -163,3 +163,35 @@ def test_the_free_volume_floor_is_a_lower_bound(robot):
     checker = checker_with(lower, upper, bounds=np.array([[0.0, 0.0], [10.0, 10.0]]))
     assert checker.free_volume() == pytest.approx(100.0 - 7.0 - 1.0)
     assert checker.free_volume_floor() == pytest.approx(100.0 - 8.0 - 1.0)  # overlap twice
+
+
+def _numpy_floor(checker: PointBoxChecker) -> float:
+    """The floor's formula in numpy, as `PointBoxChecker` computed it before it was compiled."""
+    low, high = checker._lower_bounds, checker._upper_bounds
+    lower = np.clip(checker._box_lower, low, high)
+    upper = np.clip(checker._box_upper, low, high)
+    boxes = float(np.sum(np.prod(np.maximum(upper - lower, 0.0), axis=1)))
+    total = float(np.prod(high - low))
+    return total - boxes - 1e-9 * total
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_compiled_floor_is_numpys_formula_to_the_bit(dim):
+    """Box counts across numpy's summation regimes (< 8, <= 128, split), boxes past the bounds."""
+    rng = np.random.default_rng(dim)
+    for count in [0, 1, 7, 8, 9, 15, 16, 17, 64, 127, 128, 129, 300, 1000]:
+        for _ in range(5):
+            lower = rng.uniform(-5.0, 22.0, (count, dim))
+            upper = lower + rng.uniform(0.0, 6.0, (count, dim))
+            bounds = np.array([[0.0] * dim, [20.0] * dim])
+            checker = PointBoxChecker(bounds, lower, upper)
+            assert checker.free_volume_floor() == _numpy_floor(checker)
+
+
+def test_numpy_sum_written_out_equals_numpys_sum():
+    from temp_gym.worlds.collision.point import _numpy_sum
+
+    rng = np.random.default_rng(0)
+    for count in list(range(300)) + [1000, 4099]:
+        values = rng.standard_normal(count) * rng.uniform(0.1, 100.0, count)
+        assert _numpy_sum(values, 0, count) == float(np.sum(values))

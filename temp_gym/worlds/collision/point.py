@@ -203,6 +203,107 @@ def union_volume(
     return float(_union_volume(lower, upper))
 
 
+@numba.njit(cache=True, nogil=True)
+def _block_sum(values, start, count):
+    """numpy's pairwise summation of at most 128 values (`_numpy_sum`'s leaves)."""
+    if count < 8:
+        total = 0.0
+        for i in range(start, start + count):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = start + 8
+    blocks_end = start + count - count % 8
+    while i < blocks_end:
+        r0 += values[i]
+        r1 += values[i + 1]
+        r2 += values[i + 2]
+        r3 += values[i + 3]
+        r4 += values[i + 4]
+        r5 += values[i + 5]
+        r6 += values[i + 6]
+        r7 += values[i + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < start + count:
+        total += values[i]
+        i += 1
+    return total
+
+
+def _split(count: int) -> int:
+    """Where numpy's pairwise summation splits ``count`` values: half, less half mod 8."""
+    half = count // 2
+    return half - half % 8
+
+
+_split_compiled = numba.njit(cache=True, nogil=True)(_split)
+
+
+@numba.njit(cache=True, nogil=True)
+def _numpy_sum(values, start, count):
+    """``np.sum(values[start:start + count])`` to the bit: numpy's pairwise summation.
+
+    Fewer than 8 values are added in order; up to 128 go to eight running sums combined as
+    ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))``, then the remainder in order; more
+    are split in two (`_split`) and the halves' sums added. Written out so that a compiled
+    caller gets the value numpy computes, not merely a close one. The halving runs on an
+    explicit stack: numba's cache does not load recursive functions safely.
+    """
+    if count <= 128:
+        return _block_sum(values, start, count)
+    depth = 64  # halving 2**63 values 64 times reaches a block
+    starts = np.empty(depth, np.int64)
+    counts = np.empty(depth, np.int64)
+    stages = np.empty(depth, np.int64)  # 0: not split yet; 1: left half running; 2: right
+    lefts = np.empty(depth)
+    starts[0], counts[0], stages[0] = start, count, 0
+    size = 1
+    value = 0.0
+    while True:
+        top = size - 1
+        if stages[top] == 0 and counts[top] <= 128:  # a block: its sum goes to its parent
+            value = _block_sum(values, starts[top], counts[top])
+            size -= 1
+        elif stages[top] == 0:  # split: the left half first
+            stages[top] = 1
+            starts[size], counts[size], stages[size] = starts[top], _split_compiled(counts[top]), 0
+            size += 1
+            continue
+        elif stages[top] == 1:  # the left half's sum is in: the right half next
+            lefts[top] = value
+            stages[top] = 2
+            half = _split_compiled(counts[top])
+            starts[size], counts[size], stages[size] = starts[top] + half, counts[top] - half, 0
+            size += 1
+            continue
+        else:  # both halves are in
+            value = lefts[top] + value
+            size -= 1
+        if size == 0:
+            return value
+
+
+@numba.njit(cache=True, nogil=True)
+def _volume_floor(lower_bounds, upper_bounds, box_lower, box_upper) -> float:
+    """`PointBoxChecker.free_volume_floor` in one compiled call, to the bit of numpy's formula."""
+    count, dim = box_lower.shape
+    volumes = np.empty(count)
+    for b in range(count):
+        volume = 1.0
+        for k in range(dim):
+            low = min(max(box_lower[b, k], lower_bounds[k]), upper_bounds[k])
+            high = min(max(box_upper[b, k], lower_bounds[k]), upper_bounds[k])
+            volume *= max(high - low, 0.0)
+        volumes[b] = volume
+    boxes = 0.0 + _numpy_sum(volumes, 0, count)
+    total = 1.0
+    for k in range(dim):
+        total *= upper_bounds[k] - lower_bounds[k]
+    return total - boxes - 1e-9 * total
+
+
 class PointBoxChecker:
     """Fast *and* exact checker for a point robot among axis-aligned boxes.
 
@@ -240,11 +341,9 @@ class PointBoxChecker:
         twice), less a margin of ``1e-9`` of the bounds for rounding, so the bound holds for the
         computed `free_volume` too. May be negative.
         """
-        lower = np.clip(self._box_lower, self._lower_bounds, self._upper_bounds)
-        upper = np.clip(self._box_upper, self._lower_bounds, self._upper_bounds)
-        boxes = float(np.sum(np.prod(np.maximum(upper - lower, 0.0), axis=1)))
-        total = float(np.prod(self._upper_bounds - self._lower_bounds))
-        return total - boxes - 1e-9 * total
+        return float(
+            _volume_floor(self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper)
+        )
 
     def compiled_context(self) -> tuple[np.ndarray, ...]:
         """Bounds and boxes for `temp_gym.worlds.collision.compiled.motion_free` (made once)."""
