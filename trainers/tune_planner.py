@@ -7,7 +7,8 @@ r"""Choose a policy's planner settings on validation workspaces: budget n, noise
 For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
 chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the
 goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
-going on from a fallback node (``--follow-fallback``) it plans ``--tasks``
+going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a
+proposal that collided (``--keep-chunk``) and the resume factor (``--resume``) it plans ``--tasks``
 tasks drawn from the ``val`` workspaces (seen in no test; the test workspaces stay untouched
 until the final measurement, ``--split test`` with the chosen setting) with the ``temp``
 planner up to the first solution, and prints nodes to the first solution (mean and median, a
@@ -112,6 +113,15 @@ def main(argv: list[str] | None = None) -> dict:
         "try (1: always, Algorithm 1)",
     )
     parser.add_argument(
+        "--keep-chunk",
+        type=int,
+        nargs="+",
+        choices=[0, 1],
+        default=[0],
+        help="after a chunk's proposal collided and a fallback node replaced it: go on with "
+        "the chunk (1) or call the policy again (0), to try",
+    )
+    parser.add_argument(
         "--resume",
         type=float,
         nargs="+",
@@ -175,17 +185,18 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | near goal | uniform | follow | resume | nodes mean "
+        "| n | noise | horizon | patience | near goal | uniform | follow | keep chunk | resume "
+        "| nodes mean "
         "| median "
         "| AP solved | success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
-        args.uniform, args.follow_fallback, args.resume,
+        args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
     )  # fmt: skip
-    for budget, noise, horizon, patience, factor, uniform, follow, resume in settings:
+    for budget, noise, horizon, patience, factor, uniform, follow, keep, resume in settings:
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
@@ -193,6 +204,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_uniform=uniform,
             attention_near_goal_factor=factor,
             attention_follow_fallback=follow,
+            attention_keep_chunk=bool(keep),
             attention_resume=resume,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
@@ -202,7 +214,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
-            f"{follow:g} | {resume:g} | "
+            f"{follow:g} | {keep} | {resume:g} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
@@ -214,7 +226,8 @@ def main(argv: list[str] | None = None) -> dict:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
-                    "attention_follow_fallback": follow, "attention_resume": resume}  # fmt: skip
+                    "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
+                    "attention_resume": resume}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

@@ -224,6 +224,9 @@ class TrainEvalConfig:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before the attention phase resumes after a stall
     (0: never); null: the policy's own, else the planner's default."""
+    attention_keep_chunk: bool | None = None
+    """After a chunk's proposal collided and a fallback node replaced it, go on with the
+    chunk (true) or call the policy again (false); null: false."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""

@@ -67,7 +67,8 @@ again); the policy proposed NaN or inf."""
 @numba.njit(cache=True, nogil=True)
 def attention_slice(
     arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer, cursor,
-    goal_bias, uniform, follow_fallback, weights, prefix_goal, prefix_z, prefix_qkv, noise_std,
+    goal_bias, uniform, follow_fallback, keep_chunk, weights, prefix_goal, prefix_z, prefix_qkv,
+    noise_std,
     noise_address, proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits,
     max_iterations,
 ):  # fmt: skip
@@ -84,6 +85,8 @@ def attention_slice(
         uniform: probability of a uniform sample instead of the policy's.
         follow_fallback: probability that the MPT goes on from a fallback node that brought
             the tree no closer to the goal.
+        keep_chunk: after a fallback node (a proposal collided), the chunk's next proposal
+            comes next (True) or a new MPT call (False).
         weights, prefix_goal, prefix_z, prefix_qkv, noise_std: the policy
             (`TEMPPolicy.compiled_proposer`).
         noise_address: the policy's noise generator, by address (drawn from only when
@@ -147,7 +150,7 @@ def attention_slice(
             )  # fmt: skip
             if node == BAD_ACTION:
                 return NOT_FINITE
-            if node < 0 or samples > 1:
+            if node < 0 or (samples > 1 and not keep_chunk):
                 state[PENDING] = 0
         if node >= 0:
             distance_sq = squared_distance(positions[node], goal)

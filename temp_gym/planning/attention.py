@@ -183,6 +183,7 @@ def run_attention_phase(
     uniform: float = 0.0,
     follow_fallback: float = 1.0,
     resumed: bool = False,
+    keep_chunk: bool = False,
 ) -> AttentionOutcome:
     """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
 
@@ -202,6 +203,9 @@ def run_attention_phase(
             grew: progress counts from the tree's closest approach to the goal instead of
             the start's. Either way the policy first reads the root path of the tree's
             newest node (the root itself on a new tree).
+        keep_chunk: when a proposal of a chunk collided and a fallback node replaced it, the
+            chunk's next proposal comes next (True); False drops the rest of the chunk and
+            calls the policy again. A one-sample policy is the same either way.
     """
     problem = tree.problem
     closest_sq = (
@@ -218,9 +222,12 @@ def run_attention_phase(
         )
     if can_compile and compiled_loop is not False:
         return _run_compiled(
-            tree, proposer, context, rng, goal_bias, uniform, follow_fallback, limits, closest_sq
-        )
-    return _run_python(tree, policy, rng, goal_bias, uniform, follow_fallback, limits, closest_sq)
+            tree, proposer, context, rng, goal_bias, uniform, follow_fallback, keep_chunk,
+            limits, closest_sq,
+        )  # fmt: skip
+    return _run_python(
+        tree, policy, rng, goal_bias, uniform, follow_fallback, keep_chunk, limits, closest_sq
+    )
 
 
 def closest_approach_sq(tree: Tree) -> float:
@@ -248,6 +255,7 @@ def _run_python(
     goal_bias: float,
     uniform: float,
     follow_fallback: float,
+    keep_chunk: bool,
     limits: AttentionLimits,
     closest_sq: float,
 ) -> AttentionOutcome:
@@ -311,7 +319,7 @@ def _run_python(
             result = tree.extend_with_fallback(
                 action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True
             )
-            if result.node < 0 or result.samples > 1:
+            if result.node < 0 or (result.samples > 1 and not keep_chunk):
                 chunk = None
         if result.node >= 0:
             distance_sq = squared_distance(tree.positions[result.node], goal)
@@ -345,6 +353,7 @@ def _run_compiled(
     goal_bias: float,
     uniform: float,
     follow_fallback: float,
+    keep_chunk: bool,
     limits: AttentionLimits,
     closest_sq: float,
 ) -> AttentionOutcome:
@@ -383,7 +392,8 @@ def _run_compiled(
         arrays, counters, best_cost, params = tree.compiled_state()
         status = compiled.attention_slice(
             arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer,
-            cursor, float(goal_bias), float(uniform), float(follow_fallback), weights,
+            cursor, float(goal_bias), float(uniform), float(follow_fallback), bool(keep_chunk),
+            weights,
             prefix_goal, prefix_z, prefix_qkv, noise_std, noise_address, proposals, chunk_out,
             path_rows, state, closest, near_sq, budget, iterations,
         )  # fmt: skip

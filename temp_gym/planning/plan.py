@@ -66,6 +66,7 @@ def plan(
     attention_near_goal_factor: float | None = None,
     attention_follow_fallback: float | None = None,
     attention_resume: float | None = None,
+    attention_keep_chunk: bool | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -123,6 +124,10 @@ def plan(
             adds this many stall patiences of nodes, then the attention phase resumes from
             the newest node, in turns until the first solution (None: the policy's own
             setting, else 1; 0: never, classical planning keeps the rest of the budget).
+        attention_keep_chunk: ``temp`` only, for a policy that proposes a chunk of samples per
+            call: after a proposal collided and a uniform fallback sample replaced it, go on
+            with the chunk's next proposal (True: fewer nodes to a first solution, costlier
+            paths) or call the policy again (False; None means False).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -141,7 +146,7 @@ def plan(
         attention_patience=attention_patience, attention_uniform=attention_uniform,
         attention_near_goal_factor=attention_near_goal_factor,
         attention_follow_fallback=attention_follow_fallback,
-        attention_resume=attention_resume,
+        attention_resume=attention_resume, attention_keep_chunk=attention_keep_chunk,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

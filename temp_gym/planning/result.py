@@ -138,6 +138,12 @@ class PlanSettings:
     sample that replaced a colliding proposal) which brought the tree no closer to the goal;
     otherwise the path so far it reads stays the one it read before (None: the policy's own
     setting, else 1: always, Algorithm 1's UpdatePath)."""
+    attention_keep_chunk: bool | None = None
+    """``temp`` planner, for a policy that proposes several samples per call (a chunk): when a
+    proposal collided and a uniform fallback sample replaced it, the attention phase goes on
+    with the chunk's next proposal (True) or drops the rest of the chunk and calls the policy
+    again (False; None means False). True reaches a first solution with fewer nodes and MPT
+    calls but costlier paths, so an anytime run takes longer to a good one (README)."""
     attention_resume: float | None = None
     """``temp`` planner: after the attention phase stalls, classical planning adds this many
     times the stall patience in nodes, then the attention phase resumes from the newest node,
@@ -185,6 +191,13 @@ class PlanSettings:
                 "attention_follow_fallback",
                 share(self.attention_follow_fallback, "attention_follow_fallback"),
             )
+        if self.attention_keep_chunk is not None:
+            if not isinstance(self.attention_keep_chunk, (bool, np.bool_)):
+                raise ValueError(
+                    "attention_keep_chunk: expected True, False or None, got "
+                    f"{self.attention_keep_chunk!r}"
+                )
+            normalize("attention_keep_chunk", bool(self.attention_keep_chunk))
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:

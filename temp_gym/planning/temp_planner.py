@@ -16,11 +16,14 @@
 7. stop as soon as a node lies in the goal region.
 
 Our additions to Algorithm 1, each with a setting that turns it off: the goal bias
-(``goal_bias=0``); chunked proposals, when the policy's MPT predicts several nodes per call;
-and the stall rule (``attention_patience=0``): when the tree's closest approach to the goal
-has not improved for ``attention_patience`` nodes, the policy has lost its way and classical
-planning takes over with the budget left, so TEMP degrades towards Informed RRT* instead of
-spending a whole budget in a trap. A policy may wait longer once the tree is near the goal
+(``goal_bias=0``); chunked proposals, when the policy's MPT predicts several nodes per call
+(used in turn until one collides and a fallback node replaces it; then the MPT is called
+again, unless ``attention_keep_chunk=True``, which goes on with the chunk: faster to a first
+solution, costlier paths); and the stall rule
+(``attention_patience=0``): when the tree's closest approach to the goal has not improved for
+``attention_patience`` nodes, the policy has lost its way and classical planning takes over
+with the budget left, so TEMP degrades towards Informed RRT* instead of spending a whole
+budget in a trap. A policy may wait longer once the tree is near the goal
 (``attention_near_goal_factor``; the shipped 3D policy does). A policy may also go on from
 its own last node instead of from a random fallback node that got no closer to the goal
 (``attention_follow_fallback`` below 1, `temp_gym.planning.attention`; no shipped policy
@@ -147,9 +150,11 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     resume = _given_or_declared(
         settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
     )
+    keep_chunk = bool(settings.attention_keep_chunk)  # None: False, the rule shipped policies use
     outcome = run_attention_phase(
-        tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow
-    )
+        tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow,
+        keep_chunk=keep_chunk,
+    )  # fmt: skip
     attention = {
         "solved": tree.best_node >= 0,
         "nodes": tree.num_nodes,
@@ -170,7 +175,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     if outcome.stop == "stalled" and resume > 0:
         attention["resumes"] = _resume_until_solved(
             tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
-            uniform, follow,
+            uniform, follow, keep_chunk,
         )  # fmt: skip
 
     # ---- classical planning: Informed RRT* on the same tree
@@ -207,6 +212,7 @@ def _resume_until_solved(
     classical_nodes: int,
     uniform: float,
     follow: float,
+    keep_chunk: bool,
 ) -> int:
     """After a stall: ``classical_nodes`` of Informed RRT*, then the attention phase again.
 
@@ -229,7 +235,7 @@ def _resume_until_solved(
             return resumes
         outcome = run_attention_phase(
             tree, policy, rng, settings.goal_bias, limits, uniform=uniform,
-            follow_fallback=follow, resumed=True,
+            follow_fallback=follow, resumed=True, keep_chunk=keep_chunk,
         )  # fmt: skip
         resumes += 1
         if tree.best_node >= 0:

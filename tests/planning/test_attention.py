@@ -42,14 +42,16 @@ def _grow(
     uniform=0.0,
     near=(-1.0, 0),
     follow=1.0,
+    keep_chunk=False,
 ):
     policy.reset(problem, seed=seed)
     tree = Tree(problem, capacity=16)  # small: the compiled loop must grow it on the way
     rng = np.random.default_rng(seed)
     limits = AttentionLimits(1500, 1500, 150_000, patience, near_sq=near[0], near_patience=near[1])
     outcome = run_attention_phase(
-        tree, policy, rng, goal_bias, limits, compiled_loop, uniform, follow_fallback=follow
-    )
+        tree, policy, rng, goal_bias, limits, compiled_loop, uniform, follow_fallback=follow,
+        keep_chunk=keep_chunk,
+    )  # fmt: skip
     return tree, outcome, rng.random(), policy.rng.random()
 
 
@@ -69,15 +71,18 @@ def _assert_same_tree(a, b):
     [("point2d", "shipped", 0), ("point2d", "chunk3", 0), ("point3d", "shipped", 60),
      ("point3d", "chunk2", 0), ("point2d", "chunk4-horizon2", 0),
      ("kuka_iiwa14", "shipped", 0), ("point2d", "shipped-uniform", 0),
-     ("point2d", "shipped-follow0.25", 0), ("point3d", "chunk2-follow0", 40)],
+     ("point2d", "shipped-follow0.25", 0), ("point3d", "chunk2-follow0", 40),
+     ("point2d", "shipped-keep", 0), ("point3d", "chunk3-keep", 60),
+     ("point2d", "chunk4-horizon2-keep", 0)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)
     for index in range(3):
         problem = generate_problem(robot, rng, "challenging" if index % 2 else "easy")
         runs = []
+        keep_chunk = policy_kind.endswith("-keep")
         for compiled_loop in (True, False):
-            kind, _, follow = policy_kind.partition("-follow")
+            kind, _, follow = policy_kind.removesuffix("-keep").partition("-follow")
             if kind.startswith("shipped"):
                 policy = load_policy(robot, noise_std=0.05)
             elif "horizon" in kind:
@@ -88,8 +93,15 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
             follow = float(follow or 1.0)
             runs.append(
                 _grow(
-                    problem, policy, index, compiled_loop, patience, uniform=uniform, follow=follow
-                )
+                    problem,
+                    policy,
+                    index,
+                    compiled_loop,
+                    patience,
+                    uniform=uniform,
+                    follow=follow,
+                    keep_chunk=keep_chunk,
+                )  # fmt: skip
             )
         (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
         assert out_c.compiled and not out_p.compiled
@@ -452,3 +464,36 @@ def test_a_horizon_uses_the_first_proposals_of_each_chunk():
     for bad in (0, 5, 1.5):
         with pytest.raises(ValueError, match="horizon"):
             _chunked_policy("point2d", 4, noise_std=0.0, horizon=bad)
+
+
+def test_keep_chunk_goes_on_with_the_chunk_past_a_fallback_and_one_sample_is_the_same():
+    """With ``keep_chunk`` the MPT is called only for used-up chunks (or a node not added)."""
+    rng = np.random.default_rng(3)
+    totals = {False: [0, 0], True: [0, 0]}  # MPT calls, proposals used
+    for index in range(4):
+        problem = generate_problem("point2d", rng, "challenging")
+        for keep in (False, True):
+            policy = load_policy("point2d", noise_std=0.0)
+            _, outcome, *_ = _grow(problem, policy, index, True, keep_chunk=keep)
+            totals[keep][0] += outcome.policy_calls
+            totals[keep][1] += outcome.policy_samples
+    (calls_off, used_off), (calls_on, used_on) = totals[False], totals[True]
+    assert used_off / calls_off < used_on / calls_on <= 4  # more of each chunk of 4 is used
+    # A one-sample policy has no rest of a chunk to keep: the same tree either way.
+    problem = generate_problem("point2d", np.random.default_rng(9), "challenging")
+    policy = _chunked_policy("point2d", 1, noise_std=0.05)
+    off = _grow(problem, policy, 2, True, keep_chunk=False)
+    on = _grow(problem, policy, 2, True, keep_chunk=True)
+    _assert_same_tree(off[0], on[0])
+
+
+def test_keep_chunk_is_a_checked_plan_setting(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=0, max_nodes=300, stop_at_first=True)
+    assert (
+        plan(problem, attention_keep_chunk=None, **kwargs).nodes
+        == plan(problem, attention_keep_chunk=False, **kwargs).nodes
+    )  # None is the rule shipped policies use
+    for bad in (1, "yes", 0.5):
+        with pytest.raises(ValueError, match="attention_keep_chunk"):
+            plan(problem, attention_keep_chunk=bad, **kwargs)

@@ -205,7 +205,7 @@ def union_volume(
 
 @numba.njit(cache=True, nogil=True)
 def _block_sum(values, start, count):
-    """numpy's pairwise summation of at most 128 values (`_numpy_sum`'s leaves)."""
+    """The sum of at most 128 values as numpy's pairwise summation adds them (its leaves)."""
     if count < 8:
         total = 0.0
         for i in range(start, start + count):
