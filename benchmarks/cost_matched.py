@@ -23,12 +23,10 @@ within a run, not across machines.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from temp_gym import plan, training
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import checkpoint_entry, load_config, parse_args, script_parser
 from temp_gym.evaluation.protocol import reach_tolerance, tolerance_target
 from temp_gym.evaluation.runner import EvaluationSettings, start_timed_run, warm_up_problem
 from temp_gym.models.registry import load_policy, policy_from_checkpoint
@@ -36,25 +34,6 @@ from temp_gym.worlds.robots import robot_specs
 
 ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 BASELINES = ("rrt_star", "informed_rrt_star")
-SETTINGS = {"noise_std": float, "horizon": int}
-"""Planner settings a ``--checkpoints`` entry may give after its ``@``."""
-
-
-def parse_entry(entry: str) -> tuple[Path, dict[str, float | int]]:
-    """``PATH[@key=value,...]`` -> the checkpoint and its planner settings (`SETTINGS`)."""
-    path, _, spec = entry.partition("@")
-    settings: dict[str, float | int] = {}
-    for item in filter(None, spec.split(",")):
-        key, sep, value = item.partition("=")
-        if not sep or key not in SETTINGS:
-            raise SystemExit(f"--checkpoints {entry}: expected key=value with a key of "
-                             f"{sorted(SETTINGS)}, got {item!r}")  # fmt: skip
-        try:
-            settings[key] = SETTINGS[key](value)
-        except ValueError:
-            raise SystemExit(f"--checkpoints {entry}: {key} must be a {SETTINGS[key].__name__}, "
-                             f"got {value!r}") from None  # fmt: skip
-    return Path(path), settings
 
 
 def compare(robot: str, problems: list, policies: dict, budget: int) -> dict[str, dict]:
@@ -115,7 +94,10 @@ def main(argv: list[str] | None = None) -> None:
     )
     policies = {"shipped": load_policy(robot)}
     for entry in args.checkpoints:
-        path, settings = parse_entry(entry)
+        try:
+            path, settings = checkpoint_entry(entry)
+        except ValueError as error:
+            raise SystemExit(str(error)) from None
         policies[str(path)] = policy_from_checkpoint(path, robot, **settings)
     figures = compare(robot, problems, policies, args.budget)
     solved = len(next(iter(figures.values()))["temp"])

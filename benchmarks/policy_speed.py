@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from temp_gym import plan, training
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import checkpoint_entry, load_config, parse_args, script_parser
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.worlds.robots import robot_spec, robot_specs
@@ -54,25 +54,12 @@ def test_rows(robot: str, tasks: int) -> dict[str, list]:
     }
 
 
-SETTINGS = {"noise_std": float, "horizon": int}
-"""Planner settings a ``--checkpoints`` entry may give after its ``@``."""
-
-
 def parse_entry(entry: str) -> tuple[Path, dict[str, float | int]]:
-    """``PATH[@key=value,...]`` -> the checkpoint and its planner settings (`SETTINGS`)."""
-    path, _, spec = entry.partition("@")
-    settings: dict[str, float | int] = {}
-    for item in filter(None, spec.split(",")):
-        key, sep, value = item.partition("=")
-        if not sep or key not in SETTINGS:
-            raise SystemExit(f"--checkpoints {entry}: expected key=value with a key of "
-                             f"{sorted(SETTINGS)}, got {item!r}")  # fmt: skip
-        try:
-            settings[key] = SETTINGS[key](value)
-        except ValueError:
-            raise SystemExit(f"--checkpoints {entry}: {key} must be a {SETTINGS[key].__name__}, "
-                             f"got {value!r}") from None  # fmt: skip
-    return Path(path), settings
+    """A ``--checkpoints`` entry (`temp_gym.config.checkpoint_entry`); a bad one exits."""
+    try:
+        return checkpoint_entry(entry)
+    except ValueError as error:
+        raise SystemExit(str(error)) from None
 
 
 def val_rows(world: str, tasks: int) -> dict[str, list]:

@@ -268,8 +268,9 @@ class EvaluationConfig:
     """Before each timed run, an untimed short run of the same planner on another problem,
     so that the order of the planners does not bias their times."""
     fresh_workspaces: bool = True
-    """Before each timed run, the tree forgets the task's workspace (its free volume), so
-    that every planner pays that set-up as a first plan on a new workspace does."""
+    """Before each timed run, the planners forget the task's workspace (the tree's free
+    volume, TEMP's encoding), so that every planner pays that set-up as a first plan on a new
+    workspace does."""
     workers: int = 2
     """Processes (``--workers`` overrides it)."""
     out: str | None = None

@@ -232,13 +232,11 @@ def _block_sum(values, start, count):
     return total
 
 
+@numba.njit(cache=True, nogil=True)
 def _split(count: int) -> int:
     """Where numpy's pairwise summation splits ``count`` values: half, less half mod 8."""
     half = count // 2
     return half - half % 8
-
-
-_split_compiled = numba.njit(cache=True, nogil=True)(_split)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -268,13 +266,13 @@ def _numpy_sum(values, start, count):
             size -= 1
         elif stages[top] == 0:  # split: the left half first
             stages[top] = 1
-            starts[size], counts[size], stages[size] = starts[top], _split_compiled(counts[top]), 0
+            starts[size], counts[size], stages[size] = starts[top], _split(counts[top]), 0
             size += 1
             continue
         elif stages[top] == 1:  # the left half's sum is in: the right half next
             lefts[top] = value
             stages[top] = 2
-            half = _split_compiled(counts[top])
+            half = _split(counts[top])
             starts[size], counts[size], stages[size] = starts[top] + half, counts[top] - half, 0
             size += 1
             continue
@@ -297,7 +295,7 @@ def _volume_floor(lower_bounds, upper_bounds, box_lower, box_upper) -> float:
             high = min(max(box_upper[b, k], lower_bounds[k]), upper_bounds[k])
             volume *= max(high - low, 0.0)
         volumes[b] = volume
-    boxes = 0.0 + _numpy_sum(volumes, 0, count)
+    boxes = _numpy_sum(volumes, 0, count)
     total = 1.0
     for k in range(dim):
         total *= upper_bounds[k] - lower_bounds[k]
