@@ -73,7 +73,8 @@ class DataConfig:
     workspace_family: str = "boxes"
     """Which workspaces the train and val pools hold (`temp_gym.worlds.structured`): boxes (the
     robot's own generator, as every dataset before the key), corridors, maze, traps, narrow,
-    clutter (2D and 3D point worlds), or mixed (a family drawn per workspace)."""
+    clutter (the point worlds' and the iiwa's own versions), or mixed (a family drawn per
+    workspace)."""
     planner: str = "informed_rrt_star"
     """The expert, a planner of `temp_gym.plan`: Informed RRT* refines in fewer nodes."""
     max_nodes: int = 2000

@@ -21,7 +21,8 @@ and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``
 ``long_detour``). Point worlds are ``[0, 20]^d`` as generated ones, with the generators' goal
 radius, so only the structure differs. No training generator produces these layouts: the
 opt-in families of `temp_gym.worlds.structured` have walls with openings, cups and clutter,
-but randomized and never such a scene (``tests/worlds/test_structured.py`` measures it).
+but randomized and never such a scene (``tests/worlds/test_structured.py`` measures it;
+``tests/worlds/test_iiwa_structured.py`` for the arm's families).
 
 The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
 ``python -m temp_gym.evaluation.ood`` rewrites those files from the builders here, and the tests

@@ -21,7 +21,6 @@ from temp_gym.worlds.structured import (
     MIXED,
     check_family,
     draw_family,
-    generate_structured_workspace,
 )
 
 WORKSPACE_TRIES = 20
@@ -32,7 +31,9 @@ def generate_workspace(robot: str, rng: np.random.Generator, family: str = BOXES
     """Draw a workspace for ``robot`` of a workspace ``family``.
 
     ``boxes``: the robot's own generator (its spec's); ``mixed``: a family drawn from ``rng``
-    per workspace; any other name: a structured point world (`temp_gym.worlds.structured`).
+    per workspace; any other name: the robot's structured family of that name (its spec's
+    ``structured_generator``: `temp_gym.worlds.structured` for point robots,
+    `temp_gym.worlds.iiwa_structured` for the iiwa).
 
     Raises:
         ValueError: an unknown family, or a structured one for a robot that has none.
@@ -42,7 +43,7 @@ def generate_workspace(robot: str, rng: np.random.Generator, family: str = BOXES
         family = draw_family(rng)
     if family == BOXES:
         return robot_spec(robot).generate_workspace(rng)
-    return generate_structured_workspace(robot, rng, family)
+    return robot_spec(robot).generate_structured_workspace(rng, family)
 
 
 def generate_task(

@@ -49,7 +49,7 @@ from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
 
 FLOOR_TOP = -0.01
 """Top of the floor slab (m); link_0's lowest point is at z = 0."""
-_SIDES = (
+SIDES = (
     # (radial axis, sign): a template "in front of" the robot along +x, -x, +y or -y.
     (0, 1.0),
     (0, -1.0),
@@ -58,11 +58,20 @@ _SIDES = (
 )
 
 Box = tuple[np.ndarray, np.ndarray]
+"""A box as ``(center, half extents)``."""
 
 
-def _place(side: int, radial: float, lateral: float, z: float, half: tuple) -> Box:
-    """A box given in the side's frame (radial, lateral, z) as a world ``(center, half)``."""
-    axis, sign = _SIDES[side]
+def floor_slab() -> Box:
+    """The floor: a slab just below the base, wider than the arm's reach."""
+    return np.array([0.0, 0.0, FLOOR_TOP - 0.05]), np.array([1.5, 1.5, 0.05])
+
+
+def place(side: int, radial: float, lateral: float, z: float, half: tuple) -> Box:
+    """A box given in a side's frame as a world ``(center, half)``.
+
+    ``side`` indexes `SIDES`; position and ``half`` are (radial, lateral, z) in its frame.
+    """
+    axis, sign = SIDES[side]
     center = np.zeros(3)
     center[axis] = sign * radial
     center[1 - axis] = lateral
@@ -80,11 +89,11 @@ def _table(rng: np.random.Generator, side: int) -> list[Box]:
     radial = near + depth
     leg = rng.uniform(0.015, 0.03)
     height = (top - thickness - FLOOR_TOP) / 2
-    boxes = [_place(side, radial, lateral, top, (depth, width, thickness))]
+    boxes = [place(side, radial, lateral, top, (depth, width, thickness))]
     for dr in (-1, 1):
         for dl in (-1, 1):
             boxes.append(
-                _place(side, radial + dr * (depth - leg), lateral + dl * (width - leg),
+                place(side, radial + dr * (depth - leg), lateral + dl * (width - leg),
                        FLOOR_TOP + height, (leg, leg, height))
             )  # fmt: skip
     return boxes
@@ -98,13 +107,13 @@ def _shelf(rng: np.random.Generator, side: int) -> list[Box]:
     radial = near + depth
     z = FLOOR_TOP + height
     boxes = [
-        _place(side, radial, lateral + dl * (width + panel), z, (depth, panel, height))
+        place(side, radial, lateral + dl * (width + panel), z, (depth, panel, height))
         for dl in (-1, 1)
     ]
-    boxes.append(_place(side, radial + depth + panel, lateral, z, (panel, width + 2 * panel,
+    boxes.append(place(side, radial + depth + panel, lateral, z, (panel, width + 2 * panel,
                                                                    height)))  # fmt: skip
     for board_z in np.linspace(FLOOR_TOP, FLOOR_TOP + 2 * height, rng.integers(3, 5) + 1)[1:]:
-        boxes.append(_place(side, radial, lateral, board_z - panel, (depth, width, panel)))
+        boxes.append(place(side, radial, lateral, board_z - panel, (depth, width, panel)))
     return boxes
 
 
@@ -121,7 +130,7 @@ def _wall(rng: np.random.Generator, side: int) -> list[Box]:
     radial, thickness = rng.uniform(0.5, 0.85), rng.uniform(0.01, 0.03)
     width, height = rng.uniform(0.3, 0.8), rng.uniform(0.4, 0.8)
     lateral = rng.uniform(-0.4, 0.4)
-    return [_place(side, radial, lateral, FLOOR_TOP + height, (thickness, width, height))]
+    return [place(side, radial, lateral, FLOOR_TOP + height, (thickness, width, height))]
 
 
 TEMPLATES = {"table": _table, "shelf": _shelf, "pillar": _pillar, "wall": _wall}
@@ -144,10 +153,9 @@ def generate_iiwa_workspace(
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
     bounds = joint_limits()
-    floor = (np.array([0.0, 0.0, FLOOR_TOP - 0.05]), np.array([1.5, 1.5, 0.05]))
-    boxes: list[Box] = [floor]
+    boxes: list[Box] = [floor_slab()]
     names = list(TEMPLATES)
-    sides = list(rng.permutation(len(_SIDES)))
+    sides = list(rng.permutation(len(SIDES)))
     for _ in range(int(rng.integers(3, 5))):
         side = int(sides.pop())
         for _ in range(max_tries):
@@ -214,4 +222,12 @@ def generate_iiwa_task(
     )
 
 
-__all__ = ["TEMPLATES", "generate_iiwa_task", "generate_iiwa_workspace"]
+__all__ = [
+    "FLOOR_TOP",
+    "SIDES",
+    "TEMPLATES",
+    "floor_slab",
+    "generate_iiwa_task",
+    "generate_iiwa_workspace",
+    "place",
+]

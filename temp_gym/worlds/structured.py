@@ -27,7 +27,8 @@ are measured on a raster of `RASTER_CELL` cells that counts a cell as occupied w
 touches a box, so the occupancy measured is an upper bound. All randomness comes from the
 `numpy.random.Generator` passed in: the same generator state gives the same workspace.
 `temp_gym.worlds.generators.generate_workspace` picks a family by name (``mixed``: one drawn
-per workspace with the weights of `FAMILY_MIX`); the iiwa has only its own generator.
+per workspace with the weights of `FAMILY_MIX`) through the robot's spec; the iiwa's versions
+of the same names are `temp_gym.worlds.iiwa_structured`.
 
 **The out-of-distribution scenes stay held out.** ``examples/ood/{2d,3d}`` (built by
 `temp_gym.evaluation.ood`) are single hand-made structures alone in an empty workspace, at
@@ -59,6 +60,7 @@ from scipy import ndimage
 
 from temp_gym.problem import Workspace, robot_named
 from temp_gym.worlds.point_world import DEFAULT_POINT_WORLDS
+from temp_gym.worlds.robots import robot_spec
 
 BOXES = "boxes"
 """The robot's own generator (random boxes in the point worlds): the pools datasets and
@@ -88,15 +90,17 @@ Boxes = list[tuple[np.ndarray, np.ndarray]]
 def check_family(robot: str, family: str) -> None:
     """Raise a `ValueError` unless ``family`` is a known name that ``robot`` can draw.
 
-    Every robot draws ``boxes`` (its own generator); the others are point worlds only.
+    Every robot draws ``boxes`` (its own generator); the others need the robot's spec to have
+    structured families (`RobotSpec.structured_generator`: the point worlds here, the iiwa in
+    `temp_gym.worlds.iiwa_structured`).
     """
     if family not in FAMILY_NAMES:
         raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")
-    spec = robot_named(robot)
-    if family != BOXES and (spec.dim != spec.workspace_dim or spec.dim not in (2, 3)):
+    spec = robot_spec(robot)
+    if family != BOXES and spec.structured_generator is None:
         raise ValueError(
-            f"family: {family!r} is drawn in 2D and 3D point worlds only; "
-            f"{robot} has only its own generator, {BOXES!r}"
+            f"family: {family!r} needs structured families, which {robot} has not; "
+            f"it has only its own generator, {BOXES!r}"
         )
 
 
@@ -116,7 +120,10 @@ def generate_structured_workspace(robot: str, rng: np.random.Generator, family: 
     check_family(robot, family)
     if family not in BUILDERS:
         raise ValueError(f"family: {family!r} is not structured; expected one of {tuple(BUILDERS)}")
-    dim = robot_named(robot).dim
+    spec = robot_named(robot)
+    dim = spec.dim
+    if dim != spec.workspace_dim or dim not in DEFAULT_POINT_WORLDS:
+        raise ValueError(f"robot: {robot} is not a 2D or 3D point robot")
     config = DEFAULT_POINT_WORLDS[dim]
     size = config.size
     for _ in range(TRIES):

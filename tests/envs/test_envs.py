@@ -242,8 +242,20 @@ def test_tasks_are_drawn_in_the_workspaces_of_the_asked_family(env_id, family):
     assert workspace in pool and workspace not in boxes
 
 
-def test_a_family_the_robot_cannot_draw_is_refused_when_the_env_is_made():
-    with pytest.raises(ValueError, match="workspace_family: 'maze' is drawn in 2D and 3D"):
-        gym.make("TEMP-7D-v0", workspace_family="maze")
+def test_an_unknown_family_is_refused_when_the_env_is_made():
     with pytest.raises(ValueError, match="workspace_family: expected one of"):
         gym.make("TEMP-2D-v0", workspace_family="forest")
+    with pytest.raises(ValueError, match="workspace_family: expected one of"):
+        gym.make("TEMP-7D-v0", workspace_family="forest")
+
+
+def test_the_arm_env_draws_tasks_in_its_structured_family():
+    from temp_gym.worlds.splits import split_workspace
+
+    env = gym.make("TEMP-7D-v0", workspace_family="maze", split="val")
+    env.reset(seed=3)
+    workspace = env.unwrapped.problem.workspace
+    pool = [split_workspace("kuka_iiwa14", "val", i, "maze") for i in range(20)]
+    assert any(workspace == candidate for candidate in pool)
+    assert all(workspace != split_workspace("kuka_iiwa14", "val", i) for i in range(20))
+    env.close()

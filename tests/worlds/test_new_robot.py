@@ -15,6 +15,7 @@ import pytest
 from temp_gym import Problem, plan
 from temp_gym.envs import register_envs
 from temp_gym.problem import Workspace
+from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.robots import RobotSpec, forget_robot, register_robot, robot_spec
 
 RADIUS = 0.3
@@ -125,3 +126,20 @@ def test_a_robot_is_unknown_once_forgotten(disc):
     with pytest.raises(ValueError, match="toy_disc"):
         Workspace("toy_disc", [[0, 0], [1, 1]], np.zeros((0, 2)), np.zeros((0, 2)))
     register_robot(disc)
+
+
+def test_a_robot_without_structured_families_draws_only_its_own(disc):
+    rng = np.random.default_rng(0)
+    assert generate_workspace(disc.name, rng, "boxes") == disc.generate_workspace(
+        np.random.default_rng(0)
+    )
+    for family in ("maze", "mixed"):
+        with pytest.raises(ValueError, match="toy_disc has not; it has only its own generator"):
+            generate_workspace(disc.name, rng, family)
+    with pytest.raises(ValueError, match="toy_disc has only its own generator, not 'maze'"):
+        disc.generate_structured_workspace(rng, "maze")
+
+
+def test_the_env_refuses_a_structured_family_for_a_robot_without_one(disc):
+    with pytest.raises(ValueError, match="workspace_family: 'maze' needs structured families"):
+        gymnasium.make(disc.env_id, workspace_family="maze")

@@ -17,7 +17,13 @@ from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.point_world import DEFAULT_POINT_WORLDS, generate_point_task, reference_planner
 from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, robot_spec
 from temp_gym.worlds.splits import split_workspace
-from temp_gym.worlds.structured import BOXES, MIXED, WORKSPACE_FAMILIES, draw_family
+from temp_gym.worlds.structured import (
+    BOXES,
+    MIXED,
+    WORKSPACE_FAMILIES,
+    draw_family,
+    generate_structured_workspace,
+)
 
 POINT_ROBOTS = [POINT2D.name, POINT3D.name]
 STRUCTURED = [family for family in WORKSPACE_FAMILIES if family != BOXES]
@@ -70,13 +76,13 @@ def test_mixed_draws_a_family_then_a_workspace_of_it():
     assert set(drawn) == set(WORKSPACE_FAMILIES) and min(counts.values()) > 60, counts
 
 
-def test_unknown_families_and_the_iiwa_are_refused():
+def test_unknown_families_are_refused():
     rng = np.random.default_rng(0)
-    with pytest.raises(ValueError, match="expected one of .*'maze'.*'mixed'.*got 'spiral'"):
-        generate_workspace(POINT2D.name, rng, "spiral")
-    for family in (*STRUCTURED, MIXED):
-        with pytest.raises(ValueError, match="2D and 3D point worlds only"):
-            split_workspace(KUKA_IIWA14.name, "train", 0, family)
+    for robot in (POINT2D.name, KUKA_IIWA14.name):
+        with pytest.raises(ValueError, match="expected one of .*'maze'.*'mixed'.*got 'spiral'"):
+            generate_workspace(robot, rng, "spiral")
+    with pytest.raises(ValueError, match="kuka_iiwa14 is not a 2D or 3D point robot"):
+        generate_structured_workspace(KUKA_IIWA14.name, rng, "maze")
 
 
 # ---- the families differ ----------------------------------------------------------------------

@@ -3,7 +3,9 @@
 Its model (URDF kinematics, hulls, spheres, allowed-collision matrix) is
 `temp_gym.worlds.iiwa14`; its checkers are a covering sphere model (fast) and fcl on the link
 meshes (exact, `temp_gym.worlds.collision`); its workspaces are tables, shelves, pillars and
-walls (`temp_gym.worlds.iiwa_world`); its pictures come from pybullet's software renderer.
+walls (`temp_gym.worlds.iiwa_world`) or of a structured family (partitions with windows,
+compartments, bins, slots and ceilings, clutter: `temp_gym.worlds.iiwa_structured`); its
+pictures come from pybullet's software renderer.
 Factories import their machinery on first use, so registering the robot loads none of it.
 """
 
@@ -53,6 +55,9 @@ KUKA_IIWA14 = RobotSpec(
     checker_factory=_checker,
     workspace_generator=lazy("temp_gym.worlds.iiwa_world", "generate_iiwa_workspace"),
     task_generator=lazy("temp_gym.worlds.iiwa_world", "generate_iiwa_task"),
+    structured_generator=lazy(
+        "temp_gym.worlds.iiwa_structured", "generate_iiwa_structured_workspace"
+    ),
     renderer_factory=lazy("temp_gym.worlds.rendering.iiwa", "IiwaRenderer"),
     step_size=0.5,
     encoding_region=ENCODING_REGION,

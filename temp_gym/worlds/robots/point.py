@@ -55,6 +55,7 @@ def point_robot(
         checker_factory=_box_checker,
         workspace_generator=lazy("temp_gym.worlds.point_world", "generate_point_workspace"),
         task_generator=lazy("temp_gym.worlds.point_world", "generate_point_task"),
+        structured_generator=lazy("temp_gym.worlds.structured", "generate_structured_workspace"),
         renderer_factory=lazy("temp_gym.worlds.rendering.points", "PointWorldRenderer"),
         cube_symmetric=True,
     )

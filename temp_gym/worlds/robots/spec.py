@@ -49,6 +49,7 @@ class lazy:  # noqa: N801  (reads as a function in the specs)
 CheckerFactory = Callable[["Workspace", bool], "CollisionChecker"]
 WorkspaceGenerator = Callable[[str, np.random.Generator], "Workspace"]
 TaskGenerator = Callable[["Workspace", np.random.Generator, str, float], "Problem"]
+StructuredGenerator = Callable[[str, np.random.Generator, str], "Workspace"]
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,10 @@ class RobotSpec:
     allowed_collisions: Path | None = None
     """The allowed-collision matrix (JSON) of a robot that can collide with itself: which link
     pairs its checkers test against each other."""
+    structured_generator: StructuredGenerator | None = None
+    """``(name, rng, family) -> Workspace``: a workspace of a structured family
+    (`temp_gym.worlds.structured`: corridors, maze, traps, narrow, clutter); None: the robot
+    has only its own generator."""
     cube_symmetric: bool = False
     """Its world is a cube whose occupancy grid shares the configuration axes (a point robot),
     so mirrored and axis-swapped samples are samples too: training may augment with them."""
@@ -116,6 +121,16 @@ class RobotSpec:
     def generate_workspace(self, rng: np.random.Generator) -> Workspace:
         """A random workspace, drawn from ``rng`` alone."""
         return self.workspace_generator(self.name, rng)
+
+    def generate_structured_workspace(self, rng: np.random.Generator, family: str) -> Workspace:
+        """A random workspace of a structured ``family``, drawn from ``rng`` alone.
+
+        Raises:
+            ValueError: the robot has no structured families.
+        """
+        if self.structured_generator is None:
+            raise ValueError(f"family: {self.name} has only its own generator, not {family!r}")
+        return self.structured_generator(self.name, rng, family)
 
     def generate_task(
         self,

@@ -1,0 +1,197 @@
+"""temp_gym.worlds.iiwa_structured: the iiwa's workspace families, and the OOD scenes they avoid."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+
+from temp_gym.evaluation.ood import load_ood_family
+from temp_gym.planning.plan import plan
+from temp_gym.problem import Workspace
+from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
+from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.generators import generate_task, generate_workspace
+from temp_gym.worlds.iiwa14.kinematics import joint_limits
+from temp_gym.worlds.iiwa_structured import (
+    FAMILY_STRUCTURES,
+    MIN_FREE_FRACTION,
+    _wall_with_windows,
+)
+from temp_gym.worlds.iiwa_world import FLOOR_TOP, floor_slab
+from temp_gym.worlds.robots import KUKA_IIWA14
+from temp_gym.worlds.splits import split_workspace
+from temp_gym.worlds.structured import MIXED, WORKSPACE_FAMILIES
+
+ROBOT = KUKA_IIWA14.name
+STRUCTURED = list(FAMILY_STRUCTURES)
+
+
+@cache
+def sample(family: str, count: int, seed: int = 0) -> tuple[Workspace, ...]:
+    """``count`` workspaces of a family, workspace i from generator ``[seed, i]``."""
+    return tuple(
+        generate_workspace(ROBOT, np.random.default_rng([seed, i]), family) for i in range(count)
+    )
+
+
+def test_the_iiwa_has_every_structured_family_of_the_point_worlds():
+    assert set(STRUCTURED) == set(WORKSPACE_FAMILIES) - {"boxes"}
+
+
+@pytest.mark.parametrize("family", [*STRUCTURED, MIXED])
+def test_same_seed_same_workspace_other_seed_other_workspace(family):
+    def draw(seed: int) -> list[Workspace]:
+        rng = np.random.default_rng(seed)
+        return [generate_workspace(ROBOT, rng, family) for _ in range(3)]
+
+    assert draw(3) == draw(3)
+    assert draw(3) != draw(4)
+
+
+def test_every_family_has_pools_of_its_own():
+    pools = [split_workspace(ROBOT, "train", 0, family) for family in (*STRUCTURED, MIXED)]
+    pools.append(split_workspace(ROBOT, "train", 0))
+    assert all(a != b for k, a in enumerate(pools) for b in pools[k + 1 :])
+
+
+@pytest.mark.parametrize("family", STRUCTURED)
+def test_workspaces_keep_the_base_and_enough_configurations_free(family):
+    states = np.random.default_rng(7).uniform(*joint_limits(), size=(2000, 7))
+    fractions = []
+    for workspace in sample(family, 12):
+        np.testing.assert_array_equal(workspace.bounds, joint_limits())
+        center, half = floor_slab()
+        assert np.array_equal(workspace.obstacle_centers[0], center)
+        assert np.array_equal(workspace.obstacle_half_extents[0], half)
+        assert np.all(workspace.obstacle_half_extents > 0)
+        assert len(workspace.obstacle_centers) >= 3  # the floor, a structure and a template
+        lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
+        assert IiwaExactChecker(workspace.bounds, lower, upper).base_free
+        fast = IiwaSphereChecker(workspace.bounds, lower, upper)
+        fractions.append(float(fast.states_free(states).mean()))
+    print(family, "free share of random configurations:", np.round(fractions, 2))
+    assert min(fractions) >= MIN_FREE_FRACTION / 2  # probes differ from the generator's
+    assert np.median(fractions) <= 0.8  # the structures are in the arm's way
+
+
+@pytest.mark.parametrize("family", STRUCTURED)
+def test_tasks_of_both_difficulties_and_informed_rrt_star_solves_them(family):
+    """Start and goal are free for the exact checker too, and the expert's retries (other
+    seeds, as `trainers/generate.py`'s ``data.attempts``) solve every task at 3000 nodes: one
+    seed alone can miss an easy 7D task whose goal lies among boxes."""
+    rng = np.random.default_rng(5)
+    exact_free, solved = 0, 0
+    for workspace in sample(family, 2, seed=11):
+        exact = IiwaExactChecker(workspace.bounds, workspace.obstacle_lower,
+                                 workspace.obstacle_upper)  # fmt: skip
+        for difficulty in ("easy", "challenging"):
+            problem = generate_task(workspace, rng, difficulty)
+            exact_free += int(exact.states_free(np.stack([problem.start, problem.goal])).all())
+            solved += any(
+                plan(
+                    problem,
+                    planner="informed_rrt_star",
+                    seed=seed,
+                    max_nodes=3000,
+                    stop_at_first=True,
+                ).success  # fmt: skip
+                for seed in range(3)
+            )
+    assert exact_free == 4
+    assert solved == 4, f"{family}: Informed RRT* solved {solved} of 4 tasks at 3000 nodes"
+
+
+def test_a_wall_with_windows_is_open_exactly_at_its_windows():
+    windows = [(-0.5, -0.2, 0.3, 0.6), (0.1, 0.4, 0.0, 0.9)]  # the second reaches the floor
+    boxes = _wall_with_windows(0, 0.6, (-0.8, 0.8), (0.0, 1.0), 0.01, windows)
+    lower = np.array([c - h for c, h in boxes])
+    upper = np.array([c + h for c, h in boxes])
+    lateral, height = np.meshgrid(np.linspace(-0.79, 0.79, 80), np.linspace(0.01, 0.99, 50))
+    points = np.stack([np.full(lateral.size, 0.6), lateral.ravel(), height.ravel()], axis=1)
+    covered = np.array([np.any(np.all((p >= lower) & (p <= upper), axis=1)) for p in points])
+    in_window = np.zeros(len(points), dtype=bool)
+    for l0, l1, z0, z1 in windows:
+        in_window |= (
+            (points[:, 1] > l0) & (points[:, 1] < l1) & (points[:, 2] > z0) & (points[:, 2] < z1)
+        )
+    assert np.array_equal(covered, ~in_window)
+    volumes = np.prod(upper - lower, axis=1)
+    assert np.isclose(volumes.sum(), 0.02 * (1.6 * 1.0 - 0.3 * 0.3 - 0.3 * 0.9))  # no overlaps
+
+
+# ---- the out-of-distribution scenes stay held out ---------------------------------------------
+CELL = 0.04
+"""Side of the cells of the occupancy grids compared (m): a few plate thicknesses."""
+REGION = np.array([[-1.4, -1.4, FLOOR_TOP], [1.4, 1.4, 1.6]])
+"""The region compared: the iiwa's encoded region above the floor (the floor, shared by every
+workspace and scene, is left out)."""
+NEAR_IDENTICAL = 0.85
+"""Closeness from which two layouts count as the same (as for the point worlds: a scene's
+copy moved under a cell scores about 1; the test prints the OOD scenes' closeness to each
+other)."""
+GENERATED_PER_FAMILY = 150
+
+
+def _grid(workspace: Workspace, grown: bool = False) -> np.ndarray:
+    """Cells of `REGION` that touch a box other than the floor; ``grown``: boxes a cell larger."""
+    shape = np.round((REGION[1] - REGION[0]) / CELL).astype(int)
+    grid = np.zeros(shape, dtype=bool)
+    lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
+    grow = CELL if grown else 0.0
+    for low, high in zip(lower, upper):
+        if high[2] <= FLOOR_TOP + 1e-9:
+            continue  # the floor
+        first = np.clip(np.floor((low - grow - REGION[0]) / CELL).astype(int), 0, shape)
+        last = np.clip(np.ceil((high + grow - REGION[0]) / CELL).astype(int), 0, shape)
+        grid[first[0] : last[0], first[1] : last[1], first[2] : last[2]] = True
+    return grid
+
+
+def _turns(grid: np.ndarray) -> list[np.ndarray]:
+    """The grid turned about the vertical axis by quarter turns, and mirrored: 8 layouts."""
+    turned = [np.rot90(grid, k, axes=(0, 1)) for k in range(4)]
+    return turned + [np.flip(g, 0) for g in turned]
+
+
+def _closeness(scene: Workspace, workspaces: tuple[Workspace, ...]) -> np.ndarray:
+    """Per workspace: the F-score of the share of the scene's cells within a cell of the
+    workspace's and the share of the workspace's within a cell of the scene's, best over the
+    scene's turns and mirrors (see tests/worlds/test_structured.py)."""
+    grids = np.array([_grid(w).ravel() for w in workspaces])
+    grids_near = np.array([_grid(w, grown=True).ravel() for w in workspaces])
+    cells = grids.sum(axis=1)
+    best = np.zeros(len(workspaces))
+    for turn, turn_near in zip(_turns(_grid(scene)), _turns(_grid(scene, grown=True))):
+        precision = (grids_near & turn.ravel()).sum(axis=1) / turn.sum()
+        recall = (grids & turn_near.ravel()).sum(axis=1) / np.maximum(cells, 1)
+        best = np.maximum(best, 2 * precision * recall / np.maximum(precision + recall, 1e-12))
+    return best
+
+
+def _moved(workspace: Workspace, move: float) -> Workspace:
+    """The workspace moved by ``move`` along both horizontal axes (the floor stays the floor)."""
+    centers = workspace.obstacle_centers + np.array([move, move, 0.0])
+    return Workspace(workspace.robot, workspace.bounds, centers, workspace.obstacle_half_extents)
+
+
+def test_no_generated_workspace_is_near_an_ood_scene():
+    scenes = {name: problem.workspace for name, problem in load_ood_family(ROBOT).items()}
+    others = {}
+    for name, scene in scenes.items():  # the measure sees a near-identical layout
+        assert _closeness(scene, (_moved(scene, CELL / 2),))[0] >= NEAR_IDENTICAL, name
+        rest = tuple(w for n, w in scenes.items() if n != name)
+        others[name] = float(_closeness(scene, rest).max())
+    print("\nclosest other OOD scene:", {k: round(v, 2) for k, v in others.items()})
+    closest = {}
+    families = ["boxes", *STRUCTURED]  # the default generator too, for reference
+    for family in families:
+        workspaces = sample(family, GENERATED_PER_FAMILY, seed=101)
+        for name, scene in scenes.items():
+            closest[family, name] = float(_closeness(scene, workspaces).max())
+    print(f"closeness of the closest of {GENERATED_PER_FAMILY} workspaces per family:")
+    for name in scenes:
+        print(f"  {name:>12}: " + "  ".join(f"{f} {closest[f, name]:.2f}" for f in families))
+    worst = max(closest, key=closest.get)
+    assert closest[worst] < NEAR_IDENTICAL, f"{worst}: {closest[worst]:.2f}"
