@@ -5,11 +5,12 @@ r"""On-policy correction (DAgger): label the states a trained policy reaches, fo
         data.corrections=[datasets/2d/corrections/round1] train.exp_name=dagger1
 
 Plans new tasks in the config's training workspaces with the policy (attention phase only,
-its shipped noise and horizon), asks the lattice expert where to go from the end of every
-path the policy was handed (`temp_gym.data.correction`), and stores the samples as a round in
+its shipped noise and horizon), asks the expert where to go from the end of every path the
+policy was handed (`temp_gym.data.correction`: lattice paths in the point worlds, the config's
+expert planner from that state for the iiwa), and stores the samples as a round in
 ``{data.dir}/corrections/round{N}`` (``--out`` to choose). The trainer adds the rounds listed
-in ``data.corrections`` to the demonstrations. Point robots only (the expert is a lattice).
-Resumable: rerun the same command after an interruption.
+in ``data.corrections`` to the demonstrations. Resumable: rerun the same command after an
+interruption.
 """
 
 from __future__ import annotations

@@ -9,10 +9,12 @@ where it would go from the end of that path, add these samples to the data and t
 
 The expert of point worlds is `temp_gym.worlds.reference.GoalField`: shortest lattice paths to
 the goal from any state, shortcut, resampled at the steering step like the demonstrations
-(`temp_gym.data.demonstrations.resample_path`). A sample holds the policy's own input (its
-path so far, normalized, exactly as the planner handed it over) and, as targets, the expert's
-next ``chunk`` nodes from the path's last node, with a mask where the expert's path ends
-sooner.
+(`temp_gym.data.demonstrations.resample_path`). A robot without a lattice (the iiwa) is
+labelled by `PlannerExpert`: the planner that made the demonstrations (``data.planner``, its
+budget and goal bias, certified paths), run from the state to the goal. A sample holds the
+policy's own input (its path so far, normalized, exactly as the planner handed it over) and,
+as targets, the expert's next ``chunk`` nodes from the path's last node, with a mask where the
+expert's path ends sooner.
 
 **Rounds on disk.** `collect_corrections` runs one round over the training workspaces of a
 config: per workspace (a unit, written atomically to ``{out}/units/{workspace:03d}.npz`` and
@@ -68,6 +70,41 @@ class ClearField:
             if path is not None:
                 return path
         return None
+
+
+class PlannerExpert:
+    """The demonstrations' planner, run from a state to the goal: the expert without a lattice.
+
+    Each `path` call plans anew with the next seed of ``seed``'s sequence, so a task's labels
+    are reproducible; a state the planner cannot leave within its budget gets no label (None).
+    """
+
+    def __init__(
+        self, problem: Problem, planner: str, max_nodes: int, goal_bias: float, seed: int,
+        step_size: float | None = None,
+    ) -> None:  # fmt: skip
+        self.problem = problem
+        self.planner, self.max_nodes, self.goal_bias = planner, int(max_nodes), float(goal_bias)
+        self.step_size = step_size
+        self.seeds = np.random.SeedSequence(int(seed))
+
+    def path(self, state: np.ndarray, length: float = np.inf) -> np.ndarray | None:
+        """A certified path from ``state`` into the goal region (``length`` is not needed)."""
+        from temp_gym.planning.plan import plan
+
+        del length  # a planner's path is whole; the caller resamples what it needs
+        seed = int(self.seeds.spawn(1)[0].generate_state(1, dtype=np.uint32)[0])
+        problem = self.problem
+        query = Problem(problem.workspace, np.asarray(state, dtype=np.float64), problem.goal,
+                        problem.goal_radius)  # fmt: skip
+        result = plan(query, planner=self.planner, seed=seed, max_nodes=self.max_nodes,
+                      goal_bias=self.goal_bias, step_size=self.step_size)  # fmt: skip
+        return np.asarray(result.path) if result.success and result.path is not None else None
+
+
+LATTICE = "lattice"
+"""The ``expert`` of a round labelled by lattice paths (`ClearField`); rounds of point worlds
+name none."""
 
 
 def expert_next_nodes(
@@ -211,9 +248,13 @@ def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.nd
         except RuntimeError:
             continue
         plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
+        if settings.get("expert", LATTICE) == LATTICE:
+            field = ClearField(space, problem.goal, settings.get("clearance", 0.0))
+        else:
+            field = PlannerExpert(problem, settings["expert"], settings["expert_nodes"],
+                                  settings["expert_goal_bias"], plan_seed)  # fmt: skip
         samples = correction_samples(
-            policy, problem, ClearField(space, problem.goal, settings.get("clearance", 0.0)),
-            plan_seed,
+            policy, problem, field, plan_seed,
             settings["max_nodes"], settings["samples_per_task"], settings["chunk"],
         )  # fmt: skip
         rows = len(samples["step"])
@@ -238,15 +279,30 @@ def correction_settings(
     max_nodes: int,
     clearance: float = 0.0,
 ) -> dict[str, Any]:
-    """The JSON-able settings of one round (the card records them; a rerun must match)."""
+    """The JSON-able settings of one round (the card records them; a rerun must match).
+
+    Point robots are labelled by the lattice (``clearance`` from the boxes); other robots by
+    the config's expert planner (``data.planner``, ``data.max_nodes``, ``data.goal_bias``),
+    which the settings then name (``expert``, ``expert_nodes``, ``expert_goal_bias``).
+    """
+    from temp_gym.config import ConfigError
     from temp_gym.data.dataset import data_settings
     from temp_gym.models.registry import load_cached
+    from temp_gym.worlds.reference import has_lattice
+    from temp_gym.worlds.robots import robot_spec
 
     loaded = load_cached(checkpoint, config.env.robot)
     planner = loaded.meta.get("planner", {})
     noise = config.train_eval.noise_std
     data = data_settings(config)
     family = {"workspace_family": data["workspace_family"]} if "workspace_family" in data else {}
+    spec = robot_spec(config.env.robot)
+    expert = {}
+    if not has_lattice(spec.workspace_dim, spec.dim):
+        if clearance:
+            raise ConfigError(f"clearance: {spec.name} is labelled by a planner, which keeps none")
+        expert = {"expert": data["planner"], "expert_nodes": int(data["max_nodes"]),
+                  "expert_goal_bias": float(data["goal_bias"])}  # fmt: skip
     return {
         "robot": config.env.robot,
         "seed": config.data.seed,
@@ -262,6 +318,7 @@ def correction_settings(
         "noise_std": float(planner.get("noise_std", 0.0) if noise is None else noise),
         "checkpoint": str(Path(checkpoint).resolve()),
         "checkpoint_digest": loaded.digest,
+        **expert,
     }
 
 

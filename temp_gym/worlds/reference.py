@@ -24,6 +24,11 @@ DEFAULT_SPACING = {2: 0.25, 3: 0.5}
 """Lattice spacing per dimension for the default [0, 20]^d worlds."""
 
 
+def has_lattice(workspace_dim: int, dim: int) -> bool:
+    """Whether a robot of these dimensions has a reference lattice: a 2D or 3D point robot."""
+    return dim == workspace_dim and dim in DEFAULT_SPACING
+
+
 @dataclass(frozen=True)
 class ReferencePath:
     """A reference solution: ``path`` (K x d) and its ``cost``; ``path`` is None if unreachable."""
@@ -56,7 +61,7 @@ class ReferencePlanner:
 
     def __init__(self, workspace: Workspace, spacing: float | None = None) -> None:
         dim = workspace.dim
-        if dim != workspace.workspace_dim or dim not in DEFAULT_SPACING:
+        if not has_lattice(workspace.workspace_dim, dim):
             raise ValueError(
                 f"robot: reference paths exist for point robots, not {workspace.robot}"
             )

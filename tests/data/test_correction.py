@@ -120,6 +120,7 @@ def test_a_round_plans_in_the_datasets_workspace_family(tiny_round, monkeypatch)
 
     config, settings, _ = tiny_round
     assert "workspace_family" not in settings  # the default: rounds made before keep theirs
+    assert "expert" not in settings  # the lattice: point rounds made before keep theirs too
     maze = correction_settings(apply_overrides(config, ["data.workspace_family=maze"]),
                                settings["checkpoint"], 1, tasks_per_workspace=1,
                                samples_per_task=5, max_nodes=50)  # fmt: skip
@@ -177,3 +178,69 @@ def test_the_clear_expert_keeps_its_distance_where_it_can(wall):
     hugging = np.array([9.3, 18.3])  # 0.2 beside the wall, 0.3 below its top: in the grown wall
     assert np.allclose(ClearField(workspace, problem.goal, 0.5).path(hugging),
                        _field(problem).path(hugging))  # fmt: skip
+
+
+# ---- the arm: no lattice, so the demonstrations' planner labels ------------------------------
+def _arm_task(index: int = 0) -> Problem:
+    from temp_gym.worlds.generators import generate_task
+    from temp_gym.worlds.splits import split_workspace
+
+    workspace = split_workspace("kuka_iiwa14", "train", 3)
+    return generate_task(workspace, np.random.default_rng([4, index]), "challenging")
+
+
+def test_the_arms_expert_plans_a_certified_path_from_the_state_reproducibly():
+    from temp_gym.data.correction import PlannerExpert
+
+    problem = _arm_task()
+    paths = [
+        PlannerExpert(problem, "informed_rrt_star", 1500, 0.05, seed=3).path(problem.start)
+        for _ in range(2)
+    ]
+    np.testing.assert_array_equal(paths[0], paths[1])  # the same seed, the same labels
+    path = paths[0]
+    np.testing.assert_array_equal(path[0], problem.start)
+    assert np.linalg.norm(path[-1] - problem.goal) <= problem.goal_radius + 1e-9
+    assert certify_path(problem, path)
+    expert = PlannerExpert(problem, "informed_rrt_star", 1500, 0.05, seed=3)
+    first, second = expert.path(problem.start), expert.path(problem.start)
+    assert not np.array_equal(first, second)  # each call plans with the next seed
+
+
+def test_the_arms_samples_are_labelled_one_free_step_on():
+    from temp_gym.data.correction import PlannerExpert
+    from temp_gym.worlds.robots import KUKA_IIWA14
+
+    policy = TEMPPolicy.from_checkpoint(ROOT / "temp_gym" / "checkpoints" / "7d.pt",
+                                        robot="kuka_iiwa14", noise_std=0.0)  # fmt: skip
+    problem = _arm_task(1)
+    expert = PlannerExpert(problem, "informed_rrt_star", 1500, 0.05, seed=1)
+    samples = correction_samples(policy, problem, expert, seed=1, max_nodes=300, max_samples=6,
+                                 chunk=1)  # fmt: skip
+    count = len(samples["step"])
+    assert 0 < count <= 6 and samples["targets"].shape == (count, 1, 7)
+    lengths = samples["path_length"][:, 0]
+    ends = denormalize(samples["path"][np.arange(count), lengths - 1], problem.bounds)
+    targets = denormalize(samples["target"], problem.bounds)
+    steps = np.linalg.norm(targets - ends, axis=1)
+    assert np.all((steps > 0) & (steps <= 0.5 + 1e-4))  # the robot's steering step
+    assert KUKA_IIWA14.make_checker(problem.workspace).edges_free(ends, targets).all()
+
+
+def test_an_arm_round_names_its_expert_and_refuses_a_clearance(tmp_path):
+    from temp_gym.config import ConfigError, load_config
+
+    checkpoint = ROOT / "temp_gym" / "checkpoints" / "7d.pt"
+    config = load_config(ROOT / "configs" / "7d.yaml", [f"data.dir={tmp_path}"])
+    settings = correction_settings(config, checkpoint, 1, tasks_per_workspace=1,
+                                   samples_per_task=4, max_nodes=100)  # fmt: skip
+    data = config.data
+    assert (settings["expert"], settings["expert_nodes"], settings["expert_goal_bias"]) == (
+        data.planner,
+        data.max_nodes,
+        data.goal_bias,
+    )
+    with pytest.raises(ConfigError, match="labelled by a planner"):
+        correction_settings(config, checkpoint, 1, 1, 4, 100, clearance=0.5)
+    unit = correction_unit({**settings, "workspaces": 1}, 0)
+    assert len(unit["step"]) > 0 and unit["targets"].shape[1:] == (1, 7)
