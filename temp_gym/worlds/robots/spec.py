@@ -106,9 +106,10 @@ class RobotSpec:
     """The allowed-collision matrix (JSON) of a robot that can collide with itself: which link
     pairs its checkers test against each other."""
     structured_generator: StructuredGenerator | None = None
-    """``(name, rng, family) -> Workspace``: a workspace of a structured family
-    (`temp_gym.worlds.structured`: corridors, maze, traps, narrow, clutter); None: the robot
-    has only its own generator."""
+    """``(name, rng, family) -> Workspace``: a workspace of a structured family (corridors,
+    maze, traps, narrow, clutter: `temp_gym.worlds.structured` for point robots,
+    `temp_gym.worlds.iiwa_structured` for the iiwa); None: the robot has only its own
+    generator."""
     cube_symmetric: bool = False
     """Its world is a cube whose occupancy grid shares the configuration axes (a point robot),
     so mirrored and axis-swapped samples are samples too: training may augment with them."""
