@@ -1,14 +1,16 @@
-"""Make the README pictures ``docs/images/render_{2d,3d,7d}.png``.
+"""Make the README pictures ``docs/images/render_{2d,3d,7d}.png`` and ``families_7d.png``.
 
 Run from the repository root::
 
-    python docs/make_images.py            # all three pictures
+    python docs/make_images.py            # all four pictures
     python docs/make_images.py --only 2d  # one of them
 
 The 2D and 3D pictures grow an RRT* tree of 1500 nodes with uniform samples on a seeded
 challenging point problem and draw its solution; the 7D one plans a seeded challenging iiwa
 task with ``rrt_star`` and draws the arm along the path, from the camera the renderer chooses
-for the scene. Everything is seeded, so reruns give the same pictures.
+for the scene. The families picture shows one workspace of each of the arm's structured
+families (`temp_gym.worlds.iiwa_structured`) with the arm at a challenging task's start and
+goal. Everything is seeded, so reruns give the same pictures.
 """
 
 from __future__ import annotations
@@ -28,6 +30,9 @@ SEED_2D = 1
 SEED_3D = 3
 SEED_7D = 0
 NODES = 1500
+FAMILY_SEEDS = {"corridors": 102, "maze": 102, "traps": 2, "narrow": 3, "clutter": 4}
+"""Per arm family, the workspace shown: picked by eye among the first few, so that the
+renderer's camera (chosen to show the arm) sees the structure's openings."""
 
 
 def make_point(robot: str, seed: int, out: Path) -> None:
@@ -79,22 +84,46 @@ def make_7d(out: Path) -> None:
     imsave(out, image)
 
 
+def make_families_7d(out: Path) -> None:
+    """One workspace of each of the iiwa's structured families, the arm at start and goal."""
+    from temp_gym.worlds.generators import generate_task, generate_workspace
+    from temp_gym.worlds.iiwa_structured import FAMILY_STRUCTURES
+
+    tiles = []
+    with IiwaRenderer() as renderer:
+        for family in FAMILY_STRUCTURES:
+            rng = np.random.default_rng([SEED_7D, FAMILY_SEEDS[family]])
+            workspace = generate_workspace("kuka_iiwa14", rng, family)
+            problem = generate_task(workspace, rng, "challenging")
+            tiles.append(renderer.render(problem, width=300, height=300, title=family))
+    imsave(out, np.concatenate(tiles, axis=1))
+
+
+PICTURES = {
+    "2d": ("render_2d", make_2d),
+    "3d": ("render_3d", make_3d),
+    "7d": ("render_7d", make_7d),
+    "families_7d": ("families_7d", make_families_7d),
+}
+"""Picture name (``--only``) -> (file stem under `IMAGES`, its maker)."""
+
+
 def main() -> int:
     """Make the pictures; return the number that failed."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", choices=("2d", "3d", "7d"), help="make only this picture")
+    parser.add_argument("--only", choices=tuple(PICTURES), help="make only this picture")
     args = parser.parse_args()
     IMAGES.mkdir(parents=True, exist_ok=True)
     failed = 0
-    for name, make in (("2d", make_2d), ("3d", make_3d), ("7d", make_7d)):
+    for name, (stem, make) in PICTURES.items():
         if args.only not in (None, name):
             continue
-        out = IMAGES / f"render_{name}.png"
+        out = IMAGES / f"{stem}.png"
         start = time.perf_counter()
         try:
             make(out)
         except Exception as error:  # report and go on with the other picture
-            print(f"render_{name}: failed: {type(error).__name__}: {error}")
+            print(f"{stem}: failed: {type(error).__name__}: {error}")
             failed += 1
             continue
         print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
