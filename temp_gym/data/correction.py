@@ -252,7 +252,8 @@ def correction_unit(settings: dict[str, Any], workspace: int) -> dict[str, np.nd
             field = ClearField(space, problem.goal, settings.get("clearance", 0.0))
         else:
             field = PlannerExpert(problem, settings["expert"], settings["expert_nodes"],
-                                  settings["expert_goal_bias"], plan_seed)  # fmt: skip
+                                  settings["expert_goal_bias"], plan_seed,
+                                  settings.get("expert_step_size"))  # fmt: skip
         samples = correction_samples(
             policy, problem, field, plan_seed,
             settings["max_nodes"], settings["samples_per_task"], settings["chunk"],
@@ -282,8 +283,9 @@ def correction_settings(
     """The JSON-able settings of one round (the card records them; a rerun must match).
 
     Point robots are labelled by the lattice (``clearance`` from the boxes); other robots by
-    the config's expert planner (``data.planner``, ``data.max_nodes``, ``data.goal_bias``),
-    which the settings then name (``expert``, ``expert_nodes``, ``expert_goal_bias``).
+    the config's expert planner (``data.planner``, ``data.max_nodes``, ``data.goal_bias``,
+    ``data.planner_step_size``; one attempt, not ``data.attempts``), which the settings then
+    name (``expert``, ``expert_nodes``, ``expert_goal_bias``, ``expert_step_size``).
     """
     from temp_gym.config import ConfigError
     from temp_gym.data.dataset import data_settings
@@ -302,7 +304,8 @@ def correction_settings(
         if clearance:
             raise ConfigError(f"clearance: {spec.name} is labelled by a planner, which keeps none")
         expert = {"expert": data["planner"], "expert_nodes": int(data["max_nodes"]),
-                  "expert_goal_bias": float(data["goal_bias"])}  # fmt: skip
+                  "expert_goal_bias": float(data["goal_bias"]),
+                  "expert_step_size": data["planner_step_size"]}  # fmt: skip
     return {
         "robot": config.env.robot,
         "seed": config.data.seed,

@@ -235,11 +235,9 @@ def test_an_arm_round_names_its_expert_and_refuses_a_clearance(tmp_path):
     settings = correction_settings(config, checkpoint, 1, tasks_per_workspace=1,
                                    samples_per_task=4, max_nodes=100)  # fmt: skip
     data = config.data
-    assert (settings["expert"], settings["expert_nodes"], settings["expert_goal_bias"]) == (
-        data.planner,
-        data.max_nodes,
-        data.goal_bias,
-    )
+    named = ("expert", "expert_nodes", "expert_goal_bias", "expert_step_size")
+    expected = (data.planner, data.max_nodes, data.goal_bias, data.planner_step_size)
+    assert tuple(settings[key] for key in named) == expected
     with pytest.raises(ConfigError, match="labelled by a planner"):
         correction_settings(config, checkpoint, 1, 1, 4, 100, clearance=0.5)
     unit = correction_unit({**settings, "workspaces": 1}, 0)
