@@ -26,7 +26,7 @@ import statistics
 import numpy as np
 
 from temp_gym import training
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import labelled_entry, load_config, parse_args, script_parser
 from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.training import plan_episode
@@ -69,12 +69,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--noise-std", type=float, default=0.03, help="every policy's noise")
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
-    policies = []
-    for entry in args.policy:
-        label, sep, path = entry.rpartition("=")
-        if not sep or not label or not path:
-            parser.error(f"--policy {entry!r}: expected LABEL=CHECKPOINT")
-        policies.append((label, path))
+    try:
+        policies = [labelled_entry(entry) for entry in args.policy]
+    except ValueError as error:
+        parser.error(str(error))
     if args.tasks < 1 or args.budget < 1 or args.ood_seeds < 0:
         parser.error("--tasks and --budget must be >= 1, --ood-seeds >= 0")
     config = load_config(args.config, args.overrides)

@@ -25,7 +25,7 @@ import statistics
 import numpy as np
 
 from temp_gym import training
-from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config import labelled_entry, load_config, parse_args, script_parser
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.problem import Problem, Workspace
 from temp_gym.training import plan_episode
@@ -87,12 +87,10 @@ def main(argv: list[str] | None = None) -> dict:
     args = parse_args(parser, argv)
     if args.tasks < 1 or args.budget < 1 or not 1 <= args.sides <= 6:
         parser.error("--tasks and --budget must be >= 1, --sides in 1..6")
-    policies = []
-    for entry in args.policy:
-        label, sep, path = entry.rpartition("=")
-        if not sep or not label or not path:
-            parser.error(f"--policy {entry!r}: expected LABEL=CHECKPOINT")
-        policies.append((label, path))
+    try:
+        policies = [labelled_entry(entry) for entry in args.policy]
+    except ValueError as error:
+        parser.error(str(error))
     config = load_config(args.config, args.overrides)
     robot = config.env.robot
     if robot != "kuka_iiwa14":

@@ -23,11 +23,17 @@ values. ``TEMP_GYM_OVERRIDES`` holds overrides that every load applies last::
 | `temp_gym.config.sections` | the dataclasses, their defaults and what each key means |
 | `temp_gym.config.typed` | a dataclass from a mapping and back, keys and types checked |
 | `temp_gym.config.loading` | `load_config`, overrides, `upgrade_stored` for older stored configs |
-| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `checkpoint_entry` |
+| `temp_gym.config.command_line` | `script_parser`, `parse_args`, the `--checkpoints` and `--policy` entries |
 | `temp_gym.config.compare` | `differing_keys`: what a resumed run or a rerun would change |
 """
 
-from temp_gym.config.command_line import OVERRIDE, checkpoint_entry, parse_args, script_parser
+from temp_gym.config.command_line import (
+    OVERRIDE,
+    checkpoint_entry,
+    labelled_entry,
+    parse_args,
+    script_parser,
+)
 from temp_gym.config.compare import differing_keys, flatten
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.loading import (
@@ -73,6 +79,7 @@ __all__ = [
     "Workspaces",
     "apply_overrides",
     "checkpoint_entry",
+    "labelled_entry",
     "config_from_dict",
     "differing_keys",
     "environment_overrides",

@@ -77,3 +77,15 @@ def checkpoint_entry(
             raise ValueError(f"{flag} {entry}: {key} must be a {kind.__name__}, "
                              f"got {value!r}") from None  # fmt: skip
     return Path(path), settings
+
+
+def labelled_entry(entry: str, flag: str = "--policy") -> tuple[str, str]:
+    """``LABEL=CHECKPOINT`` -> ``(label, checkpoint)``; the label may hold ``=``, the path not.
+
+    Raises:
+        ValueError: an entry without a label or a checkpoint, naming ``flag`` and the entry.
+    """
+    label, sep, path = entry.rpartition("=")
+    if not sep or not label or not path:
+        raise ValueError(f"{flag} {entry!r}: expected LABEL=CHECKPOINT")
+    return label, path

@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 
-from temp_gym.config import checkpoint_entry
+from temp_gym.config import checkpoint_entry, labelled_entry
 
 
 def test_a_checkpoint_entry_gives_its_path_and_typed_settings():
@@ -20,3 +20,11 @@ def test_a_bad_checkpoint_entry_names_the_flag_and_the_item(entry, message):
     with pytest.raises(ValueError, match=message) as error:
         checkpoint_entry(entry, flag="--policies")
     assert str(error.value).startswith(f"--policies {entry}:")
+
+
+def test_a_labelled_entry_splits_at_the_last_equals_sign():
+    assert labelled_entry("width 32=runs/a/best.pt") == ("width 32", "runs/a/best.pt")
+    assert labelled_entry("lr=1e-4=runs/b.pt") == ("lr=1e-4", "runs/b.pt")
+    for entry in ("runs/a/best.pt", "=runs/a/best.pt", "label="):
+        with pytest.raises(ValueError, match=r"--policies .*expected LABEL=CHECKPOINT"):
+            labelled_entry(entry, flag="--policies")
