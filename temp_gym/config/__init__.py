@@ -23,7 +23,7 @@ values. ``TEMP_GYM_OVERRIDES`` holds overrides that every load applies last::
 | `temp_gym.config.sections` | the dataclasses, their defaults and what each key means |
 | `temp_gym.config.typed` | a dataclass from a mapping and back, keys and types checked |
 | `temp_gym.config.loading` | `load_config`, overrides, `upgrade_stored` for older stored configs |
-| `temp_gym.config.command_line` | `script_parser`, `parse_args`, the `--checkpoints` and `--policy` entries |
+| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `checkpoint_entry` and kin |
 | `temp_gym.config.compare` | `differing_keys`: what a resumed run or a rerun would change |
 """
 
