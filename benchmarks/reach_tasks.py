@@ -31,6 +31,7 @@ from temp_gym.problem import Problem, Workspace
 from temp_gym.training import plan_episode
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, forward_kinematics, joint_limits
+from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import split_workspace
 
 AXES = np.concatenate([np.eye(3), -np.eye(3)])
@@ -99,7 +100,7 @@ def main(argv: list[str] | None = None) -> dict:
         config.train_eval, max_nodes=args.budget, attention_nodes=args.budget,
         attention_patience=None, attention_uniform=0.0, noise_std=0.0,
     )  # fmt: skip
-    goal_radius = 0.1
+    goal_radius = robot_spec(robot).goal_radius  # the generator's
     problems = []
     for i in range(args.tasks):
         workspace = split_workspace(robot, "val", i % VAL_WORKSPACES, args.family)

@@ -54,7 +54,16 @@ import numpy as np
 from temp_gym.problem import Workspace
 from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
 from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
-from temp_gym.worlds.iiwa_world import FLOOR_TOP, SIDES, TEMPLATES, Box, floor_slab, place
+from temp_gym.worlds.iiwa_world import (
+    FLOOR_TOP,
+    SIDES,
+    TEMPLATES,
+    Box,
+    box_corners,
+    draw_base_free,
+    floor_slab,
+    place,
+)
 
 MIN_FREE_FRACTION = 0.1
 """Least share of `FREE_PROBES` random joint configurations that must be free."""
@@ -210,7 +219,6 @@ def _objects(rng: np.random.Generator, side: int) -> list[Box]:
     return boxes
 
 
-# family -> (structures drawn, one per side, as (builder, weight) choices; count range)
 FAMILY_STRUCTURES: dict[str, tuple[dict[str, Callable], tuple[int, int]]] = {
     "corridors": ({"partition": _partition}, (1, 2)),
     "maze": ({"compartments": _compartments}, (1, 2)),
@@ -218,31 +226,21 @@ FAMILY_STRUCTURES: dict[str, tuple[dict[str, Callable], tuple[int, int]]] = {
     "narrow": ({"slot": _slot}, (1, 2)),
     "clutter": ({"objects": _objects}, (1, 2)),
 }
-"""Per family: its structures and how many of them a workspace has (low, high inclusive)."""
+"""Per family: the structures it draws from (by name; one is drawn, with equal chances, for
+each side it takes) and how many of them a workspace has (low, high inclusive)."""
 EXTRA_TEMPLATES = (1, 2)
 """How many of `iiwa_world`'s templates fill other sides (low, high inclusive)."""
 
 
-def _base_free(boxes: list[Box]) -> bool:
-    lower = np.array([c - h for c, h in boxes])
-    upper = np.array([c + h for c, h in boxes])
-    return bool(IiwaSphereChecker(joint_limits(), lower, upper).base_free)
-
-
-def _draw_base_free(builder: Callable, rng: np.random.Generator, side: int) -> list[Box]:
-    for _ in range(TRIES):
-        boxes = builder(rng, side)
-        if _base_free(boxes):
-            return boxes
-    raise RuntimeError(f"no base-free {builder.__name__.strip('_')} in {TRIES} draws")
-
-
 def _free_fraction(boxes: list[Box], rng: np.random.Generator) -> float:
-    lower = np.array([c - h for c, h in boxes])
-    upper = np.array([c + h for c, h in boxes])
-    checker = IiwaSphereChecker(joint_limits(), lower, upper)
+    checker = IiwaSphereChecker(joint_limits(), *box_corners(boxes))
     states = rng.uniform(*joint_limits(), size=(FREE_PROBES, NUM_JOINTS))
     return float(checker.states_free(states).mean())
+
+
+def _draw(build: Callable, rng: np.random.Generator, side: int) -> list[Box]:
+    """``build``'s boxes on ``side``, redrawn until they keep clear of the base."""
+    return draw_base_free(build, rng, side, TRIES, build.__name__.strip("_"))
 
 
 def generate_iiwa_structured_workspace(
@@ -267,13 +265,13 @@ def generate_iiwa_structured_workspace(
         boxes = [floor_slab()]
         for _ in range(int(rng.integers(low, high + 1))):
             builder = builders[names[int(rng.integers(len(names)))]]
-            boxes += _draw_base_free(builder, rng, sides.pop())
+            boxes += _draw(builder, rng, sides.pop())
         if family == "narrow" and rng.random() < 0.5:
-            boxes += _draw_base_free(_ceiling, rng, sides.pop())
+            boxes += _draw(_ceiling, rng, sides.pop())
         extra = min(int(rng.integers(EXTRA_TEMPLATES[0], EXTRA_TEMPLATES[1] + 1)), len(sides))
         for _ in range(extra):
             template = TEMPLATES[templates[int(rng.integers(len(templates)))]]
-            boxes += _draw_base_free(template, rng, sides.pop())
+            boxes += _draw(template, rng, sides.pop())
         if _free_fraction(boxes, rng) >= MIN_FREE_FRACTION:
             centers = np.array([c for c, _ in boxes])
             halves = np.array([h for _, h in boxes])

@@ -40,6 +40,8 @@ Example:
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from temp_gym.problem import Problem, Workspace
@@ -136,6 +138,33 @@ def _wall(rng: np.random.Generator, side: int) -> list[Box]:
 TEMPLATES = {"table": _table, "shelf": _shelf, "pillar": _pillar, "wall": _wall}
 
 
+def box_corners(boxes: list[Box]) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(lower, upper)`` corners of ``(center, half)`` boxes, one row per box."""
+    lower = np.array([c - h for c, h in boxes])
+    upper = np.array([c + h for c, h in boxes])
+    return lower, upper
+
+
+def draw_base_free(
+    build: Callable[[np.random.Generator, int], list[Box]],
+    rng: np.random.Generator,
+    side: int,
+    tries: int,
+    what: str,
+) -> list[Box]:
+    """``build(rng, side)`` redrawn until its boxes keep clear of link_0.
+
+    Raises:
+        RuntimeError: every one of ``tries`` draws touched the base (the message names
+            ``what``).
+    """
+    for _ in range(tries):
+        boxes = build(rng, side)
+        if IiwaSphereChecker(joint_limits(), *box_corners(boxes)).base_free:
+            return boxes
+    raise RuntimeError(f"{what}: no base-free placement in {tries} draws")
+
+
 def generate_iiwa_workspace(
     robot: str, rng: np.random.Generator, max_tries: int = 100
 ) -> Workspace:
@@ -155,18 +184,14 @@ def generate_iiwa_workspace(
     bounds = joint_limits()
     boxes: list[Box] = [floor_slab()]
     names = list(TEMPLATES)
+
+    def any_template(rng: np.random.Generator, side: int) -> list[Box]:
+        return TEMPLATES[names[rng.integers(len(names))]](rng, side)
+
     sides = list(rng.permutation(len(SIDES)))
     for _ in range(int(rng.integers(3, 5))):
         side = int(sides.pop())
-        for _ in range(max_tries):
-            candidate = TEMPLATES[names[rng.integers(len(names))]](rng, side)
-            lower = np.array([c - h for c, h in candidate])
-            upper = np.array([c + h for c, h in candidate])
-            if IiwaSphereChecker(bounds, lower, upper).base_free:
-                boxes.extend(candidate)
-                break
-        else:
-            raise RuntimeError(f"generate_iiwa_workspace: no base-free template in {max_tries}")
+        boxes += draw_base_free(any_template, rng, side, max_tries, "generate_iiwa_workspace")
     centers = np.array([c for c, _ in boxes])
     halves = np.array([h for _, h in boxes])
     return Workspace(robot, bounds, centers, halves)
@@ -226,6 +251,8 @@ __all__ = [
     "FLOOR_TOP",
     "SIDES",
     "TEMPLATES",
+    "box_corners",
+    "draw_base_free",
     "floor_slab",
     "generate_iiwa_task",
     "generate_iiwa_workspace",
