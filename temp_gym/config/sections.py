@@ -87,6 +87,10 @@ class DataConfig:
     attempts: int = 1
     """Seeds the expert tries on a task (each retry with a larger budget) before the task
     counts as failed."""
+    expert_reverse: bool = False
+    """After each failed attempt, plan the same attempt from the goal to the start and store
+    the reversed path (`temp_gym.data.generate.expert_plan`): a forward tree rarely enters a
+    goal in a pocket (a bin, a compartment, a trap), so without it the data lose those tasks."""
     corrections: list[str] = field(default_factory=list)
     """On-policy correction rounds (``trainers/correct.py`` directories) added to training."""
 

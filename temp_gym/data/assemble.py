@@ -171,6 +171,7 @@ def summarize(units: list[dict[str, np.ndarray]], paths: list[dict]) -> dict[str
         "plans_stored": int(ok.sum()),
         "plans_failed": int((status == STATUS["no_solution"]).sum()),
         "tasks_not_drawn": int((status == STATUS["no_task"]).sum()),
+        "plans_reversed": _reversed_total(units),
         "samples": int(np.sum(resampled - 1)) if len(resampled) else 0,
         "cost": _stats(cost[ok]),
         "cost_over_straight_line": _stats(cost[ok] / np.maximum(straight[ok], 1e-12)),
@@ -182,6 +183,13 @@ def summarize(units: list[dict[str, np.ndarray]], paths: list[dict]) -> dict[str
         "unit_time_s_total": float(sum(float(u["unit_time"]) for u in units)),
         "unit_cpu_time_s_total": _cpu_total(units),
     }
+
+
+def _reversed_total(units: list[dict[str, np.ndarray]]) -> int | None:
+    """Stored plans the expert found from the goal (``data.expert_reverse``); None: unknown."""
+    if any("reversed" not in u for u in units):  # units written before it was recorded
+        return None
+    return int(sum(int(np.sum(u["reversed"] & (u["status"] == STATUS["ok"]))) for u in units))
 
 
 def _cpu_total(units: list[dict[str, np.ndarray]]) -> float | None:

@@ -79,6 +79,8 @@ def data_settings(config: Config) -> dict[str, Any]:
         raise ConfigError(f"data.attempts: must be at least 1, got {data.attempts}")
     if data.attempts > 1:  # absent means 1: datasets made before the key existed keep theirs
         settings["attempts"] = data.attempts
+    if data.expert_reverse:  # absent means False, as for every dataset before the key
+        settings["expert_reverse"] = True
     try:
         check_family(robot, data.workspace_family)
     except ValueError as error:

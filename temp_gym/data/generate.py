@@ -36,6 +36,7 @@ nodes would cost minutes on each task no attempt solves).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -68,7 +69,10 @@ from temp_gym.files import (
 )
 from temp_gym.jobs import estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
+from temp_gym.planning.result import PlanResult
 from temp_gym.planning.tree import default_step_size
+from temp_gym.problem import Problem
+from temp_gym.worlds.checkers import certify_path
 from temp_gym.worlds.generators import generate_task
 from temp_gym.worlds.splits import split_workspace
 
@@ -86,6 +90,45 @@ def task_seeds(seed: int, split: str, workspace: int, task: int) -> tuple[np.ran
     task_sequence, plan_sequence = sequence.spawn(2)
     plan_seed = int(plan_sequence.generate_state(1, dtype=np.uint32)[0])
     return np.random.default_rng(task_sequence), plan_seed
+
+
+def path_length(path: np.ndarray) -> float:
+    """The summed length of a path's segments (the planners' cost)."""
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+
+
+def expert_plan(
+    problem: Problem,
+    settings: dict[str, Any],
+    seed: int,
+    max_nodes: int,
+    step_size: float,
+    backwards: bool = False,
+) -> tuple[PlanResult, np.ndarray | None]:
+    """One run of the expert on ``problem``: its result and its certified path (None: failed).
+
+    ``backwards`` plans from the goal to the start (start and goal swapped, the same goal
+    radius) and reverses the path; when that path ends short of the start (in its goal ball),
+    the start is put in front and the whole path certified again by the exact checker, or the
+    run counts as failed. A forward tree fails on tasks whose goal lies in a pocket (a bin, a
+    compartment, a trap) that its samples rarely enter; a tree rooted there reaches the open
+    start easily.
+    """
+    kwargs = {"planner": settings["planner"], "seed": seed, "max_nodes": max_nodes,
+              "step_size": step_size, "goal_bias": settings["goal_bias"]}  # fmt: skip
+    if not backwards:
+        result = plan(problem, **kwargs)
+        path = None if not result.success or result.path is None else result.path
+        return result, None if path is None else np.asarray(path, dtype=np.float64)
+    result = plan(replace(problem, start=problem.goal, goal=problem.start), **kwargs)
+    if not result.success or result.path is None:
+        return result, None
+    path = np.asarray(result.path, dtype=np.float64)[::-1]
+    if not np.array_equal(path[0], problem.start):
+        path = np.concatenate([problem.start[None], path])
+        if not certify_path(problem, path):
+            return result, None
+    return result, np.ascontiguousarray(path)
 
 
 def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str, np.ndarray]:
@@ -109,6 +152,7 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
     steps = np.zeros(count)
     paths: list[np.ndarray] = []
     lengths = np.zeros(count, dtype=np.int64)
+    reversed_plans = np.zeros(count, dtype=bool)
     for task in range(count):
         rng, plan_seeds[task] = task_seeds(settings["seed"], split, workspace, task)
         try:
@@ -117,27 +161,34 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
             continue
         starts[task], goals[task], radii[task] = problem.start, problem.goal, problem.goal_radius
         steps[task] = settings["step_size"] or default_step_size(problem)
+        directions = (False, True) if settings.get("expert_reverse", False) else (False,)
+        path = None
         for attempt in range(settings.get("attempts", 1)):  # a new seed and a larger budget
-            result = plan(
-                problem,
-                planner=settings["planner"],
-                seed=(int(plan_seeds[task]) + RETRY_SEED_STRIDE * attempt) % 2**32,
-                max_nodes=settings["max_nodes"] * RETRY_BUDGET_GROWTH**attempt,
-                step_size=settings["planner_step_size"] or steps[task],
-                goal_bias=settings["goal_bias"],
-            )
-            times[task] += result.wall_time
-            if result.success:
+            for backwards in directions:
+                result, path = expert_plan(
+                    problem,
+                    settings,
+                    seed=(int(plan_seeds[task]) + RETRY_SEED_STRIDE * attempt) % 2**32,
+                    max_nodes=settings["max_nodes"] * RETRY_BUDGET_GROWTH**attempt,
+                    step_size=settings["planner_step_size"] or steps[task],
+                    backwards=backwards,
+                )
+                times[task] += result.wall_time
+                if path is not None:
+                    break
+            if path is not None:
+                reversed_plans[task] = backwards
                 break
         nodes[task] = result.nodes
         if result.nodes_to_first_solution is not None:
             first[task] = result.nodes_to_first_solution
-        if not result.success or result.path is None:
+        if path is None:
             status[task] = STATUS["no_solution"]
             continue
-        status[task], costs[task] = STATUS["ok"], result.cost
-        paths.append(np.asarray(result.path, dtype=np.float64))
-        lengths[task] = len(result.path)
+        status[task] = STATUS["ok"]
+        costs[task] = result.cost if not backwards else path_length(path)
+        paths.append(path)
+        lengths[task] = len(path)
     return {
         "status": status,
         "start": starts,
@@ -154,6 +205,7 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
         "path_points": np.concatenate(paths) if paths else np.zeros((0, dim)),
         "unit_time": np.array(time.perf_counter() - started),
         "unit_cpu_time": np.array(time.process_time() - started_cpu),
+        "reversed": reversed_plans,
     }
 
 

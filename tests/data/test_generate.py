@@ -262,6 +262,111 @@ def test_the_expert_retries_a_failed_task_with_a_new_seed(tmp_path, monkeypatch)
         data_settings(apply_overrides(config, ["data.attempts=0"]))
 
 
+def _forward_fails(generate, monkeypatch) -> list[tuple[bool, int, int]]:
+    """Make every forward plan of the expert fail; record (backwards, seed, budget) per call.
+
+    A backwards call's entry also holds whether its path ends exactly at its goal (the
+    original start), so that the expert puts nothing in front of it."""
+    real_plan = generate.plan
+    calls: list[tuple[bool, int, int]] = []
+    forward_starts: set[tuple] = set()
+
+    def forward_fails(problem, **kwargs):
+        result = real_plan(problem, **kwargs)
+        backwards = (
+            tuple(problem.start) not in forward_starts
+            and bool(calls)
+            and (tuple(problem.goal) in forward_starts)
+        )
+        if not backwards:
+            forward_starts.add(tuple(problem.start))
+            result.success, result.path = False, None
+        entry = (backwards, kwargs["seed"], kwargs["max_nodes"])
+        if backwards:
+            entry += (result.success and np.array_equal(result.path[-1], problem.goal),)
+        calls.append(entry)
+        return result
+
+    monkeypatch.setattr(generate, "plan", forward_fails)
+    return calls
+
+
+def test_the_expert_plans_a_failed_task_backwards_when_asked(tmp_path, monkeypatch):
+    import temp_gym.data.generate as generate
+    from temp_gym.data.dataset import data_settings
+    from temp_gym.worlds.checkers import certify_path
+
+    config = load_config(TINY, [f"data.dir={tmp_path}", "data.tasks_per_workspace=2"])
+    assert "expert_reverse" not in data_settings(config)  # older datasets keep their settings
+    calls = _forward_fails(generate, monkeypatch)
+    assert list(solve_unit(data_settings(config), "train", 0)["status"]) == [1, 1]
+    assert [entry[0] for entry in calls] == [False, False]  # never backwards
+
+    calls.clear()
+    settings = data_settings(apply_overrides(config, ["data.expert_reverse=true"]))
+    assert settings["expert_reverse"] is True
+    unit = solve_unit(settings, "train", 0)
+    assert list(unit["status"]) == [0, 0] and list(unit["reversed"]) == [True, True]
+    assert [entry[0] for entry in calls] == [False, True, False, True]
+    assert calls[0][1:] == calls[1][1:3]  # the same attempt: its seed and budget
+    workspace = split_workspace("point2d", "train", 0)
+    for task in range(2):
+        path = unit["path_points"][unit["path_offsets"][task] : unit["path_offsets"][task + 1]]
+        assert np.array_equal(path[0], unit["start"][task])  # from the start itself
+        assert np.array_equal(path[-1], unit["goal"][task])  # to the goal itself
+        problem = generate_task_problem(workspace, unit, task)
+        assert certify_path(problem, path)
+        assert unit["cost"][task] == pytest.approx(
+            np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))
+        )
+
+
+def generate_task_problem(workspace, unit, task):
+    from temp_gym.problem import Problem
+
+    return Problem(
+        workspace=workspace,
+        start=unit["start"][task],
+        goal=unit["goal"][task],
+        goal_radius=float(unit["goal_radius"][task]),
+    )
+
+
+def test_a_backwards_path_whose_way_to_the_start_collides_is_not_stored(tmp_path, monkeypatch):
+    import temp_gym.data.generate as generate
+    from temp_gym.data.dataset import data_settings
+
+    config = load_config(
+        TINY,
+        [f"data.dir={tmp_path}", "data.tasks_per_workspace=2", "data.expert_reverse=true"],
+    )
+    calls = _forward_fails(generate, monkeypatch)
+    monkeypatch.setattr(generate, "certify_path", lambda problem, path: False)
+    unit = solve_unit(data_settings(config), "train", 0)
+    ended_at_start = [entry[3] for entry in calls if entry[0]]
+    assert len(ended_at_start) == 2 and not all(ended_at_start)  # one needs the start in front
+    # stored exactly when the planner's own (certified) path reached the start
+    assert list(unit["status"] == 0) == ended_at_start
+    assert list(unit["reversed"]) == ended_at_start
+
+
+def test_a_backwards_expert_plan_runs_from_the_start_to_the_goal():
+    from dataclasses import replace
+
+    from temp_gym import Problem
+    from temp_gym.data.generate import expert_plan
+    from temp_gym.worlds.checkers import certify_path
+
+    problem = Problem.load(ROOT / "examples" / "ood" / "2d" / "bug_trap.json")
+    into_the_trap = replace(problem, start=problem.goal, goal=problem.start)
+    settings = {"planner": "informed_rrt_star", "goal_bias": 0.05}
+    result, path = expert_plan(into_the_trap, settings, 0, 600, 2.0, backwards=True)
+    assert result.success and path is not None
+    assert np.array_equal(path[0], into_the_trap.start)
+    assert np.array_equal(path[-1], into_the_trap.goal)
+    assert certify_path(into_the_trap, path)
+
+
 SETTINGS_BEFORE_FAMILIES = {
     "robot", "encoding_resolution", "max_path_length", "step_size", "seed", "workspaces",
     "tasks_per_workspace", "difficulty", "planner", "max_nodes", "planner_step_size",
