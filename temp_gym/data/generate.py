@@ -19,7 +19,8 @@ The expert is ``data.planner`` (default Informed RRT*: RRT* whose samples, once 
 exists, come from the prolate hyperspheroid of the best cost, so it refines to near-optimal
 paths in fewer nodes) run for exactly ``data.max_nodes`` tree nodes (with ``data.attempts``
 above 1, a task it fails is planned again with a new seed and `RETRY_BUDGET_GROWTH` times the
-budget, up to that many attempts), steering with
+budget, up to that many attempts; with ``data.expert_reverse``, each failed attempt is planned
+again from the goal to the start, and the path reversed: `expert_plan`), steering with
 ``data.planner_step_size`` (null: the env's step). `temp_gym.plan` certifies every returned
 path with the exact checker; a plan without a certified path counts as failed and is not
 stored.
