@@ -160,3 +160,19 @@ def test_policy_speed_draws_validation_tasks_as_tune_planner_does():
     expected = training.draw_problems(config, "val", 3, config.train_eval.seed + 20_000)
     assert list(rows) == ["val"] and rows["val"] == expected
     assert all(problem.robot == "point2d" for problem in rows["val"])
+
+
+def test_directions_plans_each_ood_scene_from_both_ends():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import directions
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    from temp_gym.evaluation.ood import load_ood_family
+
+    medians = directions.main(["--worlds", "2d", "--seeds", "1", "--budget", "300"])
+    assert set(medians["2d"]) == set(load_ood_family("point2d"))
+    for forward, backward in medians["2d"].values():
+        assert 0 < forward <= 300 and 0 < backward <= 300
+    with pytest.raises(SystemExit):
+        directions.main(["--seeds", "0"])
