@@ -93,11 +93,6 @@ def task_seeds(seed: int, split: str, workspace: int, task: int) -> tuple[np.ran
     return np.random.default_rng(task_sequence), plan_seed
 
 
-def path_length(path: np.ndarray) -> float:
-    """The summed length of a path's segments (the planners' cost)."""
-    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
-
-
 def expert_plan(
     problem: Problem,
     settings: dict[str, Any],
@@ -105,31 +100,32 @@ def expert_plan(
     max_nodes: int,
     step_size: float,
     backwards: bool = False,
-) -> tuple[PlanResult, np.ndarray | None]:
-    """One run of the expert on ``problem``: its result and its certified path (None: failed).
+) -> tuple[PlanResult, np.ndarray | None, float]:
+    """One run of the expert on ``problem``: its result, its certified path and that path's cost.
 
-    ``backwards`` plans from the goal to the start (start and goal swapped, the same goal
-    radius) and reverses the path; when that path ends short of the start (in its goal ball),
-    the start is put in front and the whole path certified again by the exact checker, or the
-    run counts as failed. A forward tree fails on tasks whose goal lies in a pocket (a bin, a
-    compartment, a trap) that its samples rarely enter; a tree rooted there reaches the open
+    The path is None when the run failed (the cost is then inf). ``backwards`` plans from the
+    goal to the start (start and goal swapped, the same goal radius) and reverses the path;
+    when that path ends short of the start (in its goal ball), the start is put in front (the
+    cost grows by that segment) and the whole path certified again by the exact checker, or
+    the run counts as failed. A forward tree fails on tasks whose goal lies in a pocket (a bin,
+    a compartment, a trap) that its samples rarely enter; a tree rooted there reaches the open
     start easily.
     """
-    kwargs = {"planner": settings["planner"], "seed": seed, "max_nodes": max_nodes,
-              "step_size": step_size, "goal_bias": settings["goal_bias"]}  # fmt: skip
-    if not backwards:
-        result = plan(problem, **kwargs)
-        path = None if not result.success or result.path is None else result.path
-        return result, None if path is None else np.asarray(path, dtype=np.float64)
-    result = plan(replace(problem, start=problem.goal, goal=problem.start), **kwargs)
+    planned = replace(problem, start=problem.goal, goal=problem.start) if backwards else problem
+    result = plan(planned, planner=settings["planner"], seed=seed, max_nodes=max_nodes,
+                  step_size=step_size, goal_bias=settings["goal_bias"])  # fmt: skip
     if not result.success or result.path is None:
-        return result, None
-    path = np.asarray(result.path, dtype=np.float64)[::-1]
+        return result, None, float("inf")
+    path, cost = np.asarray(result.path, dtype=np.float64), float(result.cost)
+    if not backwards:
+        return result, path, cost
+    path = path[::-1]
     if not np.array_equal(path[0], problem.start):
+        cost += float(np.linalg.norm(path[0] - problem.start))
         path = np.concatenate([problem.start[None], path])
         if not certify_path(problem, path):
-            return result, None
-    return result, np.ascontiguousarray(path)
+            return result, None, float("inf")
+    return result, np.ascontiguousarray(path), cost
 
 
 def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str, np.ndarray]:
@@ -166,7 +162,7 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
         path = None
         for attempt in range(settings.get("attempts", 1)):  # a new seed and a larger budget
             for backwards in directions:
-                result, path = expert_plan(
+                result, path, cost = expert_plan(
                     problem,
                     settings,
                     seed=(int(plan_seeds[task]) + RETRY_SEED_STRIDE * attempt) % 2**32,
@@ -186,8 +182,7 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
         if path is None:
             status[task] = STATUS["no_solution"]
             continue
-        status[task] = STATUS["ok"]
-        costs[task] = result.cost if not backwards else path_length(path)
+        status[task], costs[task] = STATUS["ok"], cost
         paths.append(path)
         lengths[task] = len(path)
     return {
