@@ -29,6 +29,7 @@ from temp_gym.planning._kernels import (
     apply_rewires,
     insert_node,
     near_and_parent_candidates,
+    nearest,
     nearest_and_steer,
 )
 from temp_gym.worlds.collision.compiled import motion_free
@@ -238,3 +239,61 @@ def normalized_root_path(links, positions, node, bounds, out) -> int:
             out[row, k] = 2.0 * (positions[node, k] - low) / (bounds[1, k] - low) - 1.0
         node = links[node, PARENT]
     return length
+
+
+@numba.njit(cache=True, nogil=True)
+def first_link(
+    positions, first, count, other_positions, other_count, other_grid, scratch, context, counters,
+    towards_other,
+):  # fmt: skip
+    """The first node of one tree with a free straight motion to its nearest in another.
+
+    Returns ``(i, j)``: ``i`` in ``[first, count)`` of the one tree, ``j`` of the other;
+    ``(-1, -1)`` when there is none. Each node costs one nearest query on the other tree
+    (``other_grid``, ``scratch`` as `temp_gym.planning._kernels.nearest` takes them) and one
+    motion check, counted in
+    ``counters`` (`COUNTERS`' ``checks``). The motion is checked from ``i`` to ``j`` when
+    ``towards_other``, else from ``j`` to ``i``: always in the direction the joined path runs.
+    """
+    for i in range(first, count):
+        j, _ = nearest(other_positions, other_count, positions[i], other_grid, scratch)
+        counters[CHECKS] += 1
+        if towards_other:
+            free = motion_free(context, positions[i], other_positions[j])
+        else:
+            free = motion_free(context, other_positions[j], positions[i])
+        if free:
+            return i, j
+    return -1, -1
+
+
+@numba.njit(cache=True, nogil=True)
+def graft_branch(arrays, counters, best_cost, params, goal, node, branch):
+    """Append the states ``branch`` (rows, in order) to the tree as a chain under ``node``.
+
+    Each appended node's parent is the one before it (the first's is ``node``); the edges are
+    the caller's to have checked. Stops after the first node inside the goal region, which
+    becomes the best goal node when it is cheaper. No rewiring: the chain's edges are as
+    given. Returns how many nodes were appended; the caller guarantees the room.
+    """
+    positions, costs, links, goal_nodes, near_idx, near_dist, cand_idx = arrays[:7]
+    parent = node
+    added = 0
+    for row in range(branch.shape[0]):
+        count = counters[NUM_NODES]
+        cost, reached_goal, _ = insert_node(
+            positions, costs, links, count, branch[row], parent, goal, params[GOAL_RADIUS_SQ],
+            near_idx, near_dist, 0, cand_idx,
+        )  # fmt: skip
+        counters[NUM_NODES] = count + 1
+        counters[NEWEST] = count
+        added += 1
+        parent = count
+        if reached_goal:
+            goal_nodes[counters[NUM_GOAL]] = count
+            counters[NUM_GOAL] += 1
+            if cost < best_cost[0]:
+                counters[BEST_NODE] = count
+                best_cost[0] = cost
+            break
+    return added

@@ -53,6 +53,18 @@ def _scan_nearest(positions, count, sample):
 
 
 @numba.njit(cache=True, nogil=True)
+def nearest(positions, count, point, grid, scratch):
+    """``(node, squared distance)`` of the node nearest ``point``.
+
+    Through the ``grid`` of a big point-robot tree, else by a scan (the same answer);
+    ``scratch`` holds ``count`` int64.
+    """
+    if in_use(grid, count, point):
+        return grid_nearest(positions, count, point, grid, scratch)
+    return _scan_nearest(positions, count, point)
+
+
+@numba.njit(cache=True, nogil=True)
 def nearest_and_steer(positions, count, sample, step_size, out_new, grid, scratch):
     """Find the node nearest to ``sample`` and steer from it by at most ``step_size``.
 

@@ -67,6 +67,7 @@ def plan(
     attention_follow_fallback: float | None = None,
     attention_resume: float | None = None,
     attention_keep_chunk: bool | None = None,
+    goal_tree: bool | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -128,6 +129,10 @@ def plan(
             call: after a proposal collided and a uniform fallback sample replaced it, go on
             with the chunk's next proposal (True: fewer nodes to a first solution, costlier
             paths) or call the policy again (False; None means False).
+        goal_tree: ``temp`` only: when the attention phase ends without a solution, a second
+            tree grows from the goal beside the planner's until the two meet
+            (`temp_gym.planning.goal_tree`; its nodes count against ``max_nodes``). None
+            means True; False leaves classical planning to Informed RRT* alone.
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -147,6 +152,7 @@ def plan(
         attention_near_goal_factor=attention_near_goal_factor,
         attention_follow_fallback=attention_follow_fallback,
         attention_resume=attention_resume, attention_keep_chunk=attention_keep_chunk,
+        goal_tree=goal_tree,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

@@ -151,6 +151,11 @@ class PlanSettings:
     `temp_gym.planning.attention.RESUME_AFTER`; 0: never, classical planning keeps the rest
     of the budget)."""
 
+    goal_tree: bool | None = None
+    """``temp`` planner: when the attention phase ends without a solution, grow a second tree
+    from the goal beside the planner's until the two meet (`temp_gym.planning.goal_tree`;
+    None means True; False: Informed RRT* alone, as before)."""
+
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
@@ -198,6 +203,10 @@ class PlanSettings:
                     f"{self.attention_keep_chunk!r}"
                 )
             normalize("attention_keep_chunk", bool(self.attention_keep_chunk))
+        if self.goal_tree is not None:
+            if not isinstance(self.goal_tree, (bool, np.bool_)):
+                raise ValueError(f"goal_tree: expected True, False or None, got {self.goal_tree!r}")
+            normalize("goal_tree", bool(self.goal_tree))
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:
@@ -315,6 +324,9 @@ class AnytimeLog:
 
     def __init__(self, started: float | None = None) -> None:
         self.started = time.perf_counter() if started is None else float(started)
+        self.extra_nodes = 0
+        """Nodes the planner grew outside its tree (TEMP's goal tree,
+        `temp_gym.planning.goal_tree`), counted in every record and in the result's nodes."""
         self.nodes: list[int] = []
         self.times: list[float] = []
         self.costs: list[float] = []
@@ -331,7 +343,7 @@ class AnytimeLog:
 
     def record_tree(self, tree: Tree) -> None:
         """Append the tree's new best cost, now."""
-        self.record(tree.num_nodes, self.elapsed(), tree.best_cost)
+        self.record(tree.num_nodes + self.extra_nodes, self.elapsed(), tree.best_cost)
 
     @property
     def first_time(self) -> float | None:
@@ -394,7 +406,7 @@ def tree_plan_result(
         success=path is not None,
         path=path,
         cost=cost,
-        nodes=tree.num_nodes,
+        nodes=tree.num_nodes + log.extra_nodes,
         samples=tree.samples,
         sampling_failures=tree.sampling_failures,
         collision_checks=tree.collision_checks,

@@ -59,7 +59,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from temp_gym.planning.anytime import grow_anytime
+from temp_gym.planning.anytime import finished, grow_anytime
 from temp_gym.planning.attention import (
     RESUME_AFTER,
     AttentionLimits,
@@ -68,6 +68,7 @@ from temp_gym.planning.attention import (
     resume_nodes,
     run_attention_phase,
 )
+from temp_gym.planning.goal_tree import GoalTree
 from temp_gym.planning.policy import PolicySettings, SamplingPolicy, policy_settings
 from temp_gym.planning.result import (
     AnytimeLog,
@@ -171,16 +172,37 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     if attention["solved"]:
         log.record(tree.num_nodes, attention["time"], tree.best_cost)
 
+    # ---- unsolved: a tree from the goal grows beside the planner's until they join
+    goal_tree = None
+    if (
+        settings.goal_tree is not False
+        and tree.best_node < 0
+        and not finished(tree, settings, limits.deadline)
+    ):
+        goal_tree = GoalTree(tree)
+
     # ---- after a stall: classical planning and the resumed attention phase in turns
     if outcome.stop == "stalled" and resume > 0:
         attention["resumes"] = _resume_until_solved(
             tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
-            uniform, follow, keep_chunk,
+            uniform, follow, keep_chunk, goal_tree,
         )  # fmt: skip
 
     # ---- classical planning: Informed RRT* on the same tree
-    grow_anytime(tree, settings, rng, log, informed=True)
+    if goal_tree is not None and tree.best_node < 0:
+        goal_tree.grow_until_joined(tree, settings, rng, log, settings.max_nodes)
+    if goal_tree is not None:
+        attention["goal_tree_nodes"] = goal_tree.tree.num_nodes
+        attention["goal_tree_joined"] = goal_tree.joined
+    grow_anytime(tree, _less_budget(settings, log.extra_nodes), rng, log, informed=True)
     return tree_plan_result(problem, tree, "temp", settings, log, attention=attention)
+
+
+def _less_budget(settings: PlanSettings, nodes: int) -> PlanSettings:
+    """``settings`` with ``nodes`` fewer tree nodes (grown elsewhere: the goal tree's)."""
+    if nodes == 0:
+        return settings
+    return dataclasses.replace(settings, max_nodes=max(settings.max_nodes - nodes, 1))
 
 
 def _given_or_declared(
@@ -213,6 +235,7 @@ def _resume_until_solved(
     uniform: float,
     follow: float,
     keep_chunk: bool,
+    goal_tree: GoalTree | None = None,
 ) -> int:
     """After a stall: ``classical_nodes`` of Informed RRT*, then the attention phase again.
 
@@ -223,18 +246,26 @@ def _resume_until_solved(
     """
     resumes = 0
     while True:
-        classical = dataclasses.replace(
-            settings,
-            max_nodes=min(settings.max_nodes, tree.num_nodes + classical_nodes),
-            stop_at_first=True,
+        extra = 0 if goal_tree is None else goal_tree.tree.num_nodes
+        turn_end = min(settings.max_nodes, tree.num_nodes + extra + classical_nodes)
+        if goal_tree is None:
+            classical = dataclasses.replace(settings, max_nodes=turn_end, stop_at_first=True)
+            grow_anytime(tree, classical, rng, log, informed=True)
+        else:
+            goal_tree.grow_until_joined(tree, settings, rng, log, turn_end)
+            extra = goal_tree.extra_nodes
+        if tree.best_node >= 0 or tree.num_nodes + extra >= settings.max_nodes:
+            return resumes
+        goal_samples = 0 if goal_tree is None else goal_tree.tree.samples
+        if tree.samples + goal_samples >= settings.sample_limit:
+            return resumes
+        resumed_limits = dataclasses.replace(
+            limits,
+            max_nodes=limits.max_nodes - extra,
+            max_samples=limits.max_samples - goal_samples,
         )
-        grow_anytime(tree, classical, rng, log, informed=True)
-        if tree.best_node >= 0 or tree.num_nodes >= settings.max_nodes:
-            return resumes
-        if tree.samples >= settings.sample_limit:
-            return resumes
         outcome = run_attention_phase(
-            tree, policy, rng, settings.goal_bias, limits, uniform=uniform,
+            tree, policy, rng, settings.goal_bias, resumed_limits, uniform=uniform,
             follow_fallback=follow, resumed=True, keep_chunk=keep_chunk,
         )  # fmt: skip
         resumes += 1

@@ -48,8 +48,8 @@ def test_no_sampler_is_built_when_the_loop_would_not_run(problem_2d, monkeypatch
 
 
 def test_temp_classical_phase_is_the_same_loop(problem_2d):
-    # Attention budget 1: the classical phase (Informed RRT* on the same tree) does all the
-    # work, so TEMP's tree is Informed RRT*'s from the same generator state.
+    # Attention budget 1 and no goal tree: the classical phase (Informed RRT* on the same
+    # tree) does all the work, so TEMP's tree is Informed RRT*'s from the same generator state.
     class Never:
         def reset(self, problem, seed=None):
             pass
@@ -57,7 +57,8 @@ def test_temp_classical_phase_is_the_same_loop(problem_2d):
         def __call__(self, observation):
             raise AssertionError("the attention phase should not run")
 
-    temp = plan(problem_2d, "temp", seed=5, max_nodes=600, policy=Never(), attention_nodes=1)
+    temp = plan(problem_2d, "temp", seed=5, max_nodes=600, policy=Never(), attention_nodes=1,
+                goal_tree=False)  # fmt: skip
     informed = plan(problem_2d, "informed_rrt_star", seed=5, max_nodes=600)
     assert temp.attention["nodes"] == 1 and temp.nodes == informed.nodes == 600
     np.testing.assert_array_equal(temp.path, informed.path)

@@ -400,7 +400,7 @@ def test_a_resumed_phase_counts_progress_from_the_trees_closest_approach(wall):
 def test_a_stalled_phase_resumes_after_classical_planning_until_the_first_solution(wall):
     problem = Problem.from_dict(wall)
     kwargs = dict(planner="temp", seed=0, max_nodes=3000, stop_at_first=True, goal_bias=0.0,
-                  attention_patience=30)  # fmt: skip
+                  attention_patience=30, goal_tree=False)  # fmt: skip
     resumed = plan(problem, policy=Stuck(), attention_resume=0.5, **kwargs)
     assert resumed.success and resumed.attention["stop"] == "stalled"
     assert resumed.attention["resumes"] >= 1

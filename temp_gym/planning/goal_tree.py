@@ -1,0 +1,173 @@
+"""A second tree, rooted at the goal, that grows beside the planner's until the two meet.
+
+A goal inside a pocket (a bin, a cubby, a window, a bug trap) is hard to enter for a tree
+grown from the start and easy to leave for a tree grown from the goal: on the arm's
+out-of-distribution scenes Informed RRT* from the goal needs a few hundred nodes where from
+the start it fails at 10,000, and the 2D generator's tasks on which TEMP's attention phase
+stalls are solved by it from the goal with half the nodes (docs/ingredients.md). TEMP's
+classical phase uses this tree until the first solution, RRT-Connect's idea (Kuffner and
+LaValle 2000) on RRT* trees:
+
+* the goal tree is an RRT* tree of the swapped problem (root: the goal; its goal-biased
+  samples: the start), grown in turns with the planner's tree;
+* every node either tree gains is tried against its nearest node in the other: one straight
+  motion check;
+* the first free link joins them: the goal tree's branch from the linked node to the goal is
+  appended to the planner's tree as a chain of nodes, which gives the planner's tree a
+  solution. The goal tree is then dropped, and the planner's tree goes on as before (Informed
+  RRT* improves the path, rewiring the chain like any other nodes).
+
+Every node either tree grew counts against the node budget (`GoalTree.extra_nodes`: the goal
+tree's nodes that the chain did not copy), so nodes to a first solution compare with a
+one-tree planner's honestly. The joined path is certified by the exact checker like any other
+(`temp_gym.planning.result.tree_plan_result`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from temp_gym.planning._compiled_tree import CHECKS, first_link, graft_branch
+from temp_gym.planning._kernels import nearest
+from temp_gym.planning.anytime import finished, grow_anytime
+from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.tree import Tree
+from temp_gym.worlds.collision.compiled import compiled_context_of
+
+TURN_NODES = 32
+"""Nodes each tree adds per turn before the new ones are tried against the other tree."""
+
+
+class GoalTree:
+    """The goal-rooted tree beside ``tree`` (module docstring), until they are joined.
+
+    Args:
+        tree: the planner's tree; its checker and step size are shared.
+    """
+
+    def __init__(self, tree: Tree) -> None:
+        problem = tree.problem
+        swapped = dataclasses.replace(problem, start=problem.goal, goal=problem.start)
+        self.tree = Tree(swapped, step_size=tree.step_size)
+        self.tree.checker = tree.checker  # the same workspace; its compiled context
+        self._context = compiled_context_of(tree.checker)
+        self._checked = [tree.num_nodes, 0]
+        """Nodes of the planner's tree and of this one tried against the other so far: the
+        planner's older nodes are reached through this tree's nearest queries."""
+        self.joined = False
+
+    @property
+    def extra_nodes(self) -> int:
+        """Nodes this tree adds to the planner's count: all of them until they are joined."""
+        return 0 if self.joined else self.tree.num_nodes
+
+    def grow_until_joined(
+        self, tree: Tree, settings: PlanSettings, rng: np.random.Generator, log: AnytimeLog,
+        max_nodes: int,
+    ) -> bool:  # fmt: skip
+        """Grow both trees in turns until they are joined; return whether there is a solution.
+
+        The turns also end when the planner's tree solves the problem by itself, or both
+        trees together reach ``max_nodes``, or a sample or time limit of ``settings``.
+
+        ``log`` records the first solution with both trees' nodes.
+        """
+        deadline = settings.deadline(log.started)
+        goal_log = AnytimeLog(started=log.started)
+        while True:
+            if self._join(tree, log):
+                return True
+            total = tree.num_nodes + self.tree.num_nodes
+            samples = tree.samples + self.tree.samples
+            if tree.best_node >= 0 or total >= max_nodes or samples >= settings.sample_limit:
+                return tree.best_node >= 0
+            if finished(tree, dataclasses.replace(settings, stop_at_first=True), deadline):
+                return tree.best_node >= 0
+            forward = dataclasses.replace(
+                settings,
+                max_nodes=tree.num_nodes + min(TURN_NODES, (max_nodes - total + 1) // 2),
+                max_samples=max(settings.sample_limit - self.tree.samples, 1),
+                stop_at_first=True,
+            )
+            log.extra_nodes = self.tree.num_nodes
+            grow_anytime(tree, forward, rng, log, informed=True)
+            if tree.best_node >= 0:
+                return True
+            turn = min(TURN_NODES, max_nodes - tree.num_nodes - self.tree.num_nodes)
+            if turn <= 0:
+                continue
+            backward = dataclasses.replace(
+                settings,
+                max_nodes=self.tree.num_nodes + turn,
+                max_samples=max(settings.sample_limit - tree.samples, 1),
+                stop_at_first=False,
+                target_cost=None,
+            )
+            grow_anytime(self.tree, backward, rng, goal_log, informed=False)
+
+    def _join(self, tree: Tree, log: AnytimeLog) -> bool:
+        """Try the new nodes of both trees against the other; graft on the first free link."""
+        link = self._first_link(tree, self.tree, 0, towards_other=True)
+        if link is None:
+            found = self._first_link(self.tree, tree, 1, towards_other=False)
+            link = None if found is None else (found[1], found[0])
+        if link is None:
+            return False
+        self._graft(tree, link[0], link[1], log)
+        return True
+
+    def _first_link(
+        self, tree: Tree, other: Tree, side: int, towards_other: bool
+    ) -> tuple[int, int] | None:
+        """The first unchecked node of ``tree`` with a free motion to its nearest in ``other``.
+
+        Returns ``(i, j)``, the nodes of ``tree`` and ``other``, the motion checked from ``i``
+        to ``j`` when ``towards_other`` (else back), or None.
+
+        The checks count in the planner's tree. Compiled for a checker with a compiled path
+        (`temp_gym.planning._compiled_tree.first_link`), else the same loop in Python over the
+        checker's ``edge_free``.
+        """
+        planner_tree = tree if side == 0 else other
+        first, count = self._checked[side], tree.num_nodes
+        theirs = other.compiled_state()[0]
+        if self._context is not None:
+            counters = np.array([0, 0, 0, 0, 0, 0, 0], dtype=np.int64)
+            node, partner = first_link(
+                tree.positions, first, count, other.positions, other.num_nodes, theirs[9],
+                theirs[4], self._context, counters, towards_other,
+            )  # fmt: skip
+            planner_tree.collision_checks += int(counters[CHECKS])
+        else:
+            node = partner = -1
+            for i in range(first, count):
+                j, _ = nearest(other.positions, other.num_nodes, tree.positions[i], theirs[9],
+                               theirs[4])  # fmt: skip
+                planner_tree.collision_checks += 1
+                ends = (tree.positions[i], other.positions[j])
+                if self.tree.checker.edge_free(*(ends if towards_other else ends[::-1])):
+                    node, partner = i, int(j)
+                    break
+        self._checked[side] = count if node < 0 else node + 1
+        return None if node < 0 else (int(node), int(partner))
+
+    def _graft(self, tree: Tree, forward_node: int, goal_node: int, log: AnytimeLog) -> None:
+        """Append the goal tree's branch from ``goal_node`` to the goal under ``forward_node``."""
+        branch = self.tree.path_to(goal_node)[::-1].copy()  # goal_node first, the goal last
+        while tree.capacity < tree.num_nodes + len(branch):
+            tree.grow()
+        arrays, counters, best_cost, params = tree.compiled_state()
+        goal = np.ascontiguousarray(tree.problem.goal, dtype=np.float64)
+        added = graft_branch(arrays, counters, best_cost, params, goal, forward_node, branch)
+        tree.load_compiled_state(counters, best_cost)
+        tree.samples += self.tree.samples
+        tree.sampling_failures += self.tree.sampling_failures
+        tree.collision_checks += self.tree.collision_checks
+        log.extra_nodes = self.tree.num_nodes - added
+        self.joined = True
+        log.record_tree(tree)
+
+
+__all__ = ["TURN_NODES", "GoalTree"]

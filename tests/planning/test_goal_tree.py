@@ -1,0 +1,181 @@
+import math
+
+import numpy as np
+import pytest
+
+from temp_gym import Problem, plan
+from temp_gym.planning._compiled_tree import graft_branch
+from temp_gym.planning.goal_tree import GoalTree
+from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.tree import Tree
+from temp_gym.worlds.checkers import certify_path
+
+
+class Stuck:
+    """A policy that cannot help: always the same corner, away from the goal."""
+
+    def reset(self, problem, seed=None):
+        pass
+
+    def __call__(self, observation):
+        return np.array([-1.0, -1.0], np.float32)
+
+
+class PythonOnly:
+    """A checker seen without its compiled path: the planners drive it from Python."""
+
+    def __init__(self, checker):
+        self.checker = checker
+
+    def __getattr__(self, name):
+        if name == "compiled_context":
+            raise AttributeError(name)
+        return getattr(self.checker, name)
+
+
+@pytest.fixture
+def trap() -> Problem:
+    """The goal inside a U of walls that opens away from the start: a bug trap."""
+    return Problem.from_dict(
+        {
+            "robot": "point2d",
+            "bounds": [[0, 0], [20, 20]],
+            "obstacles": [
+                {"center": [15, 13], "half_extents": [3, 0.5]},
+                {"center": [15, 7], "half_extents": [3, 0.5]},
+                {"center": [12.5, 10], "half_extents": [0.5, 3.5]},
+            ],
+            "start": [2, 10],
+            "goal": [15, 10],
+            "goal_radius": 0.5,
+        }
+    )
+
+
+def test_in_free_space_the_goal_links_to_the_start_at_once(empty_2d):
+    tree = Tree(empty_2d)
+    log = AnytimeLog()
+    goal_tree = GoalTree(tree)
+    solved = goal_tree.grow_until_joined(
+        tree, PlanSettings(), np.random.default_rng(0), log, max_nodes=100
+    )
+    assert solved and goal_tree.joined
+    np.testing.assert_array_equal(tree.best_path(), [empty_2d.start, empty_2d.goal])
+    assert tree.best_cost == pytest.approx(math.dist(empty_2d.start, empty_2d.goal))
+    # The start, and the goal grafted from the goal tree (its one node): two nodes in all.
+    assert log.first_nodes == 2 and log.extra_nodes == 0
+
+
+def test_graft_appends_a_chain_up_to_the_first_node_in_the_goal_region(empty_2d):
+    tree = Tree(empty_2d)
+    branch = np.array([[5.0, 5.0], [18.8, 18.8], [19.0, 19.0]])  # the second is in the goal
+    arrays, counters, best_cost, params = tree.compiled_state()
+    goal = np.asarray(empty_2d.goal, dtype=np.float64)
+    added = graft_branch(arrays, counters, best_cost, params, goal, 0, branch)
+    tree.load_compiled_state(counters, best_cost)
+    assert added == 2 and tree.num_nodes == 3
+    np.testing.assert_array_equal(tree.parents, [-1, 0, 1])
+    np.testing.assert_array_equal(tree.best_path(), [empty_2d.start, *branch[:2]])
+    expected = math.dist([1, 1], [5, 5]) + math.dist([5, 5], [18.8, 18.8])
+    assert tree.best_cost == pytest.approx(expected)
+    np.testing.assert_array_equal(tree.goal_nodes, [2])
+
+
+def test_temp_gets_out_of_a_stalled_attention_phase_through_the_goal_tree(trap):
+    with_tree, without = [], []
+    for seed in range(5):
+        result = plan(trap, policy=Stuck(), seed=seed, max_nodes=5000, stop_at_first=True,
+                      attention_patience=30)  # fmt: skip
+        assert result.success and certify_path(trap, result.path)
+        np.testing.assert_array_equal(result.path[0], trap.start)
+        assert np.linalg.norm(result.path[-1] - trap.goal) <= trap.goal_radius
+        assert result.attention["stop"] == "stalled" and result.attention["goal_tree_joined"]
+        # The first solution counts both trees' nodes: the planner's at the stall and since,
+        # and every node of the goal tree (the grafted branch once), nothing else.
+        assert result.nodes == result.nodes_to_first_solution
+        grown = result.attention["nodes"] + result.attention["goal_tree_nodes"]
+        assert grown <= result.nodes <= grown + 2 * 32 * (result.attention["resumes"] + 1)
+        with_tree.append(result.nodes_to_first_solution)
+        alone = plan(trap, policy=Stuck(), seed=seed, max_nodes=5000, stop_at_first=True,
+                     attention_patience=30, goal_tree=False)  # fmt: skip
+        assert "goal_tree_nodes" not in alone.attention
+        without.append(alone.nodes_to_first_solution)
+    # Into the trap, Informed RRT* from the start needs many more nodes (seeded, so exact).
+    assert sum(with_tree) < sum(without) / 2
+
+
+def test_every_node_of_both_trees_counts_once(trap, monkeypatch):
+    from temp_gym.planning import goal_tree as module
+
+    grafts = []
+
+    def recording_graft(arrays, counters, *rest):
+        before = int(counters[0])
+        added = graft_branch(arrays, counters, *rest)
+        grafts.append((before, added))
+        return added
+
+    monkeypatch.setattr(module, "graft_branch", recording_graft)
+    for seed in range(3):
+        tree, log = Tree(trap), AnytimeLog()
+        goal_tree = GoalTree(tree)
+        settings = PlanSettings(seed=seed, max_nodes=5000)
+        assert goal_tree.grow_until_joined(tree, settings, np.random.default_rng(seed), log, 5000)
+        (before, added) = grafts.pop()
+        assert added > 1 and tree.num_nodes == before + added
+        # The planner's tree before the graft, and the whole goal tree (the grafted branch
+        # copies some of its nodes: they are not counted twice).
+        assert log.first_nodes == before + goal_tree.tree.num_nodes
+        assert log.first_nodes == tree.num_nodes + log.extra_nodes
+
+
+def test_the_goal_tree_counts_against_the_node_budget(trap):
+    for budget in (60, 200):
+        result = plan(trap, policy=Stuck(), seed=1, max_nodes=budget, attention_patience=30)
+        assert result.nodes <= budget
+    result = plan(trap, policy=Stuck(), seed=1, max_nodes=800, attention_patience=30)
+    assert result.success and result.nodes == 800
+    nodes = result.history["nodes"]
+    assert nodes[0] == result.nodes_to_first_solution and np.all(np.diff(nodes) >= 0)
+    assert np.all(np.diff(result.history["best_cost"]) < 0)
+
+
+def test_goal_tree_runs_are_reproducible(trap):
+    runs = [
+        plan(trap, policy=Stuck(), seed=3, max_nodes=1000, attention_patience=30) for _ in range(2)
+    ]
+    np.testing.assert_array_equal(runs[0].path, runs[1].path)
+    assert runs[0].nodes_to_first_solution == runs[1].nodes_to_first_solution
+
+
+def test_no_goal_tree_when_the_attention_phase_solves(empty_2d):
+    class TowardsGoal:
+        def reset(self, problem, seed=None):
+            pass
+
+        def __call__(self, observation):
+            return observation["goal"]
+
+    result = plan(empty_2d, policy=TowardsGoal(), stop_at_first=True)
+    assert result.attention["solved"] and "goal_tree_nodes" not in result.attention
+
+
+def test_a_checker_without_a_compiled_path_joins_the_same_trees(trap):
+    joined = []
+    for checker in (None, "python"):
+        tree = Tree(trap)
+        if checker == "python":
+            tree = Tree(trap, checker=PythonOnly(tree.checker))
+            tree._gamma = Tree(trap).gamma  # the same radii: the free volume as computed
+        log = AnytimeLog()
+        goal_tree = GoalTree(tree)
+        settings = PlanSettings(seed=0, max_nodes=3000)
+        assert goal_tree.grow_until_joined(tree, settings, np.random.default_rng(0), log, 3000)
+        joined.append((tree.best_path(), log.first_nodes, tree.collision_checks))
+    np.testing.assert_array_equal(joined[0][0], joined[1][0])
+    assert joined[0][1] == joined[1][1]
+
+
+def test_goal_tree_setting_is_checked(trap):
+    with pytest.raises(ValueError, match="goal_tree"):
+        plan(trap, goal_tree="yes")
