@@ -8,8 +8,8 @@ family (`temp_gym.evaluation.ood`), Informed RRT* plans to a first solution with
 nodes from the start and, with the same seeds, the swapped task from the goal (a path of the
 swapped task, reversed, is a path of the task). The table gives median / mean nodes (a
 failure counts as the budget) and the unsolved runs. This is why the demonstration expert
-plans failed tasks backwards (``data.expert_reverse``), and how much a goal-rooted tree
-could buy each world.
+plans failed tasks backwards (``data.expert_reverse``), and why TEMP grows a tree from the
+goal once its attention phase ends unsolved (`temp_gym.planning.goal_tree`).
 """
 
 from __future__ import annotations

@@ -50,6 +50,8 @@ from temp_gym.worlds.robots import robot_spec, robot_specs
 ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 BASELINES = ("rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star")
 PLANNERS = ("temp", *BASELINES)
+VARIANTS = {"temp_no_goal_tree": ("temp", {"goal_tree": False})}
+"""Extra columns (``--goal-tree-off``): a planner with other settings, as ``plan`` takes them."""
 TOLERANCE = 1.05
 
 
@@ -73,10 +75,16 @@ def problem_sets(robot: str, count: int) -> dict[str, dict[str, object]]:
     return sets
 
 
+def plan_as(problem, name: str, **kwargs):
+    """``plan`` with the planner ``name``: a key of `temp_gym.PLANNERS` or of `VARIANTS`."""
+    planner, settings = VARIANTS.get(name, (name, {}))
+    return plan(problem, planner=planner, **settings, **kwargs)
+
+
 def timed_plan(problem, planner: str, **kwargs):
     """``plan`` timed around the call, as a user sees it: ``(seconds, result)``."""
     began = time.perf_counter()
-    result = plan(problem, planner=planner, **kwargs)
+    result = plan_as(problem, planner, **kwargs)
     return time.perf_counter() - began, result
 
 
@@ -135,12 +143,12 @@ def user_section(robot: str, problem, scratch: Path) -> dict:
     }
 
 
-def first_section(problems: dict, seeds: int, budget: int) -> dict:
+def first_section(problems: dict, seeds: int, budget: int, planners=PLANNERS) -> dict:
     """Whole-call time and nodes to a first solution, per planner (None: not solved)."""
-    runs = {planner: {"time": [], "nodes": []} for planner in PLANNERS}
+    runs = {planner: {"time": [], "nodes": []} for planner in planners}
     for problem in problems.values():
         for seed in range(seeds):
-            for planner in PLANNERS:
+            for planner in planners:
                 seconds, result = timed_plan(
                     problem, planner, seed=seed, max_nodes=budget, stop_at_first=True
                 )
@@ -160,18 +168,20 @@ def reference_cost(problem, nodes: int, seeds: int = 2) -> float:
     return min(costs)
 
 
-def anytime_section(problems: dict, seeds: int, nodes: int, time_limit: float) -> dict:
+def anytime_section(
+    problems: dict, seeds: int, nodes: int, time_limit: float, planners=PLANNERS
+) -> dict:
     """Time (from each planner's own clock) to reach 1.05x the reference cost."""
-    runs = {planner: [] for planner in PLANNERS}
+    runs = {planner: [] for planner in planners}
     references = {}
     for name, problem in problems.items():
         references[name] = reference_cost(problem, nodes)
         target = TOLERANCE * references[name]
         for seed in range(seeds):
-            for planner in PLANNERS:
+            for planner in planners:
                 began = time.perf_counter()
-                result = plan(problem, planner=planner, seed=seed, max_nodes=nodes,
-                              time_limit=time_limit, target_cost=target)  # fmt: skip
+                result = plan_as(problem, planner, seed=seed, max_nodes=nodes,
+                                 time_limit=time_limit, target_cost=target)  # fmt: skip
                 overhead = time.perf_counter() - began - result.wall_time
                 reached = reach_tolerance(result.history, target)
                 # the planner's clock starts inside plan(): add what the call spent before it
@@ -179,16 +189,19 @@ def anytime_section(problems: dict, seeds: int, nodes: int, time_limit: float) -
     return {"runs": runs, "references": references}
 
 
-def complete_section(problems: dict, seeds: int, budget: int) -> dict:
-    """Per problem, how many of ``seeds`` runs of TEMP and Informed RRT* solve it."""
+def complete_section(
+    problems: dict, seeds: int, budget: int, planners=("temp", "informed_rrt_star")
+) -> dict:
+    """Per problem, how many of ``seeds`` runs of TEMP and Informed RRT* (and ``planners``'
+    others) solve it."""
     solved = {}
     for name, problem in problems.items():
         solved[name] = {
             planner: sum(
-                plan(problem, planner=planner, seed=s, max_nodes=budget, stop_at_first=True).success
+                plan_as(problem, planner, seed=s, max_nodes=budget, stop_at_first=True).success
                 for s in range(seeds)
             )
-            for planner in ("temp", "informed_rrt_star")
+            for planner in planners
         }
     return solved
 
@@ -263,10 +276,11 @@ def split_section(robot: str, problems: dict, repeats: int, budget: int) -> dict
 
 # ---- report -----------------------------------------------------------------------------------
 def print_first(world: str, kind: str, runs: dict) -> None:
+    planners = list(runs)
     print(f"\n**{world} {kind}: to a first solution** (whole `plan` call)\n")
     print("| planner | solved | median time (ms) | median nodes | TEMP/planner time, paired |")
     print("|---|---:|---:|---:|---:|")
-    for planner in PLANNERS:
+    for planner in planners:
         times, nodes = runs[planner]["time"], runs[planner]["nodes"]
         solved = sum(t is not None for t in times)
         ratio, pairs = paired_ratio(runs["temp"]["time"], times)
@@ -280,7 +294,7 @@ def print_anytime(world: str, kind: str, section: dict) -> None:
     print("| planner | reached | median time (ms) | TEMP median / planner median |")
     print("|---|---:|---:|---:|")
     temp = [math.inf if t is None else t for t in runs["temp"]]
-    for planner in PLANNERS:
+    for planner in runs:
         times = [math.inf if t is None else t for t in runs[planner]]
         reached = sum(math.isfinite(t) for t in times)
         mid = statistics.median(times)
@@ -303,7 +317,12 @@ def main(argv: list[str] | None = None) -> None:
                         "split"], choices=["user", "first", "anytime", "complete", "split"],
                         help="what to measure")  # fmt: skip
     parser.add_argument("--out", type=Path, default=None, help="also write the raw figures here")
+    parser.add_argument("--goal-tree-off", action="store_true",
+                        help="also run TEMP without its goal tree (temp_no_goal_tree), side by "
+                        "side")  # fmt: skip
     args = parse_args(parser, argv)
+    planners = PLANNERS + (tuple(VARIANTS) if args.goal_tree_off else ())
+    complete = ("temp", *planners[len(PLANNERS) :], "informed_rrt_star")
     report: dict = {}
     for world in args.worlds:
         robot = ROBOTS[world]
@@ -321,23 +340,23 @@ def main(argv: list[str] | None = None) -> None:
                       f"{1e3 * user[planner]['later']:.2f} |")  # fmt: skip
         for kind, problems in sets.items():
             if "first" in args.sections:
-                runs = first_section(problems, args.seeds, args.budget)
+                runs = first_section(problems, args.seeds, args.budget, planners)
                 figures[f"first_{kind}"] = runs
                 print_first(world, kind, runs)
             if "anytime" in args.sections:
                 section = anytime_section(problems, args.seeds, args.reference_nodes,
-                                          args.time_limit)  # fmt: skip
+                                          args.time_limit, planners)  # fmt: skip
                 figures[f"anytime_{kind}"] = section
                 print_anytime(world, kind, section)
         if "complete" in args.sections and "ood" in sets:
             figures["complete"] = solved = complete_section(
-                sets["ood"], args.complete_seeds, args.budget
+                sets["ood"], args.complete_seeds, args.budget, complete
             )
             print(f"\n**{world} OOD: solved within {args.budget} nodes, of "
                   f"{args.complete_seeds} seeds**\n")  # fmt: skip
-            print("| problem | TEMP | Informed RRT* |\n|---|---:|---:|")
+            print(f"| problem | {' | '.join(complete)} |\n|---|{'---:|' * len(complete)}")
             for name, counts in solved.items():
-                print(f"| {name} | {counts['temp']} | {counts['informed_rrt_star']} |")
+                print(f"| {name} | {' | '.join(str(counts[p]) for p in complete)} |")
         if "split" in args.sections:
             figures["split"] = split = split_section(robot, sets["test"], 3, args.budget)
             print(

@@ -176,3 +176,21 @@ def test_directions_plans_each_ood_scene_from_both_ends():
         assert 0 < forward <= 300 and 0 < backward <= 300
     with pytest.raises(SystemExit):
         directions.main(["--seeds", "0"])
+
+
+def test_end_to_end_runs_temp_without_its_goal_tree_side_by_side(capsys, tmp_path):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import end_to_end
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    out = tmp_path / "end_to_end.json"
+    end_to_end.main(["--worlds", "2d", "--tasks", "2", "--seeds", "1", "--budget", "300",
+                     "--reference-nodes", "300", "--complete-seeds", "1", "--goal-tree-off",
+                     "--sections", "first", "anytime", "complete", "--out", str(out)])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "| temp_no_goal_tree |" in printed
+    assert "| problem | temp | temp_no_goal_tree | informed_rrt_star |" in printed
+    figures = json.loads(out.read_text())["2d"]
+    assert len(figures["first_test"]["temp_no_goal_tree"]["time"]) == 2
+    assert len(figures["anytime_ood"]["runs"]["temp_no_goal_tree"]) == len(figures["complete"])

@@ -8,7 +8,8 @@ For every combination of n, noise, horizon (proposals used per MPT call, up to t
 chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the
 goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
 going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a
-proposal that collided (``--keep-chunk``) and the resume factor (``--resume``) it plans ``--tasks``
+proposal that collided (``--keep-chunk``), the resume factor (``--resume``) and whether a tree
+grows from the goal after an unsolved attention phase (``--goal-tree``) it plans ``--tasks``
 tasks drawn from the ``val`` workspaces (seen in no test; the test workspaces stay untouched
 until the final measurement, ``--split test`` with the chosen setting) with the ``temp``
 planner up to the first solution, and prints nodes to the first solution (mean and median, a
@@ -130,6 +131,15 @@ def main(argv: list[str] | None = None) -> dict:
         "stall, to try (0: never)",
     )
     parser.add_argument(
+        "--goal-tree",
+        type=int,
+        nargs="+",
+        choices=[0, 1],
+        default=[1],
+        help="grow a tree from the goal after an unsolved attention phase (1, the planner's "
+        "default) or not (0), to try",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -186,17 +196,20 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "| n | noise | horizon | patience | near goal | uniform | follow | keep chunk | resume "
+        "| goal tree "
         "| nodes mean "
         "| median "
         "| AP solved | success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
     )
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print(
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+    )
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
-        args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
+        args.uniform, args.follow_fallback, args.keep_chunk, args.resume, args.goal_tree,
     )  # fmt: skip
-    for budget, noise, horizon, patience, factor, uniform, follow, keep, resume in settings:
+    for budget, noise, horizon, patience, factor, uniform, follow, keep, resume, goal in settings:
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
@@ -206,6 +219,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_follow_fallback=follow,
             attention_keep_chunk=bool(keep),
             attention_resume=resume,
+            goal_tree=bool(goal),
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
@@ -214,7 +228,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
-            f"{follow:g} | {keep} | {resume:g} | "
+            f"{follow:g} | {keep} | {resume:g} | {goal} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
@@ -227,7 +241,7 @@ def main(argv: list[str] | None = None) -> dict:
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
                     "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
-                    "attention_resume": resume}  # fmt: skip
+                    "attention_resume": resume, "goal_tree": bool(goal)}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

@@ -232,6 +232,9 @@ class TrainEvalConfig:
     attention_keep_chunk: bool | None = None
     """After a chunk's proposal collided and a fallback node replaced it, go on with the
     chunk (true) or call the policy again (false); null: false."""
+    goal_tree: bool = True
+    """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
+    (`temp_gym.planning.goal_tree`)."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -267,6 +270,9 @@ class EvaluationConfig:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before a stalled attention phase resumes (0:
     never); null: the checkpoint's, else the planner's default."""
+    goal_tree: bool = True
+    """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
+    (`temp_gym.planning.goal_tree`; false: Informed RRT* alone, as before it existed)."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

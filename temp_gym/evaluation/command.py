@@ -91,6 +91,7 @@ def settings_from(
         attention_patience=section.attention_patience,
         attention_near_goal_factor=section.attention_near_goal_factor,
         attention_resume=section.attention_resume,
+        goal_tree=section.goal_tree,
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,

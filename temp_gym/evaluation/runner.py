@@ -84,6 +84,9 @@ class EvaluationSettings:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before TEMP's stalled attention phase resumes
     (None: the policy's own, else the planner's default)."""
+    goal_tree: bool = True
+    """Whether TEMP grows a tree from the goal after an unsolved attention phase
+    (`temp_gym.planning.goal_tree`)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -177,7 +180,7 @@ def evaluate_task(
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
-        attention_resume=settings.attention_resume,
+        attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
@@ -211,6 +214,7 @@ def evaluate_task(
                     "attention_patience": settings.attention_patience,
                     "attention_near_goal_factor": settings.attention_near_goal_factor,
                     "attention_resume": settings.attention_resume,
+                    "goal_tree": settings.goal_tree,
                 }
                 if name == "temp"
                 else {}
@@ -384,7 +388,7 @@ def attention_example(
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
-        attention_resume=settings.attention_resume,
+        attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

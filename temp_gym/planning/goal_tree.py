@@ -106,6 +106,7 @@ class GoalTree:
                 target_cost=None,
             )
             grow_anytime(self.tree, backward, rng, goal_log, informed=False)
+            log.extra_nodes = self.tree.num_nodes  # what the planner's next record adds
 
     def _join(self, tree: Tree, log: AnytimeLog) -> bool:
         """Try the new nodes of both trees against the other; graft on the first free link."""

@@ -241,7 +241,8 @@ class PlanResult:
     cost: float
     """Length of ``path`` (inf without one)."""
     nodes: int
-    """Tree nodes added, root included (planners that prune still count pruned nodes)."""
+    """Tree nodes added, root included (planners that prune still count pruned nodes; TEMP
+    counts its goal tree's too, `temp_gym.planning.goal_tree`)."""
     samples: int
     """Samples drawn."""
     sampling_failures: int

@@ -50,6 +50,13 @@ RRT*) until ``max_nodes``, ``time_limit`` or ``target_cost``, for asymptotic opt
 ``stop_at_first`` it is skipped. If AP used up ``attention_nodes`` without reaching the goal, CP
 carries on from the tree AP built: so TEMP stays probabilistically complete whatever the
 policy proposes.
+
+**The goal tree** (our addition; ``goal_tree=False`` turns it off): when AP ends without a
+solution, CP also grows a tree rooted at the goal, in turns with the planner's, until a free
+straight motion links the two; the goal tree's branch is then grafted onto the planner's tree
+and Informed RRT* improves the joined path (`temp_gym.planning.goal_tree`). The tasks on which
+a policy stalls are mostly those whose goal lies in a pocket that a tree from the start enters
+rarely and a tree from the goal leaves easily. Its nodes count against ``max_nodes``.
 """
 
 from __future__ import annotations

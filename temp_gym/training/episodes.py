@@ -160,6 +160,7 @@ def plan_episode(
         attention_follow_fallback=eval_config.attention_follow_fallback if temp else None,
         attention_resume=eval_config.attention_resume if temp else None,
         attention_keep_chunk=eval_config.attention_keep_chunk if temp else None,
+        goal_tree=eval_config.goal_tree if temp else None,
     )
     episode = {
         "success": float(result.success),

@@ -178,7 +178,8 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
                                       "attention_near_goal_factor": None,
                                       "attention_follow_fallback": None,
                                       "attention_resume": None,
-                                      "attention_keep_chunk": None}  # fmt: skip
+                                      "attention_keep_chunk": None,
+                                      "goal_tree": True}  # fmt: skip
     assert upgraded["evaluation"]["horizon"] is None and "eval" not in upgraded
     # The command that started that run gives the same config today, key for key.
     today = load_config("configs/3d.yaml", [

@@ -266,3 +266,25 @@ def test_temp_is_timed_as_a_user_calls_it_when_its_attention_phase_stalls():
     assert temp["nodes"] > reference.attention["nodes"]
     assert temp["cost"] == pytest.approx(reference.cost)
     assert "rrt_star" in record["planners"] and record["target_cost"] > temp["cost"]
+
+
+@pytest.mark.parametrize("goal_tree", [True, False])
+def test_the_evaluation_plans_with_or_without_the_goal_tree_as_set(goal_tree):
+    problem = evaluation_problem("point2d", "challenging", 1)
+    chosen = settings(attention_patience=5, baselines=("rrt_star",), goal_tree=goal_tree)
+    record = evaluate_task(problem, Stuck(), chosen, with_curves=False)
+    runs = {
+        flag: plan(
+            problem,
+            planner="temp",
+            policy=Stuck(),
+            seed=chosen.seed,
+            max_nodes=chosen.max_nodes,
+            attention_patience=5,
+            stop_at_first=True,
+            goal_tree=flag,
+        )  # fmt: skip
+        for flag in (True, False)
+    }
+    assert runs[True].nodes_to_first_solution != runs[False].nodes_to_first_solution
+    assert record["planners"]["temp"]["nodes"] == runs[goal_tree].nodes_to_first_solution

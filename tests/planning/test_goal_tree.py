@@ -129,6 +129,16 @@ def test_every_node_of_both_trees_counts_once(trap, monkeypatch):
         assert log.first_nodes == tree.num_nodes + log.extra_nodes
 
 
+def test_an_unjoined_goal_tree_counts_all_its_nodes(trap):
+    tree, log = Tree(trap), AnytimeLog()
+    goal_tree = GoalTree(tree)
+    settings = PlanSettings(seed=0, max_nodes=5000)
+    assert not goal_tree.grow_until_joined(tree, settings, np.random.default_rng(0), log, 20)
+    assert tree.num_nodes + goal_tree.tree.num_nodes == 20
+    # what a later record of the planner (a resumed attention phase's solution) adds
+    assert log.extra_nodes == goal_tree.extra_nodes == goal_tree.tree.num_nodes > 1
+
+
 def test_the_goal_tree_counts_against_the_node_budget(trap):
     for budget in (60, 200):
         result = plan(trap, policy=Stuck(), seed=1, max_nodes=budget, attention_patience=30)

@@ -92,3 +92,14 @@ def test_zero_workers_are_refused_not_replaced(tmp_path, capsys):
     with pytest.raises(SystemExit):
         evaluate.main(["--config", str(ROOT / "configs" / "tiny.yaml"), "--workers", "0"])
     assert "--workers: expected a positive integer" in capsys.readouterr().err
+
+
+def test_the_goal_tree_setting_reaches_the_evaluation_and_is_type_checked():
+    from temp_gym.config import load_config
+
+    tiny = ROOT / "configs" / "tiny.yaml"
+    assert evaluate.settings_from(load_config(tiny, []))[0].goal_tree is True
+    off = load_config(tiny, ["evaluation.goal_tree=false"])
+    assert evaluate.settings_from(off)[0].goal_tree is False
+    with pytest.raises(ConfigError, match="evaluation.goal_tree"):
+        load_config(tiny, ["evaluation.goal_tree=3"])
