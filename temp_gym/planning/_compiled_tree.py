@@ -85,6 +85,22 @@ def squared_distance(a, b) -> float:
     return total
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _count_new_node(counters, goal_nodes, best_cost, node, cost, reached_goal):
+    """Count ``node``, just inserted at ``cost``, as the newest node.
+
+    In the goal region it is also a goal node, and the best one when it is cheaper.
+    """
+    counters[NUM_NODES] = node + 1
+    counters[NEWEST] = node
+    if reached_goal:
+        goal_nodes[counters[NUM_GOAL]] = node
+        counters[NUM_GOAL] += 1
+        if cost < best_cost[0]:
+            counters[BEST_NODE] = node
+            best_cost[0] = cost
+
+
 @numba.njit(cache=True, nogil=True)
 def extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized):
     """`Tree.extend` on a tree's arrays: returns the new node, `NO_NODE` or `BAD_ACTION`.
@@ -152,14 +168,7 @@ def extend_detailed(
         positions, costs, links, node, new, parent, goal, params[GOAL_RADIUS_SQ], near_idx,
         near_dist, num_near, cand_idx,
     )  # fmt: skip
-    counters[NUM_NODES] = count + 1
-    counters[NEWEST] = node
-    if reached_goal:
-        goal_nodes[counters[NUM_GOAL]] = node
-        counters[NUM_GOAL] += 1
-        if cost < best_cost[0]:
-            counters[BEST_NODE] = node
-            best_cost[0] = cost
+    _count_new_node(counters, goal_nodes, best_cost, node, cost, reached_goal)
     rewired = 0
     if num_rewire > 0:
         free = np.empty(num_rewire, dtype=np.bool_)
@@ -285,15 +294,9 @@ def graft_branch(arrays, counters, best_cost, params, goal, node, branch):
             positions, costs, links, count, branch[row], parent, goal, params[GOAL_RADIUS_SQ],
             near_idx, near_dist, 0, cand_idx,
         )  # fmt: skip
-        counters[NUM_NODES] = count + 1
-        counters[NEWEST] = count
+        _count_new_node(counters, goal_nodes, best_cost, count, cost, reached_goal)
         added += 1
         parent = count
         if reached_goal:
-            goal_nodes[counters[NUM_GOAL]] = count
-            counters[NUM_GOAL] += 1
-            if cost < best_cost[0]:
-                counters[BEST_NODE] = count
-                best_cost[0] = cost
             break
     return added
