@@ -322,7 +322,7 @@ def main(argv: list[str] | None = None) -> None:
                         "side")  # fmt: skip
     args = parse_args(parser, argv)
     planners = PLANNERS + (tuple(VARIANTS) if args.goal_tree_off else ())
-    complete = ("temp", *planners[len(PLANNERS) :], "informed_rrt_star")
+    complete = ("temp", *(VARIANTS if args.goal_tree_off else ()), "informed_rrt_star")
     report: dict = {}
     for world in args.worlds:
         robot = ROBOTS[world]

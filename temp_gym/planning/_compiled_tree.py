@@ -260,9 +260,9 @@ def first_link(
     Returns ``(i, j)``: ``i`` in ``[first, count)`` of the one tree, ``j`` of the other;
     ``(-1, -1)`` when there is none. Each node costs one nearest query on the other tree
     (``other_grid``, ``scratch`` as `temp_gym.planning._kernels.nearest` takes them) and one
-    motion check, counted in
-    ``counters`` (`COUNTERS`' ``checks``). The motion is checked from ``i`` to ``j`` when
-    ``towards_other``, else from ``j`` to ``i``: always in the direction the joined path runs.
+    motion check, counted in ``counters`` (`COUNTERS`' ``checks``). The motion is checked
+    from ``i`` to ``j`` when ``towards_other``, else from ``j`` to ``i``: always in the
+    direction the joined path runs.
     """
     for i in range(first, count):
         j, _ = nearest(other_positions, other_count, positions[i], other_grid, scratch)

@@ -26,12 +26,13 @@ one-tree planner's honestly. The joined path is certified by the exact checker l
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 
-from temp_gym.planning._compiled_tree import CHECKS, first_link, graft_branch
+from temp_gym.planning._compiled_tree import CHECKS, COUNTERS, first_link, graft_branch
 from temp_gym.planning._kernels import nearest
-from temp_gym.planning.anytime import finished, grow_anytime
+from temp_gym.planning.anytime import grow_anytime
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
@@ -56,12 +57,18 @@ class GoalTree:
         self._checked = [tree.num_nodes, 0]
         """Nodes of the planner's tree and of this one tried against the other so far: the
         planner's older nodes are reached through this tree's nearest queries."""
-        self.joined = False
+        self._grafted = 0
+        """Nodes of this tree copied into the planner's (its branch, once joined)."""
+
+    @property
+    def joined(self) -> bool:
+        """Whether the trees are joined (the planner's tree then has the grafted branch)."""
+        return self._grafted > 0
 
     @property
     def extra_nodes(self) -> int:
-        """Nodes this tree adds to the planner's count: all of them until they are joined."""
-        return 0 if self.joined else self.tree.num_nodes
+        """Nodes this tree adds to the planner's count: all of them but the grafted branch."""
+        return self.tree.num_nodes - self._grafted
 
     def grow_until_joined(
         self, tree: Tree, settings: PlanSettings, rng: np.random.Generator, log: AnytimeLog,
@@ -81,17 +88,17 @@ class GoalTree:
                 return True
             total = tree.num_nodes + self.tree.num_nodes
             samples = tree.samples + self.tree.samples
-            if tree.best_node >= 0 or total >= max_nodes or samples >= settings.sample_limit:
-                return tree.best_node >= 0
-            if finished(tree, dataclasses.replace(settings, stop_at_first=True), deadline):
-                return tree.best_node >= 0
+            if total >= max_nodes or samples >= settings.sample_limit:
+                return False
+            if time.perf_counter() >= deadline:
+                return False
             forward = dataclasses.replace(
                 settings,
                 max_nodes=tree.num_nodes + min(TURN_NODES, (max_nodes - total + 1) // 2),
                 max_samples=max(settings.sample_limit - self.tree.samples, 1),
                 stop_at_first=True,
             )
-            log.extra_nodes = self.tree.num_nodes
+            log.extra_nodes = self.extra_nodes
             grow_anytime(tree, forward, rng, log, informed=True)
             if tree.best_node >= 0:
                 return True
@@ -106,7 +113,7 @@ class GoalTree:
                 target_cost=None,
             )
             grow_anytime(self.tree, backward, rng, goal_log, informed=False)
-            log.extra_nodes = self.tree.num_nodes  # what the planner's next record adds
+            log.extra_nodes = self.extra_nodes  # what the planner's next record adds
 
     def _join(self, tree: Tree, log: AnytimeLog) -> bool:
         """Try the new nodes of both trees against the other; graft on the first free link."""
@@ -135,7 +142,7 @@ class GoalTree:
         first, count = self._checked[side], tree.num_nodes
         theirs = other.compiled_state()[0]
         if self._context is not None:
-            counters = np.array([0, 0, 0, 0, 0, 0, 0], dtype=np.int64)
+            counters = np.zeros(len(COUNTERS), dtype=np.int64)
             node, partner = first_link(
                 tree.positions, first, count, other.positions, other.num_nodes, theirs[9],
                 theirs[4], self._context, counters, towards_other,
@@ -161,13 +168,14 @@ class GoalTree:
             tree.grow()
         arrays, counters, best_cost, params = tree.compiled_state()
         goal = np.ascontiguousarray(tree.problem.goal, dtype=np.float64)
-        added = graft_branch(arrays, counters, best_cost, params, goal, forward_node, branch)
+        self._grafted = graft_branch(
+            arrays, counters, best_cost, params, goal, forward_node, branch
+        )
         tree.load_compiled_state(counters, best_cost)
         tree.samples += self.tree.samples
         tree.sampling_failures += self.tree.sampling_failures
         tree.collision_checks += self.tree.collision_checks
-        log.extra_nodes = self.tree.num_nodes - added
-        self.joined = True
+        log.extra_nodes = self.extra_nodes
         log.record_tree(tree)
 
 

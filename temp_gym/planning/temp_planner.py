@@ -253,7 +253,7 @@ def _resume_until_solved(
     """
     resumes = 0
     while True:
-        extra = 0 if goal_tree is None else goal_tree.tree.num_nodes
+        extra = 0 if goal_tree is None else goal_tree.extra_nodes
         turn_end = min(settings.max_nodes, tree.num_nodes + extra + classical_nodes)
         if goal_tree is None:
             classical = dataclasses.replace(settings, max_nodes=turn_end, stop_at_first=True)
