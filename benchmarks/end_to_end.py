@@ -2,6 +2,7 @@
 
     python benchmarks/end_to_end.py [--worlds 2d 3d 7d] [--tasks 20] [--seeds 3]
         [--sections user first anytime complete split] [--out results/end_to_end.json]
+        [--variants temp_no_goal_tree temp_no_from_goal]
 
 Per world, on ``--tasks`` test tasks of the evaluation (half easy, half challenging, unseen
 workspaces) and on the world's out-of-distribution family (`temp_gym.evaluation.ood`), side by
@@ -50,8 +51,11 @@ from temp_gym.worlds.robots import robot_spec, robot_specs
 ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
 BASELINES = ("rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star")
 PLANNERS = ("temp", *BASELINES)
-VARIANTS = {"temp_no_goal_tree": ("temp", {"goal_tree": False})}
-"""Extra columns (``--goal-tree-off``): a planner with other settings, as ``plan`` takes them."""
+VARIANTS = {
+    "temp_no_goal_tree": ("temp", {"goal_tree": False}),
+    "temp_no_from_goal": ("temp", {"attention_from_goal": False}),
+}
+"""Extra columns (``--variants``): a planner with other settings, as ``plan`` takes them."""
 TOLERANCE = 1.05
 
 
@@ -317,12 +321,13 @@ def main(argv: list[str] | None = None) -> None:
                         "split"], choices=["user", "first", "anytime", "complete", "split"],
                         help="what to measure")  # fmt: skip
     parser.add_argument("--out", type=Path, default=None, help="also write the raw figures here")
-    parser.add_argument("--goal-tree-off", action="store_true",
-                        help="also run TEMP without its goal tree (temp_no_goal_tree), side by "
-                        "side")  # fmt: skip
+    parser.add_argument("--variants", nargs="*", default=[], choices=sorted(VARIANTS),
+                        help="also run TEMP with other settings, side by side: without its goal "
+                        "tree (temp_no_goal_tree), or with the goal tree grown by Informed "
+                        "RRT*'s samples alone (temp_no_from_goal)")  # fmt: skip
     args = parse_args(parser, argv)
-    planners = PLANNERS + (tuple(VARIANTS) if args.goal_tree_off else ())
-    complete = ("temp", *(VARIANTS if args.goal_tree_off else ()), "informed_rrt_star")
+    planners = PLANNERS + tuple(args.variants)
+    complete = ("temp", *args.variants, "informed_rrt_star")
     report: dict = {}
     for world in args.worlds:
         robot = ROBOTS[world]

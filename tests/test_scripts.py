@@ -186,7 +186,8 @@ def test_end_to_end_runs_temp_without_its_goal_tree_side_by_side(capsys, tmp_pat
         sys.path.remove(str(ROOT / "benchmarks"))
     out = tmp_path / "end_to_end.json"
     end_to_end.main(["--worlds", "2d", "--tasks", "2", "--seeds", "1", "--budget", "300",
-                     "--reference-nodes", "300", "--complete-seeds", "1", "--goal-tree-off",
+                     "--reference-nodes", "300", "--complete-seeds", "1", "--variants",
+                     "temp_no_goal_tree",
                      "--sections", "first", "anytime", "complete", "--out", str(out)])  # fmt: skip
     printed = capsys.readouterr().out
     assert "| temp_no_goal_tree |" in printed

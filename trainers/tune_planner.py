@@ -8,17 +8,19 @@ For every combination of n, noise, horizon (proposals used per MPT call, up to t
 chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the
 goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
 going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a
-proposal that collided (``--keep-chunk``), the resume factor (``--resume``) and whether a tree
-grows from the goal after an unsolved attention phase (``--goal-tree``) it plans ``--tasks``
-tasks drawn from the ``val`` workspaces (seen in no test; the test workspaces stay untouched
-until the final measurement, ``--split test`` with the chosen setting) with the ``temp``
-planner up to the first solution, and prints nodes to the first solution (mean and median, a
-failure counted as the whole budget), the share solved by attention-based planning within n,
-cost and time; and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer
-nodes and the mean difference with its 95% paired bootstrap interval. The recommendation
-minimizes the mean nodes among the settings whose attention phase solves at least
-``--min-attention-success`` of the tasks; ``trainers/ship.py --attention-nodes ... --noise-std
-...`` then ships it.
+proposal that collided (``--keep-chunk``), the resume factor (``--resume``), whether a tree
+grows from the goal after an unsolved attention phase (``--goal-tree``) and whether the policy
+grows that tree first after a stall (``--from-goal``: the attention phase from the goal) it
+plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen in no test; the test
+workspaces stay untouched until the final measurement, ``--split test`` with the chosen
+setting) with the ``temp`` planner up to the first solution, and prints nodes to the first
+solution (mean and median, a failure counted as the whole budget), the share solved by
+attention-based planning within n (from the start alone, and both ways: from the start, or
+from the goal after a stall), cost and time; and, against RRT* on the same tasks, the share
+of tasks where TEMP needed fewer nodes and the mean difference with its 95% paired bootstrap
+interval. The recommendation minimizes the mean nodes among the settings whose attention
+phase solves at least ``--min-attention-success`` of the tasks (both ways);
+``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
@@ -140,6 +142,15 @@ def main(argv: list[str] | None = None) -> dict:
         "default) or not (0), to try",
     )
     parser.add_argument(
+        "--from-goal",
+        type=int,
+        nargs="+",
+        choices=[0, 1],
+        default=[1],
+        help="after a stall, the policy grows the goal tree first (1, the planner's default) or "
+        "Informed RRT*'s samples alone (0), to try; needs --goal-tree 1",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -149,7 +160,7 @@ def main(argv: list[str] | None = None) -> dict:
         "--min-attention-success",
         type=float,
         default=0.9,
-        help="least share of tasks the attention phase must solve to be recommended",
+        help="least share of tasks the attention phase must solve (both ways) to be recommended",
     )
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
@@ -196,20 +207,28 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "| n | noise | horizon | patience | near goal | uniform | follow | keep chunk | resume "
-        "| goal tree "
+        "| goal tree | from goal "
         "| nodes mean "
         "| median "
-        "| AP solved | success | cost | time (ms) | fewer than RRT* | mean difference [95% CI] |"
+        "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
+        "| mean difference [95% CI] |"
     )
     print(
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
+        "|---:|---|"
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
         args.uniform, args.follow_fallback, args.keep_chunk, args.resume, args.goal_tree,
+        args.from_goal,
     )  # fmt: skip
-    for budget, noise, horizon, patience, factor, uniform, follow, keep, resume, goal in settings:
+    for (
+        budget, noise, horizon, patience, factor, uniform, follow, keep, resume, goal, from_goal,
+    ) in settings:  # fmt: skip
+        if not goal and from_goal != args.from_goal[0]:
+            continue  # without the goal tree --from-goal changes nothing: one row
+        from_goal = bool(goal and from_goal)
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
@@ -220,28 +239,31 @@ def main(argv: list[str] | None = None) -> dict:
             attention_keep_chunk=bool(keep),
             attention_resume=resume,
             goal_tree=bool(goal),
+            attention_from_goal=bool(from_goal),
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
+        both_ways = float(np.mean([run["attention_solved_both_ways"] for run in runs]))
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
-            f"{follow:g} | {keep} | {resume:g} | {goal} | "
+            f"{follow:g} | {keep} | {resume:g} | {goal} | {int(from_goal) if goal else '-'} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
-            f"{solved:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
+            f"{solved:.3f} | {both_ways:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
             f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
             f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
             flush=True,
         )
-        if solved >= args.min_attention_success and row["nodes_mean"] < best_nodes:
+        if both_ways >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
                     "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
-                    "attention_resume": resume, "goal_tree": bool(goal)}  # fmt: skip
+                    "attention_resume": resume, "goal_tree": bool(goal),
+                    "attention_from_goal": from_goal}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

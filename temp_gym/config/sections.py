@@ -235,6 +235,9 @@ class TrainEvalConfig:
     goal_tree: bool = True
     """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
     (`temp_gym.planning.goal_tree`)."""
+    attention_from_goal: bool = True
+    """Whether, after a stall, the policy grows that tree first (the attention phase from the
+    goal; needs ``goal_tree``)."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -273,6 +276,9 @@ class EvaluationConfig:
     goal_tree: bool = True
     """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
     (`temp_gym.planning.goal_tree`; false: Informed RRT* alone, as before it existed)."""
+    attention_from_goal: bool = True
+    """Whether, after a stall, the policy grows that tree first (the attention phase from the
+    goal; needs ``goal_tree``; false: Informed RRT*'s samples alone grow it, as before)."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

@@ -92,6 +92,7 @@ def settings_from(
         attention_near_goal_factor=section.attention_near_goal_factor,
         attention_resume=section.attention_resume,
         goal_tree=section.goal_tree,
+        attention_from_goal=section.attention_from_goal,
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,

@@ -87,6 +87,8 @@ class EvaluationSettings:
     goal_tree: bool = True
     """Whether TEMP grows a tree from the goal after an unsolved attention phase
     (`temp_gym.planning.goal_tree`)."""
+    attention_from_goal: bool = True
+    """Whether, after a stall, TEMP's policy grows that tree first (needs ``goal_tree``)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -181,6 +183,7 @@ def evaluate_task(
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
         attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
+        attention_from_goal=settings.attention_from_goal and settings.goal_tree,
         stop_at_first=True,
     )  # fmt: skip
     attention = temp.attention
@@ -215,6 +218,7 @@ def evaluate_task(
                     "attention_near_goal_factor": settings.attention_near_goal_factor,
                     "attention_resume": settings.attention_resume,
                     "goal_tree": settings.goal_tree,
+                    "attention_from_goal": settings.attention_from_goal,
                 }
                 if name == "temp"
                 else {}
@@ -389,6 +393,7 @@ def attention_example(
         attention_patience=settings.attention_patience,
         attention_near_goal_factor=settings.attention_near_goal_factor,
         attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
+        attention_from_goal=settings.attention_from_goal and settings.goal_tree,
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

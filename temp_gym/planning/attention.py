@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,9 +84,10 @@ one stall patience of nodes before the attention phase resumes."""
 NEAR_GOAL_SHARE = 0.4
 """`near_goal_limits`: the tree is near the goal once its closest approach is within this share
 of the start-goal distance."""
-STOPS = ("solved", "attention_budget", "budget", "stalled", "time")
+STOPS = ("solved", "attention_budget", "budget", "stalled", "time", "joined")
 """Why the phase ended: a solution; the attention budget n; the planner's node or sample
-budget; no progress for ``patience`` nodes; the time limit."""
+budget; no progress for ``patience`` nodes; the time limit; the caller's ``joined`` check
+(`run_attention_phase`: the phase grew a second tree that now meets the planner's)."""
 
 
 def default_patience(problem: Problem, step_size: float) -> int:
@@ -184,6 +186,8 @@ def run_attention_phase(
     follow_fallback: float = 1.0,
     resumed: bool = False,
     keep_chunk: bool = False,
+    joined: Callable[[], bool] | None = None,
+    check_every: int = 1,
 ) -> AttentionOutcome:
     """Grow ``tree`` by attention-based planning until a stop rule fires (module docstring).
 
@@ -206,7 +210,15 @@ def run_attention_phase(
         keep_chunk: when a proposal of a chunk collided and a fallback node replaced it, the
             chunk's next proposal comes next (True); False drops the rest of the chunk and
             calls the policy again. A one-sample policy is the same either way.
+        joined: called each time the tree has grown by ``check_every`` nodes, and once when
+            a stop rule fires (except the time limit): True ends the phase with the stop
+            ``"joined"``. The TEMP planner's goal tree grows by attention this way and checks
+            whether it meets the planner's tree (`temp_gym.planning.goal_tree`). The checks
+            come at the same node counts in both loops, so they grow the same trees.
+        check_every: nodes between two ``joined`` checks (at least 1).
     """
+    if check_every < 1:
+        raise ValueError(f"check_every: must be at least 1, got {check_every}")
     problem = tree.problem
     closest_sq = (
         closest_approach_sq(tree) if resumed else squared_distance(problem.start, problem.goal)
@@ -221,13 +233,18 @@ def run_attention_phase(
             "MPT) and a checker with a compiled path"
         )
     if can_compile and compiled_loop is not False:
-        return _run_compiled(
+        outcome = _run_compiled(
             tree, proposer, context, rng, goal_bias, uniform, follow_fallback, keep_chunk,
-            limits, closest_sq,
+            limits, closest_sq, joined, check_every,
         )  # fmt: skip
-    return _run_python(
-        tree, policy, rng, goal_bias, uniform, follow_fallback, keep_chunk, limits, closest_sq
-    )
+    else:
+        outcome = _run_python(
+            tree, policy, rng, goal_bias, uniform, follow_fallback, keep_chunk, limits,
+            closest_sq, joined, check_every,
+        )  # fmt: skip
+    if joined is not None and outcome.stop not in ("joined", "time") and joined():
+        outcome.stop = "joined"  # the nodes since the last check met the other tree
+    return outcome
 
 
 def closest_approach_sq(tree: Tree) -> float:
@@ -258,6 +275,8 @@ def _run_python(
     keep_chunk: bool,
     limits: AttentionLimits,
     closest_sq: float,
+    joined: Callable[[], bool] | None,
+    check_every: int,
 ) -> AttentionOutcome:
     """The reference loop: any policy, any checker."""
     problem = tree.problem
@@ -285,6 +304,7 @@ def _run_python(
     stalled = calls = proposals_used = 0
     chunk: np.ndarray | None = None
     next_row = 0
+    next_check = tree.num_nodes + check_every if joined is not None else MAX_COUNT
     while True:
         if tree.best_node >= 0:
             stop = "solved"
@@ -292,6 +312,11 @@ def _run_python(
         if tree.num_nodes >= limits.attention_nodes:
             stop = "attention_budget"
             break
+        if _at_check(tree, limits, next_check):
+            next_check = tree.num_nodes + check_every
+            if joined():
+                stop = "joined"
+                break
         if tree.num_nodes >= limits.max_nodes or tree.samples >= limits.max_samples:
             stop = "budget"
             break
@@ -337,6 +362,15 @@ def _run_python(
     return AttentionOutcome(stop, calls, proposals_used, compiled=False)
 
 
+def _at_check(tree: Tree, limits: AttentionLimits, next_check: int) -> bool:
+    """Whether a compiled slice stopped at a ``joined`` check rather than the real budget."""
+    return (
+        tree.num_nodes >= next_check
+        and tree.num_nodes < limits.max_nodes
+        and tree.samples < limits.max_samples
+    )
+
+
 _COMPILED_STOPS = {
     compiled.SOLVED: "solved",
     compiled.ATTENTION_BUDGET: "attention_budget",
@@ -356,8 +390,14 @@ def _run_compiled(
     keep_chunk: bool,
     limits: AttentionLimits,
     closest_sq: float,
+    joined: Callable[[], bool] | None,
+    check_every: int,
 ) -> AttentionOutcome:
-    """The compiled loop, in slices between looks at the clock (`slice_length`)."""
+    """The compiled loop, in slices between looks at the clock (`slice_length`).
+
+    With a ``joined`` check, a slice also ends at the next check's node count (its node
+    budget held there), where the Python loop checks too.
+    """
     weights, prefix_goal, prefix_z, prefix_qkv, policy_rng, noise_std, chunk, max_path_length = (
         proposer
     )
@@ -383,12 +423,14 @@ def _run_compiled(
         dtype=np.int64,
     )  # fmt: skip
     near_sq = float(limits.near_sq)
+    next_check = tree.num_nodes + check_every if joined is not None else MAX_COUNT
     iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
     while True:
         began = time.perf_counter()
         if began >= limits.deadline:
             stop = "time"
             break
+        budget[compiled.MAX_NODES] = min(limits.max_nodes, next_check)
         arrays, counters, best_cost, params = tree.compiled_state()
         status = compiled.attention_slice(
             arrays, counters, best_cost, params, goal, bounds, context, rng_address, buffer,
@@ -405,6 +447,11 @@ def _run_compiled(
             tree.grow()
         elif status == compiled.NOT_FINITE:
             raise ValueError("action: the policy proposed a sample that is not finite")
+        elif status == compiled.BUDGET and _at_check(tree, limits, next_check):
+            next_check = tree.num_nodes + check_every
+            if joined():
+                stop = "joined"
+                break
         else:
             stop = _COMPILED_STOPS[status]
             break

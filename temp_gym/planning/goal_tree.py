@@ -17,6 +17,12 @@ LaValle 2000) on RRT* trees:
   solution. The goal tree is then dropped, and the planner's tree goes on as before (Informed
   RRT* improves the path, rewiring the chain like any other nodes).
 
+After a stall of the attention phase the policy grows the goal tree first
+(`GoalTree.grow_by_attention`: the attention phase on the swapped problem, its new nodes tried
+against the planner's tree every `CHECK_EVERY` nodes), until the trees meet or it stalls too;
+then RRT*'s samples grow it as above. A policy that stalled walking into a pocket mostly walks
+out of it.
+
 Every node either tree grew counts against the node budget (`GoalTree.extra_nodes`: the goal
 tree's nodes that the chain did not copy), so nodes to a first solution compare with a
 one-tree planner's honestly. The joined path is certified by the exact checker like any other
@@ -33,12 +39,18 @@ import numpy as np
 from temp_gym.planning._compiled_tree import CHECKS, COUNTERS, first_link, graft_branch
 from temp_gym.planning._kernels import nearest
 from temp_gym.planning.anytime import grow_anytime
+from temp_gym.planning.attention import AttentionLimits, AttentionOutcome, run_attention_phase
+from temp_gym.planning.policy import SamplingPolicy
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
 
 TURN_NODES = 32
 """Nodes each tree adds per turn before the new ones are tried against the other tree."""
+CHECK_EVERY = 8
+"""While the policy grows the goal tree (`GoalTree.grow_by_attention`): nodes between two tries
+of its new nodes against the planner's tree. Checking after every node would save a few more
+nodes (2D validation) but costs a return from the compiled loop per node."""
 
 
 class GoalTree:
@@ -69,6 +81,43 @@ class GoalTree:
     def extra_nodes(self) -> int:
         """Nodes this tree adds to the planner's count: all of them but the grafted branch."""
         return self.tree.num_nodes - self._grafted
+
+    def grow_by_attention(
+        self,
+        tree: Tree,
+        policy: SamplingPolicy,
+        rng: np.random.Generator,
+        log: AnytimeLog,
+        goal_bias: float,
+        limits: AttentionLimits,
+        **options,
+    ) -> AttentionOutcome:
+        """Grow this tree by the policy's attention phase (from the goal) until it meets ``tree``.
+
+        The policy plans the swapped problem (it is reset to it, then back to ``tree``'s
+        problem): the way out of a pocket is the way in, read backwards, and a policy that
+        stalled entering the goal's pocket usually leaves it. Every `CHECK_EVERY` new nodes
+        are tried against the planner's tree (`_join`); the phase ends
+        joined, or by the stop rules of ``limits`` (its stall patience among them), which count
+        the nodes and samples of both trees. ``options`` are `run_attention_phase`'s.
+        """
+        used_nodes, used_samples = tree.num_nodes, tree.samples
+        reverse = dataclasses.replace(
+            limits,
+            attention_nodes=max(limits.attention_nodes - used_nodes, 0),
+            max_nodes=max(limits.max_nodes - used_nodes, 0),
+            max_samples=max(limits.max_samples - used_samples, 0),
+        )
+        policy.reset(self.tree.problem)
+        try:
+            outcome = run_attention_phase(
+                self.tree, policy, rng, goal_bias, reverse,
+                joined=lambda: self._join(tree, log), check_every=CHECK_EVERY, **options,
+            )  # fmt: skip
+        finally:
+            policy.reset(tree.problem)
+        log.extra_nodes = self.extra_nodes
+        return outcome
 
     def grow_until_joined(
         self, tree: Tree, settings: PlanSettings, rng: np.random.Generator, log: AnytimeLog,
@@ -179,4 +228,4 @@ class GoalTree:
         log.record_tree(tree)
 
 
-__all__ = ["TURN_NODES", "GoalTree"]
+__all__ = ["CHECK_EVERY", "TURN_NODES", "GoalTree"]

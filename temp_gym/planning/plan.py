@@ -68,6 +68,7 @@ def plan(
     attention_resume: float | None = None,
     attention_keep_chunk: bool | None = None,
     goal_tree: bool | None = None,
+    attention_from_goal: bool | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -133,6 +134,9 @@ def plan(
             tree grows from the goal beside the planner's until the two meet
             (`temp_gym.planning.goal_tree`; its nodes count against ``max_nodes``). None
             means True; False leaves classical planning to Informed RRT* alone.
+        attention_from_goal: ``temp`` only: when the attention phase stalls, the policy
+            grows the goal tree first (the attention phase from the goal, until the trees
+            meet or it stalls too). None means True unless ``goal_tree`` is False.
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -152,7 +156,7 @@ def plan(
         attention_near_goal_factor=attention_near_goal_factor,
         attention_follow_fallback=attention_follow_fallback,
         attention_resume=attention_resume, attention_keep_chunk=attention_keep_chunk,
-        goal_tree=goal_tree,
+        goal_tree=goal_tree, attention_from_goal=attention_from_goal,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

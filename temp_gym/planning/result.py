@@ -156,6 +156,12 @@ class PlanSettings:
     from the goal beside the planner's until the two meet (`temp_gym.planning.goal_tree`;
     None means True; False: Informed RRT* alone, as before)."""
 
+    attention_from_goal: bool | None = None
+    """``temp`` planner: when the attention phase stalls, the policy first grows the goal tree
+    (its attention phase on the swapped problem) until the two trees meet or it stalls too
+    (`temp_gym.planning.goal_tree.GoalTree.grow_by_attention`; None means True with the goal
+    tree; False: the goal tree grows by Informed RRT*'s samples alone). Needs the goal tree."""
+
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
@@ -207,6 +213,18 @@ class PlanSettings:
             if not isinstance(self.goal_tree, (bool, np.bool_)):
                 raise ValueError(f"goal_tree: expected True, False or None, got {self.goal_tree!r}")
             normalize("goal_tree", bool(self.goal_tree))
+        if self.attention_from_goal is not None:
+            if not isinstance(self.attention_from_goal, (bool, np.bool_)):
+                raise ValueError(
+                    "attention_from_goal: expected True, False or None, got "
+                    f"{self.attention_from_goal!r}"
+                )
+            normalize("attention_from_goal", bool(self.attention_from_goal))
+            if self.attention_from_goal and self.goal_tree is False:
+                raise ValueError(
+                    "attention_from_goal: the policy grows the goal tree, which goal_tree=False "
+                    "turns off; pass attention_from_goal=False or None with it"
+                )
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:

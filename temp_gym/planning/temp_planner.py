@@ -57,6 +57,14 @@ straight motion links the two; the goal tree's branch is then grafted onto the p
 and Informed RRT* improves the joined path (`temp_gym.planning.goal_tree`). The tasks on which
 a policy stalls are mostly those whose goal lies in a pocket that a tree from the start enters
 rarely and a tree from the goal leaves easily. Its nodes count against ``max_nodes``.
+
+**The attention phase from the goal** (our addition; ``attention_from_goal=False`` turns it
+off): after a stall, the policy grows the goal tree first, planning the swapped problem with
+the same stop rules, its new nodes tried against the planner's tree every few nodes
+(`temp_gym.planning.goal_tree.GoalTree.grow_by_attention`); a policy that stalled walking into
+a pocket mostly walks out of it. If it stalls too, RRT*'s samples grow the goal tree as above.
+``result.attention`` then has ``from_goal_stop``, ``from_goal_nodes`` (the goal tree's nodes
+when it ended) and ``from_goal_solved`` (it joined the trees).
 """
 
 from __future__ import annotations
@@ -188,8 +196,22 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     ):
         goal_tree = GoalTree(tree)
 
+    # ---- after a stall: the policy grows the goal tree, from the goal towards the start
+    if (
+        goal_tree is not None
+        and outcome.stop == "stalled"
+        and settings.attention_from_goal is not False
+    ):
+        from_goal = goal_tree.grow_by_attention(
+            tree, policy, rng, log, settings.goal_bias, limits, uniform=uniform,
+            follow_fallback=follow, keep_chunk=keep_chunk,
+        )  # fmt: skip
+        attention["from_goal_stop"] = from_goal.stop
+        attention["from_goal_nodes"] = goal_tree.tree.num_nodes
+        attention["from_goal_solved"] = from_goal.stop == "joined"
+
     # ---- after a stall: classical planning and the resumed attention phase in turns
-    if outcome.stop == "stalled" and resume > 0:
+    if outcome.stop == "stalled" and resume > 0 and tree.best_node < 0:
         attention["resumes"] = _resume_until_solved(
             tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
             uniform, follow, keep_chunk, goal_tree,

@@ -161,6 +161,9 @@ def plan_episode(
         attention_resume=eval_config.attention_resume if temp else None,
         attention_keep_chunk=eval_config.attention_keep_chunk if temp else None,
         goal_tree=eval_config.goal_tree if temp else None,
+        attention_from_goal=(
+            eval_config.attention_from_goal and eval_config.goal_tree if temp else None
+        ),
     )
     episode = {
         "success": float(result.success),
@@ -171,4 +174,7 @@ def plan_episode(
     }
     if planner == "temp":
         episode["attention_solved"] = float(result.attention["solved"])
+        episode["attention_solved_both_ways"] = float(
+            result.attention["solved"] or result.attention.get("from_goal_solved", False)
+        )
     return episode

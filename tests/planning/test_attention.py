@@ -497,3 +497,45 @@ def test_keep_chunk_is_a_checked_plan_setting(wall):
     for bad in (1, "yes", 0.5):
         with pytest.raises(ValueError, match="attention_keep_chunk"):
             plan(problem, attention_keep_chunk=bad, **kwargs)
+
+
+@pytest.mark.parametrize("join_at", [3, None])
+def test_joined_checks_come_at_the_same_nodes_in_both_loops(join_at):
+    """The check a goal tree grown by attention makes (`run_attention_phase`'s ``joined``)."""
+    problem = generate_problem("point2d", np.random.default_rng(5), "challenging")
+    runs = []
+    for compiled_loop in (True, False, None):
+        calls = []
+        policy = load_policy("point2d", noise_std=0.05)
+        policy.reset(problem, seed=2)
+        tree = Tree(problem, capacity=16)
+
+        def joined(tree_sizes=calls, tree=tree):
+            tree_sizes.append(tree.num_nodes)
+            return len(tree_sizes) == join_at
+
+        rng = np.random.default_rng(2)
+        limits = AttentionLimits(1500, 1500, 150_000, 0)
+        hook = None if compiled_loop is None else joined
+        outcome = run_attention_phase(tree, policy, rng, 0.05, limits, bool(compiled_loop),
+                                      joined=hook, check_every=7)  # fmt: skip
+        runs.append((tree, outcome, calls))
+    (tree_c, out_c, calls_c), (tree_p, out_p, calls_p), (tree_none, out_none, _) = runs
+    _assert_same_tree(tree_c, tree_p)
+    assert calls_c == calls_p
+    if join_at is None:  # checks that never join leave the tree as it grows without them
+        _assert_same_tree(tree_c, tree_none)
+        assert out_c.stop == out_p.stop == out_none.stop == "solved"
+        assert calls_c[:-1] == list(range(8, 8 + 7 * (len(calls_c) - 1), 7))
+        assert calls_c[-1] == tree_c.num_nodes  # the last check, as the phase stopped
+    else:
+        assert out_c.stop == out_p.stop == "joined"
+        assert calls_c == [8, 15, 22] and tree_c.num_nodes == 22
+
+
+def test_check_every_must_be_positive(wall):
+    with pytest.raises(ValueError, match="check_every"):
+        run_attention_phase(Tree(Problem.from_dict(wall)), load_policy("point2d"),
+                            np.random.default_rng(0), 0.05,
+                            AttentionLimits(10, 10, 100, 0), joined=lambda: False,
+                            check_every=0)  # fmt: skip

@@ -21,6 +21,28 @@ class Stuck:
         return np.array([-1.0, -1.0], np.float32)
 
 
+class KnowsTheWayOut:
+    """Into the trap (`trap`) it walks straight at the goal and stalls on the U's back wall;
+    out of it (planning from the goal) it knows the way: out by the opening, round the U."""
+
+    def reset(self, problem, seed=None):
+        self.problem = problem
+
+    def __call__(self, observation):
+        low, high = self.problem.bounds
+        to_world = lambda normalized: low + (np.asarray(normalized) + 1) / 2 * (high - low)  # noqa: E731
+        x, y = to_world(observation["path"][int(observation["path_length"][0]) - 1])
+        if self.problem.start[0] < 12.5:  # into the trap: straight at the goal
+            target = self.problem.goal
+        elif x > 12.5 and abs(y - 10) < 2.5 and x < 19:  # inside the U: to its opening
+            target = [19.5, 10.0]
+        elif x >= 19 and y < 16.5:  # past the opening: along the U's open side
+            target = [19.5, 17.0]
+        else:
+            target = self.problem.goal
+        return ((np.asarray(target) - low) / (high - low) * 2 - 1).astype(np.float32)
+
+
 class PythonOnly:
     """A checker seen without its compiled path: the planners drive it from Python."""
 
@@ -189,3 +211,49 @@ def test_a_checker_without_a_compiled_path_joins_the_same_trees(trap):
 def test_goal_tree_setting_is_checked(trap):
     with pytest.raises(ValueError, match="goal_tree"):
         plan(trap, goal_tree="yes")
+
+
+def test_the_policy_grows_the_goal_tree_out_of_a_pocket_it_stalled_entering(trap):
+    by_policy, by_samples = [], []
+    for seed in range(5):
+        result = plan(trap, policy=KnowsTheWayOut(), seed=seed, max_nodes=5000,
+                      stop_at_first=True, attention_patience=40)  # fmt: skip
+        attention = result.attention
+        assert attention["stop"] == "stalled" and attention["from_goal_solved"]
+        assert attention["from_goal_stop"] == "joined" and attention["goal_tree_joined"]
+        assert attention["resumes"] == 0
+        assert result.success and certify_path(trap, result.path)
+        np.testing.assert_array_equal(result.path[0], trap.start)
+        # The first solution counts the planner's nodes at the stall and every node of the
+        # goal tree (its grafted branch once), nothing else.
+        assert result.nodes_to_first_solution == attention["nodes"] + attention["from_goal_nodes"]
+        assert attention["from_goal_nodes"] == attention["goal_tree_nodes"]
+        by_policy.append(result.nodes_to_first_solution)
+        alone = plan(trap, policy=KnowsTheWayOut(), seed=seed, max_nodes=5000,
+                     stop_at_first=True, attention_patience=40,
+                     attention_from_goal=False)  # fmt: skip
+        assert "from_goal_stop" not in alone.attention and alone.success
+        by_samples.append(alone.nodes_to_first_solution)
+    # The goal tree grown by Informed RRT*'s samples needs more nodes (seeded, so exact).
+    assert sum(by_policy) < sum(by_samples)
+
+
+def test_a_policy_that_stalls_from_the_goal_too_hands_over_to_the_goal_tree(trap):
+    stops = []
+    for seed in range(6):
+        result = plan(trap, policy=Stuck(), seed=seed, max_nodes=5000, stop_at_first=True,
+                      attention_patience=30)  # fmt: skip
+        attention = result.attention
+        stops.append(attention["from_goal_stop"])
+        assert result.success and attention["goal_tree_joined"]
+        assert attention["from_goal_solved"] == (attention["from_goal_stop"] == "joined")
+        if attention["from_goal_stop"] == "stalled":  # grown on by Informed RRT*'s samples
+            assert attention["goal_tree_nodes"] > attention["from_goal_nodes"]
+    assert "stalled" in stops
+
+
+def test_attention_from_goal_setting_is_checked(trap):
+    with pytest.raises(ValueError, match="attention_from_goal"):
+        plan(trap, attention_from_goal="yes")
+    with pytest.raises(ValueError, match="attention_from_goal"):
+        plan(trap, attention_from_goal=True, goal_tree=False)

@@ -74,3 +74,25 @@ def test_the_goal_tree_is_tried_both_ways(capsys, monkeypatch):
     assert [row[header.index("goal tree")].strip() for row in rows] == ["1", "0"]
     nodes = [float(row[header.index("nodes mean")]) for row in rows]
     assert nodes[0] != nodes[1]  # a patience of 5 stalls: the classical phases differ
+
+
+def test_the_attention_phase_from_the_goal_is_tried_both_ways(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    tune_planner.main(
+        [*ARGS, "--attention-nodes", "3000", "--noise-std", "0", "--patience", "5",
+         "--goal-tree", "1", "0", "--from-goal", "1", "0", "--tasks", "3",
+         "--min-attention-success", "0"]
+    )  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    header = [name.strip() for name in next(line for line in out if line.startswith("| n |"))
+              .split("|")]  # fmt: skip
+    rows = [line.split("|") for line in out if line.startswith("| 3000 |")]
+    # Without the goal tree, --from-goal changes nothing: one row for both.
+    pairs = [(row[header.index("goal tree")].strip(), row[header.index("from goal")].strip())
+             for row in rows]  # fmt: skip
+    assert pairs == [("1", "1"), ("1", "0"), ("0", "-")]
+    forward, both = (
+        [float(row[header.index(name)]) for row in rows] for name in ("AP solved", "AP both ways")
+    )
+    assert forward[0] == forward[1] == forward[2]  # the first phase is the same in every row
+    assert both[0] >= forward[0] and both[1] == forward[1] and both[2] == forward[2]
