@@ -214,23 +214,29 @@ def spread_section(draws: list[dict]) -> list[str]:
                 f"| {tasks} |"
             )
     lines += ["", "TEMP over all draws: " + "; ".join(
-        f"{row}: solved {solved} of {total}, its attention phase alone {alone}"
-        for row, (solved, alone, total) in _temp_counts(draws).items()
+        f"{row}: solved {solved} of {total}, its attention phase alone {alone} (both ways, from "
+        f"the start or from the goal after a stall: {both})"
+        for row, (solved, alone, both, total) in _temp_counts(draws).items()
     ) + "."]  # fmt: skip
     return lines
 
 
-def _temp_counts(draws: list[dict]) -> dict[str, tuple[int, int, int]]:
-    """Per row, over all draws: tasks TEMP solved, those its attention phase solved, tasks."""
+def _temp_counts(draws: list[dict]) -> dict[str, tuple[int, int, int, int]]:
+    """Per row, over all draws: tasks TEMP solved, those its attention phase solved (from the
+    start alone; both ways: or from the goal after a stall), tasks."""
     counts: dict[str, list[int]] = {}
     for d in draws:
         for record in d.get("records", []):
             temp = record["planners"]["temp"]
-            row = counts.setdefault(record["group"], [0, 0, 0])
+            row = counts.setdefault(record["group"], [0, 0, 0, 0])
             row[0] += bool(temp.get("success"))
             row[1] += bool(temp.get("success") and temp.get("attention_solved"))
-            row[2] += 1
-    return {row: (a, b, c) for row, (a, b, c) in counts.items()}
+            row[2] += bool(
+                temp.get("success")
+                and (temp.get("attention_solved") or temp.get("from_goal_solved"))
+            )
+            row[3] += 1
+    return {row: tuple(values) for row, values in counts.items()}
 
 
 KEPT_NOTE = (

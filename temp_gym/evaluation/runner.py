@@ -194,6 +194,7 @@ def evaluate_task(
         "nodes": temp.nodes_to_first_solution if solved else None,
         "cost": temp.cost if solved else None,
         "attention_solved": bool(attention["solved"]),
+        "from_goal_solved": bool(attention.get("from_goal_solved", False)),
         "sampling_failures": attention["sampling_failures"],
     }
     if record["planners"]["temp"]["success"]:
@@ -218,7 +219,7 @@ def evaluate_task(
                     "attention_near_goal_factor": settings.attention_near_goal_factor,
                     "attention_resume": settings.attention_resume,
                     "goal_tree": settings.goal_tree,
-                    "attention_from_goal": settings.attention_from_goal,
+                    "attention_from_goal": settings.attention_from_goal and settings.goal_tree,
                 }
                 if name == "temp"
                 else {}

@@ -286,5 +286,11 @@ def test_the_evaluation_plans_with_or_without_the_goal_tree_as_set(goal_tree):
         )  # fmt: skip
         for flag in (True, False)
     }
-    assert runs[True].nodes_to_first_solution != runs[False].nodes_to_first_solution
+    assert "goal_tree_nodes" in runs[True].attention
+    assert "goal_tree_nodes" not in runs[False].attention
     assert record["planners"]["temp"]["nodes"] == runs[goal_tree].nodes_to_first_solution
+    assert record["planners"]["temp"]["cost"] == runs[goal_tree].cost
+    assert runs[True].cost != runs[False].cost  # different paths
+    assert record["planners"]["temp"]["from_goal_solved"] == runs[goal_tree].attention.get(
+        "from_goal_solved", False
+    )
