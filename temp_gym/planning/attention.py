@@ -363,7 +363,8 @@ def _run_python(
 
 
 def _at_check(tree: Tree, limits: AttentionLimits, next_check: int) -> bool:
-    """Whether a compiled slice stopped at a ``joined`` check rather than the real budget."""
+    """Whether the tree stands at a ``joined`` check: its node count reached ``next_check``
+    with node and sample budget left (a compiled slice that stopped there stopped for it)."""
     return (
         tree.num_nodes >= next_check
         and tree.num_nodes < limits.max_nodes
