@@ -222,8 +222,11 @@ def spread_section(draws: list[dict]) -> list[str]:
 
 
 def _temp_counts(draws: list[dict]) -> dict[str, tuple[int, int, int, int]]:
-    """Per row, over all draws: tasks TEMP solved, those its attention phase solved (from the
-    start alone; both ways: or from the goal after a stall), tasks."""
+    """Per row, over all draws: solved, attention phase alone, both ways, tasks.
+
+    TEMP's solved tasks, those its attention phase solved from the start alone, those it
+    solved both ways (from the start, or from the goal after a stall), and all tasks.
+    """
     counts: dict[str, list[int]] = {}
     for d in draws:
         for record in d.get("records", []):
@@ -330,8 +333,8 @@ def main(argv: list[str] | None = None) -> Path:
         "until the two trees meet, `goal_tree` in a world's settings, and a section whose "
         "settings lack it was measured without; after a stall the policy grows that tree "
         "first, `attention_from_goal`, likewise; the checks give the "
-        "share its attention phase solved alone from the start); every baseline runs until its cost is at "
-        "most (1 + 0.05) J. Means and "
+        "share its attention phase solved alone from the start); every baseline runs until "
+        "its cost is at most (1 + 0.05) J. Means and "
         "medians are over the tasks each planner solved, with 95% bootstrap intervals; TEMP's "
         "success is the share of tasks it solved, a baseline's the share where it reached "
         "(1 + 0.05) J within the budget. Times are wall-clock on "

@@ -363,8 +363,10 @@ def _run_python(
 
 
 def _at_check(tree: Tree, limits: AttentionLimits, next_check: int) -> bool:
-    """Whether the tree stands at a ``joined`` check: its node count reached ``next_check``
-    with node and sample budget left (a compiled slice that stopped there stopped for it)."""
+    """Whether the tree stands at a ``joined`` check (its node count reached ``next_check``).
+
+    Only with node and sample budget left: a compiled slice that stopped there stopped for it.
+    """
     return (
         tree.num_nodes >= next_check
         and tree.num_nodes < limits.max_nodes

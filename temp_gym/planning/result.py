@@ -202,29 +202,17 @@ class PlanSettings:
                 "attention_follow_fallback",
                 share(self.attention_follow_fallback, "attention_follow_fallback"),
             )
-        if self.attention_keep_chunk is not None:
-            if not isinstance(self.attention_keep_chunk, (bool, np.bool_)):
-                raise ValueError(
-                    "attention_keep_chunk: expected True, False or None, got "
-                    f"{self.attention_keep_chunk!r}"
-                )
-            normalize("attention_keep_chunk", bool(self.attention_keep_chunk))
-        if self.goal_tree is not None:
-            if not isinstance(self.goal_tree, (bool, np.bool_)):
-                raise ValueError(f"goal_tree: expected True, False or None, got {self.goal_tree!r}")
-            normalize("goal_tree", bool(self.goal_tree))
-        if self.attention_from_goal is not None:
-            if not isinstance(self.attention_from_goal, (bool, np.bool_)):
-                raise ValueError(
-                    "attention_from_goal: expected True, False or None, got "
-                    f"{self.attention_from_goal!r}"
-                )
-            normalize("attention_from_goal", bool(self.attention_from_goal))
-            if self.attention_from_goal and self.goal_tree is False:
-                raise ValueError(
-                    "attention_from_goal: the policy grows the goal tree, which goal_tree=False "
-                    "turns off; pass attention_from_goal=False or None with it"
-                )
+        for name in ("attention_keep_chunk", "goal_tree", "attention_from_goal"):
+            value = getattr(self, name)
+            if value is not None:
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"{name}: expected True, False or None, got {value!r}")
+                normalize(name, bool(value))
+        if self.attention_from_goal and self.goal_tree is False:
+            raise ValueError(
+                "attention_from_goal: the policy grows the goal tree, which goal_tree=False "
+                "turns off; pass attention_from_goal=False or None with it"
+            )
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:

@@ -48,6 +48,13 @@ kernel (AVX2 and FMA, which every x86-64 machine since 2013 has), and the ten th
 it were rewritten under that kernel, all else identical. The numba code itself gave the same
 bits on Intel and AMD hosts (no kernel allows reassociation beyond LayerNorm's row sums).
 
+Then TEMP's policy grows the goal tree after a stall (``attention_from_goal``), evaluation
+records gained ``from_goal_solved``, and the shipped 2D policy carries a stall patience of 100
+nodes: the 2D challenging ``temp`` plan and both evaluation records changed. With the planner
+of before forced (the default patience rule, ``attention_from_goal=False``, the new record key
+left out) under the pinned kernel, every plan and evaluation fingerprint was identical; the
+three were rewritten with the new code.
+
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
