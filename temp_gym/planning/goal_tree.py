@@ -97,9 +97,9 @@ class GoalTree:
         The policy plans the swapped problem (it is reset to it, then back to ``tree``'s
         problem): the way out of a pocket is the way in, read backwards, and a policy that
         stalled entering the goal's pocket usually leaves it. Every `CHECK_EVERY` new nodes
-        are tried against the planner's tree (`_join`); the phase ends
-        joined, or by the stop rules of ``limits`` (its stall patience among them), which count
-        the nodes and samples of both trees. ``options`` are `run_attention_phase`'s.
+        are tried against the planner's tree (`_join`); the phase ends joined, or by the stop
+        rules of ``limits`` (its stall patience among them), which count the nodes and samples
+        of both trees. ``options`` are `run_attention_phase`'s.
         """
         used_nodes, used_samples = tree.num_nodes, tree.samples
         reverse = dataclasses.replace(

@@ -21,7 +21,7 @@ def test_ctrl_c_prints_one_line_and_the_rerun_says_what_is_done(tmp_path):
     assert not (tmp_path / "dataset_card.json").exists(), (
         f"interrupted too late to test: status {status}, stderr {stderr[-1500:]!r}"
     )
-    assert status == 130
+    assert status == 130, stderr[-3000:]
     lines = [line for line in stderr.replace("\r", "\n").splitlines() if line.strip()]
     assert lines[-1] == "generate.py: interrupted; rerun the same command to resume"
     assert "Traceback" not in stderr and "leaked" not in stderr and "Error" not in stderr
