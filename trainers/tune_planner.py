@@ -239,7 +239,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_keep_chunk=bool(keep),
             attention_resume=resume,
             goal_tree=bool(goal),
-            attention_from_goal=bool(from_goal),
+            attention_from_goal=from_goal,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]

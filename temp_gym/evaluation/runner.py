@@ -114,6 +114,20 @@ class EvaluationSettings:
     cached, and TEMP finds its encoding cached when the same worker planned in that
     workspace before (test task ``i`` lives in workspace ``i mod 50``)."""
 
+    def temp_options(self) -> dict[str, Any]:
+        """The TEMP planner's settings of these, as ``plan`` takes them (every TEMP run).
+
+        Without the goal tree there is no phase from the goal, whatever
+        ``attention_from_goal`` says (``plan`` refuses the pair).
+        """
+        return {
+            "attention_patience": self.attention_patience,
+            "attention_near_goal_factor": self.attention_near_goal_factor,
+            "attention_resume": self.attention_resume,
+            "goal_tree": self.goal_tree,
+            "attention_from_goal": self.attention_from_goal and self.goal_tree,
+        }
+
 
 def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
     """Task ``index`` of a test group: deterministic, independent of the other tasks."""
@@ -180,11 +194,7 @@ def evaluate_task(
     temp = plan(
         problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
         time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
-        attention_patience=settings.attention_patience,
-        attention_near_goal_factor=settings.attention_near_goal_factor,
-        attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
-        attention_from_goal=settings.attention_from_goal and settings.goal_tree,
-        stop_at_first=True,
+        stop_at_first=True, **settings.temp_options(),
     )  # fmt: skip
     attention = temp.attention
     solved = bool(temp.success and temp.time_to_first_solution is not None)
@@ -212,18 +222,7 @@ def evaluate_task(
     if with_curves:
         record["curves"] = {}
         for name in ("temp", *settings.baselines):
-            kwargs = (
-                {
-                    "policy": policy,
-                    "attention_patience": settings.attention_patience,
-                    "attention_near_goal_factor": settings.attention_near_goal_factor,
-                    "attention_resume": settings.attention_resume,
-                    "goal_tree": settings.goal_tree,
-                    "attention_from_goal": settings.attention_from_goal and settings.goal_tree,
-                }
-                if name == "temp"
-                else {}
-            )
+            kwargs = {"policy": policy, **settings.temp_options()} if name == "temp" else {}
             result = plan(
                 problem, planner=name, seed=seed, max_nodes=settings.curve_nodes,
                 time_limit=settings.time_limit, **kwargs,
@@ -391,10 +390,7 @@ def attention_example(
     result = plan(
         problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
-        attention_patience=settings.attention_patience,
-        attention_near_goal_factor=settings.attention_near_goal_factor,
-        attention_resume=settings.attention_resume, goal_tree=settings.goal_tree,
-        attention_from_goal=settings.attention_from_goal and settings.goal_tree,
+        **settings.temp_options(),
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {
