@@ -215,7 +215,7 @@ def spread_section(draws: list[dict]) -> list[str]:
             )
     lines += ["", "TEMP over all draws: " + "; ".join(
         f"{row}: solved {solved} of {total}, its attention phase alone {alone} (both ways, from "
-        f"the start or from the goal after a stall: {both})"
+        f"the start, or from the goal after a stall, or in a later round: {both})"
         for row, (solved, alone, both, total) in _temp_counts(draws).items()
     ) + "."]  # fmt: skip
     return lines
@@ -225,7 +225,8 @@ def _temp_counts(draws: list[dict]) -> dict[str, tuple[int, int, int, int]]:
     """Per row, over all draws: solved, attention phase alone, both ways, tasks.
 
     TEMP's solved tasks, those its attention phase solved from the start alone, those it
-    solved both ways (from the start, or from the goal after a stall), and all tasks.
+    solved both ways (from the start, or from the goal after a stall, or in a later round of
+    the two: `BOTH_WAYS_KEYS`), and all tasks.
     """
     counts: dict[str, list[int]] = {}
     for d in draws:
@@ -234,12 +235,13 @@ def _temp_counts(draws: list[dict]) -> dict[str, tuple[int, int, int, int]]:
             row = counts.setdefault(record["group"], [0, 0, 0, 0])
             row[0] += bool(temp.get("success"))
             row[1] += bool(temp.get("success") and temp.get("attention_solved"))
-            row[2] += bool(
-                temp.get("success")
-                and (temp.get("attention_solved") or temp.get("from_goal_solved"))
-            )
+            row[2] += bool(temp.get("success") and any(temp.get(key) for key in BOTH_WAYS_KEYS))
             row[3] += 1
     return {row: tuple(values) for row, values in counts.items()}
+
+
+BOTH_WAYS_KEYS = ("attention_solved", "from_goal_solved", "rounds_solved")
+"""A TEMP record's keys of the attention phases before any classical node (any one solved it)."""
 
 
 KEPT_NOTE = (
@@ -332,7 +334,9 @@ def main(argv: list[str] | None = None) -> Path:
         "user calls it; since 2026-11-27 its classical phase also grows a tree from the goal "
         "until the two trees meet, `goal_tree` in a world's settings, and a section whose "
         "settings lack it was measured without; after a stall the policy grows that tree "
-        "first, `attention_from_goal`, likewise; the checks give the "
+        "first, `attention_from_goal`, likewise, and if that stalls too it takes more rounds "
+        "from both trees, `attention_rounds`, likewise (a section without it took none); the "
+        "checks give the "
         "share its attention phase solved alone from the start); every baseline runs until "
         "its cost is at most (1 + 0.05) J. Means and "
         "medians are over the tasks each planner solved, with 95% bootstrap intervals; TEMP's "

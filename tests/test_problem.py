@@ -285,3 +285,15 @@ def test_negative_zero_makes_no_other_problem_or_workspace():
     assert not np.signbit(negative.bounds).any()
     moved = Problem.from_dict({**data, "bounds": [[-1.0, 0.0], [20.0, 20.0]], "start": [-0.0, 1.0]})
     assert not np.signbit(moved.start).any() and moved.start.tolist() == [0.0, 1.0]
+
+
+def test_swapped_exchanges_start_and_goal_as_a_checked_problem_would():
+    problem = Problem.from_dict(example())
+    swapped = problem.swapped()
+    checked = problem.replace(start=problem.goal.tolist(), goal=problem.start.tolist())
+    assert swapped == checked and hash(swapped) == hash(checked)
+    for name in ("start", "goal"):
+        np.testing.assert_array_equal(getattr(swapped, name), getattr(checked, name))
+        assert not getattr(swapped, name).flags.writeable
+    assert swapped.workspace is problem.workspace and swapped.goal_radius == problem.goal_radius
+    assert swapped.swapped() == problem

@@ -45,6 +45,7 @@ from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
 from temp_gym.planning.attention import RESUME_AFTER
+from temp_gym.planning.goal_tree import ATTENTION_ROUNDS
 from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.worlds.robots import robot_specs
 
@@ -220,7 +221,7 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
 
 PLANNER_KEYS = (
     "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
-    "attention_follow_fallback", "attention_resume", "chosen_by",
+    "attention_follow_fallback", "attention_resume", "attention_rounds", "chosen_by",
 )  # fmt: skip
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
 
@@ -273,6 +274,14 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
         "solution."
         if resume != 0
         else "- After a stall, classical planning keeps the rest of the budget.",
+        "- After stalls from the start and from the goal (the attention phase from the goal), "
+        + (
+            f"{ATTENTION_ROUNDS} more round(s) of the two (the planner's default, "
+            "`temp_gym.planning.goal_tree.ATTENTION_ROUNDS`)"
+            if planner.get("attention_rounds") is None
+            else f"{planner['attention_rounds']} more round(s) of the two"
+        )
+        + ", a resumed attention phase on each tree in turn.",
         f"- How they were chosen: {planner['chosen_by']}.",
     ]
 

@@ -5,21 +5,22 @@ r"""Choose a policy's planner settings on validation workspaces: budget n, noise
         [--max-nodes 10000]
 
 For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
-chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the
-goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
-going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a
-proposal that collided (``--keep-chunk``), the resume factor (``--resume``), whether a tree
-grows from the goal after an unsolved attention phase (``--goal-tree``) and whether the policy
-grows that tree first after a stall (``--from-goal``: the attention phase from the goal) it
-plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen in no test; the test
-workspaces stay untouched until the final measurement, ``--split test`` with the chosen
-setting) with the ``temp`` planner up to the first solution, and prints nodes to the first
-solution (mean and median, a failure counted as the whole budget), the share solved by
-attention-based planning within n (from the start alone, and both ways: from the start, or
-from the goal after a stall), cost and time; and, against RRT* on the same tasks, the share
-of tasks where TEMP needed fewer nodes and the mean difference with its 95% paired bootstrap
-interval. The recommendation minimizes the mean nodes among the settings whose attention
-phase solves at least ``--min-attention-success`` of the tasks (both ways);
+chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the goal
+(``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of going on
+from a fallback node (``--follow-fallback``), whether a chunk goes on past a proposal that
+collided (``--keep-chunk``), the resume factor (``--resume``), whether a tree grows from the
+goal after an unsolved attention phase (``--goal-tree``), whether the policy grows that tree
+first after a stall (``--from-goal``: the attention phase from the goal) and how many more
+rounds of the two it takes when both stall (``--rounds``) it plans ``--tasks`` tasks drawn from
+the ``val`` workspaces (seen in no test; the test workspaces stay untouched until the final
+measurement, ``--split test`` with the chosen setting) with the ``temp`` planner up to the
+first solution, and prints nodes to the first solution (mean and median, a failure counted as
+the whole budget), the share solved by attention-based planning within n (from the start alone,
+and both ways: from the start, or from the goal after a stall, or in a later round), cost and
+time; and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer nodes and
+the mean difference with its 95% paired bootstrap interval. The recommendation minimizes the
+mean nodes among the settings whose attention phase solves at least ``--min-attention-success``
+of the tasks (both ways);
 ``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
@@ -151,6 +152,14 @@ def main(argv: list[str] | None = None) -> dict:
         "Informed RRT*'s samples alone (0), to try; needs --goal-tree 1",
     )
     parser.add_argument(
+        "--rounds",
+        type=int,
+        nargs="+",
+        default=[-1],
+        help="after stalls from the start and from the goal, more rounds of the two (-1: the "
+        "planner's default; 0: none), to try; with --from-goal 1",
+    )
+    parser.add_argument(
         "--family",
         default="boxes",
         help="workspace family of the val and test tasks (temp_gym.worlds.structured; the "
@@ -207,7 +216,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "| n | noise | horizon | patience | near goal | uniform | follow | keep chunk | resume "
-        "| goal tree | from goal "
+        "| goal tree | from goal | rounds "
         "| nodes mean "
         "| median "
         "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
@@ -215,20 +224,24 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
-        "|---:|---|"
+        "|---:|---:|---|"
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
         args.uniform, args.follow_fallback, args.keep_chunk, args.resume, args.goal_tree,
-        args.from_goal,
+        args.from_goal, args.rounds,
     )  # fmt: skip
     for (
         budget, noise, horizon, patience, factor, uniform, follow, keep, resume, goal, from_goal,
+        rounds,
     ) in settings:  # fmt: skip
         if not goal and from_goal != args.from_goal[0]:
             continue  # without the goal tree --from-goal changes nothing: one row
         from_goal = bool(goal and from_goal)
+        if not from_goal and rounds != args.rounds[0]:
+            continue  # without the phase from the goal --rounds changes nothing: one row
+        rounds = (None if rounds < 0 else rounds) if from_goal else 0
         eval_config = dataclasses.replace(
             eval_config,
             attention_nodes=budget,
@@ -240,6 +253,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_resume=resume,
             goal_tree=bool(goal),
             attention_from_goal=from_goal,
+            attention_rounds=rounds,
         )
         policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
@@ -250,6 +264,7 @@ def main(argv: list[str] | None = None) -> dict:
         print(
             f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
             f"{follow:g} | {keep} | {resume:g} | {goal} | {int(from_goal) if goal else '-'} | "
+            f"{'-' if not from_goal else 'default' if rounds is None else rounds} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.3f} | {both_ways:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
@@ -263,7 +278,7 @@ def main(argv: list[str] | None = None) -> dict:
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
                     "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
                     "attention_resume": resume, "goal_tree": bool(goal),
-                    "attention_from_goal": from_goal}  # fmt: skip
+                    "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")
     return best or {}

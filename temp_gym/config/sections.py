@@ -238,6 +238,10 @@ class TrainEvalConfig:
     attention_from_goal: bool = True
     """Whether, after a stall, the policy grows that tree first (the attention phase from the
     goal; needs ``goal_tree``)."""
+    attention_rounds: int | None = None
+    """After the attention phases from the start and from the goal both stalled, at most this
+    many more rounds of the two (0: none; needs ``attention_from_goal``); null: the planner's
+    default."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -279,6 +283,10 @@ class EvaluationConfig:
     attention_from_goal: bool = True
     """Whether, after a stall, the policy grows that tree first (the attention phase from the
     goal; needs ``goal_tree``; false: Informed RRT*'s samples alone grow it, as before)."""
+    attention_rounds: int | None = None
+    """After the attention phases from the start and from the goal both stalled, at most this
+    many more rounds of the two (0: none, as before they existed; needs
+    ``attention_from_goal``); null: the planner's default."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

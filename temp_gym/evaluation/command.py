@@ -93,6 +93,7 @@ def settings_from(
         attention_resume=section.attention_resume,
         goal_tree=section.goal_tree,
         attention_from_goal=section.attention_from_goal,
+        attention_rounds=section.attention_rounds,
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,

@@ -89,6 +89,9 @@ class EvaluationSettings:
     (`temp_gym.planning.goal_tree`)."""
     attention_from_goal: bool = True
     """Whether, after a stall, TEMP's policy grows that tree first (needs ``goal_tree``)."""
+    attention_rounds: int | None = None
+    """After TEMP's phases from the start and from the goal both stalled, at most this many
+    more rounds of the two (None: the planner's default)."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -118,14 +121,16 @@ class EvaluationSettings:
         """The TEMP planner's settings of these, as ``plan`` takes them (every TEMP run).
 
         Without the goal tree there is no phase from the goal, whatever
-        ``attention_from_goal`` says (``plan`` refuses the pair).
+        ``attention_from_goal`` says, and without that no rounds (``plan`` refuses the pairs).
         """
+        from_goal = self.attention_from_goal and self.goal_tree
         return {
             "attention_patience": self.attention_patience,
             "attention_near_goal_factor": self.attention_near_goal_factor,
             "attention_resume": self.attention_resume,
             "goal_tree": self.goal_tree,
-            "attention_from_goal": self.attention_from_goal and self.goal_tree,
+            "attention_from_goal": from_goal,
+            "attention_rounds": self.attention_rounds if from_goal else 0,
         }
 
 
@@ -205,6 +210,7 @@ def evaluate_task(
         "cost": temp.cost if solved else None,
         "attention_solved": bool(attention["solved"]),
         "from_goal_solved": bool(attention.get("from_goal_solved", False)),
+        "rounds_solved": bool(attention.get("rounds_solved", False)),
         "sampling_failures": attention["sampling_failures"],
     }
     if record["planners"]["temp"]["success"]:
@@ -379,6 +385,10 @@ def attention_example(
     group, the task, the AP figures and, per token group (SEI, Goal, Start, HPD), the raw
     head-averaged weight of the output token's query at every sampling step of the last layer
     and its min-max normalization (the paper's Eq. 7-8, `temp_gym.models.attention`).
+
+    The policy plans from the start only (no phase from the goal, so no rounds): the phase
+    from the goal resets the policy to the swapped problem and back, and each reset starts
+    its record afresh, so a plan joined from the goal would leave none of the phase shown.
     """
     from temp_gym.models.attention import GROUPS, normalized_group_attention
 
@@ -390,7 +400,7 @@ def attention_example(
     result = plan(
         problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
         max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
-        **settings.temp_options(),
+        **{**settings.temp_options(), "attention_from_goal": False, "attention_rounds": 0},
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

@@ -55,6 +55,7 @@ from temp_gym.planning.result import (
     near_goal_factor,
     noise_level,
     resume_factor,
+    rounds_count,
     seed_value,
     share,
 )
@@ -249,6 +250,9 @@ class TEMPPolicy:
         attention_resume: classical nodes, in stall patiences, before the attention phase
             resumes after a stall, when ``plan`` is given none (None: the planner's
             `temp_gym.planning.attention.RESUME_AFTER`; 0: never).
+        attention_rounds: rounds of the attention phase from both trees after it stalled from
+            the start and from the goal, when ``plan`` is given none (None: the planner's
+            `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -269,6 +273,7 @@ class TEMPPolicy:
         attention_near_goal_factor: float | None = None,
         attention_follow_fallback: float | None = None,
         attention_resume: float | None = None,
+        attention_rounds: int | None = None,
     ) -> None:
         noise_std = noise_level(noise_std)
         if seed is not None:
@@ -297,6 +302,7 @@ class TEMPPolicy:
         self.attention_resume = (
             None if attention_resume is None else resume_factor(attention_resume)
         )
+        self.attention_rounds = None if attention_rounds is None else rounds_count(attention_rounds)
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
             raise ValueError(
@@ -335,6 +341,7 @@ class TEMPPolicy:
         self._sei_array: np.ndarray | None = None
         self._task_bytes: bytes | None = None  # the task and grid last planned for, read
         self._grid_bytes: bytes | None = None  # lazily from `problem` after a reset
+        self._previous: tuple | None = None  # the problem reset to before this one (`reset`)
 
     @classmethod
     def from_checkpoint(
@@ -382,7 +389,7 @@ class TEMPPolicy:
             attention_uniform=self.attention_uniform,
             attention_near_goal_factor=self.attention_near_goal_factor,
             attention_follow_fallback=self.attention_follow_fallback,
-            attention_resume=self.attention_resume,
+            attention_resume=self.attention_resume, attention_rounds=self.attention_rounds,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:
@@ -420,6 +427,7 @@ class TEMPPolicy:
         """
         self.core.forget(workspace)
         clear_occupancy_grids()
+        self._previous = None
         if self.problem is not None and self.problem.workspace == workspace:
             self.problem = None  # so that a reset to the same problem encodes it again
 
@@ -427,7 +435,9 @@ class TEMPPolicy:
         """Encode the problem's workspace (cached per workspace); re-seed the noise if asked.
 
         Resetting to the problem the policy already holds (the same, immutable object, not
-        followed away from since) keeps its encoding: only the noise is re-seeded.
+        followed away from since) keeps its encoding: only the noise is re-seeded. So does
+        resetting to the problem it was reset to just before that one (the TEMP planner's
+        turns between its own tree and the goal tree's swapped problem).
         """
         if seed is not None:  # the generator is made when the noise first needs it
             self._rng_seed = seed_value(seed)
@@ -440,6 +450,12 @@ class TEMPPolicy:
         self.attentions = []
         if problem is self.problem and self._sei_array is not None:
             return
+        held = self._task_state() if self.problem is not None else None
+        if self._previous is not None and problem is self._previous[0]:
+            self._set_task_state(self._previous)  # the goal tree's problem and back: a swap
+            self._previous = held
+            return
+        self._previous = held
         check_compatible(self.info.robot, self.info.dim, problem.robot, problem.dim)
         self.problem = problem
         if self._fast is not None:  # the numba path reads the array; `_torch_sample` makes a
@@ -457,6 +473,19 @@ class TEMPPolicy:
         if self._fast is not None:
             self._prefix = self._fast.prefix(self._sei_array, *self._task_arrays)
         self._task_bytes = self._grid_bytes = None  # made by `_follow` only when it is called
+
+    _TASK_STATE = ("problem", "_sei", "_sei_array", "_task_arrays", "_task", "_prefix",
+                   "_task_bytes", "_grid_bytes")  # fmt: skip
+    """What `reset` sets for a problem: the previous problem's is kept, so that the TEMP
+    planner's turns between its tree and the goal tree's (the swapped problem) cost no
+    encoding of the task each time."""
+
+    def _task_state(self) -> tuple:
+        return tuple(getattr(self, name) for name in self._TASK_STATE)
+
+    def _set_task_state(self, state: tuple) -> None:
+        for name, value in zip(self._TASK_STATE, state, strict=True):
+            setattr(self, name, value)
 
     def _follow(self, observation: dict[str, np.ndarray]) -> None:
         """Plan for the observation's task when it is not the one last planned for.

@@ -19,9 +19,12 @@ LaValle 2000) on RRT* trees:
 
 After a stall of the attention phase the policy grows the goal tree first
 (`GoalTree.grow_by_attention`: the attention phase on the swapped problem, its new nodes tried
-against the planner's tree every `CHECK_EVERY` nodes), until the trees meet or it stalls too;
-then RRT*'s samples grow it as above. A policy that stalled walking into a pocket mostly walks
-out of it.
+against the planner's tree every `CHECK_EVERY` nodes), until the trees meet or it stalls too.
+A policy that stalled walking into a pocket mostly walks out of it. If it stalls too, the
+policy takes up to ``attention_rounds`` more rounds (`GoalTree.grow_in_rounds`, default
+`ATTENTION_ROUNDS`): a resumed attention phase on the planner's tree, then one on the goal
+tree, each with the same stall patience and its new nodes tried against the other tree. Then
+RRT*'s samples grow both trees as above.
 
 Every node either tree grew counts against the node budget (`GoalTree.extra_nodes`: the goal
 tree's nodes that the chain did not copy), so nodes to a first solution compare with a
@@ -51,6 +54,10 @@ CHECK_EVERY = 8
 """While the policy grows the goal tree (`GoalTree.grow_by_attention`): nodes between two tries
 of its new nodes against the planner's tree. Checking after every node would save a few more
 nodes (2D validation) but costs a return from the compiled loop per node."""
+ATTENTION_ROUNDS = 1
+"""The ``temp`` planner's default ``attention_rounds`` (`GoalTree.grow_in_rounds`): after the
+attention phases from the start and from the goal both stalled, one more round of the two
+before Informed RRT*'s samples take over."""
 
 
 class GoalTree:
@@ -61,9 +68,7 @@ class GoalTree:
     """
 
     def __init__(self, tree: Tree) -> None:
-        problem = tree.problem
-        swapped = dataclasses.replace(problem, start=problem.goal, goal=problem.start)
-        self.tree = Tree(swapped, step_size=tree.step_size)
+        self.tree = Tree(tree.problem.swapped(), step_size=tree.step_size)
         self.tree.checker = tree.checker  # the same workspace; its compiled context
         self._context = compiled_context_of(tree.checker)
         self._checked = [tree.num_nodes, 0]
@@ -101,21 +106,77 @@ class GoalTree:
         rules of ``limits`` (its stall patience among them), which count the nodes and samples
         of both trees. ``options`` are `run_attention_phase`'s.
         """
-        used_nodes, used_samples = tree.num_nodes, tree.samples
-        reverse = dataclasses.replace(
+        policy.reset(self.tree.problem)
+        try:
+            outcome = self._attend(self.tree, tree, policy, rng, log, goal_bias, limits, **options)
+        finally:
+            policy.reset(tree.problem)
+        return outcome
+
+    def grow_in_rounds(
+        self,
+        tree: Tree,
+        policy: SamplingPolicy,
+        rng: np.random.Generator,
+        log: AnytimeLog,
+        goal_bias: float,
+        limits: AttentionLimits,
+        rounds: int,
+        **options,
+    ) -> tuple[int, AttentionOutcome]:
+        """After both attention phases stalled: up to ``rounds`` more rounds of the two.
+
+        A round is the attention phase resumed on the planner's tree (from its newest node,
+        progress counted from its closest approach to the goal), then, if that stalls too, on
+        this tree (`grow_by_attention`, resumed alike). Each phase keeps the stop rules of
+        ``limits`` and tries its new nodes against the other tree every `CHECK_EVERY` nodes.
+        The rounds end when a phase joins the trees or solves the problem, or stops for any
+        reason but a stall. Returns the rounds begun and the last phase's outcome.
+        """
+        outcome = AttentionOutcome("stalled", 0, 0, compiled=False)
+        for begun in range(1, rounds + 1):
+            outcome = self._attend(
+                tree, tree, policy, rng, log, goal_bias, limits, resumed=True, **options
+            )
+            if tree.best_node >= 0 and not self.joined:  # it reached the goal region itself
+                log.record_tree(tree)
+            if outcome.stop != "stalled" or tree.best_node >= 0:
+                return begun, outcome
+            outcome = self.grow_by_attention(
+                tree, policy, rng, log, goal_bias, limits, resumed=True, **options
+            )
+            if outcome.stop != "stalled" or tree.best_node >= 0:
+                return begun, outcome
+        return rounds, outcome
+
+    def _attend(
+        self,
+        grown: Tree,
+        tree: Tree,
+        policy: SamplingPolicy,
+        rng: np.random.Generator,
+        log: AnytimeLog,
+        goal_bias: float,
+        limits: AttentionLimits,
+        **options,
+    ) -> AttentionOutcome:
+        """The attention phase on ``grown`` (``tree``, the planner's, or this one), checking joins.
+
+        ``policy`` must be reset to ``grown``'s problem (the callers do). The budgets of
+        ``limits`` count the nodes and samples of both trees.
+        """
+        other = self.tree if grown is tree else tree
+        used_nodes, used_samples = other.num_nodes, other.samples
+        budget = dataclasses.replace(
             limits,
             attention_nodes=max(limits.attention_nodes - used_nodes, 0),
             max_nodes=max(limits.max_nodes - used_nodes, 0),
             max_samples=max(limits.max_samples - used_samples, 0),
         )
-        policy.reset(self.tree.problem)
-        try:
-            outcome = run_attention_phase(
-                self.tree, policy, rng, goal_bias, reverse,
-                joined=lambda: self._join(tree, log), check_every=CHECK_EVERY, **options,
-            )  # fmt: skip
-        finally:
-            policy.reset(tree.problem)
+        outcome = run_attention_phase(
+            grown, policy, rng, goal_bias, budget,
+            joined=lambda: self._join(tree, log), check_every=CHECK_EVERY, **options,
+        )  # fmt: skip
         log.extra_nodes = self.extra_nodes
         return outcome
 
@@ -141,10 +202,9 @@ class GoalTree:
                 return False
             if time.perf_counter() >= deadline:
                 return False
-            forward = dataclasses.replace(
-                settings,
-                max_nodes=tree.num_nodes + min(TURN_NODES, (max_nodes - total + 1) // 2),
-                max_samples=max(settings.sample_limit - self.tree.samples, 1),
+            forward = settings.derived(
+                max_nodes=int(tree.num_nodes + min(TURN_NODES, (max_nodes - total + 1) // 2)),
+                max_samples=int(max(settings.sample_limit - self.tree.samples, 1)),
                 stop_at_first=True,
             )
             log.extra_nodes = self.extra_nodes
@@ -154,10 +214,9 @@ class GoalTree:
             turn = min(TURN_NODES, max_nodes - tree.num_nodes - self.tree.num_nodes)
             if turn <= 0:
                 continue
-            backward = dataclasses.replace(
-                settings,
-                max_nodes=self.tree.num_nodes + turn,
-                max_samples=max(settings.sample_limit - tree.samples, 1),
+            backward = settings.derived(
+                max_nodes=int(self.tree.num_nodes + turn),
+                max_samples=int(max(settings.sample_limit - tree.samples, 1)),
                 stop_at_first=False,
                 target_cost=None,
             )
@@ -228,4 +287,4 @@ class GoalTree:
         log.record_tree(tree)
 
 
-__all__ = ["CHECK_EVERY", "TURN_NODES", "GoalTree"]
+__all__ = ["ATTENTION_ROUNDS", "CHECK_EVERY", "TURN_NODES", "GoalTree"]

@@ -69,6 +69,7 @@ def plan(
     attention_keep_chunk: bool | None = None,
     goal_tree: bool | None = None,
     attention_from_goal: bool | None = None,
+    attention_rounds: int | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -137,6 +138,11 @@ def plan(
         attention_from_goal: ``temp`` only: when the attention phase stalls, the policy
             grows the goal tree first (the attention phase from the goal, until the trees
             meet or it stalls too). None means True unless ``goal_tree`` is False.
+        attention_rounds: ``temp`` only: when the phases from the start and from the goal
+            both stalled, up to this many more rounds of the two, a resumed attention phase
+            on each tree in turn, before Informed RRT*'s samples grow them (None:
+            `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`, 1; 0: none). Needs
+            ``attention_from_goal``.
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -157,6 +163,7 @@ def plan(
         attention_follow_fallback=attention_follow_fallback,
         attention_resume=attention_resume, attention_keep_chunk=attention_keep_chunk,
         goal_tree=goal_tree, attention_from_goal=attention_from_goal,
+        attention_rounds=attention_rounds,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -64,6 +64,14 @@ def resume_factor(value: object, name: str = "attention_resume") -> float:
     patiences (`PlanSettings.attention_resume`).
     """
     return _finite_at_least(value, name, 0.0)
+
+
+def rounds_count(value: object, name: str = "attention_rounds") -> int:
+    """A number of rounds of the attention phase after it stalled both ways: an integer >= 0.
+
+    (`PlanSettings.attention_rounds`; 0: none.)
+    """
+    return _count(value, name, 0)
 
 
 def seed_value(value: object, name: str = "seed") -> int:
@@ -162,6 +170,13 @@ class PlanSettings:
     (`temp_gym.planning.goal_tree.GoalTree.grow_by_attention`; None means True with the goal
     tree; False: the goal tree grows by Informed RRT*'s samples alone). Needs the goal tree."""
 
+    attention_rounds: int | None = None
+    """``temp`` planner: after the attention phases from the start and from the goal both
+    stalled, up to this many more rounds of the two, a resumed phase on each tree in turn
+    (`temp_gym.planning.goal_tree.GoalTree.grow_in_rounds`; None: the policy's own setting,
+    else `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none). Needs the phase from the
+    goal."""
+
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
@@ -213,6 +228,13 @@ class PlanSettings:
                 "attention_from_goal: the policy grows the goal tree, which goal_tree=False "
                 "turns off; pass attention_from_goal=False or None with it"
             )
+        if self.attention_rounds is not None:
+            normalize("attention_rounds", rounds_count(self.attention_rounds))
+        if self.attention_rounds and (self.attention_from_goal is False or self.goal_tree is False):
+            raise ValueError(
+                "attention_rounds: the rounds follow the attention phase from the goal, which "
+                "attention_from_goal=False or goal_tree=False turns off; pass 0 or None with them"
+            )
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
         if self.attention_near_goal_factor is not None:
@@ -223,6 +245,21 @@ class PlanSettings:
             from temp_gym.planning.policy import as_sampling_policy
 
             normalize("policy", as_sampling_policy(self.policy))  # a ValueError for others
+
+    def derived(self, **changes: Any) -> PlanSettings:
+        """A copy with ``changes``, which are not checked again.
+
+        For the budgets a planner derives from its checked settings in its inner loops (a
+        turn's node budget, the samples left), where `dataclasses.replace`, which checks
+        every field again, would cost more than a short turn.
+        """
+        unknown = set(changes) - {field.name for field in fields(self)}
+        if unknown:
+            raise TypeError(f"derived(): unknown settings {sorted(unknown)}")
+        copy = object.__new__(PlanSettings)
+        copy.__dict__.update(self.__dict__)
+        copy.__dict__.update(changes)
+        return copy
 
     def deadline(self, started: float) -> float:
         """When a run started at ``started`` runs out of time (a perf_counter value; inf: never)."""

@@ -62,9 +62,13 @@ rarely and a tree from the goal leaves easily. Its nodes count against ``max_nod
 off): after a stall, the policy grows the goal tree first, planning the swapped problem with
 the same stop rules, its new nodes tried against the planner's tree every few nodes
 (`temp_gym.planning.goal_tree.GoalTree.grow_by_attention`); a policy that stalled walking into
-a pocket mostly walks out of it. If it stalls too, RRT*'s samples grow the goal tree as above.
-``result.attention`` then has ``from_goal_stop``, ``from_goal_nodes`` (the goal tree's nodes
-when it ended) and ``from_goal_solved`` (it joined the trees).
+a pocket mostly walks out of it. If that stalls too, the policy takes up to
+``attention_rounds`` more rounds, a resumed phase on each tree in turn (default
+`temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none), before RRT*'s samples grow the two
+trees. ``result.attention`` then has ``from_goal_stop``, ``from_goal_solved`` (the phase from
+the goal joined the trees), ``rounds`` (the rounds begun), ``rounds_solved`` (a round solved
+the problem) and ``from_goal_nodes`` (the goal tree's nodes when the policy stopped growing
+it). `attention_solved_both_ways` reads them.
 """
 
 from __future__ import annotations
@@ -83,7 +87,7 @@ from temp_gym.planning.attention import (
     resume_nodes,
     run_attention_phase,
 )
-from temp_gym.planning.goal_tree import GoalTree
+from temp_gym.planning.goal_tree import ATTENTION_ROUNDS, GoalTree
 from temp_gym.planning.policy import PolicySettings, SamplingPolicy, policy_settings
 from temp_gym.planning.result import (
     AnytimeLog,
@@ -91,6 +95,7 @@ from temp_gym.planning.result import (
     PlanSettings,
     near_goal_factor,
     resume_factor,
+    rounds_count,
     share,
     tree_plan_result,
 )
@@ -166,6 +171,10 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     resume = _given_or_declared(
         settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
     )
+    rounds = settings.attention_rounds  # plan()'s (checked), else the policy's, else ours
+    if rounds is None and declared.attention_rounds is not None:
+        rounds = rounds_count(declared.attention_rounds, "policy.attention_rounds")
+    rounds = ATTENTION_ROUNDS if rounds is None else rounds
     keep_chunk = bool(settings.attention_keep_chunk)  # None: False, the rule shipped policies use
     outcome = run_attention_phase(
         tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow,
@@ -207,8 +216,15 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
             follow_fallback=follow, keep_chunk=keep_chunk,
         )  # fmt: skip
         attention["from_goal_stop"] = from_goal.stop
-        attention["from_goal_nodes"] = goal_tree.tree.num_nodes
         attention["from_goal_solved"] = from_goal.stop == "joined"
+        attention["rounds"] = 0
+        if from_goal.stop == "stalled" and rounds > 0 and tree.best_node < 0:
+            attention["rounds"], _ = goal_tree.grow_in_rounds(
+                tree, policy, rng, log, settings.goal_bias, limits, rounds, uniform=uniform,
+                follow_fallback=follow, keep_chunk=keep_chunk,
+            )  # fmt: skip
+        attention["from_goal_nodes"] = goal_tree.tree.num_nodes
+        attention["rounds_solved"] = attention["rounds"] > 0 and tree.best_node >= 0
 
     # ---- after a stall: classical planning and the resumed attention phase in turns
     if outcome.stop == "stalled" and resume > 0 and tree.best_node < 0:
@@ -227,11 +243,24 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     return tree_plan_result(problem, tree, "temp", settings, log, attention=attention)
 
 
+def attention_solved_both_ways(attention: dict) -> bool:
+    """Whether the attention phase solved the problem before any of Informed RRT*'s nodes.
+
+    From the start, or after a stall from the goal (`GoalTree.grow_by_attention`) or in a
+    later round of the two (`GoalTree.grow_in_rounds`); ``attention`` is a TEMP result's.
+    """
+    return bool(
+        attention["solved"]
+        or attention.get("from_goal_solved", False)
+        or attention.get("rounds_solved", False)
+    )
+
+
 def _less_budget(settings: PlanSettings, nodes: int) -> PlanSettings:
     """``settings`` with ``nodes`` fewer tree nodes (grown elsewhere: the goal tree's)."""
     if nodes == 0:
         return settings
-    return dataclasses.replace(settings, max_nodes=max(settings.max_nodes - nodes, 1))
+    return settings.derived(max_nodes=int(max(settings.max_nodes - nodes, 1)))
 
 
 def _given_or_declared(
@@ -278,7 +307,7 @@ def _resume_until_solved(
         extra = 0 if goal_tree is None else goal_tree.extra_nodes
         turn_end = min(settings.max_nodes, tree.num_nodes + extra + classical_nodes)
         if goal_tree is None:
-            classical = dataclasses.replace(settings, max_nodes=turn_end, stop_at_first=True)
+            classical = settings.derived(max_nodes=int(turn_end), stop_at_first=True)
             grow_anytime(tree, classical, rng, log, informed=True)
         else:
             goal_tree.grow_until_joined(tree, settings, rng, log, turn_end)

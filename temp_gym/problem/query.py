@@ -130,6 +130,24 @@ class Problem:
         data.update(changes)
         return Problem.from_dict(data)
 
+    def swapped(self) -> Problem:
+        """The query backwards: start and goal exchanged, the same workspace and goal radius.
+
+        What a tree grown from the goal plans (`temp_gym.planning.goal_tree`). Both points
+        passed the same checks when this problem was made (in bounds, collision-free), so the
+        swap is not checked again: on the arm those checks cost a forward kinematics and a
+        collision query each, once per plan that grows a goal tree.
+        """
+        swapped = object.__new__(Problem)
+        for name, value in (
+            ("workspace", self.workspace),
+            ("start", self.goal),
+            ("goal", self.start),
+            ("goal_radius", self.goal_radius),
+        ):
+            object.__setattr__(swapped, name, value)
+        return swapped
+
     # ------------------------------------------------------------------ dict / JSON
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Problem:

@@ -16,6 +16,7 @@ import numpy as np
 from temp_gym.config import Config, TrainEvalConfig
 from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.planning.plan import plan
+from temp_gym.planning.temp_planner import attention_solved_both_ways
 from temp_gym.problem import Problem
 from temp_gym.worlds.structured import BOXES
 from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
@@ -146,6 +147,7 @@ def plan_episode(
     ``eval_config`` gives the budget and, for ``temp``, the attention phase's settings.
     """
     temp = planner == "temp"
+    from_goal = eval_config.attention_from_goal and eval_config.goal_tree
     result = plan(
         problem,
         planner=planner,
@@ -161,9 +163,8 @@ def plan_episode(
         attention_resume=eval_config.attention_resume if temp else None,
         attention_keep_chunk=eval_config.attention_keep_chunk if temp else None,
         goal_tree=eval_config.goal_tree if temp else None,
-        attention_from_goal=(
-            eval_config.attention_from_goal and eval_config.goal_tree if temp else None
-        ),
+        attention_from_goal=from_goal if temp else None,
+        attention_rounds=(eval_config.attention_rounds if from_goal else 0) if temp else None,
     )
     episode = {
         "success": float(result.success),
@@ -174,7 +175,5 @@ def plan_episode(
     }
     if planner == "temp":
         episode["attention_solved"] = float(result.attention["solved"])
-        episode["attention_solved_both_ways"] = float(
-            result.attention["solved"] or result.attention.get("from_goal_solved", False)
-        )
+        episode["attention_solved_both_ways"] = float(attention_solved_both_ways(result.attention))
     return episode

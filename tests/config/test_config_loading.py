@@ -179,7 +179,8 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
                                       "attention_follow_fallback": None,
                                       "attention_resume": None,
                                       "attention_keep_chunk": None,
-                                      "goal_tree": True, "attention_from_goal": True}  # fmt: skip
+                                      "goal_tree": True, "attention_from_goal": True,
+                                      "attention_rounds": None}  # fmt: skip
     assert upgraded["evaluation"]["horizon"] is None and "eval" not in upgraded
     # The command that started that run gives the same config today, key for key.
     today = load_config("configs/3d.yaml", [

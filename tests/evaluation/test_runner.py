@@ -294,3 +294,35 @@ def test_the_evaluation_plans_with_or_without_the_goal_tree_as_set(goal_tree):
     assert record["planners"]["temp"]["from_goal_solved"] == runs[goal_tree].attention.get(
         "from_goal_solved", False
     )
+
+
+@pytest.mark.parametrize("rounds", [0, 2])
+def test_the_evaluation_takes_the_rounds_it_is_set_to(rounds):
+    problem = evaluation_problem("point2d", "challenging", 1)
+    chosen = settings(attention_patience=5, baselines=("rrt_star",), attention_rounds=rounds)
+    record = evaluate_task(problem, Stuck(), chosen, with_curves=False)
+    run = plan(
+        problem, planner="temp", policy=Stuck(), seed=chosen.seed, max_nodes=chosen.max_nodes,
+        attention_patience=5, stop_at_first=True, attention_rounds=rounds,
+    )  # fmt: skip
+    stalled_both_ways = run.attention["from_goal_stop"] == "stalled"
+    assert (run.attention["rounds"] > 0) == (stalled_both_ways and rounds > 0)
+    assert run.attention["rounds"] <= rounds
+    temp = record["planners"]["temp"]
+    assert temp["nodes"] == run.nodes_to_first_solution and temp["cost"] == run.cost
+    assert temp["rounds_solved"] == run.attention["rounds_solved"]
+    # Without the goal tree there are no rounds, whatever the setting says.
+    alone = settings(attention_patience=5, baselines=(), attention_rounds=rounds, goal_tree=False)
+    assert alone.temp_options()["attention_rounds"] == 0
+    assert evaluate_task(problem, Stuck(), alone, with_curves=False)["planners"]["temp"]["success"]
+
+
+def test_attention_example_shows_the_phase_from_the_start_whatever_stalls():
+    # A patience of 1 stalls at once: with the phase from the goal and its rounds, each reset
+    # of the policy would start its record afresh; the example plans from the start only.
+    example = attention_example(
+        settings(max_nodes=300, attention_patience=1, attention_rounds=3), _untrained_temp_policy
+    )
+    assert example["attention_phase"]["stop"] == "stalled"
+    assert "from_goal_stop" not in example["attention_phase"]
+    assert all(len(values) > 0 for values in example["normalized"].values())

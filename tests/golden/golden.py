@@ -54,6 +54,13 @@ nodes: the 2D challenging ``temp`` plan and both evaluation records changed. Wit
 of before forced (the default patience rule, ``attention_from_goal=False``, the new record key
 left out) under the pinned kernel, every plan and evaluation fingerprint was identical; the
 three were rewritten with the new code.
+Then TEMP's policy takes another round from both trees after stalls from the start and from the
+goal (``attention_rounds``), TEMP's ``attention`` gained ``rounds`` and ``rounds_solved`` and
+evaluation records ``rounds_solved``: the same three changed. With no rounds forced
+(``ATTENTION_ROUNDS = 0``) and the new keys left out, every fingerprint was identical; the
+three were rewritten with the new code. Then the shipped 2D policy's patience became 40 nodes
+with one round (its checkpoint's planner settings): only the 2D challenging ``temp`` plan and
+the 2D evaluation record changed, and were rewritten.
 
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``

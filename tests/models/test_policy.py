@@ -294,6 +294,45 @@ def test_a_reset_to_the_problem_it_holds_keeps_the_encoding(small_model, backend
     np.testing.assert_array_equal(policy(observation), first)
 
 
+@pytest.mark.parametrize("backend", ["numba", "torch"])
+def test_turns_between_two_problems_encode_neither_again(small_model, backend, monkeypatch):
+    # The TEMP planner's turns between its tree and the goal tree: the problem and the
+    # swapped one, in turn.
+    swapped = Problem.from_dict({**PROBLEM.to_dict(), "start": PROBLEM.goal.tolist(),
+                                 "goal": PROBLEM.start.tolist()})  # fmt: skip
+    path = np.zeros((16, 2), np.float32)
+    path[:3] = [[-0.5, -0.5], [-0.4, -0.3], [-0.2, -0.25]]
+    fresh = {}
+    for problem in (PROBLEM, swapped):
+        alone = TEMPPolicy(small_model, backend=backend)
+        alone.reset(problem)
+        fresh[id(problem)] = alone.propose(path, 3)
+    policy = TEMPPolicy(small_model, backend=backend)
+    policy.reset(PROBLEM)
+    policy.reset(swapped)
+    calls = []
+    for name in ("sei", "sei_array"):
+        method = getattr(policy.core, name)
+
+        def counted(problem, method=method):
+            calls.append(problem)
+            return method(problem)
+
+        monkeypatch.setattr(policy.core, name, counted)
+    prefix = getattr(policy._fast, "prefix", None)
+    if prefix is not None:
+        monkeypatch.setattr(policy._fast, "prefix", lambda *a: calls.append("prefix") or prefix(*a))
+    for problem in (PROBLEM, swapped, PROBLEM, swapped, PROBLEM):
+        policy.reset(problem)
+        assert policy.problem is problem
+        np.testing.assert_array_equal(policy.propose(path, 3), fresh[id(problem)])
+    assert calls == []
+    policy.forget_workspace(PROBLEM.workspace)  # forgets the other problem's task too
+    policy.reset(swapped)
+    assert calls[0] == swapped
+    np.testing.assert_array_equal(policy.propose(path, 3), fresh[id(swapped)])
+
+
 def test_clear_encodings_makes_the_next_reset_encode_the_workspace_again(small_model, monkeypatch):
     core = TEMPPolicy(small_model).core
     first = TEMPPolicy(None, core=core)

@@ -192,3 +192,16 @@ def test_compiled_loop_stops_at_the_improvement_that_meets_the_stop_rule(problem
     tree = _grown(problem_2d, 0, True, True, max_nodes=10_000, stop_at_first=True)[0]
     assert tree.best_node >= 0
     assert statuses[-1] == compiled.IMPROVED  # no further slice only to learn it is done
+
+
+def test_derived_settings_equal_a_checked_replace_without_the_checks():
+    import dataclasses
+
+    settings = PlanSettings(seed=3, max_nodes=500, time_limit=2.0, target_cost=9.5)
+    changes = {"max_nodes": 40, "max_samples": 700, "stop_at_first": True, "target_cost": None}
+    derived = settings.derived(**changes)
+    assert derived == dataclasses.replace(settings, **changes)
+    assert derived.sample_limit == 700 and settings.max_nodes == 500  # the original stays
+    assert settings.derived(max_nodes=10).sample_limit == 1000
+    with pytest.raises(TypeError, match="unknown settings"):
+        settings.derived(max_node=10)

@@ -7,6 +7,7 @@ from temp_gym import Problem, plan
 from temp_gym.planning._compiled_tree import graft_branch
 from temp_gym.planning.goal_tree import GoalTree
 from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.temp_planner import attention_solved_both_ways
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.checkers import certify_path
 
@@ -242,7 +243,7 @@ def test_a_policy_that_stalls_from_the_goal_too_hands_over_to_the_goal_tree(trap
     stops = []
     for seed in range(6):
         result = plan(trap, policy=Stuck(), seed=seed, max_nodes=5000, stop_at_first=True,
-                      attention_patience=30)  # fmt: skip
+                      attention_patience=30, attention_rounds=0)  # fmt: skip
         attention = result.attention
         stops.append(attention["from_goal_stop"])
         assert result.success and attention["goal_tree_joined"]
@@ -257,3 +258,106 @@ def test_attention_from_goal_setting_is_checked(trap):
         plan(trap, attention_from_goal="yes")
     with pytest.raises(ValueError, match="attention_from_goal"):
         plan(trap, attention_from_goal=True, goal_tree=False)
+
+
+class FindsTheWayOutLater(KnowsTheWayOut):
+    """As `KnowsTheWayOut`, but its first phase from the goal stalls too (it heads for the U's
+    back wall, from inside), and it knows the way out from its second phase from the goal on."""
+
+    def reset(self, problem, seed=None):
+        super().reset(problem, seed)
+        if problem.start[0] > 12.5:  # planning from the goal
+            self.phases_from_goal = getattr(self, "phases_from_goal", 0) + 1
+
+    def __call__(self, observation):
+        if self.problem.start[0] > 12.5 and self.phases_from_goal == 1:
+            low, high = self.problem.bounds
+            return ((np.array([13.2, 10.0]) - low) / (high - low) * 2 - 1).astype(np.float32)
+        return super().__call__(observation)
+
+
+def test_a_round_of_both_phases_joins_the_trees_after_both_stalled(trap):
+    joined_in_a_round = 0
+    for seed in range(8):
+        result = plan(trap, policy=FindsTheWayOutLater(), seed=seed, max_nodes=5000,
+                      stop_at_first=True, attention_patience=20)  # fmt: skip
+        attention = result.attention
+        assert result.success and certify_path(trap, result.path)
+        np.testing.assert_array_equal(result.path[0], trap.start)
+        assert attention["stop"] == "stalled" and attention["goal_tree_joined"]
+        if attention["from_goal_stop"] != "stalled":  # a fallback node of it joined the trees
+            assert attention["from_goal_solved"] and attention["rounds"] == 0
+            continue
+        assert not attention["from_goal_solved"] and attention["rounds"] == 1
+        if not attention["rounds_solved"]:
+            continue
+        joined_in_a_round += 1
+        assert attention_solved_both_ways(attention) and attention["resumes"] == 0
+        # Nothing but the policy grew the goal tree: it ended when the policy stopped.
+        assert attention["from_goal_nodes"] == attention["goal_tree_nodes"]
+        without = plan(trap, policy=FindsTheWayOutLater(), seed=seed, max_nodes=5000,
+                       stop_at_first=True, attention_patience=20,
+                       attention_rounds=0)  # fmt: skip
+        assert without.attention["rounds"] == 0 and not without.attention["rounds_solved"]
+        assert not attention_solved_both_ways(without.attention) and without.success
+        # Informed RRT*'s samples grew the goal tree on after the policy's phase stalled.
+        assert without.attention["goal_tree_nodes"] > without.attention["from_goal_nodes"]
+    assert joined_in_a_round >= 4  # 6 of these 8 seeds
+
+
+def test_rounds_end_when_one_stops_for_another_reason_than_a_stall(trap):
+    for rounds in (1, 3):
+        result = plan(trap, policy=Stuck(), seed=2, max_nodes=5000, stop_at_first=True,
+                      attention_patience=30, attention_rounds=rounds)  # fmt: skip
+        assert result.success and result.attention["rounds"] <= rounds
+    result = plan(trap, policy=Stuck(), seed=2, max_nodes=5000, stop_at_first=True,
+                  attention_patience=30, attention_rounds=0)  # fmt: skip
+    assert result.attention["rounds"] == 0
+
+
+def test_rounds_count_both_trees_against_the_node_budget(trap):
+    for budget in (90, 150, 250):
+        for rounds in (0, 1, 5):
+            result = plan(trap, policy=Stuck(), seed=1, max_nodes=budget, stop_at_first=True,
+                          attention_patience=30, attention_rounds=rounds)  # fmt: skip
+            assert result.nodes <= budget
+            if not result.success:
+                assert result.nodes == budget
+
+
+def test_attention_rounds_setting_is_checked(trap):
+    for bad in (-1, 1.5, True, "1"):
+        with pytest.raises(ValueError, match="attention_rounds"):
+            plan(trap, attention_rounds=bad)
+    with pytest.raises(ValueError, match="attention_rounds"):
+        plan(trap, attention_rounds=1, attention_from_goal=False)
+    with pytest.raises(ValueError, match="attention_rounds"):
+        plan(trap, attention_rounds=2, goal_tree=False)
+    # None and 0 go with either
+    plan(trap, policy=Stuck(), attention_rounds=0, goal_tree=False, max_nodes=50)
+    plan(trap, policy=Stuck(), attention_rounds=None, attention_from_goal=False, max_nodes=50)
+
+
+def test_a_policy_may_declare_its_rounds(trap):
+    class NoRounds(FindsTheWayOutLater):
+        attention_rounds = 0
+
+    for seed in range(3):
+        declared = plan(trap, policy=NoRounds(), seed=seed, max_nodes=5000, stop_at_first=True,
+                        attention_patience=20)  # fmt: skip
+        passed = plan(trap, policy=FindsTheWayOutLater(), seed=seed, max_nodes=5000,
+                      stop_at_first=True, attention_patience=20, attention_rounds=0)  # fmt: skip
+        assert declared.attention["rounds"] == 0
+        np.testing.assert_array_equal(declared.path, passed.path)
+        # plan()'s own setting wins over the policy's
+        given = plan(trap, policy=NoRounds(), seed=seed, max_nodes=5000, stop_at_first=True,
+                     attention_patience=20, attention_rounds=1)  # fmt: skip
+        default = plan(trap, policy=FindsTheWayOutLater(), seed=seed, max_nodes=5000,
+                       stop_at_first=True, attention_patience=20)  # fmt: skip
+        np.testing.assert_array_equal(given.path, default.path)
+
+    class BadRounds(FindsTheWayOutLater):
+        attention_rounds = -2
+
+    with pytest.raises(ValueError, match="policy.attention_rounds"):
+        plan(trap, policy=BadRounds(), seed=1, max_nodes=5000, attention_patience=20)

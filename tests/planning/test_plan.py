@@ -139,6 +139,10 @@ def test_huge_numbers_are_value_errors_naming_the_argument(problem_2d, kwargs, m
      {"attention_patience": 2**53, "attention_near_goal_factor": 2000}],
 )  # fmt: skip
 def test_a_patience_beyond_any_tree_means_never_stall_not_an_overflow(problem_2d, kwargs):
-    # Each of these made the stall patience (or its near-goal multiple) overflow an int64.
-    result = plan(problem_2d, planner="temp", max_nodes=60, **kwargs)
+    # Each of these made the stall patience (or its near-goal multiple) overflow an int64. The
+    # shipped 2D policy declares its own patience: this one follows the default rule.
+    from temp_gym import load_policy
+
+    policy = load_policy("TEMP-2D-v0").fresh(attention_patience=None)
+    result = plan(problem_2d, planner="temp", max_nodes=60, policy=policy, **kwargs)
     assert result.nodes <= 60 and result.attention["stop"] != "stalled"

@@ -48,6 +48,10 @@ def test_policy_fast_path_plans_exactly_like_full_observations():
     from temp_gym.models.registry import load_policy
     from temp_gym.worlds.generators import generate_problem
 
+    # The wrapper hides the settings the shipped policy declares: both runs get them from plan().
+    shipped = load_policy("point2d")
+    declared = {"attention_patience": shipped.attention_patience,
+                "attention_rounds": shipped.attention_rounds}  # fmt: skip
     rng = np.random.default_rng(7)
     for index in range(4):
         problem = generate_problem("point2d", rng)
@@ -59,6 +63,7 @@ def test_policy_fast_path_plans_exactly_like_full_observations():
                 seed=index,
                 max_nodes=1500,
                 stop_at_first=True,
+                **declared,
             )  # fmt: skip
             for policy in (
                 load_policy("point2d").fresh(horizon=1),

@@ -151,7 +151,15 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     assert "After a stall, classical planning keeps the rest of the budget." in (
         path.with_suffix(".md").read_text()
     )
+    assert (
+        "1 more round(s) of the two (the planner's default" in path.with_suffix(".md").read_text()
+    )
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_rounds=2", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).attention_rounds == 2
+    assert "2 more round(s) of the two, a resumed" in path.with_suffix(".md").read_text()
     for bad, message in [
+        ("attention_rounds=-1", "attention_rounds"),
+        ("attention_rounds=1.5", "attention_rounds"),
         ("attention_resume=-1", "attention_resume"),
         ("attention_follow_fallback=2", "attention_follow_fallback"),
         ("noise_std=-1", "noise_std"),
@@ -161,6 +169,7 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         with pytest.raises(SystemExit, match=message):
             ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
-    assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 0}
+    assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 0,
+                                    "attention_rounds": 2}  # fmt: skip
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])

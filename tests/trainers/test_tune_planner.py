@@ -15,6 +15,13 @@ from trainers import tune_planner  # noqa: E402
 ARGS = ["--config", "configs/2d.yaml", "--checkpoint", "temp_gym/checkpoints/2d.pt"]
 
 
+def _table(out: list[str]) -> tuple[list[str], list[list[str]]]:
+    """The printed table's column names and its rows of n = 3000, split into cells."""
+    header = [name.strip() for name in next(line for line in out if line.startswith("| n |"))
+              .split("|")]  # fmt: skip
+    return header, [line.split("|") for line in out if line.startswith("| 3000 |")]
+
+
 def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
     best = tune_planner.main(
@@ -68,9 +75,7 @@ def test_the_goal_tree_is_tried_both_ways(capsys, monkeypatch):
          "--goal-tree", "1", "0", "--tasks", "3", "--min-attention-success", "0"]
     )  # fmt: skip
     out = capsys.readouterr().out.splitlines()
-    header = [name.strip() for name in next(line for line in out if line.startswith("| n |"))
-              .split("|")]  # fmt: skip
-    rows = [line.split("|") for line in out if line.startswith("| 3000 |")]
+    header, rows = _table(out)
     assert [row[header.index("goal tree")].strip() for row in rows] == ["1", "0"]
     nodes = [float(row[header.index("nodes mean")]) for row in rows]
     assert nodes[0] != nodes[1]  # a patience of 5 stalls: the classical phases differ
@@ -84,9 +89,7 @@ def test_the_attention_phase_from_the_goal_is_tried_both_ways(capsys, monkeypatc
          "--min-attention-success", "0"]
     )  # fmt: skip
     out = capsys.readouterr().out.splitlines()
-    header = [name.strip() for name in next(line for line in out if line.startswith("| n |"))
-              .split("|")]  # fmt: skip
-    rows = [line.split("|") for line in out if line.startswith("| 3000 |")]
+    header, rows = _table(out)
     # Without the goal tree, --from-goal changes nothing: one row for both.
     pairs = [(row[header.index("goal tree")].strip(), row[header.index("from goal")].strip())
              for row in rows]  # fmt: skip
@@ -96,3 +99,23 @@ def test_the_attention_phase_from_the_goal_is_tried_both_ways(capsys, monkeypatc
     )
     assert forward[0] == forward[1] == forward[2]  # the first phase is the same in every row
     assert both[0] >= forward[0] and both[1] == forward[1] and both[2] == forward[2]
+
+
+def test_rounds_after_stalls_both_ways_are_tried(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    tune_planner.main(
+        [*ARGS, "--attention-nodes", "3000", "--noise-std", "0", "--patience", "5",
+         "--from-goal", "1", "0", "--rounds", "-1", "0", "2", "--tasks", "8",
+         "--min-attention-success", "0"]
+    )  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    header, rows = _table(out)
+    # Without the phase from the goal, --rounds changes nothing: one row for all three.
+    pairs = [(row[header.index("from goal")].strip(), row[header.index("rounds")].strip())
+             for row in rows]  # fmt: skip
+    assert pairs == [("1", "default"), ("1", "0"), ("1", "2"), ("0", "-")]
+    both = [float(row[header.index("AP both ways")]) for row in rows]
+    # With a patience of 5 the phases stall both ways on some tasks; a round solves one more.
+    assert both[1] < both[0] <= both[2]
+    recommended = next(line for line in out if line.startswith("recommended:"))
+    assert "'attention_rounds'" in recommended
