@@ -123,7 +123,7 @@ class GoalTree:
         limits: AttentionLimits,
         rounds: int,
         **options,
-    ) -> tuple[int, AttentionOutcome]:
+    ) -> int:
         """After both attention phases stalled: up to ``rounds`` more rounds of the two.
 
         A round is the attention phase resumed on the planner's tree (from its newest node,
@@ -131,9 +131,8 @@ class GoalTree:
         this tree (`grow_by_attention`, resumed alike). Each phase keeps the stop rules of
         ``limits`` and tries its new nodes against the other tree every `CHECK_EVERY` nodes.
         The rounds end when a phase joins the trees or solves the problem, or stops for any
-        reason but a stall. Returns the rounds begun and the last phase's outcome.
+        reason but a stall. Returns the rounds begun.
         """
-        outcome = AttentionOutcome("stalled", 0, 0, compiled=False)
         for begun in range(1, rounds + 1):
             outcome = self._attend(
                 tree, tree, policy, rng, log, goal_bias, limits, resumed=True, **options
@@ -141,13 +140,13 @@ class GoalTree:
             if tree.best_node >= 0 and not self.joined:  # it reached the goal region itself
                 log.record_tree(tree)
             if outcome.stop != "stalled" or tree.best_node >= 0:
-                return begun, outcome
+                return begun
             outcome = self.grow_by_attention(
                 tree, policy, rng, log, goal_bias, limits, resumed=True, **options
             )
             if outcome.stop != "stalled" or tree.best_node >= 0:
-                return begun, outcome
-        return rounds, outcome
+                return begun
+        return rounds
 
     def _attend(
         self,

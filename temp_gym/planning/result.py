@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import time
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -253,7 +253,7 @@ class PlanSettings:
         turn's node budget, the samples left), where `dataclasses.replace`, which checks
         every field again, would cost more than a short turn.
         """
-        unknown = set(changes) - {field.name for field in fields(self)}
+        unknown = changes.keys() - self.__dict__.keys()
         if unknown:
             raise TypeError(f"derived(): unknown settings {sorted(unknown)}")
         copy = object.__new__(PlanSettings)

@@ -75,6 +75,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 
@@ -101,6 +102,9 @@ from temp_gym.planning.result import (
 )
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
+
+Number = TypeVar("Number", int, float)
+"""A setting's type: `_given_or_declared` returns what its check and default give."""
 
 _default_policy: Callable[[str], SamplingPolicy] | None = None
 """``loader(robot name)``: the policy the planner uses when given none (`set_default_policy`)."""
@@ -171,10 +175,9 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     resume = _given_or_declared(
         settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
     )
-    rounds = settings.attention_rounds  # plan()'s (checked), else the policy's, else ours
-    if rounds is None and declared.attention_rounds is not None:
-        rounds = rounds_count(declared.attention_rounds, "policy.attention_rounds")
-    rounds = ATTENTION_ROUNDS if rounds is None else rounds
+    rounds = _given_or_declared(
+        settings, declared, "attention_rounds", rounds_count, default=ATTENTION_ROUNDS
+    )
     keep_chunk = bool(settings.attention_keep_chunk)  # None: False, the rule shipped policies use
     outcome = run_attention_phase(
         tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow,
@@ -219,7 +222,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         attention["from_goal_solved"] = from_goal.stop == "joined"
         attention["rounds"] = 0
         if from_goal.stop == "stalled" and rounds > 0 and tree.best_node < 0:
-            attention["rounds"], _ = goal_tree.grow_in_rounds(
+            attention["rounds"] = goal_tree.grow_in_rounds(
                 tree, policy, rng, log, settings.goal_bias, limits, rounds, uniform=uniform,
                 follow_fallback=follow, keep_chunk=keep_chunk,
             )  # fmt: skip
@@ -267,9 +270,9 @@ def _given_or_declared(
     settings: PlanSettings,
     declared: PolicySettings,
     name: str,
-    check: Callable[[object, str], float],
-    default: float,
-) -> float:
+    check: Callable[[object, str], Number],
+    default: Number,
+) -> Number:
     """Setting ``name``: ``plan()``'s (already checked), else the policy's, else ``default``.
 
     A policy's declared value is checked as ``plan()`` checks its argument, naming it
