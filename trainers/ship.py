@@ -221,7 +221,8 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
 
 PLANNER_KEYS = (
     "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
-    "attention_follow_fallback", "attention_resume", "attention_rounds", "chosen_by",
+    "attention_follow_fallback", "attention_resume", "attention_rounds", "path_window",
+    "chosen_by",
 )  # fmt: skip
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
 
@@ -241,6 +242,13 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
         f"- Output noise: {planner['noise_std']} (normalized units).",
         f"- Proposals per MPT call (horizon): "
         f"{planner.get('horizon') or chunk} of the model's chunk of {chunk}.",
+        "- Path so far read per MPT call: "
+        + (
+            "the whole path the model was trained on (its L)"
+            if planner.get("path_window") is None
+            else f"the newest {planner['path_window']} nodes (`path_window`)"
+        )
+        + ".",
         "- Stall patience of the attention phase: "
         + (
             "the planner's default rule (`temp_gym.planning.attention.default_patience`)"

@@ -5,22 +5,23 @@ r"""Choose a policy's planner settings on validation workspaces: budget n, noise
         [--max-nodes 10000]
 
 For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
-chunk; 0: all), stall patience (``--patience``; -1: the default rule), its factor near the goal
-(``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of going on
-from a fallback node (``--follow-fallback``), whether a chunk goes on past a proposal that
-collided (``--keep-chunk``), the resume factor (``--resume``), whether a tree grows from the
-goal after an unsolved attention phase (``--goal-tree``), whether the policy grows that tree
-first after a stall (``--from-goal``: the attention phase from the goal) and how many more
-rounds of the two it takes when both stall (``--rounds``) it plans ``--tasks`` tasks drawn from
-the ``val`` workspaces (seen in no test; the test workspaces stay untouched until the final
-measurement, ``--split test`` with the chosen setting) with the ``temp`` planner up to the
-first solution, and prints nodes to the first solution (mean and median, a failure counted as
-the whole budget), the share solved by attention-based planning within n (from the start alone,
-and both ways: from the start, or from the goal after a stall, or in a later round), cost and
-time; and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer nodes and
-the mean difference with its 95% paired bootstrap interval. The recommendation minimizes the
-mean nodes among the settings whose attention phase solves at least ``--min-attention-success``
-of the tasks (both ways);
+chunk; 0: all), path window (``--path-window``: the newest nodes of the path so far each MPT
+call reads; 0: all the model was trained on), stall patience (``--patience``; -1: the default
+rule), its factor near the goal (``--near-goal-factor``), share of uniform samples
+(``--uniform``) and probability of going on from a fallback node (``--follow-fallback``),
+whether a chunk goes on past a proposal that collided (``--keep-chunk``), the resume factor
+(``--resume``), whether a tree grows from the goal after an unsolved attention phase
+(``--goal-tree``), whether the policy grows that tree first after a stall (``--from-goal``: the
+attention phase from the goal) and how many more rounds of the two it takes when both stall
+(``--rounds``) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen in no test;
+the test workspaces stay untouched until the final measurement, ``--split test`` with the
+chosen setting) with the ``temp`` planner up to the first solution, and prints nodes to the
+first solution (mean and median, a failure counted as the whole budget), the share solved by
+attention-based planning within n (from the start alone, and both ways: from the start, or from
+the goal after a stall, or in a later round), cost and time; and, against RRT* on the same
+tasks, the share of tasks where TEMP needed fewer nodes and the mean difference with its 95%
+paired bootstrap interval. The recommendation minimizes the mean nodes among the settings whose
+attention phase solves at least ``--min-attention-success`` of the tasks (both ways);
 ``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
@@ -86,6 +87,13 @@ def main(argv: list[str] | None = None) -> dict:
         nargs="+",
         default=[0],
         help="proposals used per MPT call to try (0: the model's whole chunk)",
+    )
+    parser.add_argument(
+        "--path-window",
+        type=int,
+        nargs="+",
+        default=[0],
+        help="newest path-so-far nodes read per MPT call to try (0: all the model was trained on)",
     )
     parser.add_argument(
         "--patience",
@@ -198,6 +206,11 @@ def main(argv: list[str] | None = None) -> dict:
         parser.error(str(error))
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    for window in args.path_window:  # the policy's own check, naming the flag, before any run
+        try:
+            TEMPPolicy(model, path_window=None if window == 0 else window)
+        except ValueError as error:
+            parser.error(f"--path-window: {error}")
     if args.split == "ood":
         family = list(load_ood_family(config.env.robot).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
@@ -215,8 +228,8 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | patience | near goal | uniform | follow | keep chunk | resume "
-        "| goal tree | from goal | rounds "
+        "| n | noise | horizon | window | patience | near goal | uniform | follow | keep chunk "
+        "| resume | goal tree | from goal | rounds "
         "| nodes mean "
         "| median "
         "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
@@ -224,17 +237,17 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
-        "|---:|---:|---|"
+        "|---:|---:|---:|---|"
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
-        args.attention_nodes, args.noise_std, args.horizon, args.patience, args.near_goal_factor,
-        args.uniform, args.follow_fallback, args.keep_chunk, args.resume, args.goal_tree,
-        args.from_goal, args.rounds,
+        args.attention_nodes, args.noise_std, args.horizon, args.path_window, args.patience,
+        args.near_goal_factor, args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
+        args.goal_tree, args.from_goal, args.rounds,
     )  # fmt: skip
     for (
-        budget, noise, horizon, patience, factor, uniform, follow, keep, resume, goal, from_goal,
-        rounds,
+        budget, noise, horizon, window, patience, factor, uniform, follow, keep, resume, goal,
+        from_goal, rounds,
     ) in settings:  # fmt: skip
         if not goal and from_goal != args.from_goal[0]:
             continue  # without the goal tree --from-goal changes nothing: one row
@@ -255,15 +268,21 @@ def main(argv: list[str] | None = None) -> dict:
             attention_from_goal=from_goal,
             attention_rounds=rounds,
         )
-        policy = TEMPPolicy(model, noise_std=noise, horizon=horizon or None)
+        policy = TEMPPolicy(
+            model,
+            noise_std=noise,
+            horizon=horizon or None,
+            path_window=None if window == 0 else window,
+        )
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         both_ways = float(np.mean([run["attention_solved_both_ways"] for run in runs]))
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
-            f"| {budget} | {noise} | {policy.chunk} | {patience} | {factor:g} | {uniform} | "
-            f"{follow:g} | {keep} | {resume:g} | {goal} | {int(from_goal) if goal else '-'} | "
+            f"| {budget} | {noise} | {policy.chunk} | {policy.window} | {patience} | {factor:g} | "
+            f"{uniform} | {follow:g} | {keep} | {resume:g} | {goal} | "
+            f"{int(from_goal) if goal else '-'} | "
             f"{'-' if not from_goal else 'default' if rounds is None else rounds} | "
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
@@ -274,6 +293,7 @@ def main(argv: list[str] | None = None) -> dict:
         )
         if both_ways >= args.min_attention_success and row["nodes_mean"] < best_nodes:
             best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
+                    "path_window": policy.path_window,
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
                     "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),

@@ -164,6 +164,8 @@ def main(argv: list[str] | None = None) -> str:
         raise ConfigError(f"evaluation.{error}") from None
     out = Path(section.out or Path("results") / config.env.id)
     digest = weights_digest(stored["state_dict"])
+    path_window = stored.get("planner", {}).get("path_window")
+    window = {} if path_window is None else {"path_window": path_window}  # the checkpoint's own
     try:
         records = run_evaluation(
             settings,
@@ -177,6 +179,7 @@ def main(argv: list[str] | None = None) -> str:
                 "checkpoint_digest": digest,
                 "noise_std": float(section.noise_std),
                 "horizon": section.horizon,
+                **window,
             },
         )
     except ManifestMismatchError as error:  # another checkpoint's or settings' records
@@ -185,7 +188,8 @@ def main(argv: list[str] | None = None) -> str:
         "checkpoint": str(checkpoint),
         "checkpoint_digest": digest,
         "settings": {
-            key: value for key, value in to_dict(section).items() if key not in UNRECORDED
+            **{key: value for key, value in to_dict(section).items() if key not in UNRECORDED},
+            **window,
         },
     }
     example = attention_example(settings, make_policy)

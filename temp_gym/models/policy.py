@@ -22,6 +22,10 @@ call. ``propose_chunk`` returns the first ``horizon`` of them (all k by default;
 ``temp`` planner uses); ``policy(obs)`` and ``propose`` return the first, so the env steps one
 node per call as before.
 
+Path window: ``path_window`` (None: the L the model was trained on) is how many of the newest
+path-so-far nodes each MPT call reads; its cost grows with the tokens it reads, and the oldest
+nodes of a deep tree's path carry little of where to go next.
+
 Sharing: what does not change between problems (the model in eval mode, its `FastMPT`
 snapshot, the SEI of each workspace seen, least recently used first out) lives in a
 `PolicyCore`; policies built on one core share it, so a second policy of the same checkpoint
@@ -253,6 +257,10 @@ class TEMPPolicy:
         attention_rounds: rounds of the attention phase from both trees after it stalled from
             the start and from the goal, when ``plan`` is given none (None: the planner's
             `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none).
+        path_window: the newest nodes of the path so far the MPT reads, at most the L it was
+            trained on (None: all L). The path tokens' positions count back from the newest
+            node, so a window shows the model the same tokens as the whole path less the oldest
+            ones; each MPT call then costs the same in a deep tree as in a shallow one.
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -274,6 +282,7 @@ class TEMPPolicy:
         attention_follow_fallback: float | None = None,
         attention_resume: float | None = None,
         attention_rounds: int | None = None,
+        path_window: int | None = None,
     ) -> None:
         noise_std = noise_level(noise_std)
         if seed is not None:
@@ -328,6 +337,17 @@ class TEMPPolicy:
                 f"horizon: expected an integer in 1..{chunk} (the chunk), got {horizon!r}"
             )
         self.horizon = chunk if horizon is None else horizon
+        trained = self.info.max_path_length
+        if path_window is not None and not (
+            isinstance(path_window, int) and not isinstance(path_window, bool)
+            and 1 <= path_window <= trained
+        ):  # fmt: skip
+            raise ValueError(
+                f"path_window: expected an integer in 1..{trained} (the L the model was trained "
+                f"on) or None, got {path_window!r}"
+            )
+        self.path_window = path_window
+        self._window = trained if path_window is None else path_window
         self._prefix: Prefix | None = None
         self._out = np.empty((self.horizon, self.info.dim), np.float32)
         self.noise_std = float(noise_std)
@@ -390,6 +410,7 @@ class TEMPPolicy:
             attention_near_goal_factor=self.attention_near_goal_factor,
             attention_follow_fallback=self.attention_follow_fallback,
             attention_resume=self.attention_resume, attention_rounds=self.attention_rounds,
+            path_window=self.path_window,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:
@@ -410,8 +431,13 @@ class TEMPPolicy:
 
     @property
     def max_path_length(self) -> int:
-        """L: the most path-so-far rows the model reads."""
+        """L: the most path-so-far rows the model was trained on (observations carry L rows)."""
         return self.info.max_path_length
+
+    @property
+    def window(self) -> int:
+        """The newest rows of the path so far each MPT call reads: ``path_window``, else L."""
+        return self._window
 
     @property
     def chunk(self) -> int:
@@ -592,10 +618,13 @@ class TEMPPolicy:
         """The next `chunk` samples from the path so far: float32 ``(chunk, d)``.
 
         The planner's path (`temp_gym.planning.attention`): no observation is built per
-        step. Noise, when set, is drawn for the whole chunk.
+        step. Noise, when set, is drawn for the whole chunk. The MPT reads the newest `window`
+        of the ``length`` rows.
         """
         if self._sei_array is None:
             raise RuntimeError("call policy.reset(problem) before sampling")
+        if length > self._window:  # the newest rows; their positions are as in the whole path
+            path, length = path[length - self._window : length], self._window
         if self._fast is not None and not self.record_attention:
             action = self._fast.predict(self._prefix, path, length, self._out)
         else:
@@ -617,7 +646,7 @@ class TEMPPolicy:
         prefix = self._prefix
         noise = self.rng if self.noise_std > 0 else None
         return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, noise,
-                self.noise_std, self.chunk, self.max_path_length)  # fmt: skip
+                self.noise_std, self.chunk, self._window)  # fmt: skip
 
     def _torch_sample(self, path: np.ndarray, length: int) -> np.ndarray:
         """The PyTorch model's chunk (float32 ``(chunk, d)``); records attention if asked."""

@@ -197,9 +197,10 @@ def policy_from_checkpoint(
 
     The checkpoint carries the planner settings it was shipped with (`trainers/ship.py`): the
     attention-phase budget n, used unless ``attention_nodes`` is given, the output noise,
-    used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``) and the
-    stall patience. A checkpoint without them gets n = None (all of the planner's
-    ``max_nodes``), no noise, its whole chunk and the planner's default patience.
+    used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``), the
+    stall patience and the path window. A checkpoint without them gets n = None (all of the
+    planner's ``max_nodes``), no noise, its whole chunk, the planner's default patience and
+    the whole path the model was trained on.
     """
     return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon)
 
@@ -234,6 +235,7 @@ def _policy_on(
         attention_follow_fallback=planner.get("attention_follow_fallback"),
         attention_resume=planner.get("attention_resume"),
         attention_rounds=planner.get("attention_rounds"),
+        path_window=planner.get("path_window"),
     )
 
 

@@ -25,11 +25,13 @@ from temp_gym.worlds.generators import generate_problem
 SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 2, "ffn_dim": 32, "num_sei_tokens": 4}
 
 
-def _chunked_policy(robot: str, chunk: int, noise_std: float, horizon=None) -> TEMPPolicy:
+def _chunked_policy(
+    robot: str, chunk: int, noise_std: float, horizon=None, path_window=None
+) -> TEMPPolicy:
     """An untrained (random) chunked model: its proposals exercise every branch of the loop."""
     torch.manual_seed(chunk)
     model = TEMPModel(robot, 8, 16, eise_hidden=16, chunk=chunk, **SMALL)
-    return TEMPPolicy(model, noise_std=noise_std, horizon=horizon)
+    return TEMPPolicy(model, noise_std=noise_std, horizon=horizon, path_window=path_window)
 
 
 def _grow(
@@ -73,7 +75,8 @@ def _assert_same_tree(a, b):
      ("kuka_iiwa14", "shipped", 0), ("point2d", "shipped-uniform", 0),
      ("point2d", "shipped-follow0.25", 0), ("point3d", "chunk2-follow0", 40),
      ("point2d", "shipped-keep", 0), ("point3d", "chunk3-keep", 60),
-     ("point2d", "chunk4-horizon2-keep", 0)],
+     ("point2d", "chunk4-horizon2-keep", 0), ("point2d", "chunk2-window3", 0),
+     ("point3d", "shipped-window5", 60)],
 )  # fmt: skip
 def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience):
     rng = np.random.default_rng(11)
@@ -83,12 +86,14 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         keep_chunk = policy_kind.endswith("-keep")
         for compiled_loop in (True, False):
             kind, _, follow = policy_kind.removesuffix("-keep").partition("-follow")
+            kind, _, window = kind.partition("-window")
+            window = int(window) if window else None
             if kind.startswith("shipped"):
-                policy = load_policy(robot, noise_std=0.05)
+                policy = load_policy(robot, noise_std=0.05).fresh(path_window=window)
             elif "horizon" in kind:
                 policy = _chunked_policy(robot, 4, noise_std=0.05, horizon=2)
             else:
-                policy = _chunked_policy(robot, int(kind[-1]), noise_std=0.05)
+                policy = _chunked_policy(robot, int(kind[-1]), noise_std=0.05, path_window=window)
             uniform = 0.2 if kind.endswith("uniform") else 0.0
             follow = float(follow or 1.0)
             runs.append(
@@ -464,6 +469,26 @@ def test_a_horizon_uses_the_first_proposals_of_each_chunk():
     for bad in (0, 5, 1.5):
         with pytest.raises(ValueError, match="horizon"):
             _chunked_policy("point2d", 4, noise_std=0.0, horizon=bad)
+
+
+def test_a_path_window_reads_the_newest_nodes_of_the_path():
+    """The window's proposals are the whole model's on the path's newest rows alone."""
+    full = _chunked_policy("point2d", 2, noise_std=0.0)
+    windowed = _chunked_policy("point2d", 2, noise_std=0.0, path_window=4)
+    problem = generate_problem("point2d", np.random.default_rng(0))
+    full.reset(problem)
+    windowed.reset(problem)
+    path = np.random.default_rng(1).uniform(-1, 1, (16, 2)).astype(np.float32)
+    newest = path[6:10].copy()
+    np.testing.assert_array_equal(windowed.propose_chunk(path, 10), full.propose_chunk(newest, 4))
+    assert not np.array_equal(windowed.propose_chunk(path, 10), full.propose_chunk(path, 10))
+    np.testing.assert_array_equal(windowed.propose_chunk(path, 3), full.propose_chunk(path, 3))
+    assert (windowed.window, windowed.max_path_length, full.window) == (4, 16, 16)
+    assert windowed.compiled_proposer()[-1] == 4  # the compiled loop reads 4 rows too
+    assert windowed.fresh().path_window == 4
+    for bad in (0, 17, 2.0, True):
+        with pytest.raises(ValueError, match="path_window"):
+            _chunked_policy("point2d", 2, noise_std=0.0, path_window=bad)
 
 
 def test_keep_chunk_goes_on_with_the_chunk_past_a_fallback_and_one_sample_is_the_same():

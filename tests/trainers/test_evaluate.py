@@ -103,3 +103,25 @@ def test_the_goal_tree_setting_reaches_the_evaluation_and_is_type_checked():
     assert evaluate.settings_from(off)[0].goal_tree is False
     with pytest.raises(ConfigError, match="evaluation.goal_tree"):
         load_config(tiny, ["evaluation.goal_tree=3"])
+
+
+def test_a_checkpoints_path_window_joins_the_manifest(tmp_path, monkeypatch):
+    """Records made with another window are not mixed in: the rerun refuses the directory."""
+    torch.manual_seed(0)
+    TEMPModel.from_config(SMALL, "point2d", 16, 64).save(tmp_path / "best.pt")
+    monkeypatch.chdir(tmp_path)
+    args = [
+        "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(tmp_path / "best.pt"),
+        "--workers", "1", "--no-progress", "evaluation.tasks=1", "evaluation.max_nodes=300",
+        "evaluation.baselines=[rrt_star]", "evaluation.curve_tasks=0", "evaluation.out=out",
+    ]  # fmt: skip
+    evaluate.main(args)
+    assert "path_window" not in json.loads(Path("out/run.json").read_text())
+    checkpoint = torch.load(tmp_path / "best.pt", weights_only=True)
+    checkpoint["planner"] = {**checkpoint.get("planner", {}), "path_window": 3}
+    torch.save(checkpoint, tmp_path / "best.pt")
+    with pytest.raises(SystemExit, match="evaluate.py: error"):
+        evaluate.main(args)
+    evaluate.main([*args[:-1], "evaluation.out=windowed"])
+    assert json.loads(Path("windowed/run.json").read_text())["path_window"] == 3
+    assert json.loads(Path("windowed/results.json").read_text())["settings"]["path_window"] == 3

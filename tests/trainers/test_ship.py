@@ -157,7 +157,13 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     ship.main(["--update-planner", "TEMP-2D-v0", "attention_rounds=2", "--out-dir", out])
     assert registry.policy_from_checkpoint(path).attention_rounds == 2
     assert "2 more round(s) of the two, a resumed" in path.with_suffix(".md").read_text()
+    assert "the whole path the model was trained on" in path.with_suffix(".md").read_text()
+    ship.main(["--update-planner", "TEMP-2D-v0", "path_window=3", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).window == 3
+    assert "the newest 3 nodes (`path_window`)" in path.with_suffix(".md").read_text()
     for bad, message in [
+        ("path_window=0", "path_window"),
+        ("path_window=1000", "path_window"),
         ("attention_rounds=-1", "attention_rounds"),
         ("attention_rounds=1.5", "attention_rounds"),
         ("attention_resume=-1", "attention_resume"),
@@ -170,6 +176,6 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
             ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
     assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 0,
-                                    "attention_rounds": 2}  # fmt: skip
+                                    "attention_rounds": 2, "path_window": 3}  # fmt: skip
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])

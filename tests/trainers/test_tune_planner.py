@@ -63,9 +63,28 @@ def test_near_goal_factors_are_tried(capsys, monkeypatch):
          "--near-goal-factor", "1", "4",
          "--tasks", "2", "--min-attention-success", "0"]
     )  # fmt: skip
-    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 40 |")]
-    assert [row.split("|")[5].strip() for row in rows] == ["1", "4"]
+    out = capsys.readouterr().out.splitlines()
+    header = [name.strip() for name in next(line for line in out if line.startswith("| n |"))
+              .split("|")]  # fmt: skip
+    rows = [line.split("|") for line in out if line.startswith("| 40 |")]
+    assert [row[header.index("near goal")].strip() for row in rows] == ["1", "4"]
     assert best["attention_near_goal_factor"] in (1.0, 4.0)
+
+
+def test_path_windows_are_tried_and_checked(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    best = tune_planner.main(
+        [*ARGS, "--attention-nodes", "3000", "--noise-std", "0", "--path-window", "0", "2",
+         "--tasks", "4", "--min-attention-success", "0"]
+    )  # fmt: skip
+    header, rows = _table(capsys.readouterr().out.splitlines())
+    assert [row[header.index("window")].strip() for row in rows] == ["64", "2"]
+    nodes = [float(row[header.index("nodes mean")]) for row in rows]
+    assert nodes[0] != nodes[1]  # a window of 2 reads too little of the path: other trees
+    assert best["path_window"] in (None, 2)
+    with pytest.raises(SystemExit):
+        tune_planner.main([*ARGS, "--tasks", "1", "--path-window", "65"])
+    assert "--path-window: path_window: expected an integer in 1..64" in capsys.readouterr().err
 
 
 def test_the_goal_tree_is_tried_both_ways(capsys, monkeypatch):
