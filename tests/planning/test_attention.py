@@ -456,12 +456,20 @@ def test_compiled_loop_cannot_be_forced_on_a_python_policy(wall):
         )  # fmt: skip
 
 
-def test_a_horizon_uses_the_first_proposals_of_each_chunk():
-    full = _chunked_policy("point2d", 4, noise_std=0.0)
-    short = _chunked_policy("point2d", 4, noise_std=0.0, horizon=2)
+def _reset_pair(chunk: int, **setting) -> tuple[TEMPPolicy, TEMPPolicy]:
+    """The same untrained model without and with ``setting``, both reset to one problem."""
+    pair = (
+        _chunked_policy("point2d", chunk, 0.0),
+        _chunked_policy("point2d", chunk, 0.0, **setting),
+    )
     problem = generate_problem("point2d", np.random.default_rng(0))
-    full.reset(problem)
-    short.reset(problem)
+    for policy in pair:
+        policy.reset(problem)
+    return pair
+
+
+def test_a_horizon_uses_the_first_proposals_of_each_chunk():
+    full, short = _reset_pair(4, horizon=2)
     path = np.zeros((16, 2), np.float32)
     path[0] = [-0.5, 0.2]
     assert short.propose_chunk(path, 1).shape == (2, 2)
@@ -473,11 +481,7 @@ def test_a_horizon_uses_the_first_proposals_of_each_chunk():
 
 def test_a_path_window_reads_the_newest_nodes_of_the_path():
     """The window's proposals are the whole model's on the path's newest rows alone."""
-    full = _chunked_policy("point2d", 2, noise_std=0.0)
-    windowed = _chunked_policy("point2d", 2, noise_std=0.0, path_window=4)
-    problem = generate_problem("point2d", np.random.default_rng(0))
-    full.reset(problem)
-    windowed.reset(problem)
+    full, windowed = _reset_pair(2, path_window=4)
     path = np.random.default_rng(1).uniform(-1, 1, (16, 2)).astype(np.float32)
     newest = path[6:10].copy()
     np.testing.assert_array_equal(windowed.propose_chunk(path, 10), full.propose_chunk(newest, 4))
