@@ -347,7 +347,6 @@ class TEMPPolicy:
                 f"on) or None, got {path_window!r}"
             )
         self.path_window = path_window
-        self._window = trained if path_window is None else path_window
         self._prefix: Prefix | None = None
         self._out = np.empty((self.horizon, self.info.dim), np.float32)
         self.noise_std = float(noise_std)
@@ -437,7 +436,7 @@ class TEMPPolicy:
     @property
     def window(self) -> int:
         """The newest rows of the path so far each MPT call reads: ``path_window``, else L."""
-        return self._window
+        return self.info.max_path_length if self.path_window is None else self.path_window
 
     @property
     def chunk(self) -> int:
@@ -623,8 +622,9 @@ class TEMPPolicy:
         """
         if self._sei_array is None:
             raise RuntimeError("call policy.reset(problem) before sampling")
-        if length > self._window:  # the newest rows; their positions are as in the whole path
-            path, length = path[length - self._window : length], self._window
+        window = self.window
+        if length > window:  # the newest rows; their positions are as in the whole path
+            path, length = path[length - window : length], window
         if self._fast is not None and not self.record_attention:
             action = self._fast.predict(self._prefix, path, length, self._out)
         else:
@@ -646,7 +646,7 @@ class TEMPPolicy:
         prefix = self._prefix
         noise = self.rng if self.noise_std > 0 else None
         return (self._fast.kernel_weights, prefix.goal, prefix.z, prefix.qkv, noise,
-                self.noise_std, self.chunk, self._window)  # fmt: skip
+                self.noise_std, self.chunk, self.window)  # fmt: skip
 
     def _torch_sample(self, path: np.ndarray, length: int) -> np.ndarray:
         """The PyTorch model's chunk (float32 ``(chunk, d)``); records attention if asked."""
