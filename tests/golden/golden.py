@@ -65,6 +65,8 @@ Then the shipped 2D policy's MPT reads the newest 16 nodes of the path so far (i
 ``path_window``): only the 2D challenging ``temp`` plan changed (with ``path_window`` set back
 to none every fingerprint was identical), and was rewritten. The shipped 3D policy's patience
 of 30 nodes changed none (no 3D plan of the sample stalls).
+Then the shipped 2D policy's patience became 30 nodes with two rounds: only the 2D challenging
+``temp`` plan and the 2D evaluation record changed, and were rewritten.
 
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
