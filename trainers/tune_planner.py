@@ -206,9 +206,10 @@ def main(argv: list[str] | None = None) -> dict:
         parser.error(str(error))
     torch.set_num_threads(1)
     model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
-    for window in args.path_window:  # the policy's own check, naming the flag, before any run
+    windows = [window or None for window in args.path_window]  # 0: the whole path
+    for window in windows:  # the policy's own check, naming the flag, before any run
         try:
-            TEMPPolicy(model, path_window=None if window == 0 else window)
+            TEMPPolicy(model, path_window=window)
         except ValueError as error:
             parser.error(f"--path-window: {error}")
     if args.split == "ood":
@@ -241,7 +242,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
-        args.attention_nodes, args.noise_std, args.horizon, args.path_window, args.patience,
+        args.attention_nodes, args.noise_std, args.horizon, windows, args.patience,
         args.near_goal_factor, args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
         args.goal_tree, args.from_goal, args.rounds,
     )  # fmt: skip
@@ -272,7 +273,7 @@ def main(argv: list[str] | None = None) -> dict:
             model,
             noise_std=noise,
             horizon=horizon or None,
-            path_window=None if window == 0 else window,
+            path_window=window,
         )
         runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
         row = training.summarize(runs, eval_config.max_nodes)
