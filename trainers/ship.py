@@ -221,8 +221,8 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
 
 PLANNER_KEYS = (
     "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
-    "attention_follow_fallback", "attention_resume", "attention_rounds", "path_window",
-    "chosen_by",
+    "attention_follow_fallback", "attention_resume", "attention_resume_growth",
+    "attention_rounds", "path_window", "chosen_by",
 )  # fmt: skip
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
 
@@ -231,6 +231,7 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
     """The card's lines on the planner settings ``load_policy`` applies."""
     follow = planner.get("attention_follow_fallback")
     resume = planner.get("attention_resume")
+    growth = planner.get("attention_resume_growth")
     return [
         "- Attention-phase budget n (Algorithm 1): "
         + (
@@ -279,7 +280,13 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
             else f"{resume:g} x the stall patience in nodes"
         )
         + ", then the attention phase resumes from the newest node, in turns until the first "
-        "solution."
+        "solution"
+        + (
+            "."
+            if growth in (None, 1.0)
+            else f"; each later classical turn is {growth:g} x the one before "
+            "(`attention_resume_growth`)."
+        )
         if resume != 0
         else "- After a stall, classical planning keeps the rest of the budget.",
         "- After stalls from the start and from the goal (the attention phase from the goal), "

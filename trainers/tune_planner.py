@@ -10,7 +10,8 @@ call reads; 0: all the model was trained on), stall patience (``--patience``; -1
 rule), its factor near the goal (``--near-goal-factor``), share of uniform samples
 (``--uniform``) and probability of going on from a fallback node (``--follow-fallback``),
 whether a chunk goes on past a proposal that collided (``--keep-chunk``), the resume factor
-(``--resume``), whether a tree grows from the goal after an unsolved attention phase
+(``--resume``) and the growth of the classical turns between resumed phases
+(``--resume-growth``), whether a tree grows from the goal after an unsolved attention phase
 (``--goal-tree``), whether the policy grows that tree first after a stall (``--from-goal``: the
 attention phase from the goal) and how many more rounds of the two it takes when both stall
 (``--rounds``) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen in no test;
@@ -43,7 +44,7 @@ from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
 from temp_gym.planning.attention import RESUME_AFTER
-from temp_gym.planning.result import near_goal_factor, resume_factor, share
+from temp_gym.planning.result import near_goal_factor, resume_factor, resume_growth, share
 from temp_gym.training import plan_episode
 
 
@@ -142,6 +143,14 @@ def main(argv: list[str] | None = None) -> dict:
         "stall, to try (0: never)",
     )
     parser.add_argument(
+        "--resume-growth",
+        type=float,
+        nargs="+",
+        default=[1.0],
+        help="how many times longer each classical turn between resumed attention phases is "
+        "than the one before, to try (1: equal turns)",
+    )
+    parser.add_argument(
         "--goal-tree",
         type=int,
         nargs="+",
@@ -202,6 +211,8 @@ def main(argv: list[str] | None = None) -> dict:
             share(follow, "--follow-fallback")
         for resume in args.resume:
             resume_factor(resume, "--resume")
+        for growth in args.resume_growth:
+            resume_growth(growth, "--resume-growth")
     except ValueError as error:
         parser.error(str(error))
     torch.set_num_threads(1)
@@ -230,7 +241,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "| n | noise | horizon | window | patience | near goal | uniform | follow | keep chunk "
-        "| resume | goal tree | from goal | rounds "
+        "| resume | growth | goal tree | from goal | rounds "
         "| nodes mean "
         "| median "
         "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
@@ -238,18 +249,20 @@ def main(argv: list[str] | None = None) -> dict:
     )
     print(
         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
-        "|---:|---:|---:|---|"
+        "|---:|---:|---:|---:|---|"
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, windows, args.patience,
         args.near_goal_factor, args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
-        args.goal_tree, args.from_goal, args.rounds,
+        args.resume_growth, args.goal_tree, args.from_goal, args.rounds,
     )  # fmt: skip
     for (
-        budget, noise, horizon, window, patience, factor, uniform, follow, keep, resume, goal,
-        from_goal, rounds,
+        budget, noise, horizon, window, patience, factor, uniform, follow, keep, resume, growth,
+        goal, from_goal, rounds,
     ) in settings:  # fmt: skip
+        if resume == 0 and growth != args.resume_growth[0]:
+            continue  # without resumed phases --resume-growth changes nothing: one row
         if not goal and from_goal != args.from_goal[0]:
             continue  # without the goal tree --from-goal changes nothing: one row
         from_goal = bool(goal and from_goal)
@@ -265,6 +278,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_follow_fallback=follow,
             attention_keep_chunk=bool(keep),
             attention_resume=resume,
+            attention_resume_growth=growth,
             goal_tree=bool(goal),
             attention_from_goal=from_goal,
             attention_rounds=rounds,
@@ -282,7 +296,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {policy.window} | {patience} | {factor:g} | "
-            f"{uniform} | {follow:g} | {keep} | {resume:g} | {goal} | "
+            f"{uniform} | {follow:g} | {keep} | {resume:g} | {growth:g} | {goal} | "
             f"{int(from_goal) if goal else '-'} | "
             f"{'-' if not from_goal else 'default' if rounds is None else rounds} | "
             f"{row['nodes_mean']:.1f} | "
@@ -298,7 +312,8 @@ def main(argv: list[str] | None = None) -> dict:
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
                     "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
-                    "attention_resume": resume, "goal_tree": bool(goal),
+                    "attention_resume": resume, "attention_resume_growth": growth,
+                    "goal_tree": bool(goal),
                     "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip
             best_nodes = row["nodes_mean"]
     print(f"recommended: {best}")

@@ -229,6 +229,9 @@ class TrainEvalConfig:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before the attention phase resumes after a stall
     (0: never); null: the policy's own, else the planner's default."""
+    attention_resume_growth: float | None = None
+    """How many times longer each classical turn between resumed attention phases is than the
+    one before (at least 1); null: the policy's own, else 1."""
     attention_keep_chunk: bool | None = None
     """After a chunk's proposal collided and a fallback node replaced it, go on with the
     chunk (true) or call the policy again (false); null: false."""
@@ -277,6 +280,9 @@ class EvaluationConfig:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before a stalled attention phase resumes (0:
     never); null: the checkpoint's, else the planner's default."""
+    attention_resume_growth: float | None = None
+    """How many times longer each classical turn between resumed attention phases is than the
+    one before (at least 1); null: the checkpoint's, else 1."""
     goal_tree: bool = True
     """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
     (`temp_gym.planning.goal_tree`; false: Informed RRT* alone, as before it existed)."""

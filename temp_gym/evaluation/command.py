@@ -47,11 +47,12 @@ from temp_gym.worlds.robots import robot_spec
 
 PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
                      "attention_patience": None, "attention_near_goal_factor": None,
-                     "attention_resume": RESUME_AFTER}  # fmt: skip
+                     "attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}  # fmt: skip
 """What a null planner setting of the ``evaluation`` section takes when the checkpoint names
 none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the
-same patience near the goal, the planner's default resume after a stall (recorded as a
-number, so that records made with another default do not mix)."""
+same patience near the goal, the planner's default resume after a stall and equal classical
+turns between resumed phases (recorded as numbers, so that records made with another default
+do not mix)."""
 
 UNRECORDED = ("tasks", "workers", "out")
 """Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
@@ -64,10 +65,10 @@ def settings_from(
     """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
     ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience``,
-    ``attention_near_goal_factor`` and ``attention_resume`` left null take
-    the checkpoint's own planner settings (``planner_defaults``, what `temp_gym.load_policy`
-    applies to a shipped policy), else `PLANNER_FALLBACKS`; a null ``tasks`` is the robot's
-    (its spec's ``evaluation_tasks``).
+    ``attention_near_goal_factor``, ``attention_resume`` and ``attention_resume_growth`` left
+    null take the checkpoint's own planner settings (``planner_defaults``, what
+    `temp_gym.load_policy` applies to a shipped policy), else `PLANNER_FALLBACKS`; a null
+    ``tasks`` is the robot's (its spec's ``evaluation_tasks``).
     """
     robot = config.env.robot
     section = config.evaluation
@@ -91,6 +92,7 @@ def settings_from(
         attention_patience=section.attention_patience,
         attention_near_goal_factor=section.attention_near_goal_factor,
         attention_resume=section.attention_resume,
+        attention_resume_growth=section.attention_resume_growth,
         goal_tree=section.goal_tree,
         attention_from_goal=section.attention_from_goal,
         attention_rounds=section.attention_rounds,
@@ -125,6 +127,7 @@ def _check_section(section: EvaluationConfig) -> None:
             attention_patience=section.attention_patience,
             attention_near_goal_factor=section.attention_near_goal_factor,
             attention_resume=section.attention_resume,
+            attention_resume_growth=section.attention_resume_growth,
         )
     except ValueError as error:
         raise ConfigError(f"evaluation.{error}") from None

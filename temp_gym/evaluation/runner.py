@@ -84,6 +84,9 @@ class EvaluationSettings:
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before TEMP's stalled attention phase resumes
     (None: the policy's own, else the planner's default)."""
+    attention_resume_growth: float | None = None
+    """How many times longer each classical turn between TEMP's resumed attention phases is
+    than the one before (None: the policy's own, else 1)."""
     goal_tree: bool = True
     """Whether TEMP grows a tree from the goal after an unsolved attention phase
     (`temp_gym.planning.goal_tree`)."""
@@ -128,6 +131,7 @@ class EvaluationSettings:
             "attention_patience": self.attention_patience,
             "attention_near_goal_factor": self.attention_near_goal_factor,
             "attention_resume": self.attention_resume,
+            "attention_resume_growth": self.attention_resume_growth,
             "goal_tree": self.goal_tree,
             "attention_from_goal": from_goal,
             "attention_rounds": self.attention_rounds if from_goal else 0,

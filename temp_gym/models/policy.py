@@ -59,6 +59,7 @@ from temp_gym.planning.result import (
     near_goal_factor,
     noise_level,
     resume_factor,
+    resume_growth,
     rounds_count,
     seed_value,
     share,
@@ -254,6 +255,9 @@ class TEMPPolicy:
         attention_resume: classical nodes, in stall patiences, before the attention phase
             resumes after a stall, when ``plan`` is given none (None: the planner's
             `temp_gym.planning.attention.RESUME_AFTER`; 0: never).
+        attention_resume_growth: how many times longer each classical turn between resumed
+            attention phases is than the one before, when ``plan`` is given none (None: 1,
+            equal turns).
         attention_rounds: rounds of the attention phase from both trees after it stalled from
             the start and from the goal, when ``plan`` is given none (None: the planner's
             `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none).
@@ -281,6 +285,7 @@ class TEMPPolicy:
         attention_near_goal_factor: float | None = None,
         attention_follow_fallback: float | None = None,
         attention_resume: float | None = None,
+        attention_resume_growth: float | None = None,
         attention_rounds: int | None = None,
         path_window: int | None = None,
     ) -> None:
@@ -310,6 +315,9 @@ class TEMPPolicy:
         )
         self.attention_resume = (
             None if attention_resume is None else resume_factor(attention_resume)
+        )
+        self.attention_resume_growth = (
+            None if attention_resume_growth is None else resume_growth(attention_resume_growth)
         )
         self.attention_rounds = None if attention_rounds is None else rounds_count(attention_rounds)
         self.device = device
@@ -408,8 +416,9 @@ class TEMPPolicy:
             attention_uniform=self.attention_uniform,
             attention_near_goal_factor=self.attention_near_goal_factor,
             attention_follow_fallback=self.attention_follow_fallback,
-            attention_resume=self.attention_resume, attention_rounds=self.attention_rounds,
-            path_window=self.path_window,
+            attention_resume=self.attention_resume,
+            attention_resume_growth=self.attention_resume_growth,
+            attention_rounds=self.attention_rounds, path_window=self.path_window,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

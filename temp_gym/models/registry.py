@@ -234,6 +234,7 @@ def _policy_on(
         attention_near_goal_factor=planner.get("attention_near_goal_factor"),
         attention_follow_fallback=planner.get("attention_follow_fallback"),
         attention_resume=planner.get("attention_resume"),
+        attention_resume_growth=planner.get("attention_resume_growth"),
         attention_rounds=planner.get("attention_rounds"),
         path_window=planner.get("path_window"),
     )

@@ -66,6 +66,7 @@ def plan(
     attention_near_goal_factor: float | None = None,
     attention_follow_fallback: float | None = None,
     attention_resume: float | None = None,
+    attention_resume_growth: float | None = None,
     attention_keep_chunk: bool | None = None,
     goal_tree: bool | None = None,
     attention_from_goal: bool | None = None,
@@ -127,6 +128,10 @@ def plan(
             adds this many stall patiences of nodes, then the attention phase resumes from
             the newest node, in turns until the first solution (None: the policy's own
             setting, else 1; 0: never, classical planning keeps the rest of the budget).
+        attention_resume_growth: ``temp`` only: each classical turn between resumed attention
+            phases is this many times longer than the one before, at least 1 (None: the
+            policy's own setting, else 1: equal turns). Above 1, a policy that keeps stalling
+            hands the search over to Informed RRT* by degrees.
         attention_keep_chunk: ``temp`` only, for a policy that proposes a chunk of samples per
             call: after a proposal collided and a uniform fallback sample replaced it, go on
             with the chunk's next proposal (True: fewer nodes to a first solution, costlier
@@ -161,7 +166,8 @@ def plan(
         attention_patience=attention_patience, attention_uniform=attention_uniform,
         attention_near_goal_factor=attention_near_goal_factor,
         attention_follow_fallback=attention_follow_fallback,
-        attention_resume=attention_resume, attention_keep_chunk=attention_keep_chunk,
+        attention_resume=attention_resume, attention_resume_growth=attention_resume_growth,
+        attention_keep_chunk=attention_keep_chunk,
         goal_tree=goal_tree, attention_from_goal=attention_from_goal,
         attention_rounds=attention_rounds,
     )  # fmt: skip

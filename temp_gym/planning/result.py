@@ -66,6 +66,14 @@ def resume_factor(value: object, name: str = "attention_resume") -> float:
     return _finite_at_least(value, name, 0.0)
 
 
+def resume_growth(value: object, name: str = "attention_resume_growth") -> float:
+    """A growth factor of the classical turns between resumed phases: finite, at least 1.
+
+    (`PlanSettings.attention_resume_growth`; 1: every turn as long as the first.)
+    """
+    return _finite_at_least(value, name, 1.0)
+
+
 def rounds_count(value: object, name: str = "attention_rounds") -> int:
     """A number of rounds of the attention phase after it stalled both ways: an integer >= 0.
 
@@ -158,6 +166,11 @@ class PlanSettings:
     in turns until the first solution (None: the policy's own setting, else
     `temp_gym.planning.attention.RESUME_AFTER`; 0: never, classical planning keeps the rest
     of the budget)."""
+    attention_resume_growth: float | None = None
+    """``temp`` planner: each classical turn between resumed attention phases is this many
+    times longer than the one before (None: the policy's own setting, else 1: equal turns of
+    ``attention_resume`` patiences). Above 1, a policy that keeps stalling hands more and more
+    of the search to Informed RRT*, so it costs at most a bounded share of the nodes."""
 
     goal_tree: bool | None = None
     """``temp`` planner: when the attention phase ends without a solution, grow a second tree
@@ -237,6 +250,8 @@ class PlanSettings:
             )
         if self.attention_resume is not None:
             normalize("attention_resume", resume_factor(self.attention_resume))
+        if self.attention_resume_growth is not None:
+            normalize("attention_resume_growth", resume_growth(self.attention_resume_growth))
         if self.attention_near_goal_factor is not None:
             normalize(
                 "attention_near_goal_factor", near_goal_factor(self.attention_near_goal_factor)

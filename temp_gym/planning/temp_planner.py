@@ -30,7 +30,9 @@ its own last node instead of from a random fallback node that got no closer to t
 does). After a stall, classical planning and the attention phase take turns until the first
 solution (``attention_resume``, default `temp_gym.planning.attention.RESUME_AFTER`; 0: classical
 planning keeps the rest of the budget): Informed RRT* adds ``attention_resume`` stall patiences
-of nodes, then the phase resumes from the newest node with the same stop rules. The phase runs
+of nodes, then the phase resumes from the newest node with the same stop rules; with
+``attention_resume_growth`` above 1 each later classical turn is that many times longer, so a
+policy that keeps stalling hands the search over to Informed RRT* by degrees. The phase runs
 compiled (no Python per node) for a `TEMPPolicy` on the CPU and the built-in checkers.
 
 On the goal bias: A learned sampler imitates expert paths
@@ -74,7 +76,7 @@ it). `attention_solved_both_ways` reads them.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import TypeVar
 
 import numpy as np
@@ -96,6 +98,7 @@ from temp_gym.planning.result import (
     PlanSettings,
     near_goal_factor,
     resume_factor,
+    resume_growth,
     rounds_count,
     share,
     tree_plan_result,
@@ -175,6 +178,9 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     resume = _given_or_declared(
         settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
     )
+    growth = _given_or_declared(
+        settings, declared, "attention_resume_growth", resume_growth, default=1.0
+    )
     rounds = _given_or_declared(
         settings, declared, "attention_rounds", rounds_count, default=ATTENTION_ROUNDS
     )
@@ -232,7 +238,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     # ---- after a stall: classical planning and the resumed attention phase in turns
     if outcome.stop == "stalled" and resume > 0 and tree.best_node < 0:
         attention["resumes"] = _resume_until_solved(
-            tree, policy, rng, log, settings, limits, resume_nodes(patience, resume),
+            tree, policy, rng, log, settings, limits, resume_nodes(patience, resume), growth,
             uniform, follow, keep_chunk, goal_tree,
         )  # fmt: skip
 
@@ -293,6 +299,7 @@ def _resume_until_solved(
     settings: PlanSettings,
     limits: AttentionLimits,
     classical_nodes: int,
+    growth: float,
     uniform: float,
     follow: float,
     keep_chunk: bool,
@@ -303,12 +310,14 @@ def _resume_until_solved(
     The resumed phase starts from the newest node, a classical one (so the policy reads a
     path it has not read before) and counts progress from the tree's closest approach; it
     ends by the same stop rules. Turns go on while a phase stalls, until the first solution
-    or the node, sample or time budget. Returns the number of resumed phases.
+    or the node, sample or time budget; each classical turn is ``growth`` times the one
+    before (`resume_turns`). Returns the number of resumed phases.
     """
     resumes = 0
+    turns = resume_turns(classical_nodes, growth, settings.max_nodes)
     while True:
         extra = 0 if goal_tree is None else goal_tree.extra_nodes
-        turn_end = min(settings.max_nodes, tree.num_nodes + extra + classical_nodes)
+        turn_end = min(settings.max_nodes, tree.num_nodes + extra + next(turns))
         if goal_tree is None:
             classical = settings.derived(max_nodes=int(turn_end), stop_at_first=True)
             grow_anytime(tree, classical, rng, log, informed=True)
@@ -334,3 +343,16 @@ def _resume_until_solved(
             log.record_tree(tree)
         if outcome.stop != "stalled":
             return resumes
+
+
+def resume_turns(first: int, growth: float, largest: int) -> Iterator[int]:
+    """Classical nodes of each turn between resumed phases: ``first``, then ``growth`` times more.
+
+    Each turn is ``first * growth ** k`` rounded, at least 1 and at most ``largest`` (the
+    planner's node budget, which ends the turns anyway); with ``growth`` 1 they are all
+    ``first``.
+    """
+    size = float(first)
+    while True:
+        yield int(min(max(round(size), 1), largest))
+        size = min(size * growth, float(largest))

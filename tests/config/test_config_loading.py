@@ -178,6 +178,7 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
                                       "attention_near_goal_factor": None,
                                       "attention_follow_fallback": None,
                                       "attention_resume": None,
+                                      "attention_resume_growth": None,
                                       "attention_keep_chunk": None,
                                       "goal_tree": True, "attention_from_goal": True,
                                       "attention_rounds": None}  # fmt: skip

@@ -68,6 +68,15 @@ of 30 nodes changed none (no 3D plan of the sample stalls).
 Then the shipped 2D policy's patience became 30 nodes with two rounds: only the 2D challenging
 ``temp`` plan and the 2D evaluation record changed, and were rewritten.
 
+Then a CI machine with AVX-512 (an Intel Xeon of a later generation) differed on the eight
+``temp`` plans and both evaluation records with the code of before: numba compiles for the
+host CPU, and the MPT's kernels rounded differently when compiled for it (not pinned down
+further; LayerNorm's row sums, the one loop allowed to reassociate, are the likely place).
+With numba compiling for Haswell too
+(``NUMBA_CPU_NAME=haswell`` beside OpenBLAS's kernel, `PINNED_ENV`), all 85 fingerprints were
+identical there, as stored; none was rewritten. The child's numba caches are kept per target
+CPU, so it compiles its kernels once for Haswell beside the host's.
+
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
@@ -100,8 +109,9 @@ PLANNERS = ("rrt_star", "informed_rrt_star", "temp")
 NODES = {"point2d": 400, "point3d": 400, "kuka_iiwa14": 300}
 TIME_KEYS = ("time", "wall")
 SECTIONS = ("problems", "plans", "env", "dataset", "evaluation")
-PINNED_ENV = {"OPENBLAS_CORETYPE": "Haswell"}
-"""What the fingerprints are computed under: OpenBLAS's kernel, which otherwise follows the CPU."""
+PINNED_ENV = {"OPENBLAS_CORETYPE": "Haswell", "NUMBA_CPU_NAME": "haswell"}
+"""What the fingerprints are computed under: OpenBLAS's kernel and the CPU numba compiles for,
+both of which otherwise follow the CPU."""
 
 
 def digest(value) -> str:

@@ -19,6 +19,7 @@ from temp_gym.planning.attention import (
     resume_nodes,
     run_attention_phase,
 )
+from temp_gym.planning.temp_planner import resume_turns
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.generators import generate_problem
 
@@ -438,6 +439,62 @@ def test_attention_resume_comes_from_plan_else_the_policy_and_is_checked(wall):
             plan(problem, policy=Stuck(), attention_resume=bad, **kwargs)
     with pytest.raises(ValueError, match="attention_resume"):
         TEMPPolicy(load_policy("point2d").core, attention_resume=-1)
+
+
+def test_resume_turns_grow_by_the_factor_and_stay_within_the_budget():
+    turns = resume_turns(30, 4.0, 10_000)
+    assert [next(turns) for _ in range(8)] == [30, 120, 480, 1920, 7680, 10_000, 10_000, 10_000]
+    equal = resume_turns(30, 1.0, 10_000)
+    assert [next(equal) for _ in range(5)] == [30] * 5
+    slow = resume_turns(1, 1.5, 100)
+    assert [next(slow) for _ in range(6)] == [1, 2, 2, 3, 5, 8]  # rounded, at least 1
+
+
+def test_growing_turns_resume_the_stuck_policy_less_often(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=1, max_nodes=3000, stop_at_first=True, goal_bias=0.0,
+                  attention_patience=30, attention_resume=0.5, goal_tree=False)  # fmt: skip
+    default = plan(problem, policy=Stuck(), **kwargs)
+    equal = plan(problem, policy=Stuck(), attention_resume_growth=1, **kwargs)
+    growing = plan(problem, policy=Stuck(), attention_resume_growth=4, **kwargs)
+    assert default.success and equal.success and growing.success
+    # 1 is the default: the same turns, the same tree
+    assert (
+        equal.nodes == default.nodes and equal.attention["resumes"] == default.attention["resumes"]
+    )
+    np.testing.assert_array_equal(equal.path, default.path)
+    # turns of 15, 60, 240, ... nodes: the stuck policy gets fewer turns
+    assert default.attention["resumes"] > 5
+    assert 1 <= growing.attention["resumes"] < default.attention["resumes"]
+    # the first phase is the same
+    assert growing.attention == {**default.attention, "resumes": ANY, "time": ANY}
+
+
+def test_attention_resume_growth_comes_from_plan_else_the_policy_and_is_checked(wall):
+    problem = Problem.from_dict(wall)
+    kwargs = dict(planner="temp", seed=1, max_nodes=3000, stop_at_first=True, goal_bias=0.0,
+                  attention_patience=30, attention_resume=0.5, goal_tree=False)  # fmt: skip
+
+    class Declaring(Stuck):
+        attention_resume_growth = 4.0
+
+    declared = plan(problem, policy=Declaring(), **kwargs)
+    given = plan(problem, policy=Stuck(), attention_resume_growth=4, **kwargs)
+    assert (declared.nodes, declared.attention["resumes"]) == (
+        given.nodes, given.attention["resumes"],
+    )  # fmt: skip
+    overridden = plan(problem, policy=Declaring(), attention_resume_growth=1, **kwargs)
+    assert overridden.nodes == plan(problem, policy=Stuck(), **kwargs).nodes
+    Declaring.attention_resume_growth = 0.5
+    with pytest.raises(ValueError, match="policy.attention_resume_growth"):
+        plan(problem, policy=Declaring(), **kwargs)
+    for bad in (0.5, 0, -2.0, float("nan"), float("inf"), True, "twice"):
+        with pytest.raises(ValueError, match="attention_resume_growth"):
+            plan(problem, policy=Stuck(), attention_resume_growth=bad, **kwargs)
+    with pytest.raises(ValueError, match="attention_resume_growth"):
+        TEMPPolicy(load_policy("point2d").core, attention_resume_growth=0.9)
+    kept = TEMPPolicy(None, core=load_policy("point2d").core, attention_resume_growth=2)
+    assert kept.attention_resume_growth == kept.fresh().attention_resume_growth == 2.0
 
 
 def test_default_patience_grows_with_the_distance_in_steps(wall):

@@ -154,6 +154,11 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     assert (
         "1 more round(s) of the two (the planner's default" in path.with_suffix(".md").read_text()
     )
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_resume=1", "--out-dir", out])
+    assert "the first solution." in path.with_suffix(".md").read_text()
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_resume_growth=4", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).attention_resume_growth == 4.0
+    assert "each later classical turn is 4 x the one before" in path.with_suffix(".md").read_text()
     ship.main(["--update-planner", "TEMP-2D-v0", "attention_rounds=2", "--out-dir", out])
     assert registry.policy_from_checkpoint(path).attention_rounds == 2
     assert "2 more round(s) of the two, a resumed" in path.with_suffix(".md").read_text()
@@ -167,6 +172,7 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         ("attention_rounds=-1", "attention_rounds"),
         ("attention_rounds=1.5", "attention_rounds"),
         ("attention_resume=-1", "attention_resume"),
+        ("attention_resume_growth=0.5", "attention_resume_growth"),
         ("attention_follow_fallback=2", "attention_follow_fallback"),
         ("noise_std=-1", "noise_std"),
         ("colour=red", "key=value"),
@@ -175,7 +181,8 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         with pytest.raises(SystemExit, match=message):
             ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
-    assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 0,
-                                    "attention_rounds": 2, "path_window": 3}  # fmt: skip
+    assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 1,
+                                    "attention_resume_growth": 4, "attention_rounds": 2,
+                                    "path_window": 3}  # fmt: skip
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
