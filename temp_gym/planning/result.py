@@ -170,7 +170,7 @@ class PlanSettings:
     """``temp`` planner: each classical turn between resumed attention phases is this many
     times longer than the one before (None: the policy's own setting, else 1: equal turns of
     ``attention_resume`` patiences). Above 1, a policy that keeps stalling hands more and more
-    of the search to Informed RRT*, so it costs at most a bounded share of the nodes."""
+    of the search to Informed RRT*: its resumed phases take a shrinking share of the nodes."""
 
     goal_tree: bool | None = None
     """``temp`` planner: when the attention phase ends without a solution, grow a second tree
