@@ -2,7 +2,7 @@
 
     python benchmarks/end_to_end.py [--worlds 2d 3d 7d] [--tasks 20] [--seeds 3]
         [--sections user first anytime complete split] [--out results/end_to_end.json]
-        [--variants temp_no_goal_tree temp_no_from_goal temp_no_rounds]
+        [--variants temp_no_goal_tree temp_no_from_goal temp_no_rounds temp_equal_turns]
 
 Per world, on ``--tasks`` test tasks of the evaluation (half easy, half challenging, unseen
 workspaces) and on the world's out-of-distribution family (`temp_gym.evaluation.ood`), side by
@@ -55,6 +55,7 @@ VARIANTS = {
     "temp_no_goal_tree": ("temp", {"goal_tree": False}),
     "temp_no_from_goal": ("temp", {"attention_from_goal": False}),
     "temp_no_rounds": ("temp", {"attention_rounds": 0}),
+    "temp_equal_turns": ("temp", {"attention_resume_growth": 1.0}),
 }
 """Extra columns (``--variants``): a planner with other settings, as ``plan`` takes them."""
 TOLERANCE = 1.05
@@ -326,7 +327,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="also run TEMP with other settings, side by side: without its goal "
                         "tree (temp_no_goal_tree), or with the goal tree grown by Informed "
                         "RRT*'s samples alone (temp_no_from_goal), or without more rounds of the "
-                        "attention phase after it stalled both ways (temp_no_rounds)")  # fmt: skip
+                        "attention phase after it stalled both ways (temp_no_rounds), or with "
+                        "equal classical turns between resumed attention phases "
+                        "(temp_equal_turns)")  # fmt: skip
     args = parse_args(parser, argv)
     planners = PLANNERS + tuple(args.variants)
     complete = ("temp", *args.variants, "informed_rrt_star")
