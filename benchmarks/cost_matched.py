@@ -9,9 +9,10 @@ TEMP's, so a policy whose first paths are longer gives the baselines an easier t
 runs that protocol on ``--tasks`` validation tasks (the `boxes` workspaces `trainers/
 tune_planner.py` draws from, with its seed plus ``--seed-offset``, so by default other tasks
 than the ones tuned on; no test task), for the shipped policy and each ``--checkpoints``
-entry (``PATH[@noise_std=X,horizon=K]``), as `trainers/evaluate.py` times a task: each TEMP
-run after an untimed warm run and on a workspace the planners have forgotten
-(`temp_gym.evaluation.runner.start_timed_run`), the policies in alternating order. Our RRT*
+entry (``PATH[@key=value,...]``, `temp_gym.config.CHECKPOINT_SETTINGS`), as
+`trainers/evaluate.py` times a task: each TEMP run after an untimed warm run and on a
+workspace the planners have forgotten (`temp_gym.evaluation.runner.start_timed_run`), the
+policies in alternating order. Our RRT*
 and Informed RRT* then run once per task, after their warm runs, to the lowest of the
 policies' targets, and each policy's target is read off the same history
 (`temp_gym.evaluation.protocol.reach_tolerance`), so every policy meets the same baseline
@@ -75,7 +76,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--world", choices=list(ROBOTS), default="2d", help="the world")
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="bc.py checkpoints to compare with the shipped policy, each "
-                        "PATH[@noise_std=X,horizon=K]")  # fmt: skip
+                        "PATH[@noise_std=X,horizon=K,...]: any planner setting of "
+                             "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=500, help="validation tasks")
     parser.add_argument(
         "--seed-offset",

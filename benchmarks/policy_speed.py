@@ -3,13 +3,16 @@
     python benchmarks/policy_speed.py --world 2d [--checkpoints runs/.../best.pt ...]
         [--tasks 50] [--seeds 2] [--budget 10000] [--split test|val] [--fresh-encoding]
     python benchmarks/policy_speed.py --checkpoints runs/.../best.pt@noise_std=0.03,horizon=4
+    python benchmarks/policy_speed.py --split val --fresh-encoding \
+        --checkpoints runs/.../best.pt@path_window=16,attention_patience=30,attention_rounds=2
 
 Whether a smaller or otherwise cheaper model pays is a trade: each MPT call costs less, but a
 weaker policy may need more nodes. This measures both in one run. On ``--tasks`` easy and
 ``--tasks`` challenging test tasks (unseen workspaces), each policy (the shipped one first,
 then each ``--checkpoints`` entry with the planner settings it carries, or those written after
-an ``@``: ``noise_std`` and ``horizon``, as `trainers/tune_planner.py` chose them for a run not
-yet shipped) and RRT* and Informed
+an ``@``: ``noise_std``, ``horizon`` or any other planner setting a shipped policy carries
+(`temp_gym.config.CHECKPOINT_SETTINGS`), as `trainers/tune_planner.py` chose them for a run not
+yet shipped, or as the shipped policy has them) and RRT* and Informed
 RRT* are called as users call them, ``plan(problem, policy=..., stop_at_first=True)``, seed by
 seed with the order of the planners alternating, so all see the same machine load. Per row
 and planner: successes, mean and median wall time of the whole call, mean and median nodes to
@@ -133,7 +136,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--world", default="2d", choices=list(ROBOTS), help="the world")
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="bc.py checkpoints to compare with the shipped policy, each "
-                             "PATH[@noise_std=X,horizon=K]")  # fmt: skip
+                             "PATH[@noise_std=X,horizon=K,...]: any planner setting of "
+                             "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=50, help="test tasks per row")
     parser.add_argument("--seeds", type=int, default=2, help="planner seeds per task")
     parser.add_argument("--budget", type=int, default=10_000, help="node budget per run")

@@ -28,6 +28,7 @@ values. ``TEMP_GYM_OVERRIDES`` holds overrides that every load applies last::
 """
 
 from temp_gym.config.command_line import (
+    CHECKPOINT_SETTINGS,
     OVERRIDE,
     checkpoint_entry,
     labelled_entry,
@@ -61,6 +62,7 @@ from temp_gym.config.sections import (
 )
 
 __all__ = [
+    "CHECKPOINT_SETTINGS",
     "CONFIG_DIR",
     "OVERRIDE",
     "OVERRIDES_VARIABLE",

@@ -46,8 +46,20 @@ def parse_args(
     return args
 
 
-CHECKPOINT_SETTINGS = {"noise_std": float, "horizon": int}
-"""Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`)."""
+CHECKPOINT_SETTINGS = {
+    "noise_std": float,
+    "horizon": int,
+    "path_window": int,
+    "attention_patience": int,
+    "attention_near_goal_factor": float,
+    "attention_follow_fallback": float,
+    "attention_resume": float,
+    "attention_resume_growth": float,
+    "attention_rounds": int,
+}
+"""Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`): the
+ones `temp_gym.models.registry.policy_from_checkpoint` takes, so that a run not yet shipped
+can be compared under the shipped policy's settings."""
 
 
 def checkpoint_entry(

@@ -192,6 +192,7 @@ def policy_from_checkpoint(
     seed: int | None = None,
     attention_nodes: int | None = None,
     horizon: int | None = None,
+    **planner: float | int,
 ):
     """A `TEMPPolicy` on the cached checkpoint at ``path``, with its shipped planner settings.
 
@@ -200,9 +201,26 @@ def policy_from_checkpoint(
     used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``), the
     stall patience and the path window. A checkpoint without them gets n = None (all of the
     planner's ``max_nodes``), no noise, its whole chunk, the planner's default patience and
-    the whole path the model was trained on.
+    the whole path the model was trained on. Any other of them given by keyword
+    (`PLANNER_KEYS`: ``path_window=16``, ``attention_rounds=2``, ...) replaces the
+    checkpoint's: a training run not yet shipped is then compared under a shipped policy's
+    settings (`benchmarks/policy_speed.py`).
+
+    Raises:
+        ValueError: a keyword that is not one of `PLANNER_KEYS`.
     """
-    return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon)
+    unknown = sorted(set(planner) - set(PLANNER_KEYS))
+    if unknown:
+        raise ValueError(f"planner settings: unknown {unknown}; expected some of {PLANNER_KEYS}")
+    return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon, planner)
+
+
+PLANNER_KEYS = (
+    "path_window", "attention_patience", "attention_uniform", "attention_near_goal_factor",
+    "attention_follow_fallback", "attention_resume", "attention_resume_growth",
+    "attention_rounds",
+)  # fmt: skip
+"""The planner settings of a checkpoint that `policy_from_checkpoint` may replace by keyword."""
 
 
 def _policy_on(
@@ -211,11 +229,12 @@ def _policy_on(
     seed: int | None = None,
     attention_nodes: int | None = None,
     horizon: int | None = None,
+    replaced: dict | None = None,
 ):
     """A new `TEMPPolicy` on a cached checkpoint (`policy_from_checkpoint`'s settings)."""
     from temp_gym.models.policy import TEMPPolicy
 
-    planner = loaded.meta.get("planner", {})
+    planner = {**loaded.meta.get("planner", {}), **(replaced or {})}
     if noise_std is None:
         noise_std = float(planner.get("noise_std", 0.0))
     if attention_nodes is None:

@@ -10,6 +10,9 @@ def test_a_checkpoint_entry_gives_its_path_and_typed_settings():
     path, settings = checkpoint_entry("runs/a/best.pt@noise_std=0.03,horizon=4")
     assert path == Path("runs/a/best.pt") and settings == {"noise_std": 0.03, "horizon": 4}
     assert isinstance(settings["horizon"], int) and isinstance(settings["noise_std"], float)
+    _, settings = checkpoint_entry("a.pt@path_window=16,attention_resume_growth=4")
+    assert settings == {"path_window": 16, "attention_resume_growth": 4.0}
+    assert isinstance(settings["attention_resume_growth"], float)
 
 
 @pytest.mark.parametrize(

@@ -77,6 +77,9 @@ With numba compiling for Haswell too
 identical there, as stored; none was rewritten. The child's numba caches are kept per target
 CPU, so it compiles its kernels once for Haswell beside the host's.
 
+Then the shipped 2D policy changed (the same tiny MPT with one layer instead of two): only the
+three 2D ``temp`` plans and the 2D evaluation record changed, and were rewritten the same way.
+
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.

@@ -76,6 +76,16 @@ def test_shipped_settings_apply_and_a_wrong_robot_is_refused(count_reads):
         policy_from_checkpoint(registry.shipped_checkpoint("point2d"), robot="point3d")
 
 
+def test_planner_settings_given_by_keyword_replace_the_checkpoints(count_reads):
+    path = registry.shipped_checkpoint("point2d")
+    shipped = policy_from_checkpoint(path)
+    policy = policy_from_checkpoint(path, attention_rounds=7, path_window=5)
+    assert (policy.attention_rounds, policy.window) == (7, 5)
+    assert policy.attention_patience == shipped.attention_patience  # the rest as carried
+    with pytest.raises(ValueError, match=r"unknown \['rounds'\]"):
+        policy_from_checkpoint(path, rounds=2)
+
+
 def test_a_missing_shipped_checkpoint_says_how_to_get_one(monkeypatch, tmp_path):
     monkeypatch.setattr(registry, "CHECKPOINT_DIR", tmp_path)  # a build that ships none
     registry.clear_cache()
