@@ -3,6 +3,7 @@
     python benchmarks/end_to_end.py [--worlds 2d 3d 7d] [--tasks 20] [--seeds 3]
         [--sections user first anytime complete split] [--out results/end_to_end.json]
         [--variants temp_no_goal_tree temp_no_from_goal temp_no_rounds temp_equal_turns]
+        [--worlds 2d --checkpoints runs/.../best.pt@path_window=16,attention_rounds=2 ...]
 
 Per world, on ``--tasks`` test tasks of the evaluation (half easy, half challenging, unseen
 workspaces) and on the world's out-of-distribution family (`temp_gym.evaluation.ood`), side by
@@ -22,6 +23,11 @@ TEMP with its shipped policy from the process-wide cache):
   its calls, recorded on the same trees grown by the Python loop, replayed through the MPT
   kernel from compiled code), the Python loop, and RRT* per node.
 
+``--checkpoints`` adds TEMP with other policies as columns beside the shipped one (a training
+run not yet shipped, or the policy a shipped one replaced), each with the planner settings
+written after its ``@``: the anytime and completeness bounds of a candidate are then measured
+in the same run as the shipped policy's.
+
 Runs are interleaved per task and seed, so every planner sees the same machine load. Nodes and
 successes do not depend on the load; times do, so read the ratios.
 """
@@ -40,11 +46,11 @@ import numba
 import numpy as np
 
 from temp_gym import plan
-from temp_gym.config import parse_args, script_parser
+from temp_gym.config import checkpoint_entry, parse_args, script_parser
 from temp_gym.evaluation.ood import WORLD_DIRS, load_ood_family
 from temp_gym.evaluation.protocol import reach_tolerance
 from temp_gym.evaluation.runner import evaluation_problem
-from temp_gym.models.registry import load_policy
+from temp_gym.models.registry import load_policy, policy_from_checkpoint
 from temp_gym.planning.mpt_kernel import forward_kernel
 from temp_gym.worlds.robots import robot_spec, robot_specs
 
@@ -58,6 +64,8 @@ VARIANTS = {
     "temp_equal_turns": ("temp", {"attention_resume_growth": 1.0}),
 }
 """Extra columns (``--variants``): a planner with other settings, as ``plan`` takes them."""
+POLICIES: dict[str, object] = {}
+"""Extra columns (``--checkpoints``): TEMP with another policy, by column name."""
 TOLERANCE = 1.05
 
 
@@ -82,9 +90,36 @@ def problem_sets(robot: str, count: int) -> dict[str, dict[str, object]]:
 
 
 def plan_as(problem, name: str, **kwargs):
-    """``plan`` with the planner ``name``: a key of `temp_gym.PLANNERS` or of `VARIANTS`."""
+    """``plan`` with the planner ``name``: a key of `temp_gym.PLANNERS`, `VARIANTS` or
+    `POLICIES`."""
+    if name in POLICIES:
+        return plan(problem, planner="temp", policy=POLICIES[name], **kwargs)
     planner, settings = VARIANTS.get(name, (name, {}))
     return plan(problem, planner=planner, **settings, **kwargs)
+
+
+def checkpoint_policies(entries: list[str], robot: str) -> dict[str, object]:
+    """Column name -> `TEMPPolicy`, one per ``PATH[@key=value,...]`` entry (`checkpoint_entry`).
+
+    The column is ``temp:`` and the checkpoint's folder (``runs/<run>/best.pt``), or its file
+    name when two entries share a folder; the same checkpoint with other settings gets a
+    number.
+
+    Raises:
+        ValueError: a malformed entry, a checkpoint of another robot.
+        OSError: a missing or unreadable file.
+    """
+    policies: dict[str, object] = {}
+    for entry in entries:
+        path, settings = checkpoint_entry(entry)
+        name = f"temp:{path.parent.name or path.stem}"
+        if name in policies:
+            name = f"temp:{path.parent.name}/{path.name}"
+        base, count = name, 2
+        while name in policies:
+            name, count = f"{base}#{count}", count + 1
+        policies[name] = policy_from_checkpoint(path, robot, **settings)
+    return policies
 
 
 def timed_plan(problem, planner: str, **kwargs):
@@ -330,9 +365,21 @@ def main(argv: list[str] | None = None) -> None:
                         "attention phase after it stalled both ways (temp_no_rounds), or with "
                         "equal classical turns between resumed attention phases "
                         "(temp_equal_turns)")  # fmt: skip
+    parser.add_argument("--checkpoints", nargs="*", default=[],
+                        help="also run TEMP with other policies, side by side (one world): "
+                        "each PATH[@key=value,...], a bc.py or shipped checkpoint with any "
+                        "planner setting of temp_gym.config.CHECKPOINT_SETTINGS, a column "
+                        "'temp:<its folder>'")  # fmt: skip
     args = parse_args(parser, argv)
-    planners = PLANNERS + tuple(args.variants)
-    complete = ("temp", *args.variants, "informed_rrt_star")
+    if args.checkpoints and len(args.worlds) != 1:
+        parser.error("--checkpoints: give the one world they were trained for (--worlds)")
+    POLICIES.clear()  # this run's columns only
+    try:
+        POLICIES.update(checkpoint_policies(args.checkpoints, ROBOTS[args.worlds[0]]))
+    except (OSError, ValueError) as error:
+        parser.error(f"--checkpoints: {error}")
+    planners = PLANNERS + tuple(args.variants) + tuple(POLICIES)
+    complete = ("temp", *args.variants, *POLICIES, "informed_rrt_star")
     report: dict = {}
     for world in args.worlds:
         robot = ROBOTS[world]

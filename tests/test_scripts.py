@@ -195,3 +195,24 @@ def test_end_to_end_runs_temp_without_its_goal_tree_side_by_side(capsys, tmp_pat
     figures = json.loads(out.read_text())["2d"]
     assert len(figures["first_test"]["temp_no_goal_tree"]["time"]) == 2
     assert len(figures["anytime_ood"]["runs"]["temp_no_goal_tree"]) == len(figures["complete"])
+
+
+def test_end_to_end_runs_another_checkpoint_side_by_side(capsys):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import end_to_end
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    shipped = str(ROOT / "temp_gym" / "checkpoints" / "2d.pt")
+    end_to_end.main(["--worlds", "2d", "--tasks", "2", "--seeds", "1", "--budget", "300",
+                     "--complete-seeds", "1", "--sections", "first", "complete",
+                     "--checkpoints", f"{shipped}@attention_rounds=0"])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "| temp:checkpoints |" in printed
+    assert "| problem | temp | temp:checkpoints | informed_rrt_star |" in printed
+    assert end_to_end.POLICIES["temp:checkpoints"].attention_rounds == 0
+    for bad in (["--worlds", "2d", "3d", "--checkpoints", shipped],
+                ["--worlds", "3d", "--checkpoints", shipped],
+                ["--worlds", "2d", "--checkpoints", f"{shipped}@rounds=1"]):  # fmt: skip
+        with pytest.raises(SystemExit):
+            end_to_end.main(bad)
