@@ -12,13 +12,12 @@ than the ones tuned on; no test task), for the shipped policy and each ``--check
 entry (``PATH[@key=value,...]``, `temp_gym.config.CHECKPOINT_SETTINGS`), as
 `trainers/evaluate.py` times a task: each TEMP run after an untimed warm run and on a
 workspace the planners have forgotten (`temp_gym.evaluation.runner.start_timed_run`), the
-policies in alternating order. Our RRT*
-and Informed RRT* then run once per task, after their warm runs, to the lowest of the
-policies' targets, and each policy's target is read off the same history
-(`temp_gym.evaluation.protocol.reach_tolerance`), so every policy meets the same baseline
-runs. Per policy: TEMP's summed and median time, its nodes and mean cost, and the paired time
-ratio against each baseline (sums over the tasks every policy solved and the baseline
-reached), the figure `docs/results.md` holds to 0.7. One process: the ratios are comparable
+policies in alternating order. Our RRT* and Informed RRT* then run once per task, after
+their warm runs, to the lowest of the policies' targets, and each policy's target is read off
+the same history (`temp_gym.evaluation.protocol.reach_tolerance`), so every policy meets the
+same baseline runs. Per policy: TEMP's summed and median time, its nodes and mean cost, and
+the paired time ratio against each baseline (sums over the tasks every policy solved and the
+baseline reached), the figure `docs/results.md` holds to 0.7. One process: the ratios are comparable
 within a run, not across machines.
 """
 
@@ -77,7 +76,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="bc.py checkpoints to compare with the shipped policy, each "
                         "PATH[@noise_std=X,horizon=K,...]: any planner setting of "
-                             "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
+                        "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=500, help="validation tasks")
     parser.add_argument(
         "--seed-offset",

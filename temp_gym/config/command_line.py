@@ -51,15 +51,17 @@ CHECKPOINT_SETTINGS = {
     "horizon": int,
     "path_window": int,
     "attention_patience": int,
+    "attention_uniform": float,
     "attention_near_goal_factor": float,
     "attention_follow_fallback": float,
     "attention_resume": float,
     "attention_resume_growth": float,
     "attention_rounds": int,
 }
-"""Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`): the
-ones `temp_gym.models.registry.policy_from_checkpoint` takes, so that a run not yet shipped
-can be compared under the shipped policy's settings."""
+"""Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`), with
+their types: the ones `temp_gym.models.registry.policy_from_checkpoint` takes (it reads the
+keys from here), so that a run not yet shipped can be compared under the shipped policy's
+settings."""
 
 
 def checkpoint_entry(

@@ -201,26 +201,22 @@ def policy_from_checkpoint(
     used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``), the
     stall patience and the path window. A checkpoint without them gets n = None (all of the
     planner's ``max_nodes``), no noise, its whole chunk, the planner's default patience and
-    the whole path the model was trained on. Any other of them given by keyword
-    (`PLANNER_KEYS`: ``path_window=16``, ``attention_rounds=2``, ...) replaces the
-    checkpoint's: a training run not yet shipped is then compared under a shipped policy's
-    settings (`benchmarks/policy_speed.py`).
+    the whole path the model was trained on. Any other of them given by keyword (those of
+    `temp_gym.config.CHECKPOINT_SETTINGS`: ``path_window=16``, ``attention_rounds=2``, ...)
+    replaces the checkpoint's: a training run not yet shipped is then compared under a
+    shipped policy's settings (`benchmarks/policy_speed.py`).
 
     Raises:
-        ValueError: a keyword that is not one of `PLANNER_KEYS`.
+        ValueError: a keyword that is not one of those.
     """
-    unknown = sorted(set(planner) - set(PLANNER_KEYS))
-    if unknown:
-        raise ValueError(f"planner settings: unknown {unknown}; expected some of {PLANNER_KEYS}")
+    if planner:  # imported only here: the config package would add to a first plan's start-up
+        from temp_gym.config.command_line import CHECKPOINT_SETTINGS
+
+        keys = [key for key in CHECKPOINT_SETTINGS if key not in ("noise_std", "horizon")]
+        unknown = sorted(set(planner) - set(keys))
+        if unknown:
+            raise ValueError(f"planner settings: unknown {unknown}; expected some of {keys}")
     return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon, planner)
-
-
-PLANNER_KEYS = (
-    "path_window", "attention_patience", "attention_uniform", "attention_near_goal_factor",
-    "attention_follow_fallback", "attention_resume", "attention_resume_growth",
-    "attention_rounds",
-)  # fmt: skip
-"""The planner settings of a checkpoint that `policy_from_checkpoint` may replace by keyword."""
 
 
 def _policy_on(
