@@ -4,26 +4,26 @@ r"""Choose a policy's planner settings on validation workspaces: budget n, noise
         --attention-nodes 50 100 200 400 --noise-std 0 0.03 --horizon 1 2 4 --tasks 60 \\
         [--max-nodes 10000]
 
-For every combination of n, noise, horizon (proposals used per MPT call, up to the model's
-chunk; 0: all), path window (``--path-window``: the newest nodes of the path so far each MPT
-call reads; 0: all the model was trained on), stall patience (``--patience``; -1: the default
-rule), its factor near the goal (``--near-goal-factor``), share of uniform samples
-(``--uniform``) and probability of going on from a fallback node (``--follow-fallback``),
-whether a chunk goes on past a proposal that collided (``--keep-chunk``), the resume factor
-(``--resume``) and the growth of the classical turns between resumed phases
-(``--resume-growth``), whether a tree grows from the goal after an unsolved attention phase
-(``--goal-tree``), whether the policy grows that tree first after a stall (``--from-goal``: the
-attention phase from the goal) and how many more rounds of the two it takes when both stall
-(``--rounds``) it plans ``--tasks`` tasks drawn from the ``val`` workspaces (seen in no test;
-the test workspaces stay untouched until the final measurement, ``--split test`` with the
-chosen setting) with the ``temp`` planner up to the first solution, and prints nodes to the
-first solution (mean and median, a failure counted as the whole budget), the share solved by
-attention-based planning within n (from the start alone, and both ways: from the start, or from
-the goal after a stall, or in a later round), cost and time; and, against RRT* on the same
-tasks, the share of tasks where TEMP needed fewer nodes and the mean difference with its 95%
-paired bootstrap interval. The recommendation minimizes the mean nodes among the settings whose
-attention phase solves at least ``--min-attention-success`` of the tasks (both ways);
-``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
+For every combination of n, noise, horizon (proposals used per MPT call, up to the model's chunk;
+0: all), path window (``--path-window``: the newest nodes of the path so far each MPT call reads;
+0: all the model was trained on), stall patience (``--patience``; -1: the default rule), its factor
+near the goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
+going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a proposal that
+collided (``--keep-chunk``), the resume factor (``--resume``) and the growth of the classical turns
+between resumed phases (``--resume-growth``), whether a tree grows from the goal after an unsolved
+attention phase (``--goal-tree``), whether the policy grows that tree first after a stall
+(``--from-goal``: the attention phase from the goal) and how many more rounds of the two it takes
+when both stall (``--rounds``) it plans ``--tasks`` tasks drawn from the ``val`` workspaces, or
+from the 100 of the planner-tuning pool (``--split tune``, which estimates a failure rate of half a
+percent better than val's 20 workspaces; both seen in no test; the test workspaces stay untouched
+until the final measurement, ``--split test`` with the chosen setting) with the ``temp`` planner up
+to the first solution, and prints nodes to the first solution (mean and median, a failure counted
+as the whole budget), the share solved by attention-based planning within n (from the start alone,
+and both ways: from the start, or from the goal after a stall, or in a later round), cost and time;
+and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer nodes and the mean
+difference with its 95% paired bootstrap interval. The recommendation minimizes the mean nodes
+among the settings whose attention phase solves at least ``--min-attention-success`` of the tasks
+(both ways); ``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
@@ -78,9 +78,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--split",
         default="val",
-        choices=["val", "test", "ood"],
-        help="test: the final measurement; ood: the out-of-distribution family, --tasks runs "
-        "spread over its problems and seeds",
+        choices=["val", "tune", "test", "ood"],
+        help="tune: the planner-tuning pool (100 workspaces; temp_gym.worlds.splits); test: the "
+        "final measurement; ood: the out-of-distribution family, --tasks runs spread over its "
+        "problems and seeds",
     )
     parser.add_argument(
         "--horizon",

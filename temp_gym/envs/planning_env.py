@@ -127,7 +127,7 @@ class PlanningEnv(gym.Env):
       (default: the robot's).
     * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``.
     * ``encoding_resolution``: cells per axis of the occupancy grid (32 in 2D, 16 in 3D/7D).
-    * ``split``: ``train``, ``val`` or ``test`` workspace pool for drawn tasks.
+    * ``split``: ``train``, ``val``, ``test`` or ``tune`` workspace pool for drawn tasks.
     * ``workspace_family``: the family of those workspaces (`temp_gym.worlds.structured`;
       default ``boxes``, the robot's own generator; 2D and 3D point worlds also draw
       ``corridors``, ``maze``, ``traps``, ``narrow``, ``clutter`` or ``mixed``).

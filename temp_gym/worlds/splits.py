@@ -10,6 +10,12 @@ better to unseen ones than on the paper's 80 x 200 (the shipped 2D policy; its m
 the figures). Growing a pool leaves its first workspaces as they were. The test pool is
 disjoint from both.
 
+The ``tune`` pool (100 workspaces, disjoint from the others) is for choosing planner settings
+(`trainers/tune_planner.py --split tune`). The env draws a task's workspace uniformly from its
+split's pool, so growing ``val`` would redraw every validation task measured before; and 20
+workspaces are too few to estimate a failure rate of half a percent when failures cluster in a
+few workspaces (a narrow pocket), which is what the 2D policy's do.
+
 **Workspace families** (`temp_gym.worlds.structured`): the pools above are the default family,
 ``boxes`` (the robot's own generator), and never change. Any other family, ``mixed`` included,
 has pools of its own: its name joins the seed sequence (``SeedSequence([..., i,
@@ -28,8 +34,8 @@ from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.structured import BOXES, check_family
 
-SPLITS = {"train": 320, "val": 20, "test": 50}
-"""Number of workspaces in each split."""
+SPLITS = {"train": 320, "val": 20, "test": 50, "tune": 100}
+"""Number of workspaces in each split (new splits join at the end: a split's code is its place)."""
 SPLIT_ENTROPY = 20241122
 _SPLIT_CODES = {name: code for code, name in enumerate(SPLITS)}
 

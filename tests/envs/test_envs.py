@@ -224,9 +224,14 @@ def test_torchrl_gymenv_7d_specs_and_rollout():
 
 @pytest.mark.parametrize("difficulty", ["easy", "challenging", "mixed"])
 def test_difficulty_and_split_draws(difficulty):
-    env = gym.make("TEMP-2D-v0", difficulty=difficulty, split="test")
-    env.reset(seed=0)
-    assert env.unwrapped.problem.robot == "point2d"
+    from temp_gym.worlds.splits import SPLITS, split_workspace
+
+    for split in SPLITS:
+        env = gym.make("TEMP-2D-v0", difficulty=difficulty, split=split)
+        env.reset(seed=0)
+        assert env.unwrapped.problem.robot == "point2d"
+        pool = [split_workspace("point2d", split, index) for index in range(SPLITS[split])]
+        assert env.unwrapped.problem.workspace in pool
 
 
 @pytest.mark.parametrize(("env_id", "family"), [("TEMP-2D-v0", "maze"), ("TEMP-3D-v0", "traps")])

@@ -138,3 +138,30 @@ def test_rounds_after_stalls_both_ways_are_tried(capsys, monkeypatch):
     assert both[1] < both[0] <= both[2]
     recommended = next(line for line in out if line.startswith("recommended:"))
     assert "'attention_rounds'" in recommended
+
+
+def test_the_tuning_pool_is_a_split_of_its_own(capsys, monkeypatch):
+    """``--split tune`` plans tasks in the planner-tuning pool, not in the validation one."""
+    from temp_gym.training import episodes
+    from temp_gym.worlds.splits import SPLITS, split_workspace
+
+    monkeypatch.chdir(ROOT)
+    drawn = []
+    draw = episodes.draw_problems
+
+    def recording(config, split, count, seed, **kwargs):
+        problems = draw(config, split, count, seed, **kwargs)
+        drawn.append((split, problems))
+        return problems
+
+    monkeypatch.setattr(tune_planner.training, "draw_problems", recording)
+    tune_planner.main(
+        [*ARGS, "--split", "tune", "--attention-nodes", "40", "--max-nodes", "40",
+         "--noise-std", "0", "--tasks", "4", "--min-attention-success", "0"]
+    )  # fmt: skip
+    assert "4 tune tasks (boxes)" in capsys.readouterr().out
+    [(split, problems)] = drawn
+    pool = [split_workspace("point2d", "tune", i) for i in range(SPLITS["tune"])]
+    val = [split_workspace("point2d", "val", i) for i in range(SPLITS["val"])]
+    assert split == "tune"
+    assert all(p.workspace in pool and p.workspace not in val for p in problems)

@@ -198,6 +198,20 @@ def test_every_family_has_pools_of_its_own():
     assert split_workspace(POINT2D.name, "train", 1, "maze") != pools["maze"]
 
 
+def test_the_tuning_pool_is_disjoint_and_leaves_the_other_pools_alone():
+    """``tune`` joined the splits last: its workspaces are new, the others' are unchanged (their
+    digests above are checked in the test before)."""
+    from temp_gym.worlds.splits import SPLITS
+
+    assert list(SPLITS)[:3] == ["train", "val", "test"] and SPLITS["tune"] == 100
+    others = {_digest(split_workspace(POINT2D.name, split, index))
+              for split in ("train", "val", "test") for index in range(SPLITS[split])}  # fmt: skip
+    tune = {_digest(split_workspace(POINT2D.name, "tune", index)) for index in range(100)}
+    assert len(tune) == 100 and not tune & others
+    with pytest.raises(ValueError, match="split 'tune' has workspaces 0..99"):
+        split_workspace(POINT2D.name, "tune", 100)
+
+
 # ---- the out-of-distribution scenes stay held out ---------------------------------------------
 MEASURE_RESOLUTION = 64
 """Cells per axis of the occupancy grids compared: 0.3125 units, a third of a steering step,
