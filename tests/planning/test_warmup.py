@@ -51,19 +51,22 @@ SCRIPT = textwrap.dedent(
             return result
         registry[name] = counted
 
-    problems = json.loads(sys.argv[1])
+    problems, options = json.loads(sys.argv[1]), json.loads(sys.argv[2])
     for problem in problems if isinstance(problems, list) else [problems]:
-        for planner in sys.argv[2:]:
-            plan(Problem.from_dict(problem), planner, seed=0, max_nodes=300)
+        for planner in sys.argv[3:]:
+            plan(Problem.from_dict(problem), planner, seed=0, max_nodes=300, **options)
     print(json.dumps(calls))
     """
 )
 
 
-def _calls_in_a_fresh_process(problems, planners):
-    """SCRIPT's ``[planner, max_nodes, new specializations]`` per planner call."""
+def _calls_in_a_fresh_process(problems, planners, options=None):
+    """SCRIPT's ``[planner, max_nodes, new specializations]`` per planner call.
+
+    ``options`` are keyword arguments of every timed `plan` call.
+    """
     done = subprocess.run(
-        [sys.executable, "-c", SCRIPT, json.dumps(problems), *planners],
+        [sys.executable, "-c", SCRIPT, json.dumps(problems), json.dumps(options or {}), *planners],
         capture_output=True,
         text=True,
         timeout=600,
@@ -80,6 +83,17 @@ def test_the_timed_run_compiles_nothing(robot):
     warm_ups = [call for call in calls if call[1] == WARM_UP_NODES]
     assert [call[0] for call in timed] == planners
     assert sum(call[2] for call in warm_ups) > 0  # a fresh process does compile or load
+    assert all(call[2] == 0 for call in timed), timed
+
+
+@pytest.mark.parametrize("robot", sorted(PROBLEMS))
+def test_a_timed_run_that_grows_a_goal_tree_compiles_nothing(robot):
+    """The warm-up's attention phase solves these problems, so the goal tree (built when an
+    attention phase stops unsolved, as one attention node does here) is met first by a timed
+    run; the warm-up's third plan joined a goal tree before it."""
+    calls = _calls_in_a_fresh_process(PROBLEMS[robot], ["temp"], {"attention_nodes": 1})
+    timed = [call for call in calls if call[1] == 300]
+    assert [call[0] for call in timed] == ["temp"]
     assert all(call[2] == 0 for call in timed), timed
 
 
@@ -100,14 +114,7 @@ def test_a_workspace_that_needs_the_exact_free_volume_compiles_nothing_either():
 
 def test_ompl_warms_up_through_our_planner_and_keeps_its_seed():
     pytest.importorskip("ompl")
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT, json.dumps(PROBLEMS["point2d"]), "ompl_rrt_star"],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stderr[-3000:]
-    calls = json.loads(done.stdout.strip().splitlines()[-1])
+    calls = _calls_in_a_fresh_process(PROBLEMS["point2d"], ["ompl_rrt_star"])
     # OMPL itself runs once, timed: its process-wide seed stays the caller's.
     assert [call[0] for call in calls] == ["rrt_star", "rrt_star", "ompl_rrt_star"]
     assert calls[-1][2] == 0
