@@ -87,9 +87,8 @@ def warm_up(
     # call the fast checker's Python methods: compile those too.
     checker = make_checker(problem)
     if name == "temp" and settings.goal_tree is not False:
-        joinable = _joinable_goal(problem, checker, settings.step_size)
-        if joinable is not None:  # the attention phase ends unsolved, the goal tree joins
-            near = problem.replace(goal=joinable.tolist())
+        near = _joinable_problem(problem, checker, settings.step_size)
+        if near is not None:  # the attention phase ends unsolved, the goal tree joins
             planners[name](near, replace(short, attention_nodes=1))
     start = np.array(problem.start, dtype=np.float64)  # writable, as the callers' arrays are
     checker.states_free(start[None])
@@ -103,12 +102,13 @@ def warm_up(
     return True
 
 
-def _joinable_goal(problem: Problem, checker, step_size: float | None) -> np.ndarray | None:
-    """A goal one step and two goal radii from the start, with a free straight motion to it.
+def _joinable_problem(problem: Problem, checker, step_size: float | None) -> Problem | None:
+    """``problem`` with its goal one step and two goal radii from the start, a free motion away.
 
-    One attention node cannot reach its goal region, so a plan stopped after one node has a
-    goal tree, whose first join (the start to this goal) succeeds. Tried towards the goal and
-    then away from it; None when neither is free or inside the bounds.
+    One attention node cannot reach that goal's region, so a plan stopped after one node has
+    a goal tree, whose first join (the start to this goal) succeeds. Tried towards the goal and
+    then away from it; None when neither is free and inside the bounds (a best effort: the
+    warm-up never fails a plan).
     """
     start = np.asarray(problem.start, dtype=np.float64)
     direction = np.asarray(problem.goal, dtype=np.float64) - start
@@ -122,5 +122,8 @@ def _joinable_goal(problem: Problem, checker, step_size: float | None) -> np.nda
         goal = start + sign * direction * (distance / length)
         inside = bool(np.all(goal >= bounds[0]) and np.all(goal <= bounds[1]))
         if inside and checker.states_free(goal[None])[0] and checker.edge_free(start, goal):
-            return goal
+            try:
+                return problem.replace(goal=goal.tolist())
+            except ValueError:  # the problem's own checks refuse it (never seen)
+                continue
     return None

@@ -8,6 +8,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from temp_gym.planning.warmup import WARM_UP_NODES
@@ -159,3 +160,40 @@ def test_the_warm_up_never_calls_the_callers_policy(monkeypatch, wall):
     plan(problem, policy=policy, seed=0, max_nodes=10)
     assert len(copies) == 1 and copies[0] is not policy and copies[0].core is policy.core
     assert copies[0].noise_std == policy.noise_std and copies[0].horizon == policy.horizon
+
+
+def test_the_joinable_query_is_a_free_motion_one_step_and_two_radii_away(wall):
+    from temp_gym import Problem
+    from temp_gym.planning.tree import default_step_size
+    from temp_gym.planning.warmup import _joinable_problem
+    from temp_gym.worlds.checkers import make_checker
+
+    problem = Problem.from_dict(wall)
+    near = _joinable_problem(problem, make_checker(problem), None)
+    distance = default_step_size(problem) + 2 * problem.goal_radius
+    assert near is not None and near.workspace == problem.workspace
+    assert np.allclose(near.start, problem.start)
+    assert np.isclose(np.linalg.norm(near.goal - near.start), distance)
+    assert near.goal[0] > problem.start[0]  # towards the goal first
+    # Blocked towards the goal: away from it. Blocked both ways: none, and plans still run.
+    walled = dict(wall, obstacles=[{"center": [2.5, 10], "half_extents": [0.1, 3]}])
+    near = _joinable_problem(
+        Problem.from_dict(walled), make_checker(Problem.from_dict(walled)), 1.0
+    )
+    assert near is not None and near.goal[0] < 2
+    boxed = dict(
+        walled, obstacles=[*walled["obstacles"], {"center": [1.5, 10], "half_extents": [0.1, 3]}]
+    )
+    boxed_problem = Problem.from_dict(boxed)
+    assert _joinable_problem(boxed_problem, make_checker(boxed_problem), 1.0) is None
+
+
+def test_the_warm_up_plans_a_query_it_cannot_join_without_failing(monkeypatch, wall):
+    import temp_gym.planning.warmup as warmup
+    from temp_gym import Problem, plan
+
+    boxed = dict(wall, obstacles=[{"center": [2.5, 10], "half_extents": [0.1, 3]},
+                                  {"center": [1.5, 10], "half_extents": [0.1, 3]}])  # fmt: skip
+    monkeypatch.setattr(warmup, "_WARMED", set())  # as in a fresh process
+    result = plan(Problem.from_dict(boxed), seed=0, max_nodes=300, step_size=1.0)
+    assert result.nodes > 1
