@@ -38,7 +38,13 @@ from typing import Any
 import torch
 import yaml
 
-from temp_gym.config import Config, load_config, parse_args, script_parser
+from temp_gym.config import (
+    CHECKPOINT_SETTINGS,
+    Config,
+    load_config,
+    parse_args,
+    script_parser,
+)
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
@@ -219,12 +225,10 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     return lines
 
 
-PLANNER_KEYS = (
-    "attention_nodes", "noise_std", "horizon", "attention_patience", "attention_near_goal_factor",
-    "attention_follow_fallback", "attention_resume", "attention_resume_growth",
-    "attention_rounds", "path_window", "chosen_by",
-)  # fmt: skip
-"""The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them)."""
+PLANNER_KEYS = ("attention_nodes", *CHECKPOINT_SETTINGS, "chosen_by")
+"""The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them):
+the settings any checkpoint entry may give (`temp_gym.config.CHECKPOINT_SETTINGS`, one list),
+the attention budget, and the text saying how they were chosen."""
 
 
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
@@ -297,6 +301,14 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
             else f"{planner['attention_rounds']} more round(s) of the two"
         )
         + ", a resumed attention phase on each tree in turn.",
+        *(
+            []
+            if not planner.get("attention_uniform")
+            else [
+                f"- A share of {planner['attention_uniform']:g} of the attention phase's samples "
+                "is uniform, not the policy's (`attention_uniform`)."
+            ]
+        ),
         f"- How they were chosen: {planner['chosen_by']}.",
     ]
 

@@ -166,6 +166,13 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     ship.main(["--update-planner", "TEMP-2D-v0", "path_window=3", "--out-dir", out])
     assert registry.policy_from_checkpoint(path).window == 3
     assert "the newest 3 nodes (`path_window`)" in path.with_suffix(".md").read_text()
+    assert "uniform, not the policy's" not in path.with_suffix(".md").read_text()
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_uniform=0.1", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).attention_uniform == 0.1
+    assert "A share of 0.1 of the attention phase's samples is uniform" in (
+        path.with_suffix(".md").read_text()
+    )
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_uniform=0", "--out-dir", out])
     for bad, message in [
         ("path_window=0", "path_window"),
         ("path_window=1000", "path_window"),
@@ -174,6 +181,7 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         ("attention_resume=-1", "attention_resume"),
         ("attention_resume_growth=0.5", "attention_resume_growth"),
         ("attention_follow_fallback=2", "attention_follow_fallback"),
+        ("attention_uniform=1.5", "attention_uniform"),
         ("noise_std=-1", "noise_std"),
         ("colour=red", "key=value"),
         ("attention_follow_fallback", "key=value"),
@@ -183,6 +191,12 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
     assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 1,
                                     "attention_resume_growth": 4, "attention_rounds": 2,
-                                    "path_window": 3}  # fmt: skip
+                                    "path_window": 3, "attention_uniform": 0}  # fmt: skip
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
+
+
+def test_ship_updates_every_setting_a_checkpoint_entry_may_give():
+    from temp_gym.config import CHECKPOINT_SETTINGS
+
+    assert set(CHECKPOINT_SETTINGS) <= set(ship.PLANNER_KEYS)
