@@ -309,6 +309,15 @@ def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
                 "is uniform, not the policy's (`attention_uniform`)."
             ]
         ),
+        *(
+            []
+            if not planner.get("attention_local_fallback")
+            else [
+                f"- When a proposal collides, its first {planner['attention_local_fallback']} "
+                "replacements are drawn near it, then uniform ones (`attention_local_fallback`; "
+                "Algorithm 1 draws them all uniform)."
+            ]
+        ),
         f"- How they were chosen: {planner['chosen_by']}.",
     ]
 

@@ -57,6 +57,7 @@ CHECKPOINT_SETTINGS = {
     "attention_resume": float,
     "attention_resume_growth": float,
     "attention_rounds": int,
+    "attention_local_fallback": int,
 }
 """Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`), with
 their types: the ones `temp_gym.models.registry.policy_from_checkpoint` takes (it reads the

@@ -56,6 +56,7 @@ from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
 from temp_gym.planning.result import (
+    local_fallback_count,
     near_goal_factor,
     noise_level,
     resume_factor,
@@ -261,6 +262,8 @@ class TEMPPolicy:
         attention_rounds: rounds of the attention phase from both trees after it stalled from
             the start and from the goal, when ``plan`` is given none (None: the planner's
             `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none).
+        attention_local_fallback: replacements of a colliding proposal drawn near it before
+            uniform ones, when ``plan`` is given none (None: 0, Algorithm 1).
         path_window: the newest nodes of the path so far the MPT reads, at most the L it was
             trained on (None: all L). The path tokens' positions count back from the newest
             node, so a window shows the model the same tokens as the whole path less the oldest
@@ -288,6 +291,7 @@ class TEMPPolicy:
         attention_resume_growth: float | None = None,
         attention_rounds: int | None = None,
         path_window: int | None = None,
+        attention_local_fallback: int | None = None,
     ) -> None:
         noise_std = noise_level(noise_std)
         if seed is not None:
@@ -320,6 +324,11 @@ class TEMPPolicy:
             None if attention_resume_growth is None else resume_growth(attention_resume_growth)
         )
         self.attention_rounds = None if attention_rounds is None else rounds_count(attention_rounds)
+        self.attention_local_fallback = (
+            None
+            if attention_local_fallback is None
+            else local_fallback_count(attention_local_fallback)
+        )
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
             raise ValueError(
@@ -419,6 +428,7 @@ class TEMPPolicy:
             attention_resume=self.attention_resume,
             attention_resume_growth=self.attention_resume_growth,
             attention_rounds=self.attention_rounds, path_window=self.path_window,
+            attention_local_fallback=self.attention_local_fallback,
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

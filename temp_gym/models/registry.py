@@ -252,6 +252,7 @@ def _policy_on(
         attention_resume_growth=planner.get("attention_resume_growth"),
         attention_rounds=planner.get("attention_rounds"),
         path_window=planner.get("path_window"),
+        attention_local_fallback=planner.get("attention_local_fallback"),
     )
 
 

@@ -53,10 +53,11 @@ root path the MPT reads."""
 PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED, ANCHOR = range(len(STATE))
 LIMITS = (
     "attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries",
-    "near_patience",
+    "near_patience", "local_tries",
 )  # fmt: skip
-"""The int64 budgets of the phase."""
-ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES, NEAR_PATIENCE = range(len(LIMITS))
+"""The int64 budgets of the phase (and the replacements of a proposal drawn near it)."""
+(ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES, NEAR_PATIENCE,
+ LOCAL_TRIES) = range(len(LIMITS))  # fmt: skip
 
 RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE = range(7)
 """Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
@@ -114,14 +115,14 @@ def attention_slice(
             state[PENDING] = 0
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, goal, False, rng,
-                buffer, cursor, limits[MAX_TRIES],
+                buffer, cursor, limits[MAX_TRIES], 0,
             )  # fmt: skip
         elif uniform > 0.0 and rng.random() < uniform:
             state[PENDING] = 0
             sample = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, sample, False, rng,
-                buffer, cursor, limits[MAX_TRIES],
+                buffer, cursor, limits[MAX_TRIES], 0,
             )  # fmt: skip
         else:
             if state[PENDING] == 0:
@@ -146,7 +147,7 @@ def attention_slice(
             state[PROPOSALS] += 1
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, proposals[row], True,
-                rng, buffer, cursor, limits[MAX_TRIES],
+                rng, buffer, cursor, limits[MAX_TRIES], limits[LOCAL_TRIES],
             )  # fmt: skip
             if node == BAD_ACTION:
                 return NOT_FINITE

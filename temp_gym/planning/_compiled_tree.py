@@ -204,25 +204,51 @@ def fallback_sample(rng, low, high, buffer, cursor):
     return row
 
 
+LOCAL_HALF_WIDTH = 0.15
+"""Half-width, in normalized units, of the box around a failed proposal that its first
+``local_tries`` replacements come from (`near_proposal`)."""
+
+
+@numba.njit(cache=True, nogil=True)
+def near_proposal(proposal, uniform, bounds, out):
+    """A replacement in the box of half-width `LOCAL_HALF_WIDTH` around a normalized proposal.
+
+    ``uniform`` is a uniform draw in ``bounds`` (world units), mapped to ``[-1, 1]`` and scaled
+    into the box; the result is clipped to ``[-1, 1]`` and written, normalized, into ``out``.
+    `Tree.extend_with_fallback` computes the same values in numpy.
+    """
+    for k in range(proposal.shape[0]):
+        unit = 2.0 * (uniform[k] - bounds[0, k]) / (bounds[1, k] - bounds[0, k]) - 1.0
+        out[k] = min(1.0, max(-1.0, proposal[k] + LOCAL_HALF_WIDTH * unit))
+    return out
+
+
 @numba.njit(cache=True, nogil=True)
 def extend_with_fallback(
     arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, rng,
-    buffer, cursor, max_tries,
+    buffer, cursor, max_tries, local_tries,
 ):  # fmt: skip
     """`Tree.extend_with_fallback` with a uniform fallback sampler: ``(node, samples)``.
 
     ``node`` is the added node, `NO_NODE` when ``max_tries`` replacements all failed, or
-    `BAD_ACTION`; ``samples`` is how many samples this call used.
+    `BAD_ACTION`; ``samples`` is how many samples this call used. A normalized ``sample`` (a
+    policy's proposal) has its first ``local_tries`` replacements drawn near it
+    (`near_proposal`), the rest uniform; 0 is Algorithm 1.
     """
     node = extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized)
     if node == BAD_ACTION:
         return node, 0
     samples = 1
     tries = 0
+    local = np.empty(sample.shape[0])
     while node < 0 and tries < max_tries:
         replacement = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
-        node = extend(arrays, counters, best_cost, params, goal, bounds, context, replacement,
-                      False)  # fmt: skip
+        if normalized and tries < local_tries:
+            near_proposal(sample, replacement, bounds, local)
+            node = extend(arrays, counters, best_cost, params, goal, bounds, context, local, True)
+        else:
+            node = extend(arrays, counters, best_cost, params, goal, bounds, context,
+                          replacement, False)  # fmt: skip
         tries += 1
         samples += 1
     return node, samples

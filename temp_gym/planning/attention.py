@@ -150,6 +150,9 @@ class AttentionLimits:
     never stalls anywhere)."""
     deadline: float = math.inf
     """``time.perf_counter()`` value at which the phase stops."""
+    local_tries: int = 0
+    """Replacements of a colliding proposal drawn near it before uniform ones (0: Algorithm 1;
+    `Tree.extend_with_fallback`)."""
 
 
 @dataclass
@@ -342,8 +345,9 @@ def _run_python(
             if next_row == len(chunk):
                 chunk = None
             result = tree.extend_with_fallback(
-                action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True
-            )
+                action, fallback, rng, MAX_FALLBACK_TRIES, normalized=True,
+                local_tries=limits.local_tries,
+            )  # fmt: skip
             if result.node < 0 or (result.samples > 1 and not keep_chunk):
                 chunk = None
         if result.node >= 0:
@@ -422,7 +426,7 @@ def _run_compiled(
     closest = np.array([closest_sq])
     budget = np.array(
         [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
-         MAX_FALLBACK_TRIES, limits.near_patience],
+         MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries],
         dtype=np.int64,
     )  # fmt: skip
     near_sq = float(limits.near_sq)

@@ -71,6 +71,7 @@ def plan(
     goal_tree: bool | None = None,
     attention_from_goal: bool | None = None,
     attention_rounds: int | None = None,
+    attention_local_fallback: int | None = None,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
 
@@ -148,6 +149,9 @@ def plan(
             on each tree in turn, before Informed RRT*'s samples grow them (None:
             `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`, 1; 0: none). Needs
             ``attention_from_goal``.
+        attention_local_fallback: ``temp`` only: when a policy's proposal collides, this
+            many replacements are drawn near it (a small box around it) before uniform ones
+            (None: the policy's own setting, else 0, Algorithm 1).
 
     Raises:
         ValueError: For an unknown planner or an invalid argument (`PlanSettings` checks
@@ -169,7 +173,7 @@ def plan(
         attention_resume=attention_resume, attention_resume_growth=attention_resume_growth,
         attention_keep_chunk=attention_keep_chunk,
         goal_tree=goal_tree, attention_from_goal=attention_from_goal,
-        attention_rounds=attention_rounds,
+        attention_rounds=attention_rounds, attention_local_fallback=attention_local_fallback,
     )  # fmt: skip
     if settings.policy is not None and planner != "temp":
         raise ValueError(f"policy: only the temp planner takes a policy, not {planner!r}")

@@ -37,13 +37,15 @@ policy without one (or with None) gets the default:
   `DEFAULT_MAX_PATH_LENGTH`);
 * ``attention_nodes``, ``attention_patience``, ``attention_uniform``,
   ``attention_near_goal_factor``, ``attention_follow_fallback``, ``attention_resume``,
-  ``attention_resume_growth``, ``attention_rounds``: the attention phase's budget, stall
-  patience, share of uniform samples, patience factor near the goal, probability of going on
-  from a fallback node, classical nodes before it resumes after a stall (in patiences), how
-  much longer each later classical turn is, and rounds from both trees after it stalled both
-  ways, when ``plan`` is given none (defaults: all of ``max_nodes``,
+  ``attention_resume_growth``, ``attention_rounds``, ``attention_local_fallback``: the
+  attention phase's budget, stall patience, share of uniform samples, patience factor near
+  the goal, probability of going on from a fallback node, classical nodes before it resumes
+  after a stall (in patiences), how much longer each later classical turn is, rounds from
+  both trees after it stalled both ways, and replacements of a colliding proposal drawn near
+  it, when ``plan`` is given none (defaults: all of ``max_nodes``,
   `temp_gym.planning.attention.default_patience`, 0, 1, 1,
-  `temp_gym.planning.attention.RESUME_AFTER`, 1, `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`).
+  `temp_gym.planning.attention.RESUME_AFTER`, 1, `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`,
+  0).
 
 A policy whose ``reset`` takes the problem alone still works through `as_sampling_policy`
 (``plan`` adapts it, with a ``DeprecationWarning``).
@@ -128,6 +130,7 @@ class PolicySettings:
     attention_resume: float | None = None
     attention_resume_growth: float | None = None
     attention_rounds: int | None = None
+    attention_local_fallback: int | None = None
 
 
 POLICY_SETTINGS = tuple(field.name for field in fields(PolicySettings))

@@ -74,6 +74,14 @@ def resume_growth(value: object, name: str = "attention_resume_growth") -> float
     return _finite_at_least(value, name, 1.0)
 
 
+def local_fallback_count(value: object, name: str = "attention_local_fallback") -> int:
+    """A count of replacements drawn near a colliding proposal, or a `ValueError` naming ``name``.
+
+    (`PlanSettings.attention_local_fallback`; 0: none, Algorithm 1.)
+    """
+    return _count(value, name, 0)
+
+
 def rounds_count(value: object, name: str = "attention_rounds") -> int:
     """A number of rounds of the attention phase after it stalled both ways: an integer >= 0.
 
@@ -190,6 +198,11 @@ class PlanSettings:
     else `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none). Needs the phase from the
     goal."""
 
+    attention_local_fallback: int | None = None
+    """``temp`` planner: when a policy's proposal collides, this many of its replacements are
+    drawn near it before uniform ones (`temp_gym.planning.tree.Tree.extend_with_fallback`;
+    None: the policy's own setting, else 0, Algorithm 1's uniform replacements)."""
+
     def __post_init__(self) -> None:
         def normalize(name: str, value: object) -> None:
             object.__setattr__(self, name, value)
@@ -219,6 +232,7 @@ class PlanSettings:
             ("max_samples", 1),
             ("attention_nodes", 1),
             ("attention_patience", 0),
+            ("attention_local_fallback", 0),
         ):
             value = getattr(self, name)
             if value is not None:

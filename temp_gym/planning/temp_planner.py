@@ -96,6 +96,7 @@ from temp_gym.planning.result import (
     AnytimeLog,
     PlanResult,
     PlanSettings,
+    local_fallback_count,
     near_goal_factor,
     resume_factor,
     resume_growth,
@@ -162,6 +163,10 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     )
 
     # ---- attention-based planning (Algorithm 1)
+    local_tries = settings.attention_local_fallback
+    if local_tries is None:  # the policy's own, checked as plan() checks its argument
+        declared_tries = declared.attention_local_fallback
+        local_tries = 0 if declared_tries is None else local_fallback_count(declared_tries)
     limits = AttentionLimits(
         attention_nodes=attention_nodes,
         max_nodes=settings.max_nodes,
@@ -170,6 +175,7 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         near_sq=near_sq,
         near_patience=near_patience,
         deadline=settings.deadline(log.started),
+        local_tries=local_tries,
     )
     uniform = settings.attention_uniform
     if uniform is None:

@@ -44,6 +44,7 @@ import numpy as np
 
 from temp_gym.planning import _compiled_tree, _grid
 from temp_gym.planning import _kernels as kernels
+from temp_gym.planning._compiled_tree import LOCAL_HALF_WIDTH
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision import CollisionChecker
 from temp_gym.worlds.collision.compiled import compiled_context_of
@@ -626,8 +627,16 @@ class Tree:
         rng: np.random.Generator,
         max_tries: int = 1000,
         normalized: bool = False,
+        local_tries: int = 0,
     ) -> ExtendResult:
         """Algorithm 1, lines 5-10: try ``sample``; while it fails, retry with random samples.
+
+        With ``local_tries`` > 0 and a normalized ``sample`` (a policy's proposal), the first
+        that many retries are drawn near the proposal instead: each random sample, mapped to
+        ``[-1, 1]``, is scaled into the box of half-width `LOCAL_HALF_WIDTH` around it (clipped
+        to the bounds). A proposal that grazes an obstacle is continued past it, where a
+        uniform retry lands anywhere; on walled-in arm tasks nearly every uniform retry
+        collides. The compiled loop draws the same values.
 
         Args:
             sample: The proposed state (e.g. from the attention policy).
@@ -636,6 +645,7 @@ class Tree:
             max_tries: Most random retries, so a walled-in tree cannot loop forever.
             normalized: ``sample`` (not the replacements) is a normalized action, as in
                 `extend`.
+            local_tries: Retries drawn near a normalized ``sample`` before uniform ones.
 
         Returns:
             The `ExtendResult` of the last attempt, with ``samples``, ``failures`` and
@@ -643,10 +653,20 @@ class Tree:
         """
         if max_tries < 0:
             raise ValueError(f"max_tries: must be non-negative, got {max_tries}")
+        if local_tries < 0:
+            raise ValueError(f"local_tries: must be non-negative, got {local_tries}")
         result = self.extend(sample, normalized)
         samples, failures, checks, tries = 1, result.failures, result.collision_checks, 0
+        low, high = self._bounds
         while result.node < 0 and tries < max_tries:
-            result = self.extend(sampler.sample(rng))
+            replacement = sampler.sample(rng)
+            if normalized and tries < local_tries:
+                unit = 2.0 * (replacement - low) / (high - low) - 1.0
+                proposal = np.asarray(sample, dtype=np.float64)
+                near = np.minimum(1.0, np.maximum(-1.0, proposal + LOCAL_HALF_WIDTH * unit))
+                result = self.extend(near, normalized=True)
+            else:
+                result = self.extend(replacement)
             tries += 1
             samples += 1
             failures += result.failures

@@ -46,11 +46,15 @@ def _grow(
     near=(-1.0, 0),
     follow=1.0,
     keep_chunk=False,
+    local_tries=0,
 ):
     policy.reset(problem, seed=seed)
     tree = Tree(problem, capacity=16)  # small: the compiled loop must grow it on the way
     rng = np.random.default_rng(seed)
-    limits = AttentionLimits(1500, 1500, 150_000, patience, near_sq=near[0], near_patience=near[1])
+    limits = AttentionLimits(
+        1500, 1500, 150_000, patience, near_sq=near[0], near_patience=near[1],
+        local_tries=local_tries,
+    )  # fmt: skip
     outcome = run_attention_phase(
         tree, policy, rng, goal_bias, limits, compiled_loop, uniform, follow_fallback=follow,
         keep_chunk=keep_chunk,
@@ -117,6 +121,62 @@ def test_compiled_loop_grows_the_python_loops_tree(robot, policy_kind, patience)
         )  # fmt: skip
         assert (rng_c, noise_c) == (rng_p, noise_p)  # both generators drew the same numbers
         assert tree_c.num_nodes > 16  # the arrays were grown
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
+def test_both_loops_draw_replacements_near_the_proposal_alike(robot):
+    rng = np.random.default_rng(7)
+    nearer = 0
+    for index in range(3):
+        problem = generate_problem(robot, rng, "challenging")
+        runs = [
+            _grow(
+                problem, load_policy(robot, noise_std=0.05), index, compiled_loop, 0, local_tries=20
+            )  # fmt: skip
+            for compiled_loop in (True, False)
+        ]
+        (tree_c, out_c, rng_c, noise_c), (tree_p, out_p, rng_p, noise_p) = runs
+        assert out_c.compiled and not out_p.compiled
+        _assert_same_tree(tree_c, tree_p)
+        assert (rng_c, noise_c) == (rng_p, noise_p)
+        # The setting changes the tree whenever a proposal collided (Algorithm 1 otherwise).
+        uniform_tree = _grow(problem, load_policy(robot, noise_std=0.05), index, True, 0)[0]
+        if tree_c.sampling_failures > 0:
+            nearer += uniform_tree.num_nodes != tree_c.num_nodes or not np.array_equal(
+                uniform_tree.positions[: tree_c.num_nodes], tree_c.positions[: tree_c.num_nodes]
+            )
+    assert nearer > 0
+
+
+def test_replacements_near_a_proposal_stay_in_its_box_and_the_bounds(wall):
+    problem = Problem.from_dict(wall)
+    tree = Tree(problem)
+    low, high = problem.bounds
+
+    class Recording:
+        def __init__(self):
+            self.extended = []
+
+        def sample(self, rng):
+            return rng.uniform(low, high)
+
+    sampler = Recording()
+    original = tree.extend
+    calls = []
+    tree.extend = lambda sample, normalized=False: (
+        calls.append((np.array(sample, dtype=float), normalized)) or original(sample, normalized)
+    )
+    proposal = np.array([0.95, -0.2])  # towards the wall from the start: every try collides
+    tree.extend_with_fallback(proposal, sampler, np.random.default_rng(0), max_tries=30,
+                              normalized=True, local_tries=10)  # fmt: skip
+    near = [sample for sample, normalized in calls[1:] if normalized]
+    assert calls[0][1] and len(near) == min(10, len(calls) - 1)
+    for sample in near:
+        assert np.all(np.abs(sample - np.clip(sample, -1, 1)) == 0)
+        assert np.all(np.abs(sample - proposal) <= 0.15 + 1e-12)
+    assert all(not normalized for _, normalized in calls[11:])  # then uniform, world units
+    with pytest.raises(ValueError, match="local_tries"):
+        tree.extend_with_fallback(proposal, sampler, np.random.default_rng(0), local_tries=-1)
 
 
 @pytest.mark.parametrize("robot", ["point2d", "point3d"])

@@ -168,3 +168,28 @@ def test_without_a_policy_the_planner_asks_the_default_hook(wall, monkeypatch):
     monkeypatch.setattr(temp_planner, "_default_policy", None)
     with pytest.raises(ValueError, match="no default policy"):
         temp_planner.temp(problem, temp_planner.PlanSettings(max_nodes=10))
+
+
+def test_replacements_near_the_proposal_are_a_setting_of_plan_or_of_the_policy():
+    from temp_gym.models.registry import load_policy
+    from temp_gym.worlds.generators import generate_problem
+
+    problem = generate_problem("kuka_iiwa14", np.random.default_rng(2), "challenging")
+    policy = load_policy("kuka_iiwa14")
+    uniform = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True)
+    near = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True,
+                attention_local_fallback=20)  # fmt: skip
+    declared = plan(problem, policy=policy.fresh(attention_local_fallback=20), seed=0,
+                    max_nodes=2000, stop_at_first=True)  # fmt: skip
+    explicit_zero = plan(problem, policy=policy.fresh(attention_local_fallback=20), seed=0,
+                         max_nodes=2000, stop_at_first=True,
+                         attention_local_fallback=0)  # fmt: skip
+    assert uniform.attention["sampling_failures"] > 0  # a proposal collided: the setting acts
+    assert near.nodes == declared.nodes and np.array_equal(near.path, declared.path)
+    assert explicit_zero.nodes == uniform.nodes and np.array_equal(explicit_zero.path, uniform.path)
+    assert near.nodes != uniform.nodes or not np.array_equal(near.path, uniform.path)
+    for result in (uniform, near):
+        assert result.success and certify_path(problem, result.path)
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="attention_local_fallback"):
+            plan(problem, policy=policy, attention_local_fallback=bad)

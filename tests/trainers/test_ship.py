@@ -173,6 +173,11 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         path.with_suffix(".md").read_text()
     )
     ship.main(["--update-planner", "TEMP-2D-v0", "attention_uniform=0", "--out-dir", out])
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_local_fallback=20", "--out-dir", out])
+    assert registry.policy_from_checkpoint(path).attention_local_fallback == 20
+    assert "its first 20 replacements are drawn near it" in path.with_suffix(".md").read_text()
+    ship.main(["--update-planner", "TEMP-2D-v0", "attention_local_fallback=0", "--out-dir", out])
+    assert "replacements are drawn near it" not in path.with_suffix(".md").read_text()
     for bad, message in [
         ("path_window=0", "path_window"),
         ("path_window=1000", "path_window"),
@@ -182,6 +187,7 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         ("attention_resume_growth=0.5", "attention_resume_growth"),
         ("attention_follow_fallback=2", "attention_follow_fallback"),
         ("attention_uniform=1.5", "attention_uniform"),
+        ("attention_local_fallback=-1", "attention_local_fallback"),
         ("noise_std=-1", "noise_std"),
         ("colour=red", "key=value"),
         ("attention_follow_fallback", "key=value"),
@@ -191,7 +197,8 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
     assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 1,
                                     "attention_resume_growth": 4, "attention_rounds": 2,
-                                    "path_window": 3, "attention_uniform": 0}  # fmt: skip
+                                    "path_window": 3, "attention_uniform": 0,
+                                    "attention_local_fallback": 0}  # fmt: skip
     with pytest.raises(SystemExit, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
 
