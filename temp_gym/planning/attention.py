@@ -11,7 +11,9 @@ Each iteration:
    while each one extends the tree at its first try: a fallback, a failed extension or a
    goal-bias step drops the rest, since they continued a path the tree did not take;
 3. `Tree.extend_with_fallback`: nearest and steer; while the edge collides, uniform random
-   samples replace the proposal (Algorithm 1, lines 5-10); choose-parent, insert, rewire;
+   samples replace the proposal (Algorithm 1, lines 5-10; with ``local_tries`` of the limits,
+   `AttentionLimits`, the first that many replacements of a policy's proposal are drawn from
+   a small box around it instead); choose-parent, insert, rewire;
 4. the path so far the policy reads next (Algorithm 1's UpdatePath) is the root path of the
    new node; but when that node is a fallback sample that brought the tree no closer to the
    goal, only with probability ``follow_fallback`` (1 by default, as in Algorithm 1; a draw
