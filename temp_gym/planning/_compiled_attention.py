@@ -102,6 +102,7 @@ def attention_slice(
     positions, _, links = arrays[0], arrays[1], arrays[2]
     capacity = positions.shape[0]
     chunk, dim = proposals.shape
+    local = np.empty(dim)  # scratch of the replacements drawn near a proposal
     for _ in range(max_iterations):
         if counters[BEST_NODE] >= 0:
             return SOLVED
@@ -115,14 +116,14 @@ def attention_slice(
             state[PENDING] = 0
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, goal, False, rng,
-                buffer, cursor, limits[MAX_TRIES], 0,
+                buffer, cursor, limits[MAX_TRIES], 0, local,
             )  # fmt: skip
         elif uniform > 0.0 and rng.random() < uniform:
             state[PENDING] = 0
             sample = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, sample, False, rng,
-                buffer, cursor, limits[MAX_TRIES], 0,
+                buffer, cursor, limits[MAX_TRIES], 0, local,
             )  # fmt: skip
         else:
             if state[PENDING] == 0:
@@ -147,7 +148,7 @@ def attention_slice(
             state[PROPOSALS] += 1
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, proposals[row], True,
-                rng, buffer, cursor, limits[MAX_TRIES], limits[LOCAL_TRIES],
+                rng, buffer, cursor, limits[MAX_TRIES], limits[LOCAL_TRIES], local,
             )  # fmt: skip
             if node == BAD_ACTION:
                 return NOT_FINITE

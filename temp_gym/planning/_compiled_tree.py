@@ -226,21 +226,21 @@ def near_proposal(proposal, uniform, bounds, out):
 @numba.njit(cache=True, nogil=True)
 def extend_with_fallback(
     arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, rng,
-    buffer, cursor, max_tries, local_tries,
+    buffer, cursor, max_tries, local_tries, local,
 ):  # fmt: skip
     """`Tree.extend_with_fallback` with a uniform fallback sampler: ``(node, samples)``.
 
     ``node`` is the added node, `NO_NODE` when ``max_tries`` replacements all failed, or
     `BAD_ACTION`; ``samples`` is how many samples this call used. A normalized ``sample`` (a
     policy's proposal) has its first ``local_tries`` replacements drawn near it
-    (`near_proposal`), the rest uniform; 0 is Algorithm 1.
+    (`near_proposal`, written into the caller's ``(d,)`` scratch ``local``), the rest
+    uniform; 0 is Algorithm 1.
     """
     node = extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized)
     if node == BAD_ACTION:
         return node, 0
     samples = 1
     tries = 0
-    local = np.empty(sample.shape[0])
     while node < 0 and tries < max_tries:
         replacement = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
         if normalized and tries < local_tries:

@@ -163,10 +163,9 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     )
 
     # ---- attention-based planning (Algorithm 1)
-    local_tries = settings.attention_local_fallback
-    if local_tries is None:  # the policy's own, checked as plan() checks its argument
-        declared_tries = declared.attention_local_fallback
-        local_tries = 0 if declared_tries is None else local_fallback_count(declared_tries)
+    local_tries = _given_or_declared(
+        settings, declared, "attention_local_fallback", local_fallback_count, default=0
+    )
     limits = AttentionLimits(
         attention_nodes=attention_nodes,
         max_nodes=settings.max_nodes,

@@ -44,7 +44,6 @@ import numpy as np
 
 from temp_gym.planning import _compiled_tree, _grid
 from temp_gym.planning import _kernels as kernels
-from temp_gym.planning._compiled_tree import LOCAL_HALF_WIDTH
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.collision import CollisionChecker
 from temp_gym.worlds.collision.compiled import compiled_context_of
@@ -633,10 +632,11 @@ class Tree:
 
         With ``local_tries`` > 0 and a normalized ``sample`` (a policy's proposal), the first
         that many retries are drawn near the proposal instead: each random sample, mapped to
-        ``[-1, 1]``, is scaled into the box of half-width `LOCAL_HALF_WIDTH` around it (clipped
-        to the bounds). A proposal that grazes an obstacle is continued past it, where a
+        ``[-1, 1]``, is scaled into the box of half-width `_compiled_tree.LOCAL_HALF_WIDTH`
+        around it (clipped to the bounds; `_compiled_tree.near_proposal`, which the compiled
+        loop calls too). A proposal that grazes an obstacle is continued past it, where a
         uniform retry lands anywhere; on walled-in arm tasks nearly every uniform retry
-        collides. The compiled loop draws the same values.
+        collides.
 
         Args:
             sample: The proposed state (e.g. from the attention policy).
@@ -657,13 +657,12 @@ class Tree:
             raise ValueError(f"local_tries: must be non-negative, got {local_tries}")
         result = self.extend(sample, normalized)
         samples, failures, checks, tries = 1, result.failures, result.collision_checks, 0
-        low, high = self._bounds
+        if normalized and local_tries > 0:  # float64, as the compiled loop's proposals are
+            proposal, near = np.asarray(sample, dtype=np.float64), np.empty(self.dim)
         while result.node < 0 and tries < max_tries:
             replacement = sampler.sample(rng)
             if normalized and tries < local_tries:
-                unit = 2.0 * (replacement - low) / (high - low) - 1.0
-                proposal = np.asarray(sample, dtype=np.float64)
-                near = np.minimum(1.0, np.maximum(-1.0, proposal + LOCAL_HALF_WIDTH * unit))
+                _compiled_tree.near_proposal(proposal, replacement, self._bounds, near)
                 result = self.extend(near, normalized=True)
             else:
                 result = self.extend(replacement)

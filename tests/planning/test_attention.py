@@ -153,14 +153,11 @@ def test_replacements_near_a_proposal_stay_in_its_box_and_the_bounds(wall):
     tree = Tree(problem)
     low, high = problem.bounds
 
-    class Recording:
-        def __init__(self):
-            self.extended = []
-
+    class Uniform:
         def sample(self, rng):
             return rng.uniform(low, high)
 
-    sampler = Recording()
+    sampler = Uniform()
     original = tree.extend
     calls = []
     tree.extend = lambda sample, normalized=False: (
