@@ -38,6 +38,7 @@ from temp_gym.planning._compiled_tree import (
     BEST_NODE,
     NUM_NODES,
     SAMPLES,
+    extend_near_first,
     extend_with_fallback,
     fallback_sample,
     normalized_root_path,
@@ -102,7 +103,7 @@ def attention_slice(
     positions, _, links = arrays[0], arrays[1], arrays[2]
     capacity = positions.shape[0]
     chunk, dim = proposals.shape
-    local = np.empty(dim)  # scratch of the replacements drawn near a proposal
+    local = np.empty(dim if limits[LOCAL_TRIES] > 0 else 0)  # scratch of `extend_near_first`
     for _ in range(max_iterations):
         if counters[BEST_NODE] >= 0:
             return SOLVED
@@ -116,14 +117,14 @@ def attention_slice(
             state[PENDING] = 0
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, goal, False, rng,
-                buffer, cursor, limits[MAX_TRIES], 0, local,
+                buffer, cursor, limits[MAX_TRIES],
             )  # fmt: skip
         elif uniform > 0.0 and rng.random() < uniform:
             state[PENDING] = 0
             sample = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
             node, samples = extend_with_fallback(
                 arrays, counters, best_cost, params, goal, bounds, context, sample, False, rng,
-                buffer, cursor, limits[MAX_TRIES], 0, local,
+                buffer, cursor, limits[MAX_TRIES],
             )  # fmt: skip
         else:
             if state[PENDING] == 0:
@@ -146,10 +147,16 @@ def attention_slice(
             state[NEXT_ROW] += 1
             state[PENDING] -= 1
             state[PROPOSALS] += 1
-            node, samples = extend_with_fallback(
-                arrays, counters, best_cost, params, goal, bounds, context, proposals[row], True,
-                rng, buffer, cursor, limits[MAX_TRIES], limits[LOCAL_TRIES], local,
-            )  # fmt: skip
+            if limits[LOCAL_TRIES] > 0:
+                node, samples = extend_near_first(
+                    arrays, counters, best_cost, params, goal, bounds, context, proposals[row],
+                    rng, buffer, cursor, limits[MAX_TRIES], limits[LOCAL_TRIES], local,
+                )  # fmt: skip
+            else:
+                node, samples = extend_with_fallback(
+                    arrays, counters, best_cost, params, goal, bounds, context, proposals[row],
+                    True, rng, buffer, cursor, limits[MAX_TRIES],
+                )  # fmt: skip
             if node == BAD_ACTION:
                 return NOT_FINITE
             if node < 0 or (samples > 1 and not keep_chunk):

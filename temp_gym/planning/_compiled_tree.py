@@ -226,15 +226,14 @@ def near_proposal(proposal, uniform, bounds, out):
 @numba.njit(cache=True, nogil=True)
 def extend_with_fallback(
     arrays, counters, best_cost, params, goal, bounds, context, sample, normalized, rng,
-    buffer, cursor, max_tries, local_tries, local,
+    buffer, cursor, max_tries,
 ):  # fmt: skip
     """`Tree.extend_with_fallback` with a uniform fallback sampler: ``(node, samples)``.
 
     ``node`` is the added node, `NO_NODE` when ``max_tries`` replacements all failed, or
-    `BAD_ACTION`; ``samples`` is how many samples this call used. A normalized ``sample`` (a
-    policy's proposal) has its first ``local_tries`` replacements drawn near it
-    (`near_proposal`, written into the caller's ``(d,)`` scratch ``local``), the rest
-    uniform; 0 is Algorithm 1.
+    `BAD_ACTION`; ``samples`` is how many samples this call used. This is Algorithm 1's
+    fallback; `extend_near_first` is the variant whose first replacements stay near the
+    proposal.
     """
     node = extend(arrays, counters, best_cost, params, goal, bounds, context, sample, normalized)
     if node == BAD_ACTION:
@@ -243,12 +242,38 @@ def extend_with_fallback(
     tries = 0
     while node < 0 and tries < max_tries:
         replacement = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
-        if normalized and tries < local_tries:
-            near_proposal(sample, replacement, bounds, local)
-            node = extend(arrays, counters, best_cost, params, goal, bounds, context, local, True)
-        else:
-            node = extend(arrays, counters, best_cost, params, goal, bounds, context,
-                          replacement, False)  # fmt: skip
+        node = extend(arrays, counters, best_cost, params, goal, bounds, context, replacement,
+                      False)  # fmt: skip
+        tries += 1
+        samples += 1
+    return node, samples
+
+
+@numba.njit(cache=True, nogil=True)
+def extend_near_first(
+    arrays, counters, best_cost, params, goal, bounds, context, proposal, rng, buffer, cursor,
+    max_tries, local_tries, local,
+):  # fmt: skip
+    """`extend_with_fallback` for a normalized proposal, its first replacements near it.
+
+    The first ``local_tries`` replacements come from `near_proposal` (written into the
+    caller's ``(d,)`` scratch ``local``), the rest are uniform: ``(node, samples)``.
+
+    A separate kernel, so that Algorithm 1's loop (``local_tries`` = 0) keeps its own
+    compiled code: one extra branch and call site in it slowed every 2D plan.
+    """
+    node = extend(arrays, counters, best_cost, params, goal, bounds, context, proposal, True)
+    if node == BAD_ACTION:
+        return node, 0
+    samples = 1
+    tries = 0
+    while node < 0 and tries < max_tries:
+        replacement = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
+        near = tries < local_tries
+        if near:
+            replacement = near_proposal(proposal, replacement, bounds, local)
+        node = extend(arrays, counters, best_cost, params, goal, bounds, context, replacement,
+                      near)  # fmt: skip
         tries += 1
         samples += 1
     return node, samples
