@@ -8,7 +8,8 @@ For every combination of n, noise, horizon (proposals used per MPT call, up to t
 0: all), path window (``--path-window``: the newest nodes of the path so far each MPT call reads;
 0: all the model was trained on), stall patience (``--patience``; -1: the default rule), its factor
 near the goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
-going on from a fallback node (``--follow-fallback``), whether a chunk goes on past a proposal that
+going on from a fallback node (``--follow-fallback``), replacements of a colliding proposal drawn
+near it (``--local-fallback``), whether a chunk goes on past a proposal that
 collided (``--keep-chunk``), the resume factor (``--resume``) and the growth of the classical turns
 between resumed phases (``--resume-growth``), whether a tree grows from the goal after an unsolved
 attention phase (``--goal-tree``), whether the policy grows that tree first after a stall
@@ -44,7 +45,13 @@ from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
 from temp_gym.planning.attention import RESUME_AFTER
-from temp_gym.planning.result import near_goal_factor, resume_factor, resume_growth, share
+from temp_gym.planning.result import (
+    local_fallback_count,
+    near_goal_factor,
+    resume_factor,
+    resume_growth,
+    share,
+)
 from temp_gym.training import plan_episode
 
 
@@ -125,6 +132,14 @@ def main(argv: list[str] | None = None) -> dict:
         default=[1.0],
         help="probabilities of going on from a fallback node that got no closer to the goal to "
         "try (1: always, Algorithm 1)",
+    )
+    parser.add_argument(
+        "--local-fallback",
+        type=int,
+        nargs="+",
+        default=[0],
+        help="replacements of a colliding proposal drawn near it before uniform ones, to try "
+        "(0: none, Algorithm 1)",
     )
     parser.add_argument(
         "--keep-chunk",
@@ -210,6 +225,8 @@ def main(argv: list[str] | None = None) -> dict:
             near_goal_factor(factor, "--near-goal-factor")
         for follow in args.follow_fallback:
             share(follow, "--follow-fallback")
+        for tries in args.local_fallback:
+            local_fallback_count(tries, "--local-fallback")
         for resume in args.resume:
             resume_factor(resume, "--resume")
         for growth in args.resume_growth:
@@ -241,26 +258,27 @@ def main(argv: list[str] | None = None) -> dict:
         f"time {rrt['time'] * 1e3:.1f} ms"
     )
     print(
-        "| n | noise | horizon | window | patience | near goal | uniform | follow | keep chunk "
-        "| resume | growth | goal tree | from goal | rounds "
+        "| n | noise | horizon | window | patience | near goal | uniform | follow | local "
+        "| keep chunk | resume | growth | goal tree | from goal | rounds "
         "| nodes mean "
         "| median "
         "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
         "| mean difference [95% CI] |"
     )
     print(
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
         "|---:|---:|---:|---:|---|"
     )
     best, best_nodes = None, np.inf
     settings = itertools.product(
         args.attention_nodes, args.noise_std, args.horizon, windows, args.patience,
-        args.near_goal_factor, args.uniform, args.follow_fallback, args.keep_chunk, args.resume,
-        args.resume_growth, args.goal_tree, args.from_goal, args.rounds,
+        args.near_goal_factor, args.uniform, args.follow_fallback, args.local_fallback,
+        args.keep_chunk, args.resume, args.resume_growth, args.goal_tree, args.from_goal,
+        args.rounds,
     )  # fmt: skip
     for (
-        budget, noise, horizon, window, patience, factor, uniform, follow, keep, resume, growth,
-        goal, from_goal, rounds,
+        budget, noise, horizon, window, patience, factor, uniform, follow, local, keep, resume,
+        growth, goal, from_goal, rounds,
     ) in settings:  # fmt: skip
         if resume == 0 and growth != args.resume_growth[0]:
             continue  # without resumed phases --resume-growth changes nothing: one row
@@ -277,6 +295,7 @@ def main(argv: list[str] | None = None) -> dict:
             attention_uniform=uniform,
             attention_near_goal_factor=factor,
             attention_follow_fallback=follow,
+            attention_local_fallback=local,
             attention_keep_chunk=bool(keep),
             attention_resume=resume,
             attention_resume_growth=growth,
@@ -297,7 +316,7 @@ def main(argv: list[str] | None = None) -> dict:
         paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
         print(
             f"| {budget} | {noise} | {policy.chunk} | {policy.window} | {patience} | {factor:g} | "
-            f"{uniform} | {follow:g} | {keep} | {resume:g} | {growth:g} | {goal} | "
+            f"{uniform} | {follow:g} | {local} | {keep} | {resume:g} | {growth:g} | {goal} | "
             f"{int(from_goal) if goal else '-'} | "
             f"{'-' if not from_goal else 'default' if rounds is None else rounds} | "
             f"{row['nodes_mean']:.1f} | "
@@ -312,7 +331,8 @@ def main(argv: list[str] | None = None) -> dict:
                     "path_window": policy.path_window,
                     "attention_patience": eval_config.attention_patience,
                     "attention_uniform": uniform, "attention_near_goal_factor": factor,
-                    "attention_follow_fallback": follow, "attention_keep_chunk": bool(keep),
+                    "attention_follow_fallback": follow, "attention_local_fallback": local,
+                    "attention_keep_chunk": bool(keep),
                     "attention_resume": resume, "attention_resume_growth": growth,
                     "goal_tree": bool(goal),
                     "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip

@@ -226,6 +226,9 @@ class TrainEvalConfig:
     attention_follow_fallback: float | None = None
     """Probability that the policy goes on from a fallback node that got no closer to the
     goal; null: the policy's own, else 1."""
+    attention_local_fallback: int | None = None
+    """Replacements of a colliding proposal drawn near it before uniform ones (0: none,
+    Algorithm 1); null: the policy's own, else 0."""
     attention_resume: float | None = None
     """Classical nodes, in stall patiences, before the attention phase resumes after a stall
     (0: never); null: the policy's own, else the planner's default."""

@@ -160,6 +160,7 @@ def plan_episode(
         attention_uniform=eval_config.attention_uniform if temp else None,
         attention_near_goal_factor=eval_config.attention_near_goal_factor if temp else None,
         attention_follow_fallback=eval_config.attention_follow_fallback if temp else None,
+        attention_local_fallback=eval_config.attention_local_fallback if temp else None,
         attention_resume=eval_config.attention_resume if temp else None,
         attention_resume_growth=eval_config.attention_resume_growth if temp else None,
         attention_keep_chunk=eval_config.attention_keep_chunk if temp else None,

@@ -177,6 +177,7 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
                                       "attention_uniform": None,
                                       "attention_near_goal_factor": None,
                                       "attention_follow_fallback": None,
+                                      "attention_local_fallback": None,
                                       "attention_resume": None,
                                       "attention_resume_growth": None,
                                       "attention_keep_chunk": None,

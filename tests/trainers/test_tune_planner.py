@@ -47,6 +47,7 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
         (["--near-goal-factor", "0.5"],
          "--near-goal-factor: expected a finite number of at least 1, got 0.5"),
         (["--follow-fallback", "1.5"], "--follow-fallback: expected a number in [0, 1], got 1.5"),
+        (["--local-fallback", "-1"], "--local-fallback"),
     ],
 )  # fmt: skip
 def test_a_bad_setting_is_refused_and_named(capsys, monkeypatch, args, message):
@@ -138,6 +139,20 @@ def test_rounds_after_stalls_both_ways_are_tried(capsys, monkeypatch):
     assert both[1] < both[0] <= both[2]
     recommended = next(line for line in out if line.startswith("recommended:"))
     assert "'attention_rounds'" in recommended
+
+
+def test_replacements_near_the_proposal_are_tried(capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    best = tune_planner.main(
+        [*ARGS, "--attention-nodes", "3000", "--noise-std", "0", "--local-fallback", "0", "20",
+         "--tasks", "6", "--min-attention-success", "0"]
+    )  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    header, rows = _table(out)
+    assert [row[header.index("local")].strip() for row in rows] == ["0", "20"]
+    nodes = [row[header.index("nodes mean")] for row in rows]
+    assert nodes[0] != nodes[1]  # the replacements changed the trees
+    assert best["attention_local_fallback"] in (0, 20)
 
 
 def test_the_tuning_pool_is_a_split_of_its_own(capsys, monkeypatch):
