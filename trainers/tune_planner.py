@@ -322,7 +322,7 @@ def main(argv: list[str] | None = None) -> dict:
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.3f} | {both_ways:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
-            f"{row['time'] * 1e3:.1f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
+            f"{row['time'] * 1e3:.2f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
             f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
             flush=True,
         )

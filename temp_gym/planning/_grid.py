@@ -154,6 +154,17 @@ def within_box(positions, count, point, reach, grid, out) -> int:
     ``out`` has room for ``count`` entries; returns how many it got. A superset of the nodes
     within ``reach`` of ``point`` (the caller tests each); every node of a cell is listed.
     """
+    found = _within_box_unsorted(positions, count, point, reach, grid, out)
+    out[:found].sort()
+    return found
+
+
+@numba.njit(cache=True, nogil=True)
+def _within_box_unsorted(positions, count, point, reach, grid, out) -> int:
+    """`within_box`'s nodes in the order the cells list them, unsorted.
+
+    The nearest query needs no order: it breaks ties by index itself.
+    """
     _file_new_nodes(positions, count, grid)
     dim = positions.shape[1]
     side = grid[SIDE]
@@ -175,7 +186,6 @@ def within_box(positions, count, point, reach, grid, out) -> int:
                         out[found] = node
                         found += 1
                     node = int(grid[following + node])
-    out[:found].sort()
     return found
 
 
@@ -198,24 +208,27 @@ def grid_nearest(positions, count, point, grid, scratch):
 
     Needs `in_use`. A first node comes from the cells around ``point`` (a widening box until
     one holds a node); every cell within its distance is then read, and the least squared
-    distance wins, the lowest index among equals. ``scratch`` holds ``count`` int64.
+    distance wins, the lowest index among equals. The nodes are read in cell order, unsorted:
+    a tree crowded into a trap puts thousands of nodes in the box of a far sample, and sorting
+    them for every query made such plans several times slower. ``scratch`` holds ``count``
+    int64.
     """
     dim = positions.shape[1]
     reach = grid[SIDE]
-    found = within_box(positions, count, point, reach, grid, scratch)
+    found = _within_box_unsorted(positions, count, point, reach, grid, scratch)
     while found == 0:
         reach *= 2.0
-        found = within_box(positions, count, point, reach, grid, scratch)
+        found = _within_box_unsorted(positions, count, point, reach, grid, scratch)
     probe_sq = np.inf
     for j in range(found):
         probe_sq = min(probe_sq, squared_distance_to(positions, scratch[j], point, dim))
-    found = within_box(positions, count, point, math.sqrt(probe_sq), grid, scratch)
+    found = _within_box_unsorted(positions, count, point, math.sqrt(probe_sq), grid, scratch)
     best = -1
     best_sq = np.inf
-    for j in range(found):  # ascending: the first of equal distances is the lowest index
+    for j in range(found):  # in cell order: ties go to the lowest index, as in the scan
         node = scratch[j]
         sq = squared_distance_to(positions, node, point, dim)
-        if sq < best_sq:
+        if sq < best_sq or (sq == best_sq and node < best):
             best_sq = sq
             best = node
     if best < 0:  # every squared distance overflowed: the whole tree was read, and the
