@@ -80,6 +80,11 @@ CPU, so it compiles its kernels once for Haswell beside the host's.
 Then the shipped 2D policy changed (the same tiny MPT with one layer instead of two): only the
 three 2D ``temp`` plans and the 2D evaluation record changed, and were rewritten the same way.
 
+Then the shipped policies' checkpoints declare ``attention_local_fallback`` (2D 5, 3D and 7D
+20: a colliding proposal's first replacements drawn near it): two of the three 2D ``temp``
+plans, the three 3D ones and the 2D evaluation record changed (no 7D plan of the sample
+has a colliding proposal). With the setting at 0 every fingerprint was identical; the six were
+rewritten.
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.

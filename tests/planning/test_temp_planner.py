@@ -51,7 +51,8 @@ def test_policy_fast_path_plans_exactly_like_full_observations():
     # The wrapper hides the settings the shipped policy declares: both runs get them from plan().
     shipped = load_policy("point2d")
     declared = {"attention_patience": shipped.attention_patience,
-                "attention_rounds": shipped.attention_rounds}  # fmt: skip
+                "attention_rounds": shipped.attention_rounds,
+                "attention_local_fallback": shipped.attention_local_fallback}  # fmt: skip
     rng = np.random.default_rng(7)
     for index in range(4):
         problem = generate_problem("point2d", rng)
@@ -175,7 +176,7 @@ def test_replacements_near_the_proposal_are_a_setting_of_plan_or_of_the_policy()
     from temp_gym.worlds.generators import generate_problem
 
     problem = generate_problem("kuka_iiwa14", np.random.default_rng(2), "challenging")
-    policy = load_policy("kuka_iiwa14")
+    policy = load_policy("kuka_iiwa14").fresh(attention_local_fallback=0)  # Algorithm 1
     uniform = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True)
     near = plan(problem, policy=policy, seed=0, max_nodes=2000, stop_at_first=True,
                 attention_local_fallback=20)  # fmt: skip
