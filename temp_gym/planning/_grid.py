@@ -39,6 +39,10 @@ GRID_MIN_NODES = 1024
 it when its arrays grow past it): a scan of fewer nodes costs less than making a grid."""
 MAX_CELLS = 2**18
 """Most cells of a grid; a coarser grid when the bounds hold more cells of the planned side."""
+CROWDED = 8
+"""A nearest query whose box would list more than 1/CROWDED of the tree's nodes scans them
+instead: following the cells' lists costs several times a sequential scan per node (a sample
+far from a tree crowded into a trap lists most of it)."""
 MARGIN = 1e-9
 """Relative margin on every distance a cell range is cut at, far above float rounding."""
 HEADER = ("filed", "min_nodes", "cells_0", "cells_1", "cells_2", "origin_0", "origin_1",
@@ -154,14 +158,14 @@ def within_box(positions, count, point, reach, grid, out) -> int:
     ``out`` has room for ``count`` entries; returns how many it got. A superset of the nodes
     within ``reach`` of ``point`` (the caller tests each); every node of a cell is listed.
     """
-    found = _within_box_unsorted(positions, count, point, reach, grid, out)
+    found = _within_box_unsorted(positions, count, point, reach, grid, out, count)
     out[:found].sort()
     return found
 
 
 @numba.njit(cache=True, nogil=True)
-def _within_box_unsorted(positions, count, point, reach, grid, out) -> int:
-    """`within_box`'s nodes in the order the cells list them, unsorted.
+def _within_box_unsorted(positions, count, point, reach, grid, out, limit) -> int:
+    """`within_box`'s nodes in the order the cells list them, unsorted; -1 past ``limit``.
 
     The nearest query needs no order: it breaks ties by index itself.
     """
@@ -183,10 +187,25 @@ def _within_box_unsorted(positions, count, point, reach, grid, out) -> int:
                 node = int(grid[LISTS + (a * count_1 + b) * count_2 + c])
                 while node >= 0:
                     if node < count:  # filed by a query on a bigger tree (only in tests)
+                        if found == limit:
+                            return -1
                         out[found] = node
                         found += 1
                     node = int(grid[following + node])
     return found
+
+
+@numba.njit(cache=True, nogil=True)
+def _scan_nearest(positions, count, point, dim):
+    """``(node, squared distance)`` of the first node nearest ``point``, scanning them all."""
+    best = 0
+    best_sq = np.inf
+    for i in range(count):
+        sq = squared_distance_to(positions, i, point, dim)
+        if sq < best_sq:
+            best_sq = sq
+            best = i
+    return best, best_sq
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -214,15 +233,21 @@ def grid_nearest(positions, count, point, grid, scratch):
     int64.
     """
     dim = positions.shape[1]
+    limit = count // CROWDED
     reach = grid[SIDE]
-    found = _within_box_unsorted(positions, count, point, reach, grid, scratch)
+    found = _within_box_unsorted(positions, count, point, reach, grid, scratch, limit)
     while found == 0:
         reach *= 2.0
-        found = _within_box_unsorted(positions, count, point, reach, grid, scratch)
+        found = _within_box_unsorted(positions, count, point, reach, grid, scratch, limit)
+    if found < 0:
+        return _scan_nearest(positions, count, point, dim)
     probe_sq = np.inf
     for j in range(found):
         probe_sq = min(probe_sq, squared_distance_to(positions, scratch[j], point, dim))
-    found = _within_box_unsorted(positions, count, point, math.sqrt(probe_sq), grid, scratch)
+    found = _within_box_unsorted(positions, count, point, math.sqrt(probe_sq), grid, scratch,
+                                 limit)  # fmt: skip
+    if found < 0:
+        return _scan_nearest(positions, count, point, dim)
     best = -1
     best_sq = np.inf
     for j in range(found):  # in cell order: ties go to the lowest index, as in the scan
