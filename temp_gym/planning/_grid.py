@@ -196,8 +196,12 @@ def _within_box_unsorted(positions, count, point, reach, grid, out, limit) -> in
 
 
 @numba.njit(cache=True, nogil=True)
-def _scan_nearest(positions, count, point, dim):
-    """``(node, squared distance)`` of the first node nearest ``point``, scanning them all."""
+def scan_nearest(positions, count, point):
+    """``(node, squared distance)`` of the first node nearest ``point``, scanning them all.
+
+    The answer the grid must give, and the query of a tree without one (`_kernels.nearest`).
+    """
+    dim = positions.shape[1]
     best = 0
     best_sq = np.inf
     for i in range(count):
@@ -240,14 +244,14 @@ def grid_nearest(positions, count, point, grid, scratch):
         reach *= 2.0
         found = _within_box_unsorted(positions, count, point, reach, grid, scratch, limit)
     if found < 0:
-        return _scan_nearest(positions, count, point, dim)
+        return scan_nearest(positions, count, point)
     probe_sq = np.inf
     for j in range(found):
         probe_sq = min(probe_sq, squared_distance_to(positions, scratch[j], point, dim))
     found = _within_box_unsorted(positions, count, point, math.sqrt(probe_sq), grid, scratch,
                                  limit)  # fmt: skip
     if found < 0:
-        return _scan_nearest(positions, count, point, dim)
+        return scan_nearest(positions, count, point)
     best = -1
     best_sq = np.inf
     for j in range(found):  # in cell order: ties go to the lowest index, as in the scan
@@ -261,4 +265,12 @@ def grid_nearest(positions, count, point, grid, scratch):
     return best, best_sq
 
 
-__all__ = ["GRID_MIN_NODES", "grid_nearest", "grown", "in_use", "make_grid", "within_box"]
+__all__ = [
+    "GRID_MIN_NODES",
+    "grid_nearest",
+    "grown",
+    "in_use",
+    "make_grid",
+    "scan_nearest",
+    "within_box",
+]

@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from temp_gym.planning._grid import grid_nearest, in_use, within_box
+from temp_gym.planning._grid import grid_nearest, in_use, scan_nearest, within_box
 from temp_gym.planning._grid import squared_distance_to as _squared_distance
 
 PARENT = 0
@@ -39,20 +39,6 @@ def lowers(candidate, current):
 
 
 @numba.njit(cache=True, nogil=True)
-def _scan_nearest(positions, count, sample):
-    """``(node, squared distance)`` of the first node nearest ``sample``, scanning them all."""
-    dim = positions.shape[1]
-    best = 0
-    best_sq = np.inf
-    for i in range(count):
-        sq = _squared_distance(positions, i, sample, dim)
-        if sq < best_sq:
-            best_sq = sq
-            best = i
-    return best, best_sq
-
-
-@numba.njit(cache=True, nogil=True)
 def nearest(positions, count, point, grid, scratch):
     """``(node, squared distance)`` of the node nearest ``point``.
 
@@ -61,7 +47,7 @@ def nearest(positions, count, point, grid, scratch):
     """
     if in_use(grid, count, point):
         return grid_nearest(positions, count, point, grid, scratch)
-    return _scan_nearest(positions, count, point)
+    return scan_nearest(positions, count, point)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -77,7 +63,7 @@ def nearest_and_steer(positions, count, sample, step_size, out_new, grid, scratc
     if in_use(grid, count, sample):
         best, best_sq = grid_nearest(positions, count, sample, grid, scratch)
     else:
-        best, best_sq = _scan_nearest(positions, count, sample)
+        best, best_sq = scan_nearest(positions, count, sample)
     distance = math.sqrt(best_sq)
     scale = 1.0
     if distance > step_size:
