@@ -22,7 +22,11 @@ random numbers in the same order, so both grow the same tree (tested node for no
    ``follow_fallback`` (`temp_gym.planning.attention.follows`);
 5. progress: the tree's closest approach to the goal; ``patience`` nodes in a row without a
    closer one stall the phase (0: never), ``near_patience`` once that approach is within
-   ``sqrt(near_sq)`` of the goal.
+   ``sqrt(near_sq)`` of the goal;
+6. with a join check (the TEMP planner's goal tree, `temp_gym.planning.goal_tree`): every
+   ``check_every`` nodes and once at a stop, the nodes of both trees not tried yet are tried
+   against the other tree (`join_check`), where the Python loop calls its ``joined``, so that
+   a goal tree grown by attention returns to Python only when its phase ends.
 
 The loop runs at most ``max_iterations`` iterations per call and returns a status, so the
 caller can check the wall clock, grow the tree's arrays, and call again.
@@ -36,11 +40,13 @@ import numpy as np
 from temp_gym.planning._compiled_tree import (
     BAD_ACTION,
     BEST_NODE,
+    CHECKS,
     NUM_NODES,
     SAMPLES,
     extend_near_first,
     extend_with_fallback,
     fallback_sample,
+    first_link,
     normalized_root_path,
     squared_distance,
 )
@@ -54,16 +60,25 @@ root path the MPT reads."""
 PENDING, NEXT_ROW, CALLS, PROPOSALS, STALLED, ANCHOR = range(len(STATE))
 LIMITS = (
     "attention_nodes", "max_nodes", "max_samples", "patience", "max_fallback_tries",
-    "near_patience", "local_tries",
+    "near_patience", "local_tries", "next_check", "check_every", "other_count", "grown_side",
 )  # fmt: skip
-"""The int64 budgets of the phase (and the replacements of a proposal drawn near it)."""
+"""The int64 budgets of the phase (and the replacements of a proposal drawn near it), then
+the join check's: the node count of the next check (`NO_CHECK`: none), the nodes between two,
+the other tree's node count, and which tree grows (0: the planner's, 1: the goal tree)."""
 (ATTENTION_NODES, MAX_NODES, MAX_SAMPLES, PATIENCE, MAX_TRIES, NEAR_PATIENCE,
- LOCAL_TRIES) = range(len(LIMITS))  # fmt: skip
+ LOCAL_TRIES, NEXT_CHECK, CHECK_EVERY, OTHER_COUNT, GROWN_SIDE) = range(len(LIMITS))  # fmt: skip
+NO_CHECK = np.iinfo(np.int64).max
+"""``limits[NEXT_CHECK]`` of a phase without join checks."""
+JOIN = ("planner_node", "goal_node", "checks")
+"""The int64 record a join check writes: the linked nodes of the planner's tree and of the
+goal tree (-1 before a link), and the motion checks made (they count in the planner's tree)."""
+PLANNER_NODE, GOAL_NODE, JOIN_CHECKS = range(len(JOIN))
 
-RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE = range(7)
+RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE, JOINED = range(8)
 """Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
 used up; no progress for ``patience`` nodes; the tree's arrays are full (grow them and call
-again); the policy proposed NaN or inf."""
+again); the policy proposed NaN or inf; a join check linked the two trees (the link is in
+the join record, `JOIN`)."""
 
 
 @numba.njit(cache=True, nogil=True)
@@ -72,7 +87,7 @@ def attention_slice(
     goal_bias, uniform, follow_fallback, keep_chunk, weights, prefix_goal, prefix_z, prefix_qkv,
     noise_std,
     noise_address, proposals, chunk_out, path_rows, state, closest_sq, near_sq, limits,
-    max_iterations,
+    max_iterations, join,
 ):  # fmt: skip
     """Run up to ``max_iterations`` attention-phase iterations; return a status.
 
@@ -98,6 +113,9 @@ def attention_slice(
         state, closest_sq, limits: the loop's state (`STATE`), the squared closest approach
             to the goal (an array of one) and budgets (`LIMITS`).
         near_sq: the squared distance to the goal within which ``near_patience`` applies.
+        join: the join check's ``(other positions, other grid, other scratch, checked,
+            record)`` (`join_check`); any arrays of those types when ``limits[NEXT_CHECK]``
+            is `NO_CHECK`.
     """
     rng, noise_rng = generator_at(rng_address), generator_at(noise_address)
     positions, _, links = arrays[0], arrays[1], arrays[2]
@@ -106,11 +124,15 @@ def attention_slice(
     local = np.empty(dim if limits[LOCAL_TRIES] > 0 else 0)  # scratch of `extend_near_first`
     for _ in range(max_iterations):
         if counters[BEST_NODE] >= 0:
-            return SOLVED
+            return stopped(SOLVED, arrays, counters, context, limits, join)
         if counters[NUM_NODES] >= limits[ATTENTION_NODES]:
-            return ATTENTION_BUDGET
+            return stopped(ATTENTION_BUDGET, arrays, counters, context, limits, join)
         if counters[NUM_NODES] >= limits[MAX_NODES] or counters[SAMPLES] >= limits[MAX_SAMPLES]:
-            return BUDGET
+            return stopped(BUDGET, arrays, counters, context, limits, join)
+        if counters[NUM_NODES] >= limits[NEXT_CHECK]:
+            limits[NEXT_CHECK] = counters[NUM_NODES] + limits[CHECK_EVERY]
+            if join_check(arrays, counters[NUM_NODES], context, limits, join):
+                return JOINED
         if counters[NUM_NODES] >= capacity:
             return FULL
         if goal_bias > 0.0 and rng.random() < goal_bias:
@@ -175,5 +197,67 @@ def attention_slice(
                 state[STALLED] += 1
                 patience = limits[NEAR_PATIENCE] if closest_sq[0] <= near_sq else limits[PATIENCE]
                 if limits[PATIENCE] > 0 and state[STALLED] >= patience:
-                    return STALLED_OUT
+                    return stopped(STALLED_OUT, arrays, counters, context, limits, join)
     return RUNNING
+
+
+@numba.njit(cache=True, nogil=True)
+def stopped(status, arrays, counters, context, limits, join) -> int:
+    """``status``, a stop of the phase, after the join check the Python loop makes at a stop.
+
+    With join checks (``limits[NEXT_CHECK]`` not `NO_CHECK`) the nodes since the last check
+    are tried too (`join_check`), and a link makes the stop `JOINED`.
+    """
+    if limits[NEXT_CHECK] != NO_CHECK and join_check(
+        arrays, counters[NUM_NODES], context, limits, join
+    ):
+        return JOINED
+    return status
+
+
+@numba.njit(cache=True, nogil=True)
+def join_check(arrays, count, context, limits, join) -> bool:
+    """Try the untried nodes of both trees against the other; True on the first free link.
+
+    The grown tree is ``arrays`` with ``count`` nodes; the other is ``join``'s positions,
+    grid and scratch with ``limits[OTHER_COUNT]`` nodes. As `GoalTree._join` does: first the
+    planner's tree's nodes from ``checked[0]`` on, each against its nearest in the goal tree
+    (the motion towards it), then the goal tree's from ``checked[1]`` on, against the
+    planner's tree (the motion from it). ``checked`` moves past the nodes tried; the link and
+    the motion checks go into the join record (`JOIN`).
+    """
+    other_positions, other_grid, other_scratch, checked, record = join
+    positions, scratch, grid = arrays[0], arrays[4], arrays[9]
+    other_count = limits[OTHER_COUNT]
+    counters = np.zeros(CHECKS + 1, dtype=np.int64)
+    if limits[GROWN_SIDE] == 0:
+        node, partner = first_link(
+            positions, checked[0], count, other_positions, other_count, other_grid,
+            other_scratch, context, counters, True,
+        )  # fmt: skip
+        checked[0] = count if node < 0 else node + 1
+        if node < 0:
+            goal_node, planner_node = first_link(
+                other_positions, checked[1], other_count, positions, count, grid, scratch,
+                context, counters, False,
+            )  # fmt: skip
+            checked[1] = other_count if goal_node < 0 else goal_node + 1
+        else:
+            planner_node, goal_node = node, partner
+    else:
+        planner_node, goal_node = first_link(
+            other_positions, checked[0], other_count, positions, count, grid, scratch, context,
+            counters, True,
+        )  # fmt: skip
+        checked[0] = other_count if planner_node < 0 else planner_node + 1
+        if planner_node < 0:
+            goal_node, planner_node = first_link(
+                positions, checked[1], count, other_positions, other_count, other_grid,
+                other_scratch, context, counters, False,
+            )  # fmt: skip
+            checked[1] = count if goal_node < 0 else goal_node + 1
+    record[JOIN_CHECKS] += counters[CHECKS]
+    if planner_node < 0 or goal_node < 0:
+        return False
+    record[PLANNER_NODE], record[GOAL_NODE] = planner_node, goal_node
+    return True

@@ -42,7 +42,12 @@ import numpy as np
 from temp_gym.planning._compiled_tree import CHECKS, COUNTERS, first_link, graft_branch
 from temp_gym.planning._kernels import nearest
 from temp_gym.planning.anytime import grow_anytime
-from temp_gym.planning.attention import AttentionLimits, AttentionOutcome, run_attention_phase
+from temp_gym.planning.attention import (
+    AttentionLimits,
+    AttentionOutcome,
+    CompiledJoin,
+    run_attention_phase,
+)
 from temp_gym.planning.policy import SamplingPolicy
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.tree import Tree
@@ -52,8 +57,9 @@ TURN_NODES = 32
 """Nodes each tree adds per turn before the new ones are tried against the other tree."""
 CHECK_EVERY = 8
 """While the policy grows the goal tree (`GoalTree.grow_by_attention`): nodes between two tries
-of its new nodes against the planner's tree. Checking after every node would save a few more
-nodes (2D validation) but costs a return from the compiled loop per node."""
+of its new nodes against the planner's tree. Checking after every node saved a node more on 2D
+validation when each check cost a return from the compiled loop; the compiled loop now makes
+the checks itself (`_JoinCheck`), and this has not been chosen again since."""
 ATTENTION_ROUNDS = 1
 """The ``temp`` planner's default ``attention_rounds`` (`GoalTree.grow_in_rounds`): after the
 attention phases from the start and from the goal both stalled, one more round of the two
@@ -71,9 +77,10 @@ class GoalTree:
         self.tree = Tree(tree.problem.swapped(), step_size=tree.step_size)
         self.tree.checker = tree.checker  # the same workspace; its compiled context
         self._context = compiled_context_of(tree.checker)
-        self._checked = [tree.num_nodes, 0]
+        self._checked = np.array([tree.num_nodes, 0], dtype=np.int64)
         """Nodes of the planner's tree and of this one tried against the other so far: the
-        planner's older nodes are reached through this tree's nearest queries."""
+        planner's older nodes are reached through this tree's nearest queries. The compiled
+        attention loop moves them on too (`_JoinCheck`)."""
         self._grafted = 0
         """Nodes of this tree copied into the planner's (its branch, once joined)."""
 
@@ -174,7 +181,7 @@ class GoalTree:
         )
         outcome = run_attention_phase(
             grown, policy, rng, goal_bias, budget,
-            joined=lambda: self._join(tree, log), check_every=CHECK_EVERY, **options,
+            joined=_JoinCheck(self, tree, log), check_every=CHECK_EVERY, **options,
         )  # fmt: skip
         log.extra_nodes = self.extra_nodes
         return outcome
@@ -284,6 +291,44 @@ class GoalTree:
         tree.collision_checks += self.tree.collision_checks
         log.extra_nodes = self.extra_nodes
         log.record_tree(tree)
+
+
+class _JoinCheck:
+    """`GoalTree._join` as `run_attention_phase` calls it, also offered to its compiled loop.
+
+    Called, it makes the check in Python; `compiled_join` hands the compiled loop what
+    `temp_gym.planning._compiled_attention.join_check` needs to make the same check at the
+    same node counts without returning to Python (a checker with a compiled path only).
+    """
+
+    def __init__(self, goal_tree: GoalTree, tree: Tree, log: AnytimeLog) -> None:
+        self._goal_tree, self._tree, self._log = goal_tree, tree, log
+
+    def __call__(self) -> bool:
+        return self._goal_tree._join(self._tree, self._log)
+
+    def compiled_join(self, grown: Tree) -> CompiledJoin | None:
+        """The join check for a compiled phase growing ``grown`` (either tree)."""
+        goal_tree, tree = self._goal_tree, self._tree
+        if goal_tree._context is None:
+            return None
+        other = goal_tree.tree if grown is tree else tree
+        arrays = other.compiled_state()[0]
+
+        def count_checks(checks: int) -> None:
+            tree.collision_checks += checks
+
+        def link(planner_node: int, goal_node: int) -> None:
+            goal_tree._graft(tree, planner_node, goal_node, self._log)
+
+        record = np.array([-1, -1, 0], dtype=np.int64)
+        return CompiledJoin(
+            arrays=(arrays[0], arrays[9], arrays[4], goal_tree._checked, record),
+            other_count=other.num_nodes,
+            grown_side=0 if grown is tree else 1,
+            link=link,
+            count_checks=count_checks,
+        )
 
 
 __all__ = ["ATTENTION_ROUNDS", "CHECK_EVERY", "TURN_NODES", "GoalTree"]

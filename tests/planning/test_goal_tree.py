@@ -361,3 +361,36 @@ def test_a_policy_may_declare_its_rounds(trap):
 
     with pytest.raises(ValueError, match="policy.attention_rounds"):
         plan(trap, policy=BadRounds(), seed=1, max_nodes=5000, attention_patience=20)
+
+
+@pytest.mark.parametrize("index", [36, 99])
+def test_joins_checked_in_the_compiled_loop_grow_the_same_trees_as_in_python(index, monkeypatch):
+    """The shipped 2D policy stalls on these tasks and joins the trees in later rounds.
+
+    Its goal-tree phases run compiled with the join checks inside the loop
+    (`_JoinCheck.compiled_join`). Checked from Python between compiled slices instead, or
+    grown by the Python loop, they must grow the same trees and join at the same nodes; the
+    compiled loops also make the same motion checks (the Python loop's extensions count
+    theirs differently).
+    """
+    from temp_gym.evaluation.runner import evaluation_problem
+    from temp_gym.planning import goal_tree
+
+    problem = evaluation_problem("point2d", "challenging", index)
+    compiled = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
+    monkeypatch.setattr(goal_tree._JoinCheck, "compiled_join", lambda self, grown: None)
+    between_slices = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
+    run_phase = goal_tree.run_attention_phase
+    monkeypatch.setattr(
+        goal_tree, "run_attention_phase",
+        lambda *args, **options: run_phase(*args, **options, compiled_loop=False),
+    )  # fmt: skip
+    python = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
+    assert compiled.attention["rounds"] >= 2 and compiled.attention["rounds_solved"]
+    untimed = lambda attention: {k: v for k, v in attention.items() if k != "time"}  # noqa: E731
+    for other in (between_slices, python):
+        assert untimed(compiled.attention) == untimed(other.attention)
+        np.testing.assert_array_equal(compiled.path, other.path)
+        assert compiled.nodes_to_first_solution == other.nodes_to_first_solution
+        assert compiled.nodes == other.nodes and compiled.samples == other.samples
+    assert compiled.collision_checks == between_slices.collision_checks
