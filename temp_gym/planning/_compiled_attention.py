@@ -41,6 +41,8 @@ from temp_gym.planning._compiled_tree import (
     BAD_ACTION,
     BEST_NODE,
     CHECKS,
+    FALLBACK_BATCH,
+    NEWEST,
     NUM_NODES,
     SAMPLES,
     extend_near_first,
@@ -261,3 +263,105 @@ def join_check(arrays, count, context, limits, join) -> bool:
         return False
     record[PLANNER_NODE], record[GOAL_NODE] = planner_node, goal_node
     return True
+
+
+SEQUENCE = ("phase", "started", "rounds", "from_goal_status", "last_status")
+"""The int64 state of `attention_sequence`, kept between calls: the phase (0: the goal tree
+from the goal; then, for round r, 2r - 1 the planner's tree and 2r the goal tree, both
+resumed), whether it has begun, the rounds allowed, and the stop statuses of phase 0 and of
+the last phase (-1 before they stop)."""
+PHASE, STARTED, ROUNDS, FROM_GOAL_STATUS, LAST_STATUS = range(len(SEQUENCE))
+DONE, FULL_PLANNER, FULL_GOAL = 100, 101, 102
+"""`attention_sequence`'s statuses besides `RUNNING`, `JOINED` and `NOT_FINITE`: the sequence
+ended (a stop other than a stall, a solution, or the rounds used up; `SEQUENCE` says which);
+the planner's or the goal tree's arrays are full (grow that tree and call again)."""
+
+
+@numba.njit(cache=True, nogil=True)
+def closest_to(positions, count, goal) -> float:
+    """The squared distance from ``goal`` to the nearest of the first ``count`` rows."""
+    best = squared_distance(positions[0], goal)
+    for i in range(1, count):
+        best = min(best, squared_distance(positions[i], goal))
+    return best
+
+
+@numba.njit(cache=True, nogil=True)
+def attention_sequence(
+    planner, goal_tree, goal, start, bounds, context, rng_address, buffer, cursor, goal_bias,
+    uniform, follow_fallback, keep_chunk, weights, planner_prefix, goal_tree_prefix, noise_std,
+    noise_address, proposals, chunk_out, path_rows, state, closest_sq, near_sq, base_limits,
+    limits, sequence, checked, record, max_iterations,
+):  # fmt: skip
+    """The TEMP planner's attention phases after a stall, from the goal and in rounds.
+
+    What `temp_gym.planning.goal_tree.GoalTree.grow_by_attention` and
+    `GoalTree.grow_in_rounds` do from Python, one compiled call per slice instead of a return
+    per phase: phase 0 grows the goal tree (its problem swapped: from ``goal`` towards
+    ``start``); while phases stall and the planner's tree has no solution, round r grows the
+    planner's tree (phase 2r - 1), then the goal tree (phase 2r), each resumed (progress
+    counted from the tree's closest approach), up to ``sequence[ROUNDS]`` rounds. Each phase
+    is `attention_slice` with the budgets of ``base_limits`` less the other tree's nodes and
+    samples, and the join checks against the other tree (`join_check`: every
+    ``limits[CHECK_EVERY]`` nodes and at the stop), exactly as each `run_attention_phase` of
+    those methods sets them up.
+
+    ``planner`` and ``goal_tree`` are ``(arrays, counters, best_cost, params)``
+    (`Tree.compiled_state`); ``*_prefix`` are ``(goal, z, qkv)`` of the policy reset to each
+    tree's problem (`TEMPPolicy.compiled_proposer`); ``limits`` is scratch for one phase's
+    `LIMITS` (``limits[CHECK_EVERY]`` set); ``checked`` and ``record`` are the join check's.
+    The rest is `attention_slice`'s. Returns `RUNNING` (a slice ran out: look at the clock
+    and call again), `FULL_PLANNER` / `FULL_GOAL`, `NOT_FINITE`, `JOINED` (the link is in
+    ``record``) or `DONE`.
+    """
+    while True:
+        phase = sequence[PHASE]
+        on_goal_tree = phase % 2 == 0
+        if on_goal_tree:
+            grown, other, prefix, grown_goal = goal_tree, planner, goal_tree_prefix, start
+        else:
+            grown, other, prefix, grown_goal = planner, goal_tree, planner_prefix, goal
+        arrays, counters, best_cost, params = grown
+        other_arrays, other_counters = other[0], other[1]
+        if sequence[STARTED] == 0:  # run_attention_phase's set-up, through GoalTree._attend
+            used_nodes, used_samples = other_counters[NUM_NODES], other_counters[SAMPLES]
+            for k in range(base_limits.shape[0]):
+                limits[k] = base_limits[k]
+            limits[ATTENTION_NODES] = max(base_limits[ATTENTION_NODES] - used_nodes, 0)
+            limits[MAX_NODES] = max(base_limits[MAX_NODES] - used_nodes, 0)
+            limits[MAX_SAMPLES] = max(base_limits[MAX_SAMPLES] - used_samples, 0)
+            limits[NEXT_CHECK] = counters[NUM_NODES] + limits[CHECK_EVERY]
+            limits[OTHER_COUNT] = used_nodes
+            limits[GROWN_SIDE] = 1 if on_goal_tree else 0
+            state[:] = 0
+            state[ANCHOR] = counters[NEWEST]
+            cursor[0] = FALLBACK_BATCH  # a new phase draws a new fallback batch
+            if phase == 0:  # not resumed: from the swapped problem's start
+                closest_sq[0] = squared_distance(start, goal)
+            else:
+                closest_sq[0] = closest_to(arrays[0], counters[NUM_NODES], grown_goal)
+            sequence[STARTED] = 1
+        status = attention_slice(
+            arrays, counters, best_cost, params, grown_goal, bounds, context, rng_address,
+            buffer, cursor, goal_bias, uniform, follow_fallback, keep_chunk, weights,
+            prefix[0], prefix[1], prefix[2], noise_std, noise_address, proposals, chunk_out,
+            path_rows, state, closest_sq, near_sq, limits, max_iterations,
+            (other_arrays[0], other_arrays[9], other_arrays[4], checked, record),
+        )  # fmt: skip
+        if status == RUNNING:
+            return RUNNING
+        if status == FULL:
+            return FULL_GOAL if on_goal_tree else FULL_PLANNER
+        if status == NOT_FINITE:
+            return NOT_FINITE
+        sequence[LAST_STATUS] = status
+        if phase == 0:
+            sequence[FROM_GOAL_STATUS] = status
+        if status == JOINED:
+            return JOINED
+        if status != STALLED_OUT or planner[1][BEST_NODE] >= 0:
+            return DONE
+        if phase >= 2 * sequence[ROUNDS]:  # the rounds are used up
+            return DONE
+        sequence[PHASE] = phase + 1
+        sequence[STARTED] = 0

@@ -24,7 +24,8 @@ A policy that stalled walking into a pocket mostly walks out of it. If it stalls
 policy takes up to ``attention_rounds`` more rounds (`GoalTree.grow_in_rounds`, default
 `ATTENTION_ROUNDS`): a resumed attention phase on the planner's tree, then one on the goal
 tree, each with the same stall patience and its new nodes tried against the other tree. Then
-RRT*'s samples grow both trees as above.
+RRT*'s samples grow both trees as above. With a compiled policy and checker the phase from the
+goal and the rounds run as one compiled sequence (`GoalTree.grow_from_goal_and_in_rounds`).
 
 Every node either tree grew counts against the node budget (`GoalTree.extra_nodes`: the goal
 tree's nodes that the chain did not copy), so nodes to a first solution compare with a
@@ -39,16 +40,26 @@ import time
 
 import numpy as np
 
-from temp_gym.planning._compiled_tree import CHECKS, COUNTERS, first_link, graft_branch
+from temp_gym.planning import _compiled_attention as compiled
+from temp_gym.planning._compiled_tree import (
+    CHECKS,
+    COUNTERS,
+    FALLBACK_BATCH,
+    first_link,
+    graft_branch,
+    slice_length,
+)
+from temp_gym.planning._generator import address
 from temp_gym.planning._kernels import nearest
 from temp_gym.planning.anytime import grow_anytime
 from temp_gym.planning.attention import (
+    MAX_FALLBACK_TRIES,
     AttentionLimits,
     AttentionOutcome,
     CompiledJoin,
     run_attention_phase,
 )
-from temp_gym.planning.policy import SamplingPolicy
+from temp_gym.planning.policy import SamplingPolicy, fast_path
 from temp_gym.planning.result import AnytimeLog, PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
@@ -119,6 +130,139 @@ class GoalTree:
         finally:
             policy.reset(tree.problem)
         return outcome
+
+    def grow_from_goal_and_in_rounds(
+        self,
+        tree: Tree,
+        policy: SamplingPolicy,
+        rng: np.random.Generator,
+        log: AnytimeLog,
+        goal_bias: float,
+        limits: AttentionLimits,
+        rounds: int,
+        **options,
+    ) -> tuple[str, int]:
+        """`grow_by_attention`, then, if it stalled, `grow_in_rounds`: the phases after a stall.
+
+        Returns the stop of the phase from the goal and the rounds begun (0 when it did not
+        stall, or ``tree`` has a solution, or ``rounds`` is 0). For a policy with a compiled
+        proposer and a checker with a compiled path, the whole sequence runs in
+        `temp_gym.planning._compiled_attention.attention_sequence`, which returns to Python
+        only to grow a tree, to look at the clock and when the sequence ends; it grows the
+        same trees as the two methods (tested). ``options`` are `run_attention_phase`'s.
+        """
+        if set(options) <= _SEQUENCE_OPTIONS:
+            compiled_run = self._compiled_sequence(
+                tree, policy, rng, log, goal_bias, limits, rounds, **options
+            )
+            if compiled_run is not None:
+                return compiled_run
+        from_goal = self.grow_by_attention(tree, policy, rng, log, goal_bias, limits, **options)
+        begun = 0
+        if from_goal.stop == "stalled" and rounds > 0 and tree.best_node < 0:
+            begun = self.grow_in_rounds(
+                tree, policy, rng, log, goal_bias, limits, rounds, **options
+            )
+        return from_goal.stop, begun
+
+    def _compiled_sequence(
+        self,
+        tree: Tree,
+        policy: SamplingPolicy,
+        rng: np.random.Generator,
+        log: AnytimeLog,
+        goal_bias: float,
+        limits: AttentionLimits,
+        rounds: int,
+        uniform: float = 0.0,
+        follow_fallback: float = 1.0,
+        keep_chunk: bool = False,
+    ) -> tuple[str, int] | None:
+        """`grow_from_goal_and_in_rounds` in compiled code, or None when it cannot run there."""
+        proposer_of = fast_path(policy, "compiled_proposer")
+        if proposer_of is None or self._context is None or not SEQUENCE_COMPILED:
+            return None
+        planner_proposer = proposer_of()
+        policy.reset(self.tree.problem)
+        try:
+            goal_tree_proposer = proposer_of()
+        finally:
+            policy.reset(tree.problem)
+        if planner_proposer is None or goal_tree_proposer is None:
+            return None
+        weights, _, _, _, policy_rng, noise_std, chunk, max_path_length = planner_proposer
+        dim = tree.dim
+        noise_std = float(noise_std)
+        noise_rng = policy_rng if noise_std > 0 else rng  # without noise, never drawn
+        # Both generators stay alive in this frame while the slices draw from them by address.
+        rng_address, noise_address = address(rng), address(noise_rng)
+        goal = np.ascontiguousarray(tree.problem.goal, dtype=np.float64)
+        start = np.ascontiguousarray(tree.problem.start, dtype=np.float64)
+        bounds = np.ascontiguousarray(tree.problem.bounds, dtype=np.float64)
+        base_limits = np.array(
+            [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
+             MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries, 0, CHECK_EVERY, 0,
+             0],
+            dtype=np.int64,
+        )  # fmt: skip
+        phase_limits = base_limits.copy()
+        sequence = np.zeros(len(compiled.SEQUENCE), dtype=np.int64)
+        sequence[compiled.ROUNDS] = rounds
+        sequence[compiled.FROM_GOAL_STATUS] = sequence[compiled.LAST_STATUS] = -1
+        record = np.array([-1, -1, 0], dtype=np.int64)
+        buffer, cursor = np.empty((FALLBACK_BATCH, dim)), np.array([FALLBACK_BATCH], np.int64)
+        proposals = np.empty((chunk, dim))
+        chunk_out = np.empty((chunk, dim), np.float32)
+        path_rows = np.zeros((max_path_length, dim), np.float32)
+        state = np.zeros(len(compiled.STATE), dtype=np.int64)
+        closest = np.zeros(1)
+        prefixes = (planner_proposer[1:4], goal_tree_proposer[1:4])
+        iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
+        timed_out, status = False, compiled.RUNNING
+        while True:
+            began = time.perf_counter()
+            if began >= limits.deadline:
+                timed_out = True
+                break
+            planner = tree.compiled_state()
+            goal_tree = self.tree.compiled_state()
+            status = compiled.attention_sequence(
+                planner, goal_tree, goal, start, bounds, self._context, rng_address, buffer,
+                cursor, float(goal_bias), float(uniform), float(follow_fallback),
+                bool(keep_chunk), weights, prefixes[0], prefixes[1], noise_std, noise_address,
+                proposals, chunk_out, path_rows, state, closest, float(limits.near_sq),
+                base_limits, phase_limits, sequence, self._checked, record, iterations,
+            )  # fmt: skip
+            tree.load_compiled_state(planner[1], planner[2])
+            self.tree.load_compiled_state(goal_tree[1], goal_tree[2])
+            tree.collision_checks += int(record[compiled.JOIN_CHECKS])
+            record[compiled.JOIN_CHECKS] = 0
+            if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
+                now = time.perf_counter()
+                iterations = slice_length(limits.deadline, now, (now - began) / iterations)
+            elif status == compiled.FULL_PLANNER:
+                tree.grow()
+            elif status == compiled.FULL_GOAL:
+                self.tree.grow()
+            elif status == compiled.NOT_FINITE:
+                raise ValueError("action: the policy proposed a sample that is not finite")
+            else:
+                break
+        phase = int(sequence[compiled.PHASE])
+        if status == compiled.JOINED and not timed_out:
+            self._graft(tree, int(record[compiled.PLANNER_NODE]),
+                        int(record[compiled.GOAL_NODE]), log)  # fmt: skip
+        elif phase % 2 == 1 and tree.best_node >= 0 and not self.joined:
+            log.extra_nodes = self.extra_nodes
+            log.record_tree(tree)  # a round's phase on the planner's tree reached the goal
+        log.extra_nodes = self.extra_nodes
+        if timed_out:
+            last = "time"
+        else:
+            last = _SEQUENCE_STOPS[int(sequence[compiled.LAST_STATUS])]
+        if phase > 0:
+            return _SEQUENCE_STOPS[int(sequence[compiled.FROM_GOAL_STATUS])], (phase + 1) // 2
+        return last, 0
 
     def grow_in_rounds(
         self,
@@ -291,6 +435,20 @@ class GoalTree:
         tree.collision_checks += self.tree.collision_checks
         log.extra_nodes = self.extra_nodes
         log.record_tree(tree)
+
+
+SEQUENCE_COMPILED = True
+"""Whether `GoalTree.grow_from_goal_and_in_rounds` runs its phases in compiled code when it
+can (tests turn it off to compare with the phases driven from Python)."""
+_SEQUENCE_OPTIONS = {"uniform", "follow_fallback", "keep_chunk"}
+"""The `run_attention_phase` options the compiled sequence takes (others: the Python phases)."""
+_SEQUENCE_STOPS = {
+    compiled.SOLVED: "solved",
+    compiled.ATTENTION_BUDGET: "attention_budget",
+    compiled.BUDGET: "budget",
+    compiled.STALLED_OUT: "stalled",
+    compiled.JOINED: "joined",
+}
 
 
 class _JoinCheck:

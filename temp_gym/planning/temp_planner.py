@@ -225,18 +225,12 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         and outcome.stop == "stalled"
         and settings.attention_from_goal is not False
     ):
-        from_goal = goal_tree.grow_by_attention(
-            tree, policy, rng, log, settings.goal_bias, limits, uniform=uniform,
+        from_goal_stop, attention["rounds"] = goal_tree.grow_from_goal_and_in_rounds(
+            tree, policy, rng, log, settings.goal_bias, limits, rounds, uniform=uniform,
             follow_fallback=follow, keep_chunk=keep_chunk,
         )  # fmt: skip
-        attention["from_goal_stop"] = from_goal.stop
-        attention["from_goal_solved"] = from_goal.stop == "joined"
-        attention["rounds"] = 0
-        if from_goal.stop == "stalled" and rounds > 0 and tree.best_node < 0:
-            attention["rounds"] = goal_tree.grow_in_rounds(
-                tree, policy, rng, log, settings.goal_bias, limits, rounds, uniform=uniform,
-                follow_fallback=follow, keep_chunk=keep_chunk,
-            )  # fmt: skip
+        attention["from_goal_stop"] = from_goal_stop
+        attention["from_goal_solved"] = from_goal_stop == "joined"
         attention["from_goal_nodes"] = goal_tree.tree.num_nodes
         attention["rounds_solved"] = attention["rounds"] > 0 and tree.best_node >= 0
 

@@ -12,7 +12,9 @@ whatever the planner calls is warmed. For ``temp`` that includes the goal tree, 
 run meets only once an attention phase stops unsolved: a third plan, on a query whose goal is
 a free straight motion away, stops the attention phase after one node so that the goal tree
 joins it (without it, the first such task of a process paid 20 ms of loading, or 1.8 s of
-compiling with an empty cache, inside its time).
+compiling with an empty cache, inside its time); a fourth, on uniform samples with a stall
+patience of one node, stalls, so that the phases after a stall are loaded too (their
+compiled sequence cost the first stalled 2D plan of a process 66 ms of loading).
 
 It leaves no trace in results or in the caller's objects: planners seed their own
 generators from ``settings.seed``, the per-workspace caches it fills (free volume,
@@ -90,6 +92,10 @@ def warm_up(
         near = _joinable_problem(problem, checker, settings.step_size)
         if near is not None:  # the attention phase ends unsolved, the goal tree joins
             planners[name](near, replace(short, attention_nodes=1))
+        if settings.attention_from_goal is not False:
+            # A stall: the phases after it (from the goal, the rounds) run in a kernel of
+            # their own. Uniform samples with a patience of one node stall all but surely.
+            planners[name](problem, replace(short, attention_patience=1, attention_uniform=1.0))
     start = np.array(problem.start, dtype=np.float64)  # writable, as the callers' arrays are
     checker.states_free(start[None])
     checker.edge_free(start, toward_goal)

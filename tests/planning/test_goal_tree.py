@@ -364,23 +364,26 @@ def test_a_policy_may_declare_its_rounds(trap):
 
 
 @pytest.mark.parametrize(("robot", "index"), [("point2d", 36), ("point2d", 99), ("point3d", 27)])
-def test_joins_checked_in_the_compiled_loop_grow_the_same_trees_as_in_python(
+def test_the_compiled_phases_after_a_stall_grow_the_same_trees_as_from_python(
     robot, index, monkeypatch
 ):
     """The shipped policies stall on these tasks; the goal tree's phases join the trees.
 
     2D joins in later rounds (a phase on either tree joins), 3D in the phase from the goal.
-    The goal-tree phases run compiled with the join checks inside the loop
-    (`_JoinCheck.compiled_join`). Checked from Python between compiled slices instead, or
-    grown by the Python loop, they must grow the same trees and join at the same nodes; the
-    compiled loops also make the same motion checks (the Python loop's extensions count
-    theirs differently).
+    By default the phases after the stall run as one compiled sequence
+    (`_compiled_attention.attention_sequence`). Driven from Python phase by phase instead,
+    each compiled with the join checks inside its loop (`_JoinCheck.compiled_join`), or
+    checked from Python between compiled slices, or grown by the Python loop, they must grow
+    the same trees and join at the same nodes; the compiled loops also make the same motion
+    checks (the Python loop's extensions count theirs differently).
     """
     from temp_gym.evaluation.runner import evaluation_problem
     from temp_gym.planning import goal_tree
 
     problem = evaluation_problem(robot, "challenging", index)
-    compiled = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
+    sequence = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
+    monkeypatch.setattr(goal_tree, "SEQUENCE_COMPILED", False)
+    phases = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
     monkeypatch.setattr(goal_tree._JoinCheck, "compiled_join", lambda self, grown: None)
     between_slices = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
     run_phase = goal_tree.run_attention_phase
@@ -389,15 +392,69 @@ def test_joins_checked_in_the_compiled_loop_grow_the_same_trees_as_in_python(
         lambda *args, **options: run_phase(*args, **options, compiled_loop=False),
     )  # fmt: skip
     python = plan(problem, seed=0, max_nodes=10_000, stop_at_first=True)
-    attention = compiled.attention
+    attention = sequence.attention
     assert attention["stop"] == "stalled" and attention["goal_tree_joined"]
     assert attention["from_goal_solved"] or (
         attention["rounds"] >= 2 and attention["rounds_solved"]
     )
     untimed = lambda attention: {k: v for k, v in attention.items() if k != "time"}  # noqa: E731
-    for other in (between_slices, python):
-        assert untimed(compiled.attention) == untimed(other.attention)
-        np.testing.assert_array_equal(compiled.path, other.path)
-        assert compiled.nodes_to_first_solution == other.nodes_to_first_solution
-        assert compiled.nodes == other.nodes and compiled.samples == other.samples
-    assert compiled.collision_checks == between_slices.collision_checks
+    for other in (phases, between_slices, python):
+        assert untimed(sequence.attention) == untimed(other.attention)
+        np.testing.assert_array_equal(sequence.path, other.path)
+        assert sequence.nodes_to_first_solution == other.nodes_to_first_solution
+        assert sequence.nodes == other.nodes and sequence.samples == other.samples
+    assert sequence.collision_checks == phases.collision_checks == between_slices.collision_checks
+
+
+@pytest.mark.parametrize("rounds", [0, 1, 3])
+def test_the_compiled_sequence_stops_as_the_phases_do_within_a_budget(rounds, monkeypatch):
+    """Budgets that end the sequence mid-phase (nodes), and every count of rounds.
+
+    On 2D tasks where the shipped policy stalls, with a node budget that the rounds often
+    reach, trees whose arrays must grow (capacity 16) and a time limit (short slices), the
+    compiled sequence and the phases driven from Python give the same results: stops, rounds
+    begun, trees. The sequence returns to Python to grow either tree and between slices.
+    """
+    from temp_gym.evaluation.runner import evaluation_problem
+    from temp_gym.planning import _compiled_attention, goal_tree, temp_planner
+
+    class SmallTree(Tree):
+        def __init__(self, *args, **kwargs):
+            kwargs.setdefault("capacity", 16)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(goal_tree, "Tree", SmallTree)
+    monkeypatch.setattr(temp_planner, "Tree", SmallTree)
+    statuses = set()
+    run_sequence = _compiled_attention.attention_sequence
+
+    def recorded(*args):
+        status = run_sequence(*args)
+        statuses.add(status)
+        return status
+
+    monkeypatch.setattr(_compiled_attention, "attention_sequence", recorded)
+    compared = 0
+    for index in range(40):
+        problem = evaluation_problem("point2d", "challenging", index, seed=3)
+        kwargs = dict(
+            seed=index, max_nodes=1500, stop_at_first=True, attention_rounds=rounds,
+            time_limit=2.0,
+        )  # fmt: skip
+        monkeypatch.setattr(goal_tree, "SEQUENCE_COMPILED", True)
+        sequence = plan(problem, **kwargs)
+        if "from_goal_stop" not in sequence.attention:
+            continue
+        monkeypatch.setattr(goal_tree, "SEQUENCE_COMPILED", False)
+        phases = plan(problem, **kwargs)
+        compared += 1
+        untimed = lambda attention: {k: v for k, v in attention.items() if k != "time"}  # noqa: E731
+        assert untimed(sequence.attention) == untimed(phases.attention), index
+        assert sequence.nodes == phases.nodes and sequence.samples == phases.samples
+        assert sequence.collision_checks == phases.collision_checks
+        assert sequence.success == phases.success
+        if sequence.success:
+            np.testing.assert_array_equal(sequence.path, phases.path)
+    assert compared >= 10
+    assert {_compiled_attention.RUNNING, _compiled_attention.FULL_GOAL} <= statuses
+    assert (_compiled_attention.FULL_PLANNER in statuses) == (rounds > 0)  # rounds grow it

@@ -53,9 +53,11 @@ SCRIPT = textwrap.dedent(
         registry[name] = counted
 
     problems, options = json.loads(sys.argv[1]), json.loads(sys.argv[2])
-    for problem in problems if isinstance(problems, list) else [problems]:
+    problems = problems if isinstance(problems, list) else [problems]
+    options = options if isinstance(options, list) else [options] * len(problems)
+    for problem, kwargs in zip(problems, options):
         for planner in sys.argv[3:]:
-            plan(Problem.from_dict(problem), planner, seed=0, max_nodes=300, **options)
+            plan(Problem.from_dict(problem), planner, seed=0, max_nodes=300, **kwargs)
     print(json.dumps(calls))
     """
 )
@@ -64,7 +66,8 @@ SCRIPT = textwrap.dedent(
 def _calls_in_a_fresh_process(problems, planners, options=None):
     """SCRIPT's ``[planner, max_nodes, new specializations]`` per planner call.
 
-    ``options`` are keyword arguments of every timed `plan` call.
+    ``options`` are keyword arguments of every timed `plan` call, or a list of them, one per
+    problem.
     """
     done = subprocess.run(
         [sys.executable, "-c", SCRIPT, json.dumps(problems), json.dumps(options or {}), *planners],
@@ -95,6 +98,20 @@ def test_a_timed_run_that_grows_a_goal_tree_compiles_nothing(robot):
     calls = _calls_in_a_fresh_process(PROBLEMS[robot], ["temp"], {"attention_nodes": 1})
     timed = [call for call in calls if call[1] == 300]
     assert [call[0] for call in timed] == ["temp"]
+    assert all(call[2] == 0 for call in timed), timed
+
+
+def test_a_timed_run_that_stalls_compiles_nothing():
+    """The first plan (and its warm-up) run with the shipped settings in free space, where
+    the policy walks to the goal without a stall; the second stalls (a patience of one node
+    on uniform samples), so the phases after a stall run, from the goal and in rounds: a
+    compiled sequence of their own, which the warm-up's fourth plan met first."""
+    free = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "obstacles": [],
+            "start": [2, 2], "goal": [18, 18], "goal_radius": 0.5}  # fmt: skip
+    stalls = {"attention_patience": 1, "attention_uniform": 1.0, "stop_at_first": True}
+    calls = _calls_in_a_fresh_process([free, free], ["temp"], [{"stop_at_first": True}, stalls])
+    timed = [call for call in calls if call[1] == 300]
+    assert [call[0] for call in timed] == ["temp", "temp"]
     assert all(call[2] == 0 for call in timed), timed
 
 
