@@ -216,3 +216,16 @@ def test_end_to_end_runs_another_checkpoint_side_by_side(capsys):
                 ["--worlds", "2d", "--checkpoints", f"{shipped}@rounds=1"]):  # fmt: skip
         with pytest.raises(SystemExit):
             end_to_end.main(bad)
+
+
+def test_stall_sequence_times_both_sides_on_stalling_tasks(capsys):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import stall_sequence
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    best = stall_sequence.main(["--worlds", "2d", "--tasks", "4", "--repeats", "1"])
+    assert set(best) == {"2d"} and all(seconds > 0 for seconds in best["2d"])
+    assert "| 2d |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        stall_sequence.main(["--tasks", "0"])
