@@ -157,31 +157,6 @@ class AttentionLimits:
     `Tree.extend_with_fallback`)."""
 
 
-@dataclass(frozen=True)
-class CompiledJoin:
-    """A ``joined`` check the compiled loop can make itself (`_compiled_attention.join_check`).
-
-    A ``joined`` callable may offer one through a ``compiled_join(grown)`` method (the TEMP
-    planner's goal tree does, `temp_gym.planning.goal_tree`): the compiled loop then checks
-    at the same node counts without returning to Python, and calls back only on a link.
-    """
-
-    arrays: tuple
-    """``(other positions, other grid, other scratch, checked, record)``: the tree not grown,
-    as `Tree.compiled_state` holds it, the first untried node of each tree (int64, the
-    planner's, then the goal tree's; moved on by the checks) and the join record (int64,
-    `_compiled_attention.JOIN`)."""
-    other_count: int
-    """The nodes of the tree not grown."""
-    grown_side: int
-    """0: the planner's tree grows; 1: the goal tree does."""
-    link: Callable[[int, int], None]
-    """Called with the linked nodes (the planner's, the goal tree's) after the grown tree
-    took back its state."""
-    count_checks: Callable[[int], None]
-    """Called with the motion checks the join checks made (they count in the planner's tree)."""
-
-
 @dataclass
 class AttentionOutcome:
     """What one attention phase did (besides growing the tree)."""
@@ -194,9 +169,6 @@ class AttentionOutcome:
     """Proposals of the policy used as samples."""
     compiled: bool
     """Whether the compiled loop ran it."""
-    checked_at_stop: bool = False
-    """Whether the loop made the caller's ``joined`` check at its stop itself (a compiled
-    loop with a `CompiledJoin`)."""
 
 
 def observer_for(problem: Problem, policy: SamplingPolicy, max_nodes: int) -> TreeObserver:
@@ -247,9 +219,9 @@ def run_attention_phase(
             a stop rule fires (except the time limit): True ends the phase with the stop
             ``"joined"``. The TEMP planner's goal tree grows by attention this way and checks
             whether it meets the planner's tree (`temp_gym.planning.goal_tree`). The checks
-            come at the same node counts in both loops, so they grow the same trees. A
-            ``joined`` with a ``compiled_join(tree)`` method returning a `CompiledJoin` (or
-            None) is checked inside the compiled loop instead.
+            come at the same node counts in both loops, so they grow the same trees. (The
+            TEMP planner's phases after a stall run as one compiled sequence that makes these
+            checks itself, `temp_gym.planning._compiled_attention.attention_sequence`.)
         check_every: nodes between two ``joined`` checks (at least 1).
     """
     if check_every < 1:
@@ -277,12 +249,7 @@ def run_attention_phase(
             tree, policy, rng, goal_bias, uniform, follow_fallback, keep_chunk, limits,
             closest_sq, joined, check_every,
         )  # fmt: skip
-    if (
-        joined is not None
-        and outcome.stop not in ("joined", "time")
-        and not outcome.checked_at_stop
-        and joined()
-    ):
+    if joined is not None and outcome.stop not in ("joined", "time") and joined():
         outcome.stop = "joined"  # the nodes since the last check met the other tree
     return outcome
 
@@ -461,23 +428,18 @@ def _run_compiled(
     state = np.zeros(len(compiled.STATE), dtype=np.int64)
     state[compiled.ANCHOR] = tree.newest
     closest = np.array([closest_sq])
-    in_loop = getattr(joined, "compiled_join", None)
-    join = in_loop(tree) if callable(in_loop) else None
     budget = np.array(
         [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
          MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries, compiled.NO_CHECK,
-         check_every, 0 if join is None else join.other_count,
-         0 if join is None else join.grown_side],
+         check_every, 0, 0],
         dtype=np.int64,
     )  # fmt: skip
     near_sq = float(limits.near_sq)
     next_check = tree.num_nodes + check_every if joined is not None else MAX_COUNT
-    if join is not None:  # the compiled loop checks; Python only hears of a link
-        budget[compiled.NEXT_CHECK], next_check = next_check, MAX_COUNT
-        join_arrays = join.arrays
-    else:  # placeholders of the kernel's types, never read
-        own = tree.compiled_state()[0]
-        join_arrays = (own[0], own[9], own[4], np.zeros(2, np.int64), np.zeros(3, np.int64))
+    # The kernel's join check is off (NO_CHECK): ``joined`` is called from here. Placeholders
+    # of its arrays' types, never read.
+    own = tree.compiled_state()[0]
+    join_arrays = (own[0], own[9], own[4], np.zeros(2, np.int64), np.zeros(3, np.int64))
     iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
     while True:
         began = time.perf_counter()
@@ -494,15 +456,6 @@ def _run_compiled(
             path_rows, state, closest, near_sq, budget, iterations, join_arrays,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
-        if join is not None:
-            record = join_arrays[4]
-            if record[compiled.JOIN_CHECKS]:
-                join.count_checks(int(record[compiled.JOIN_CHECKS]))
-                record[compiled.JOIN_CHECKS] = 0
-        if status == compiled.JOINED:
-            join.link(int(record[compiled.PLANNER_NODE]), int(record[compiled.GOAL_NODE]))
-            stop = "joined"
-            break
         if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
             now = time.perf_counter()
             iterations = slice_length(limits.deadline, now, (now - began) / iterations)
@@ -519,15 +472,12 @@ def _run_compiled(
             stop = _COMPILED_STOPS[status]
             break
     calls, used = int(state[compiled.CALLS]), int(state[compiled.PROPOSALS])
-    return AttentionOutcome(
-        stop, calls, used, compiled=True, checked_at_stop=join is not None and stop != "time"
-    )
+    return AttentionOutcome(stop, calls, used, compiled=True)
 
 
 __all__ = [
     "AttentionLimits",
     "AttentionOutcome",
-    "CompiledJoin",
     "MAX_FALLBACK_TRIES",
     "RESUME_AFTER",
     "STOPS",

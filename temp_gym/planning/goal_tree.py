@@ -56,7 +56,6 @@ from temp_gym.planning.attention import (
     MAX_FALLBACK_TRIES,
     AttentionLimits,
     AttentionOutcome,
-    CompiledJoin,
     run_attention_phase,
 )
 from temp_gym.planning.policy import SamplingPolicy, fast_path
@@ -69,8 +68,9 @@ TURN_NODES = 32
 CHECK_EVERY = 8
 """While the policy grows the goal tree (`GoalTree.grow_by_attention`): nodes between two tries
 of its new nodes against the planner's tree. Checking after every node saved a node more on 2D
-validation when each check cost a return from the compiled loop; the compiled loop now makes
-the checks itself (`_JoinCheck`), and this has not been chosen again since."""
+validation when each check cost a return from the compiled loop; the compiled sequence after a
+stall now makes the checks itself (`_compiled_attention.join_check`), and this has not been
+chosen again since."""
 ATTENTION_ROUNDS = 1
 """The ``temp`` planner's default ``attention_rounds`` (`GoalTree.grow_in_rounds`): after the
 attention phases from the start and from the goal both stalled, one more round of the two
@@ -91,7 +91,7 @@ class GoalTree:
         self._checked = np.array([tree.num_nodes, 0], dtype=np.int64)
         """Nodes of the planner's tree and of this one tried against the other so far: the
         planner's older nodes are reached through this tree's nearest queries. The compiled
-        attention loop moves them on too (`_JoinCheck`)."""
+        sequence after a stall moves them on too (`_compiled_sequence`)."""
         self._grafted = 0
         """Nodes of this tree copied into the planner's (its branch, once joined)."""
 
@@ -325,7 +325,7 @@ class GoalTree:
         )
         outcome = run_attention_phase(
             grown, policy, rng, goal_bias, budget,
-            joined=_JoinCheck(self, tree, log), check_every=CHECK_EVERY, **options,
+            joined=lambda: self._join(tree, log), check_every=CHECK_EVERY, **options,
         )  # fmt: skip
         log.extra_nodes = self.extra_nodes
         return outcome
@@ -449,44 +449,6 @@ _SEQUENCE_STOPS = {
     compiled.STALLED_OUT: "stalled",
     compiled.JOINED: "joined",
 }
-
-
-class _JoinCheck:
-    """`GoalTree._join` as `run_attention_phase` calls it, also offered to its compiled loop.
-
-    Called, it makes the check in Python; `compiled_join` hands the compiled loop what
-    `temp_gym.planning._compiled_attention.join_check` needs to make the same check at the
-    same node counts without returning to Python (a checker with a compiled path only).
-    """
-
-    def __init__(self, goal_tree: GoalTree, tree: Tree, log: AnytimeLog) -> None:
-        self._goal_tree, self._tree, self._log = goal_tree, tree, log
-
-    def __call__(self) -> bool:
-        return self._goal_tree._join(self._tree, self._log)
-
-    def compiled_join(self, grown: Tree) -> CompiledJoin | None:
-        """The join check for a compiled phase growing ``grown`` (either tree)."""
-        goal_tree, tree = self._goal_tree, self._tree
-        if goal_tree._context is None:
-            return None
-        other = goal_tree.tree if grown is tree else tree
-        arrays = other.compiled_state()[0]
-
-        def count_checks(checks: int) -> None:
-            tree.collision_checks += checks
-
-        def link(planner_node: int, goal_node: int) -> None:
-            goal_tree._graft(tree, planner_node, goal_node, self._log)
-
-        record = np.array([-1, -1, 0], dtype=np.int64)
-        return CompiledJoin(
-            arrays=(arrays[0], arrays[9], arrays[4], goal_tree._checked, record),
-            other_count=other.num_nodes,
-            grown_side=0 if grown is tree else 1,
-            link=link,
-            count_checks=count_checks,
-        )
 
 
 __all__ = ["ATTENTION_ROUNDS", "CHECK_EVERY", "TURN_NODES", "GoalTree"]
