@@ -1,7 +1,9 @@
 """torchrun on a fresh checkout: the dataset is built before the process group starts.
 
 A slow fake generator takes longer than the process group's timeout. If a rank generated the
-dataset inside the group while the others waited at a barrier, the barrier would time out.
+dataset inside the group while the others waited at a barrier, the barrier would time out. The
+timeout (10 s) also bounds every collective of the short training that follows: at 3 s, a
+backward all-reduce timed out on a 2-core machine busy with another training run.
 """
 
 import os
@@ -23,7 +25,7 @@ FAKE = textwrap.dedent(
     _init = dist.init_process_group
 
     def init_process_group(*args, **kwargs):
-        kwargs["timeout"] = datetime.timedelta(seconds=3)
+        kwargs["timeout"] = datetime.timedelta(seconds=10)
         return _init(*args, **kwargs)
 
     dist.init_process_group = init_process_group
@@ -32,7 +34,7 @@ FAKE = textwrap.dedent(
     _generate = generate._generate
 
     def slow_generate(*args, **kwargs):
-        time.sleep(8)  # longer than the 3 s timeout
+        time.sleep(16)  # longer than the 10 s timeout
         return _generate(*args, **kwargs)
 
     generate._generate = slow_generate
