@@ -40,7 +40,6 @@ import numpy as np
 from temp_gym.planning._compiled_tree import (
     BAD_ACTION,
     BEST_NODE,
-    CHECKS,
     FALLBACK_BATCH,
     NEWEST,
     NUM_NODES,
@@ -48,11 +47,12 @@ from temp_gym.planning._compiled_tree import (
     extend_near_first,
     extend_with_fallback,
     fallback_sample,
-    first_link,
+    link_trees,
     normalized_root_path,
     squared_distance,
 )
 from temp_gym.planning._generator import generator_at
+from temp_gym.planning._grid import scan_nearest
 from temp_gym.planning.mpt_kernel import forward_kernel
 
 STATE = ("pending", "next_row", "calls", "proposals", "stalled", "anchor")
@@ -71,16 +71,12 @@ the other tree's node count, and which tree grows (0: the planner's, 1: the goal
  LOCAL_TRIES, NEXT_CHECK, CHECK_EVERY, OTHER_COUNT, GROWN_SIDE) = range(len(LIMITS))  # fmt: skip
 NO_CHECK = np.iinfo(np.int64).max
 """``limits[NEXT_CHECK]`` of a phase without join checks."""
-JOIN = ("planner_node", "goal_node", "checks")
-"""The int64 record a join check writes: the linked nodes of the planner's tree and of the
-goal tree (-1 before a link), and the motion checks made (they count in the planner's tree)."""
-PLANNER_NODE, GOAL_NODE, JOIN_CHECKS = range(len(JOIN))
 
 RUNNING, SOLVED, ATTENTION_BUDGET, BUDGET, STALLED_OUT, FULL, NOT_FINITE, JOINED = range(8)
 """Statuses: the slice ended; solved; the attention budget n or the node/sample budget is
 used up; no progress for ``patience`` nodes; the tree's arrays are full (grow them and call
 again); the policy proposed NaN or inf; a join check linked the two trees (the link is in
-the join record, `JOIN`)."""
+the join record, `temp_gym.planning._compiled_tree.LINK`)."""
 
 
 @numba.njit(cache=True, nogil=True)
@@ -219,50 +215,18 @@ def stopped(status, arrays, counters, context, limits, join) -> int:
 
 @numba.njit(cache=True, nogil=True)
 def join_check(arrays, count, context, limits, join) -> bool:
-    """Try the untried nodes of both trees against the other; True on the first free link.
+    """`link_trees` between the grown tree and the other; True on the first free link.
 
-    The grown tree is ``arrays`` with ``count`` nodes; the other is ``join``'s positions,
-    grid and scratch with ``limits[OTHER_COUNT]`` nodes. As `GoalTree._join` does: first the
-    planner's tree's nodes from ``checked[0]`` on, each against its nearest in the goal tree
-    (the motion towards it), then the goal tree's from ``checked[1]`` on, against the
-    planner's tree (the motion from it). ``checked`` moves past the nodes tried; the link and
-    the motion checks go into the join record (`JOIN`).
+    The grown tree is ``arrays`` with ``count`` nodes; the other is ``join``'s positions, grid
+    and scratch with ``limits[OTHER_COUNT]`` nodes; ``limits[GROWN_SIDE]`` says which of them
+    is the planner's tree. The link and the motion checks go into the join record.
     """
     other_positions, other_grid, other_scratch, checked, record = join
-    positions, scratch, grid = arrays[0], arrays[4], arrays[9]
-    other_count = limits[OTHER_COUNT]
-    counters = np.zeros(CHECKS + 1, dtype=np.int64)
+    grown = (arrays[0], arrays[9], arrays[4])
+    other = (other_positions, other_grid, other_scratch)
     if limits[GROWN_SIDE] == 0:
-        node, partner = first_link(
-            positions, checked[0], count, other_positions, other_count, other_grid,
-            other_scratch, context, counters, True,
-        )  # fmt: skip
-        checked[0] = count if node < 0 else node + 1
-        if node < 0:
-            goal_node, planner_node = first_link(
-                other_positions, checked[1], other_count, positions, count, grid, scratch,
-                context, counters, False,
-            )  # fmt: skip
-            checked[1] = other_count if goal_node < 0 else goal_node + 1
-        else:
-            planner_node, goal_node = node, partner
-    else:
-        planner_node, goal_node = first_link(
-            other_positions, checked[0], other_count, positions, count, grid, scratch, context,
-            counters, True,
-        )  # fmt: skip
-        checked[0] = other_count if planner_node < 0 else planner_node + 1
-        if planner_node < 0:
-            goal_node, planner_node = first_link(
-                positions, checked[1], count, other_positions, other_count, other_grid,
-                other_scratch, context, counters, False,
-            )  # fmt: skip
-            checked[1] = count if goal_node < 0 else goal_node + 1
-    record[JOIN_CHECKS] += counters[CHECKS]
-    if planner_node < 0 or goal_node < 0:
-        return False
-    record[PLANNER_NODE], record[GOAL_NODE] = planner_node, goal_node
-    return True
+        return link_trees(grown, count, other, limits[OTHER_COUNT], checked, context, record)
+    return link_trees(other, limits[OTHER_COUNT], grown, count, checked, context, record)
 
 
 SEQUENCE = ("phase", "started", "rounds", "from_goal_status", "last_status")
@@ -275,15 +239,6 @@ DONE, FULL_PLANNER, FULL_GOAL = 100, 101, 102
 """`attention_sequence`'s statuses besides `RUNNING`, `JOINED` and `NOT_FINITE`: the sequence
 ended (a stop other than a stall, a solution, or the rounds used up; `SEQUENCE` says which);
 the planner's or the goal tree's arrays are full (grow that tree and call again)."""
-
-
-@numba.njit(cache=True, nogil=True)
-def closest_to(positions, count, goal) -> float:
-    """The squared distance from ``goal`` to the nearest of the first ``count`` rows."""
-    best = squared_distance(positions[0], goal)
-    for i in range(1, count):
-        best = min(best, squared_distance(positions[i], goal))
-    return best
 
 
 @numba.njit(cache=True, nogil=True)
@@ -339,7 +294,7 @@ def attention_sequence(
             if phase == 0:  # not resumed: from the swapped problem's start
                 closest_sq[0] = squared_distance(start, goal)
             else:
-                closest_sq[0] = closest_to(arrays[0], counters[NUM_NODES], grown_goal)
+                closest_sq[0] = scan_nearest(arrays[0], counters[NUM_NODES], grown_goal)[1]
             sequence[STARTED] = 1
         status = attention_slice(
             arrays, counters, best_cost, params, grown_goal, bounds, context, rng_address,

@@ -327,6 +327,42 @@ def first_link(
     return -1, -1
 
 
+LINK = ("planner_node", "goal_node", "checks")
+"""The int64 record `link_trees` writes: the linked nodes of the planner's tree and of the goal
+tree (-1 before a link), and the motion checks made (they count in the planner's tree)."""
+PLANNER_NODE, GOAL_NODE, LINK_CHECKS = range(len(LINK))
+
+
+@numba.njit(cache=True, nogil=True)
+def link_trees(planner, planner_count, goal_tree, goal_count, checked, context, record) -> bool:
+    """Try the untried nodes of both trees against the other; True on the first free link.
+
+    ``planner`` and ``goal_tree`` are ``(positions, grid, scratch)`` with ``*_count`` nodes.
+    First the planner's nodes from ``checked[0]`` on, each against its nearest in the goal tree
+    (the motion towards it), then the goal tree's from ``checked[1]`` on, against the
+    planner's (the motion from it): `first_link` twice, so the joined path runs from the
+    start. ``checked`` moves past the nodes tried; the link and the motion checks go into
+    ``record`` (`LINK`).
+    """
+    counters = np.zeros(len(COUNTERS), dtype=np.int64)
+    planner_node, goal_node = first_link(
+        planner[0], checked[0], planner_count, goal_tree[0], goal_count, goal_tree[1],
+        goal_tree[2], context, counters, True,
+    )  # fmt: skip
+    checked[0] = planner_count if planner_node < 0 else planner_node + 1
+    if planner_node < 0:
+        goal_node, planner_node = first_link(
+            goal_tree[0], checked[1], goal_count, planner[0], planner_count, planner[1],
+            planner[2], context, counters, False,
+        )  # fmt: skip
+        checked[1] = goal_count if goal_node < 0 else goal_node + 1
+    record[LINK_CHECKS] += counters[CHECKS]
+    if planner_node < 0:
+        return False
+    record[PLANNER_NODE], record[GOAL_NODE] = planner_node, goal_node
+    return True
+
+
 @numba.njit(cache=True, nogil=True)
 def graft_branch(arrays, counters, best_cost, params, goal, node, branch):
     """Append the states ``branch`` (rows, in order) to the tree as a chain under ``node``.

@@ -390,6 +390,34 @@ _COMPILED_STOPS = {
 }
 
 
+def loop_arrays(
+    limits: AttentionLimits, check_every: int, dim: int, chunk: int, max_path_length: int
+) -> tuple[np.ndarray, ...]:
+    """The compiled loop's budgets and scratch, new: what `_compiled_attention` takes.
+
+    ``(budget, buffer, cursor, proposals, chunk_out, path_rows, state, closest)``: ``limits``
+    as `_compiled_attention.LIMITS` (no join check), the uniform fallback's empty batch, the
+    chunk, the path rows the MPT reads, the loop state (`STATE`, zeros) and the closest
+    approach (0).
+    """
+    budget = np.array(
+        [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
+         MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries, compiled.NO_CHECK,
+         check_every, 0, 0],
+        dtype=np.int64,
+    )  # fmt: skip
+    return (
+        budget,
+        np.empty((FALLBACK_BATCH, dim)),
+        np.array([FALLBACK_BATCH], dtype=np.int64),
+        np.empty((chunk, dim)),
+        np.empty((chunk, dim), np.float32),
+        np.zeros((max_path_length, dim), np.float32),
+        np.zeros(len(compiled.STATE), dtype=np.int64),
+        np.zeros(1),
+    )
+
+
 def _run_compiled(
     tree: Tree,
     proposer: tuple,
@@ -420,20 +448,11 @@ def _run_compiled(
     rng_address, noise_address = address(rng), address(noise_rng)
     goal = np.ascontiguousarray(problem.goal, dtype=np.float64)
     bounds = np.ascontiguousarray(problem.bounds, dtype=np.float64)
-    buffer = np.empty((FALLBACK_BATCH, dim))
-    cursor = np.array([FALLBACK_BATCH], dtype=np.int64)
-    proposals = np.empty((chunk, dim))
-    chunk_out = np.empty((chunk, dim), np.float32)
-    path_rows = np.zeros((max_path_length, dim), np.float32)
-    state = np.zeros(len(compiled.STATE), dtype=np.int64)
+    budget, buffer, cursor, proposals, chunk_out, path_rows, state, closest = loop_arrays(
+        limits, check_every, dim, chunk, max_path_length
+    )
     state[compiled.ANCHOR] = tree.newest
-    closest = np.array([closest_sq])
-    budget = np.array(
-        [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
-         MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries, compiled.NO_CHECK,
-         check_every, 0, 0],
-        dtype=np.int64,
-    )  # fmt: skip
+    closest[0] = closest_sq
     near_sq = float(limits.near_sq)
     next_check = tree.num_nodes + check_every if joined is not None else MAX_COUNT
     # The kernel's join check is off (NO_CHECK): ``joined`` is called from here. Placeholders
@@ -483,6 +502,7 @@ __all__ = [
     "STOPS",
     "closest_approach_sq",
     "default_patience",
+    "loop_arrays",
     "near_goal_limits",
     "observer_for",
     "resume_nodes",

@@ -42,20 +42,20 @@ import numpy as np
 
 from temp_gym.planning import _compiled_attention as compiled
 from temp_gym.planning._compiled_tree import (
-    CHECKS,
-    COUNTERS,
-    FALLBACK_BATCH,
-    first_link,
+    GOAL_NODE,
+    LINK_CHECKS,
+    PLANNER_NODE,
     graft_branch,
+    link_trees,
     slice_length,
 )
 from temp_gym.planning._generator import address
 from temp_gym.planning._kernels import nearest
 from temp_gym.planning.anytime import grow_anytime
 from temp_gym.planning.attention import (
-    MAX_FALLBACK_TRIES,
     AttentionLimits,
     AttentionOutcome,
+    loop_arrays,
     run_attention_phase,
 )
 from temp_gym.planning.policy import SamplingPolicy, fast_path
@@ -199,23 +199,14 @@ class GoalTree:
         goal = np.ascontiguousarray(tree.problem.goal, dtype=np.float64)
         start = np.ascontiguousarray(tree.problem.start, dtype=np.float64)
         bounds = np.ascontiguousarray(tree.problem.bounds, dtype=np.float64)
-        base_limits = np.array(
-            [limits.attention_nodes, limits.max_nodes, limits.max_samples, limits.patience,
-             MAX_FALLBACK_TRIES, limits.near_patience, limits.local_tries, 0, CHECK_EVERY, 0,
-             0],
-            dtype=np.int64,
-        )  # fmt: skip
+        base_limits, buffer, cursor, proposals, chunk_out, path_rows, state, closest = loop_arrays(
+            limits, CHECK_EVERY, dim, chunk, max_path_length
+        )
         phase_limits = base_limits.copy()
         sequence = np.zeros(len(compiled.SEQUENCE), dtype=np.int64)
         sequence[compiled.ROUNDS] = rounds
         sequence[compiled.FROM_GOAL_STATUS] = sequence[compiled.LAST_STATUS] = -1
         record = np.array([-1, -1, 0], dtype=np.int64)
-        buffer, cursor = np.empty((FALLBACK_BATCH, dim)), np.array([FALLBACK_BATCH], np.int64)
-        proposals = np.empty((chunk, dim))
-        chunk_out = np.empty((chunk, dim), np.float32)
-        path_rows = np.zeros((max_path_length, dim), np.float32)
-        state = np.zeros(len(compiled.STATE), dtype=np.int64)
-        closest = np.zeros(1)
         prefixes = (planner_proposer[1:4], goal_tree_proposer[1:4])
         iterations = slice_length(limits.deadline, time.perf_counter(), 0.0)
         timed_out, status = False, compiled.RUNNING
@@ -235,8 +226,8 @@ class GoalTree:
             )  # fmt: skip
             tree.load_compiled_state(planner[1], planner[2])
             self.tree.load_compiled_state(goal_tree[1], goal_tree[2])
-            tree.collision_checks += int(record[compiled.JOIN_CHECKS])
-            record[compiled.JOIN_CHECKS] = 0
+            tree.collision_checks += int(record[LINK_CHECKS])
+            record[LINK_CHECKS] = 0
             if status == compiled.RUNNING:  # a whole slice ran: its pace sizes the next one
                 now = time.perf_counter()
                 iterations = slice_length(limits.deadline, now, (now - began) / iterations)
@@ -250,8 +241,8 @@ class GoalTree:
                 break
         phase = int(sequence[compiled.PHASE])
         if status == compiled.JOINED and not timed_out:
-            self._graft(tree, int(record[compiled.PLANNER_NODE]),
-                        int(record[compiled.GOAL_NODE]), log)  # fmt: skip
+            self._graft(tree, int(record[PLANNER_NODE]),
+                        int(record[GOAL_NODE]), log)  # fmt: skip
         elif phase % 2 == 1 and tree.best_node >= 0 and not self.joined:
             log.extra_nodes = self.extra_nodes
             log.record_tree(tree)  # a round's phase on the planner's tree reached the goal
@@ -374,11 +365,25 @@ class GoalTree:
             log.extra_nodes = self.extra_nodes  # what the planner's next record adds
 
     def _join(self, tree: Tree, log: AnytimeLog) -> bool:
-        """Try the new nodes of both trees against the other; graft on the first free link."""
-        link = self._first_link(tree, self.tree, 0, towards_other=True)
-        if link is None:
-            found = self._first_link(self.tree, tree, 1, towards_other=False)
-            link = None if found is None else (found[1], found[0])
+        """Try the new nodes of both trees against the other; graft on the first free link.
+
+        Compiled for a checker with a compiled path (`_compiled_tree.link_trees`, which the
+        compiled sequence after a stall calls too), else the same tries from Python.
+        """
+        if self._context is not None:
+            ours, theirs = tree.compiled_state()[0], self.tree.compiled_state()[0]
+            record = np.array([-1, -1, 0], dtype=np.int64)
+            linked = link_trees(
+                (ours[0], ours[9], ours[4]), tree.num_nodes, (theirs[0], theirs[9], theirs[4]),
+                self.tree.num_nodes, self._checked, self._context, record,
+            )  # fmt: skip
+            tree.collision_checks += int(record[LINK_CHECKS])
+            link = (int(record[PLANNER_NODE]), int(record[GOAL_NODE])) if linked else None
+        else:
+            link = self._first_link(tree, self.tree, 0, towards_other=True)
+            if link is None:
+                found = self._first_link(self.tree, tree, 1, towards_other=False)
+                link = None if found is None else (found[1], found[0])
         if link is None:
             return False
         self._graft(tree, link[0], link[1], log)
@@ -390,32 +395,22 @@ class GoalTree:
         """The first unchecked node of ``tree`` with a free motion to its nearest in ``other``.
 
         Returns ``(i, j)``, the nodes of ``tree`` and ``other``, the motion checked from ``i``
-        to ``j`` when ``towards_other`` (else back), or None.
-
-        The checks count in the planner's tree. Compiled for a checker with a compiled path
-        (`temp_gym.planning._compiled_tree.first_link`), else the same loop in Python over the
-        checker's ``edge_free``.
+        to ``j`` when ``towards_other`` (else back), or None. The tries from Python over the
+        checker's ``edge_free`` (`_compiled_tree.first_link` is the compiled loop); the checks
+        count in the planner's tree.
         """
         planner_tree = tree if side == 0 else other
         first, count = self._checked[side], tree.num_nodes
         theirs = other.compiled_state()[0]
-        if self._context is not None:
-            counters = np.zeros(len(COUNTERS), dtype=np.int64)
-            node, partner = first_link(
-                tree.positions, first, count, other.positions, other.num_nodes, theirs[9],
-                theirs[4], self._context, counters, towards_other,
-            )  # fmt: skip
-            planner_tree.collision_checks += int(counters[CHECKS])
-        else:
-            node = partner = -1
-            for i in range(first, count):
-                j, _ = nearest(other.positions, other.num_nodes, tree.positions[i], theirs[9],
-                               theirs[4])  # fmt: skip
-                planner_tree.collision_checks += 1
-                ends = (tree.positions[i], other.positions[j])
-                if self.tree.checker.edge_free(*(ends if towards_other else ends[::-1])):
-                    node, partner = i, int(j)
-                    break
+        node = partner = -1
+        for i in range(first, count):
+            j, _ = nearest(other.positions, other.num_nodes, tree.positions[i], theirs[9],
+                           theirs[4])  # fmt: skip
+            planner_tree.collision_checks += 1
+            ends = (tree.positions[i], other.positions[j])
+            if self.tree.checker.edge_free(*(ends if towards_other else ends[::-1])):
+                node, partner = i, int(j)
+                break
         self._checked[side] = count if node < 0 else node + 1
         return None if node < 0 else (int(node), int(partner))
 
