@@ -30,6 +30,8 @@ import numba
 import numpy as np
 
 from temp_gym.models.array_backed import ArrayBacked
+from temp_gym.problem import Workspace
+from temp_gym.worlds.encoding import mark_boxes, occupancy_boxes
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`eise_arrays`)
     import torch
@@ -70,6 +72,14 @@ def _encode_kernel(
     for k in range(code_size):
         value = np.float32(code[k] + b2[k])
         out[k] = value if value > 0 or value != value else np.float32(0.0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _encode_boxes_kernel(region, lower, upper, resolution, w1, b1, w2, b2, out) -> None:
+    """`_encode_kernel` of the occupancy grid of boxes (`mark_boxes`'s grid), in one call."""
+    occupied = np.zeros(resolution ** region.shape[1], np.bool_)
+    mark_boxes(occupied, region, lower, upper, resolution)
+    _encode_kernel(occupied.astype(np.float32), w1, b1, w2, b2, out)
 
 
 def _weights(layer: torch.nn.Linear) -> tuple[np.ndarray, np.ndarray]:
@@ -138,6 +148,26 @@ class FastEISE(ArrayBacked):
         flat = np.ascontiguousarray(grid, np.float32).reshape(math.prod(self.grid_shape))
         out = np.empty(self.num_tokens * self.token_dim, np.float32)
         _encode_kernel(flat, self._w1, self._b1, self._w2, self._b2, out)
+        return out.reshape(self.num_tokens, self.token_dim)
+
+    def encode_workspace(self, workspace: Workspace) -> np.ndarray:
+        """The SEI tokens of a workspace's occupancy grid: ``self(occupancy_grid(...))``.
+
+        The grid is made and encoded in one compiled call, with nothing cached: what a
+        policy pays once per new workspace, at the start of a plan. The encoder's grid must
+        be the workspace's: one axis per workspace dimension, all of one resolution.
+        """
+        region, lower, upper = occupancy_boxes(workspace)
+        resolution = self.grid_shape[0]
+        if self.grid_shape != (resolution,) * region.shape[1]:
+            raise ValueError(
+                f"workspace: a {region.shape[1]}D workspace has no occupancy grid of the "
+                f"encoder's shape {self.grid_shape}"
+            )
+        out = np.empty(self.num_tokens * self.token_dim, np.float32)
+        _encode_boxes_kernel(
+            region, lower, upper, resolution, self._w1, self._b1, self._w2, self._b2, out
+        )
         return out.reshape(self.num_tokens, self.token_dim)
 
 

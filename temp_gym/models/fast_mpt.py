@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from temp_gym.models.array_backed import ArrayBacked
-from temp_gym.planning.mpt_kernel import forward_kernel, prefix_kernel
+from temp_gym.planning.mpt_kernel import forward_kernel, prefix_kernel, task_prefix_kernel
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`mpt_arrays`)
     from temp_gym.models.mpt import MPT
@@ -216,6 +216,37 @@ class FastMPT(ArrayBacked):
         z, qkv = prefix_kernel(sei, task, start, self._embeddings, self._prefix_position,
                                 self._ln, self._wqkv, self._bqkv)  # fmt: skip
         return Prefix(goal, z, qkv)
+
+    def task_prefix(
+        self,
+        sei: np.ndarray,
+        start: np.ndarray,
+        goal: np.ndarray,
+        bounds: np.ndarray,
+        ratio: float,
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], Prefix]:
+        """A problem's task as the model reads it and its `prefix`, from world units.
+
+        Args:
+            sei: ``(n, width)`` float32 SEI tokens of the workspace.
+            start: ``(d,)`` world state.
+            goal: ``(d,)`` world state.
+            bounds: ``(2, d)`` the configuration bounds the model normalizes by.
+            ratio: the goal radius ratio (`temp_gym.worlds.normalization.goal_radius_ratio`).
+
+        Returns:
+            ``(goal, ratio, start)`` float32 (normalized; ``(d,)``, ``(1,)``, ``(d,)``), and
+            the `Prefix` that `prefix` makes of them: the same arrays, in one compiled call.
+        """
+        goal32, ratio32, start32, z, qkv = task_prefix_kernel(
+            np.ascontiguousarray(sei, np.float32).reshape(self.num_sei_tokens, self.width),
+            np.ascontiguousarray(start, np.float64).reshape(self.dim),
+            np.ascontiguousarray(goal, np.float64).reshape(self.dim),
+            np.ascontiguousarray(bounds, np.float64).reshape(2, self.dim),
+            float(ratio), self._embeddings, self._prefix_position, self._ln, self._wqkv,
+            self._bqkv,
+        )  # fmt: skip
+        return (goal32, ratio32, start32), Prefix(goal32, z, qkv)
 
     def predict(
         self, prefix: Prefix, path: np.ndarray, path_length: int, out: np.ndarray | None = None

@@ -193,6 +193,16 @@ class PolicyCore:
             tensor = self.model.eise(grid.to(self.device))
         return tensor, tensor.cpu().numpy()[0].astype(np.float32)
 
+    def _encode_workspace(self, workspace: Workspace) -> tuple[torch.Tensor | None, np.ndarray]:
+        """`_encode` of the workspace's occupancy grid: what `_cached` keeps per workspace.
+
+        A fast core makes the grid and encodes it in one compiled call
+        (`FastEISE.encode_workspace`: the same SEI), without the grid cache.
+        """
+        if self.fast_eise is not None:
+            return None, self.fast_eise.encode_workspace(workspace)
+        return self._encode(occupancy_grid(workspace, self.info.encoding_resolution))
+
     @staticmethod
     def _with_tensor(
         pair: tuple[torch.Tensor | None, np.ndarray],
@@ -207,7 +217,7 @@ class PolicyCore:
             if sei is not None:
                 self._sei.move_to_end(key)
                 return sei
-        sei = self._encode(occupancy_grid(problem.workspace, self.info.encoding_resolution))
+        sei = self._encode_workspace(problem.workspace)
         with self._lock:
             self._sei[key] = sei
             if len(self._sei) > SEI_CACHE_SIZE:
@@ -507,15 +517,19 @@ class TEMPPolicy:
         else:
             self._sei, self._sei_array = self.core.sei(problem)
         # The task as the model reads it, float32; PyTorch's tensors are made when first used.
-        goal, start = normalize(np.array([problem.goal, problem.start]), problem.bounds)
-        self._task_arrays = (
-            goal.astype(np.float32),
-            np.array([goal_radius_ratio(problem.goal_radius, problem.bounds)], np.float32),
-            start.astype(np.float32),
-        )
+        ratio = goal_radius_ratio(problem.goal_radius, problem.bounds)
         self._task = None
-        if self._fast is not None:
-            self._prefix = self._fast.prefix(self._sei_array, *self._task_arrays)
+        if self._fast is not None:  # the task and its prefix in one compiled call
+            self._task_arrays, self._prefix = self._fast.task_prefix(
+                self._sei_array, problem.start, problem.goal, problem.bounds, ratio
+            )
+        else:
+            goal, start = normalize(np.array([problem.goal, problem.start]), problem.bounds)
+            self._task_arrays = (
+                goal.astype(np.float32),
+                np.array([ratio], np.float32),
+                start.astype(np.float32),
+            )
         self._task_bytes = self._grid_bytes = None  # made by `_follow` only when it is called
 
     _TASK_STATE = ("problem", "_sei", "_sei_array", "_task_arrays", "_task", "_prefix",

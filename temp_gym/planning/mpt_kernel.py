@@ -198,6 +198,30 @@ def prefix_kernel(sei, task, start, embeddings, position, ln, wqkv, bqkv):
 
 
 @numba.njit(cache=True, nogil=True)
+def task_prefix_kernel(sei, start, goal, bounds, ratio, embeddings, position, ln, wqkv, bqkv):
+    """The task as the model reads it, and `prefix_kernel`'s tokens of it, in one call.
+
+    ``start`` and ``goal`` are ``(d,)`` float64 world states, ``bounds`` ``(2, d)``, ``ratio``
+    the goal radius ratio (`temp_gym.worlds.normalization.goal_radius_ratio`). Returns the
+    normalized goal, the ratio and the normalized start as float32 arrays (``(d,)``, ``(1,)``,
+    ``(d,)``: `normalize`'s float64 arithmetic, rounded once), then ``z`` and ``qkv``. A policy
+    resets to a new problem at the start of every plan, and these numpy steps, one call each,
+    cost several times this kernel there.
+    """
+    dim = start.shape[0]
+    task = np.empty(dim + 1, np.float32)
+    normalized_start = np.empty(dim, np.float32)
+    for k in range(dim):
+        low = bounds[0, k]
+        span = bounds[1, k] - low
+        task[k] = 2.0 * (goal[k] - low) / span - 1.0
+        normalized_start[k] = 2.0 * (start[k] - low) / span - 1.0
+    task[dim] = ratio
+    z, qkv = prefix_kernel(sei, task, normalized_start, embeddings, position, ln, wqkv, bqkv)
+    return task[:dim].copy(), task[dim:].copy(), normalized_start, z, qkv
+
+
+@numba.njit(cache=True, nogil=True)
 def forward_kernel(
     path,
     length,
@@ -314,4 +338,4 @@ def forward_kernel(
             out[row, j] = v
 
 
-__all__ = ["LAYER_NORM_EPS", "forward_kernel", "prefix_kernel"]
+__all__ = ["LAYER_NORM_EPS", "forward_kernel", "prefix_kernel", "task_prefix_kernel"]

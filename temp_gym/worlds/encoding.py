@@ -33,11 +33,21 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     """
     if int(resolution) != resolution or resolution < 2:
         raise ValueError(f"resolution: expected an integer >= 2, got {resolution!r}")
-    region = workspace_region(workspace)
-    lower = np.ascontiguousarray(workspace.obstacle_lower, dtype=np.float64)
-    upper = np.ascontiguousarray(workspace.obstacle_upper, dtype=np.float64)
+    region, lower, upper = occupancy_boxes(workspace)
     key = (region.tobytes(), lower.shape, lower.tobytes(), upper.tobytes(), int(resolution))
     return _grid(key).copy()  # a fresh array: callers may write to it
+
+
+def occupancy_boxes(workspace: Workspace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What `occupancy_grid` is made of: the region and the boxes' lower and upper corners.
+
+    Contiguous float64 arrays, ``(2, workspace_dim)`` and ``(boxes, workspace_dim)`` twice, in
+    the form `mark_boxes` reads them.
+    """
+    region = np.ascontiguousarray(workspace_region(workspace), dtype=np.float64)
+    lower = np.ascontiguousarray(workspace.obstacle_lower, dtype=np.float64)
+    upper = np.ascontiguousarray(workspace.obstacle_upper, dtype=np.float64)
+    return region, lower, upper
 
 
 def clear_occupancy_grids() -> None:
@@ -59,15 +69,17 @@ def _grid(key: tuple) -> np.ndarray:
     upper = np.frombuffer(upper_bytes, dtype=np.float64).reshape(shape)
     wdim = region.shape[1]
     flat = np.zeros(resolution**wdim, dtype=np.bool_)
-    _mark_boxes(flat, np.ascontiguousarray(region), lower, upper, resolution)
+    mark_boxes(flat, np.ascontiguousarray(region), lower, upper, resolution)
     grid = flat.reshape((resolution,) * wdim).astype(np.float32)
     grid.flags.writeable = False
     return grid
 
 
 @numba.njit(cache=True, nogil=True)
-def _mark_boxes(flat, region, lower, upper, resolution) -> None:
+def mark_boxes(flat, region, lower, upper, resolution) -> None:
     """Mark, in the C-order flattened grid, the cells that overlap each box (closed intervals).
+
+    The kernel of `occupancy_grid`, for compiled callers too (`occupancy_boxes`' arrays).
 
     Cell ``i`` of an axis spans ``[region0 + i * cell, region0 + (i + 1) * cell]``.
     """

@@ -111,3 +111,25 @@ def test_policy_follows_a_new_grid_with_the_fast_encoder():
     np.testing.assert_allclose(
         fast._sei_array, torch_policy._sei.numpy()[0], atol=TOLERANCE, rtol=TOLERANCE
     )
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
+def test_encode_workspace_equals_encoding_its_occupancy_grid(robot):
+    """One compiled call gives bit for bit `FastEISE(occupancy_grid(...))`, on every family."""
+    from temp_gym.worlds.splits import split_workspace
+
+    resolution = 16 if robot == "kuka_iiwa14" else 24
+    dims = 3 if robot != "point2d" else 2
+    fast = FastEISE(_eise((resolution,) * dims, seed=5))
+    for family in ("boxes", "mixed"):
+        for index in range(6):
+            workspace = split_workspace(robot, "val", index, family)
+            grid = occupancy_grid(workspace, resolution)
+            np.testing.assert_array_equal(fast.encode_workspace(workspace), fast(grid))
+
+
+def test_encode_workspace_of_another_dimension_is_a_clear_error():
+    fast = FastEISE(_eise((8, 8)))
+    workspace = Problem.load("examples/point3d.json").workspace
+    with pytest.raises(ValueError, match=r"no occupancy grid of the encoder's shape \(8, 8\)"):
+        fast.encode_workspace(workspace)

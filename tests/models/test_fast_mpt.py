@@ -210,3 +210,30 @@ def test_policy_backend_choice():
     strict.record_attention = True
     with pytest.raises(ValueError, match="attention"):
         strict(observation)
+
+
+@pytest.mark.parametrize("robot", ["point2d", "point3d", "kuka_iiwa14"])
+def test_task_prefix_equals_the_numpy_steps_and_prefix(robot):
+    """One compiled call gives bit for bit the task `normalize` and `prefix` make, any bounds."""
+    from temp_gym.worlds.normalization import goal_radius_ratio, normalize
+
+    fast = FastMPT(_model(robot, chunk=2).mpt)
+    rng = np.random.default_rng(3)
+    width = fast.width
+    for _ in range(50):
+        d = fast.dim
+        low = rng.uniform(-7.0, 3.0, d)
+        bounds = np.stack([low, low + rng.uniform(0.1, 13.0, d)])
+        start, goal = rng.uniform(bounds[0], bounds[1], (2, d))
+        radius = float(rng.uniform(1e-3, 2.0))
+        sei = rng.normal(size=(fast.num_sei_tokens, width)).astype(np.float32)
+        ratio = goal_radius_ratio(radius, bounds)
+        (goal32, ratio32, start32), prefix = fast.task_prefix(sei, start, goal, bounds, ratio)
+        expected_goal, expected_start = normalize(np.array([goal, start]), bounds)
+        np.testing.assert_array_equal(goal32, expected_goal.astype(np.float32))
+        np.testing.assert_array_equal(start32, expected_start.astype(np.float32))
+        np.testing.assert_array_equal(ratio32, np.array([ratio], np.float32))
+        expected = fast.prefix(sei, goal32, ratio32, start32)
+        np.testing.assert_array_equal(prefix.goal, expected.goal)
+        np.testing.assert_array_equal(prefix.z, expected.z)
+        np.testing.assert_array_equal(prefix.qkv, expected.qkv)
