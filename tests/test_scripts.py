@@ -229,3 +229,22 @@ def test_stall_sequence_times_both_sides_on_stalling_tasks(capsys):
     assert "| 2d |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         stall_sequence.main(["--tasks", "0"])
+
+
+def test_plan_setup_times_every_planner_on_one_motion_problems(capsys):
+    from temp_gym.worlds.checkers import make_checker
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import plan_setup
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    medians = plan_setup.main(["--worlds", "2d", "--problems", "3", "--repeats", "1"])
+    assert set(medians["2d"]) == {"temp", "rrt_star", "informed_rrt_star", "reset"}
+    assert all(seconds > 0 for seconds in medians["2d"].values())
+    problems = plan_setup.one_motion_problems("point2d", 3)
+    for problem in problems:  # one straight free motion (a tree edge) solves each
+        assert make_checker(problem).edge_free(problem.start, problem.goal)
+    assert "| 2d | 3 | temp |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        plan_setup.main(["--problems", "0"])
