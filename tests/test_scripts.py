@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import subprocess
 import sys
@@ -132,12 +133,17 @@ def test_config_parse_args_leaves_a_single_value_options_value_alone():
     assert args.overrides == ["b.c=1", "d=2"]
 
 
-def test_policy_speed_reads_planner_settings_after_an_at_sign():
+def _benchmark(name: str):
+    """The module of ``benchmarks/{name}.py``, imported with the benchmarks folder on the path."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
-        import policy_speed
+        return importlib.import_module(name)
     finally:
         sys.path.remove(str(ROOT / "benchmarks"))
+
+
+def test_policy_speed_reads_planner_settings_after_an_at_sign():
+    policy_speed = _benchmark("policy_speed")
     path, settings = policy_speed.parse_entry("runs/x/best.pt@noise_std=0.03,horizon=4")
     assert path == Path("runs/x/best.pt") and settings == {"noise_std": 0.03, "horizon": 4}
     assert policy_speed.parse_entry("runs/x/best.pt") == (Path("runs/x/best.pt"), {})
@@ -147,11 +153,7 @@ def test_policy_speed_reads_planner_settings_after_an_at_sign():
 
 
 def test_policy_speed_draws_validation_tasks_as_tune_planner_does():
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import policy_speed
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    policy_speed = _benchmark("policy_speed")
     from temp_gym import training
     from temp_gym.config import load_config
 
@@ -163,11 +165,7 @@ def test_policy_speed_draws_validation_tasks_as_tune_planner_does():
 
 
 def test_directions_plans_each_ood_scene_from_both_ends():
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import directions
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    directions = _benchmark("directions")
     from temp_gym.evaluation.ood import load_ood_family
 
     medians = directions.main(["--worlds", "2d", "--seeds", "1", "--budget", "300"])
@@ -179,11 +177,7 @@ def test_directions_plans_each_ood_scene_from_both_ends():
 
 
 def test_end_to_end_runs_temp_without_its_goal_tree_side_by_side(capsys, tmp_path):
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import end_to_end
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    end_to_end = _benchmark("end_to_end")
     out = tmp_path / "end_to_end.json"
     end_to_end.main(["--worlds", "2d", "--tasks", "2", "--seeds", "1", "--budget", "300",
                      "--reference-nodes", "300", "--complete-seeds", "1", "--variants",
@@ -198,11 +192,7 @@ def test_end_to_end_runs_temp_without_its_goal_tree_side_by_side(capsys, tmp_pat
 
 
 def test_end_to_end_runs_another_checkpoint_side_by_side(capsys):
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import end_to_end
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    end_to_end = _benchmark("end_to_end")
     shipped = str(ROOT / "temp_gym" / "checkpoints" / "2d.pt")
     end_to_end.main(["--worlds", "2d", "--tasks", "2", "--seeds", "1", "--budget", "300",
                      "--complete-seeds", "1", "--sections", "first", "complete",
@@ -219,11 +209,7 @@ def test_end_to_end_runs_another_checkpoint_side_by_side(capsys):
 
 
 def test_stall_sequence_times_both_sides_on_stalling_tasks(capsys):
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import stall_sequence
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    stall_sequence = _benchmark("stall_sequence")
     best = stall_sequence.main(["--worlds", "2d", "--tasks", "4", "--repeats", "1"])
     assert set(best) == {"2d"} and all(seconds > 0 for seconds in best["2d"])
     assert "| 2d |" in capsys.readouterr().out
@@ -234,11 +220,7 @@ def test_stall_sequence_times_both_sides_on_stalling_tasks(capsys):
 def test_plan_setup_times_every_planner_on_one_motion_problems(capsys):
     from temp_gym.worlds.checkers import make_checker
 
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import plan_setup
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    plan_setup = _benchmark("plan_setup")
     medians = plan_setup.main(["--worlds", "2d", "--problems", "3", "--repeats", "1"])
     assert set(medians["2d"]) == {"temp", "rrt_star", "informed_rrt_star", "reset"}
     assert all(seconds > 0 for seconds in medians["2d"].values())
