@@ -94,6 +94,37 @@ def test_make_results_reads_verdicts_off_the_intervals(tmp_path, monkeypatch):
     assert make_results.verdict(None) == "**missed**"
 
 
+def test_make_results_splits_the_time_ratio_into_nodes_and_time_per_node(tmp_path, monkeypatch):
+    make_results = load_make_results()
+    monkeypatch.chdir(tmp_path)
+    records = fake_records(stall=1.0)
+    for record in records:  # Informed RRT*: RRT*'s runs, a little faster on fewer nodes
+        rrt = record["planners"]["rrt_star"]
+        record["planners"]["informed_rrt_star"] = {
+            **rrt, "time": rrt["time"] and 0.8 * rrt["time"], "nodes": rrt["nodes"] and rrt["nodes"] - 50,
+        }  # fmt: skip
+    write_report(records, tmp_path / "results" / "TEMP-2D-v0", tensorboard=False)
+    page = make_results.main(
+        ["--worlds", "2d", "--skip-evaluation", "--docs-dir", str(tmp_path / "docs")]
+    ).read_text()
+    both = [r["planners"] for r in records if r["group"] == "2D easy"
+            and r["planners"]["temp"]["success"] and r["planners"]["informed_rrt_star"]["success"]]
+    sums = {key: [sum(p[n][key] for p in both) for n in ("temp", "informed_rrt_star")]
+            for key in ("time", "nodes")}  # fmt: skip
+    time_ratio = sums["time"][0] / sums["time"][1]
+    nodes_ratio = sums["nodes"][0] / sums["nodes"][1]
+    paper_nodes, paper_per_node = make_results.paper_ratios("2D easy")
+    assert paper_nodes == pytest.approx(117 / 274)
+    assert paper_nodes * paper_per_node == pytest.approx(0.154 / 0.531)  # the paper's 0.29
+    line = next(x for x in page.splitlines() if x.startswith("| 2D easy | ") and "paper" not in x
+                and x.count("|") == 10)  # fmt: skip
+    cells = [c.strip() for c in line.strip("|").split("|")]
+    assert cells[2] == f"{time_ratio:.3f}" and cells[5] == f"{nodes_ratio:.3f}"
+    assert cells[6] == f"{time_ratio / nodes_ratio:.2f}"
+    assert cells[7:] == [f"{paper_nodes:.3f}", f"{paper_per_node:.2f}"]
+    assert make_results.paper_ratios("4D") is None
+
+
 def test_make_results_pools_draws_and_keeps_worlds_it_did_not_rerun(tmp_path, monkeypatch):
     make_results = load_make_results()
     monkeypatch.chdir(tmp_path)
