@@ -66,6 +66,8 @@ def paper_ratios(group: str) -> tuple[float, float] | None:
     (temp_time, temp_nodes), (irrt_time, irrt_nodes) = PAPER_TABLE[group]
     nodes = temp_nodes / irrt_nodes
     return nodes, (temp_time / irrt_time) / nodes
+
+
 PLOTS = ("success_vs_time.png", "cost_vs_nodes.png", "sampling_failures.png", "attention.png")
 MIN_SUCCESS = 0.99
 MAX_PAIRED_TIME = 0.7

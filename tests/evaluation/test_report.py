@@ -101,14 +101,21 @@ def test_make_results_splits_the_time_ratio_into_nodes_and_time_per_node(tmp_pat
     for record in records:  # Informed RRT*: RRT*'s runs, a little faster on fewer nodes
         rrt = record["planners"]["rrt_star"]
         record["planners"]["informed_rrt_star"] = {
-            **rrt, "time": rrt["time"] and 0.8 * rrt["time"], "nodes": rrt["nodes"] and rrt["nodes"] - 50,
-        }  # fmt: skip
+            **rrt,
+            "time": rrt["time"] and 0.8 * rrt["time"],
+            "nodes": rrt["nodes"] and rrt["nodes"] - 50,
+        }
     write_report(records, tmp_path / "results" / "TEMP-2D-v0", tensorboard=False)
     page = make_results.main(
         ["--worlds", "2d", "--skip-evaluation", "--docs-dir", str(tmp_path / "docs")]
     ).read_text()
-    both = [r["planners"] for r in records if r["group"] == "2D easy"
-            and r["planners"]["temp"]["success"] and r["planners"]["informed_rrt_star"]["success"]]
+    both = [
+        r["planners"]
+        for r in records
+        if r["group"] == "2D easy"
+        and r["planners"]["temp"]["success"]
+        and r["planners"]["informed_rrt_star"]["success"]
+    ]
     sums = {key: [sum(p[n][key] for p in both) for n in ("temp", "informed_rrt_star")]
             for key in ("time", "nodes")}  # fmt: skip
     time_ratio = sums["time"][0] / sums["time"][1]
