@@ -48,24 +48,15 @@ PAPER_TABLE = {
     "7D": ((0.754, 208), (6.940, 782)),
 }
 """The paper's Table 1, per row: TEMP's and IRRT*'s mean ``(time in s, nodes)``."""
-PAPER_TIME_RATIO = {
-    "2D easy": 0.29,
-    "2D challenging": 0.24,
-    "3D easy": 0.10,
-    "3D challenging": 0.11,
-    "7D": 0.11,
-}
-"""The paper's TEMP/IRRT* time ratios (its Table 1, `PAPER_TABLE`, rounded as the speed issue
-quotes them)."""
 
 
-def paper_ratios(group: str) -> tuple[float, float] | None:
-    """The paper's TEMP/IRRT* ``(nodes ratio, time-per-node ratio)`` of a row (`PAPER_TABLE`)."""
+def paper_ratios(group: str) -> tuple[float, float, float] | None:
+    """The paper's TEMP/IRRT* ``(time, nodes, time-per-node)`` ratios of a row (`PAPER_TABLE`)."""
     if group not in PAPER_TABLE:
         return None
     (temp_time, temp_nodes), (irrt_time, irrt_nodes) = PAPER_TABLE[group]
-    nodes = temp_nodes / irrt_nodes
-    return nodes, (temp_time / irrt_time) / nodes
+    time, nodes = temp_time / irrt_time, temp_nodes / irrt_nodes
+    return time, nodes, time / nodes
 
 
 PLOTS = ("success_vs_time.png", "cost_vs_nodes.png", "sampling_failures.png", "attention.png")
@@ -168,15 +159,19 @@ def world_section(key: str, out: Path, docs: Path) -> tuple[str, list[str], list
     ratios = []
     for group, data in summary["groups"].items():
         informed = data["temp_over"].get("informed_rrt_star", {})
-        paired = (informed.get("paired") or {}).get("time")
+        paired_figures = informed.get("paired") or {}
+        paired, paired_nodes = paired_figures.get("time"), paired_figures.get("nodes")
         per_task = (informed.get("per_task") or {}).get("time")
-        paired_nodes = (informed.get("paired") or {}).get("nodes")
         per_node = paired / paired_nodes if paired is not None and paired_nodes else None
         paper = paper_ratios(group)
+        ours = f"{_fmt(paired_nodes)} | {_fmt(per_node, 2)}"
         ratios.append(
             f"| {group} | {_fmt(informed.get('time'))} | {_fmt(paired)} | {_median(per_task)} | "
-            f"{PAPER_TIME_RATIO.get(group, 'n/a')} | {_fmt(paired_nodes)} | {_fmt(per_node, 2)} | "
-            + (f"{paper[0]:.3f} | {paper[1]:.2f} |" if paper else "n/a | n/a |")
+            + (
+                f"{paper[0]:.2f} | {ours} | {paper[1]:.3f} | {paper[2]:.2f} |"
+                if paper
+                else f"n/a | {ours} | n/a | n/a |"
+            )
         )
     settings = results.get("settings", {})
     text = [

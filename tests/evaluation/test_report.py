@@ -120,13 +120,15 @@ def test_make_results_splits_the_time_ratio_into_nodes_and_time_per_node(tmp_pat
             for key in ("time", "nodes")}  # fmt: skip
     time_ratio = sums["time"][0] / sums["time"][1]
     nodes_ratio = sums["nodes"][0] / sums["nodes"][1]
-    paper_nodes, paper_per_node = make_results.paper_ratios("2D easy")
+    paper_time, paper_nodes, paper_per_node = make_results.paper_ratios("2D easy")
     assert paper_nodes == pytest.approx(117 / 274)
-    assert paper_nodes * paper_per_node == pytest.approx(0.154 / 0.531)  # the paper's 0.29
+    assert paper_time == pytest.approx(0.154 / 0.531)  # the paper's 0.29
+    assert paper_nodes * paper_per_node == pytest.approx(paper_time)
     line = next(x for x in page.splitlines() if x.startswith("| 2D easy | ") and "paper" not in x
                 and x.count("|") == 10)  # fmt: skip
     cells = [c.strip() for c in line.strip("|").split("|")]
-    assert cells[2] == f"{time_ratio:.3f}" and cells[5] == f"{nodes_ratio:.3f}"
+    assert cells[2] == f"{time_ratio:.3f}" and cells[4] == "0.29"
+    assert cells[5] == f"{nodes_ratio:.3f}"
     assert cells[6] == f"{time_ratio / nodes_ratio:.2f}"
     assert cells[7:] == [f"{paper_nodes:.3f}", f"{paper_per_node:.2f}"]
     assert make_results.paper_ratios("4D") is None
