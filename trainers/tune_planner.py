@@ -28,13 +28,17 @@ among the settings whose attention phase solves at least ``--min-attention-succe
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
-quietly cut to it.
+quietly cut to it. ``--no-rrt`` leaves RRT* out (its columns print ``-``), for comparing
+policies with each other: ``--per-task FILE`` writes every run's figures task by task, which
+``trainers/compare_policies.py`` pairs across policies.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import itertools
+import json
 
 import numpy as np
 import torch
@@ -42,6 +46,7 @@ import torch
 from temp_gym import training
 from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.ood import load_ood_family
+from temp_gym.files import write_json_atomic
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.models.temp import load_checkpoint
 from temp_gym.planning.attention import RESUME_AFTER
@@ -204,6 +209,17 @@ def main(argv: list[str] | None = None) -> dict:
         default=0.9,
         help="least share of tasks the attention phase must solve (both ways) to be recommended",
     )
+    parser.add_argument(
+        "--no-rrt",
+        action="store_true",
+        help="leave RRT* out (its columns print -): for comparing policies with each other",
+    )
+    parser.add_argument(
+        "--per-task",
+        default=None,
+        help="write every run's figures task by task to this JSON file "
+        "(trainers/compare_policies.py pairs two such files)",
+    )
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
@@ -249,14 +265,30 @@ def main(argv: list[str] | None = None) -> dict:
             config, args.split, args.tasks, eval_config.seed + 20_000, workspace_family=args.family
         )
     seeds = [eval_config.seed + index for index in range(len(problems))]
-    rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
-    rrt = training.summarize(rrt_runs, eval_config.max_nodes)
+    rrt_runs = None
+    baseline = "RRT*: not run (--no-rrt)"
+    if not args.no_rrt:
+        rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
+        rrt = training.summarize(rrt_runs, eval_config.max_nodes)
+        baseline = (
+            f"RRT*: nodes mean {rrt['nodes_mean']:.1f} median {rrt['nodes_median']:.0f}, "
+            f"cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
+        )
     print(
         f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}), "
-        f"budget {eval_config.max_nodes} nodes per run; RRT*: nodes mean "
-        f"{rrt['nodes_mean']:.1f} median {rrt['nodes_median']:.0f}, cost {rrt['cost']:.2f}, "
-        f"time {rrt['time'] * 1e3:.1f} ms"
+        f"budget {eval_config.max_nodes} nodes per run; {baseline}"
     )
+    per_task = {
+        "config": args.config,
+        "checkpoint": args.checkpoint,
+        "split": args.split,
+        "family": "OOD" if args.split == "ood" else args.family,
+        "max_nodes": eval_config.max_nodes,
+        "seeds": seeds,
+        "problems": [_digest(problem) for problem in problems],
+        "rrt_star": None if rrt_runs is None else _task_figures(rrt_runs),
+        "settings": [],
+    }
     print(
         "| n | noise | horizon | window | patience | near goal | uniform | follow | local "
         "| keep chunk | resume | growth | goal tree | from goal | rounds "
@@ -313,7 +345,24 @@ def main(argv: list[str] | None = None) -> dict:
         row = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         both_ways = float(np.mean([run["attention_solved_both_ways"] for run in runs]))
-        paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
+        if rrt_runs is None:
+            versus_rrt = "- | -"
+        else:
+            paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
+            versus_rrt = (
+                f"{paired['fewer']:.2f} | {paired['difference']:+.1f} "
+                f"[{paired['low']:+.1f}, {paired['high']:+.1f}]"
+            )
+        setting = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
+                   "path_window": policy.path_window,
+                   "attention_patience": eval_config.attention_patience,
+                   "attention_uniform": uniform, "attention_near_goal_factor": factor,
+                   "attention_follow_fallback": follow, "attention_local_fallback": local,
+                   "attention_keep_chunk": bool(keep),
+                   "attention_resume": resume, "attention_resume_growth": growth,
+                   "goal_tree": bool(goal),
+                   "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip
+        per_task["settings"].append({"setting": setting, **_task_figures(runs)})
         print(
             f"| {budget} | {noise} | {policy.chunk} | {policy.window} | {patience} | {factor:g} | "
             f"{uniform} | {follow:g} | {local} | {keep} | {resume:g} | {growth:g} | {goal} | "
@@ -322,23 +371,35 @@ def main(argv: list[str] | None = None) -> dict:
             f"{row['nodes_mean']:.1f} | "
             f"{row['nodes_median']:.0f} | "
             f"{solved:.3f} | {both_ways:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
-            f"{row['time'] * 1e3:.2f} | {paired['fewer']:.2f} | {paired['difference']:+.1f} "
-            f"[{paired['low']:+.1f}, {paired['high']:+.1f}] |",
+            f"{row['time'] * 1e3:.2f} | {versus_rrt} |",
             flush=True,
         )
         if both_ways >= args.min_attention_success and row["nodes_mean"] < best_nodes:
-            best = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
-                    "path_window": policy.path_window,
-                    "attention_patience": eval_config.attention_patience,
-                    "attention_uniform": uniform, "attention_near_goal_factor": factor,
-                    "attention_follow_fallback": follow, "attention_local_fallback": local,
-                    "attention_keep_chunk": bool(keep),
-                    "attention_resume": resume, "attention_resume_growth": growth,
-                    "goal_tree": bool(goal),
-                    "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip
-            best_nodes = row["nodes_mean"]
+            best, best_nodes = setting, row["nodes_mean"]
     print(f"recommended: {best}")
+    if args.per_task is not None:
+        write_json_atomic(args.per_task, per_task)
+        print(f"per-task figures: {args.per_task}")
     return best or {}
+
+
+def _digest(problem) -> str:
+    """A short SHA-256 of the problem's JSON: two per-task files name the same tasks or not."""
+    text = json.dumps(problem.to_dict(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _task_figures(runs: list[dict]) -> dict[str, list]:
+    """Per task: nodes to the first solution, success, cost and the attention phase's share."""
+    return {
+        "nodes": [int(run["nodes"]) for run in runs],
+        "success": [bool(run["success"] > 0) for run in runs],
+        "cost": [float(run["cost"]) if run["success"] > 0 else None for run in runs],
+        "attention_solved": [bool(run.get("attention_solved", False)) for run in runs],
+        "attention_solved_both_ways": [
+            bool(run.get("attention_solved_both_ways", False)) for run in runs
+        ],
+    }
 
 
 if __name__ == "__main__":

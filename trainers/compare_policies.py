@@ -1,0 +1,151 @@
+r"""Pair policies task by task: a capped mean of nodes with its paired bootstrap interval.
+
+    python trainers/tune_planner.py --config configs/7d.yaml --checkpoint A.pt ... \\
+        --no-rrt --per-task a.json
+    python trainers/tune_planner.py --config configs/7d.yaml --checkpoint B.pt ... \\
+        --no-rrt --per-task b.json
+    python trainers/compare_policies.py a.json b.json [c.json ...] [--cap 1000] [--margin 0.05]
+
+The first file is the reference (the shipped policy, say); every other file is a candidate
+that planned the same tasks with the same seeds and budget (the files name their tasks; other
+tasks are refused). Node counts to the first solution, a failure counted as the whole
+budget, are capped at ``--cap`` per task (`temp_gym.evaluation.statistics.
+paired_capped_difference`): a mean of heavy-tailed counts can be decided by one task of
+thousands, and the cap counts such a task as a failure to solve fast instead. Per candidate
+it prints the plain and capped means, the capped mean difference to the reference with its
+95% paired bootstrap interval, and whether the interval's upper end is within ``--margin``
+of the reference's capped mean (a non-inferiority test), beside the median, the attention
+phase's share solved both ways, the tasks over the cap, the share solved and the mean
+first-path cost on the tasks both solved.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym.config import parse_args, script_parser
+from temp_gym.evaluation.statistics import paired_capped_difference
+from temp_gym.jobs import JobError, run_script
+
+KEYS = ("max_nodes", "seeds", "problems", "settings")
+
+
+def _load(path: str, setting: int) -> dict:
+    """One setting's per-task figures from a ``tune_planner.py --per-task`` file."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise JobError(f"{path}: not a readable per-task file ({error})") from error
+    missing = [key for key in KEYS if not isinstance(data, dict) or key not in data]
+    if missing:
+        raise JobError(f"{path}: not a tune_planner.py --per-task file (no {missing[0]!r})")
+    settings = data["settings"]
+    if not -len(settings) <= setting < len(settings):
+        raise JobError(f"{path}: --setting {setting}, but the file holds {len(settings)}")
+    runs = settings[setting]
+    budget = int(data["max_nodes"])
+    nodes = np.where(runs["success"], runs["nodes"], budget).astype(np.float64)
+    return {"path": path, "data": data, "runs": runs, "nodes": nodes}
+
+
+def _same_tasks(reference: dict, candidate: dict) -> None:
+    for key in ("max_nodes", "seeds", "problems"):
+        if reference["data"][key] != candidate["data"][key]:
+            raise JobError(
+                f"{candidate['path']}: its {key} differ from {reference['path']}'s: "
+                "plan the same tasks with the same seeds and budget"
+            )
+
+
+def _cost(reference: dict, candidate: dict) -> tuple[float, float]:
+    """Mean first-path cost of each on the tasks both solved."""
+    both = np.logical_and(reference["runs"]["success"], candidate["runs"]["success"])
+    if not both.any():
+        return float("nan"), float("nan")
+    costs = [np.array(item["runs"]["cost"], dtype=object)[both].astype(np.float64)
+             for item in (reference, candidate)]  # fmt: skip
+    return float(costs[0].mean()), float(costs[1].mean())
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Print the table; return ``{candidate path: its figures}``."""
+    parser = script_parser(__doc__.splitlines()[0])
+    parser.add_argument("reference", help="the reference's per-task file (tune_planner.py)")
+    parser.add_argument("candidates", nargs="+", help="the candidates' per-task files")
+    parser.add_argument(
+        "--cap", type=float, default=1000.0, help="nodes a task counts at most, in every mean"
+    )
+    parser.add_argument(
+        "--margin",
+        type=float,
+        default=0.05,
+        help="non-inferiority margin, a share of the reference's capped mean",
+    )
+    parser.add_argument(
+        "--setting", type=int, default=0, help="which setting of each file (its row, from 0)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling")
+    args = parse_args(parser, argv)
+    if not (np.isfinite(args.cap) and args.cap > 0):
+        parser.error(f"--cap: expected a finite positive number, got {args.cap}")
+    if not (np.isfinite(args.margin) and args.margin >= 0):
+        parser.error(f"--margin: expected a finite number of at least 0, got {args.margin}")
+    reference = _load(args.reference, args.setting)
+    candidates = [_load(path, args.setting) for path in args.candidates]
+    for candidate in candidates:
+        _same_tasks(reference, candidate)
+    print(
+        f"{len(reference['nodes'])} tasks, budget {reference['data']['max_nodes']} nodes, "
+        f"each counted at most {args.cap:g}; reference {args.reference}"
+    )
+    print(
+        "| policy | mean | median | capped mean | difference [95% CI] | within margin "
+        "| both ways | over cap | solved | cost (both solved) |"
+    )
+    print("|---|---:|---:|---:|---|---|---:|---:|---:|---:|")
+    rows = {}
+    for item in [reference, *candidates]:
+        summary = paired_capped_difference(
+            reference["nodes"], item["nodes"], args.cap, seed=args.seed
+        )
+        limit = args.margin * summary["reference_capped"]
+        within = summary["high"] <= limit
+        both_ways = float(np.mean(item["runs"]["attention_solved_both_ways"]))
+        solved = float(np.mean(item["runs"]["success"]))
+        _, cost = _cost(reference, item)
+        is_reference = item is reference
+        difference = (
+            "-"
+            if is_reference
+            else f"{summary['difference']:+.2f} [{summary['low']:+.2f}, {summary['high']:+.2f}]"
+        )
+        verdict = "-" if is_reference else f"{'yes' if within else 'no'} (<= {limit:+.2f})"
+        print(
+            f"| {item['path']} | {summary['candidate_mean']:.1f} | "
+            f"{np.median(item['nodes']):.0f} | {summary['candidate_capped']:.2f} | {difference} | "
+            f"{verdict} | {both_ways:.3f} | {summary['candidate_over_cap']} | {solved:.3f} | "
+            f"{cost:.3f} |"
+        )
+        if not is_reference:
+            rows[item["path"]] = {
+                **summary,
+                "limit": limit,
+                "within_margin": within,
+                "median": float(np.median(item["nodes"])),
+                "both_ways": both_ways,
+                "reference_both_ways": float(
+                    np.mean(reference["runs"]["attention_solved_both_ways"])
+                ),
+                "solved": solved,
+                "cost": cost,
+                "reference_cost": _cost(reference, item)[0],
+            }
+    return rows
+
+
+if __name__ == "__main__":
+    sys.exit(run_script("compare_policies.py", main))
