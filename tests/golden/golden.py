@@ -85,6 +85,9 @@ Then the shipped policies' checkpoints declare ``attention_local_fallback`` (2D 
 plans, the three 3D ones and the 2D evaluation record changed (no 7D plan of the sample
 has a colliding proposal). With the setting at 0 every fingerprint was identical; the six were
 rewritten.
+
+Then the shipped 7D policy changed (the paper-scale one trained with self-collision): only the
+two 7D ``temp`` plans and the 7D evaluation record changed, and were rewritten the same way.
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
