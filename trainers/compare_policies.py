@@ -107,6 +107,7 @@ def main(argv: list[str] | None = None) -> dict:
         "| both ways | over cap | solved | cost (both solved) |"
     )
     print("|---|---:|---:|---:|---|---|---:|---:|---:|---:|")
+    reference_both_ways = float(np.mean(reference["runs"]["attention_solved_both_ways"]))
     rows = {}
     for item in [reference, *candidates]:
         summary = paired_capped_difference(
@@ -116,7 +117,7 @@ def main(argv: list[str] | None = None) -> dict:
         within = summary["high"] <= limit
         both_ways = float(np.mean(item["runs"]["attention_solved_both_ways"]))
         solved = float(np.mean(item["runs"]["success"]))
-        _, cost = _cost(reference, item)
+        reference_cost, cost = _cost(reference, item)
         is_reference = item is reference
         difference = (
             "-"
@@ -137,12 +138,10 @@ def main(argv: list[str] | None = None) -> dict:
                 "within_margin": within,
                 "median": float(np.median(item["nodes"])),
                 "both_ways": both_ways,
-                "reference_both_ways": float(
-                    np.mean(reference["runs"]["attention_solved_both_ways"])
-                ),
+                "reference_both_ways": reference_both_ways,
                 "solved": solved,
                 "cost": cost,
-                "reference_cost": _cost(reference, item)[0],
+                "reference_cost": reference_cost,
             }
     return rows
 

@@ -36,7 +36,7 @@ def per_task(tmp_path_factory) -> dict[str, Path]:
     return files
 
 
-def test_the_per_task_file_holds_what_the_table_printed(per_task):
+def test_the_per_task_file_holds_every_run_task_by_task(per_task):
     data = json.loads(per_task["plain"].read_text())
     assert data["rrt_star"] is None  # --no-rrt
     assert data["max_nodes"] == 3000 and len(data["seeds"]) == len(data["problems"]) == 6
