@@ -12,7 +12,7 @@ what to do, instead of a traceback from deep inside a parser.
 it dies, so a killed run never leaves a stale lock behind. The file records the holder's pid
 and host for the message a second run prints.
 
-Example:
+Examples:
     >>> with atomic_write(Path("out/record.json"), "w") as handle:
     ...     json.dump(record, handle)
     >>> record = read_json(Path("out/record.json"), "delete it and rerun to recompute it")

@@ -14,7 +14,7 @@ the libraries underneath:
 Both are scoped to our own calls into those libraries; nothing is changed for the rest of
 the process.
 
-Example:
+Examples:
     >>> pybullet = import_pybullet()  # no banner
     >>> with native_output_silenced():
     ...     client = BulletClient(connection_mode=pybullet.DIRECT)

@@ -6,7 +6,7 @@
 * `add_hparams` puts a run's configuration in the HParams dashboard of *the same run*
   (``SummaryWriter.add_hparams`` would start a new one), with the metrics to compare runs by.
 
-Example:
+Examples:
     >>> add_scalar(writer, "val/recons", 0.41, step=3, description="EISE reconstruction ...")
     >>> add_hparams(writer, {"optim": {"lr": 1e-3}}, metrics=["val/semantic"])
 """

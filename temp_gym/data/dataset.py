@@ -219,7 +219,7 @@ def load_split(data_dir: str | Path, split: str):
     the encoding is ``workspaces["occupancy"][sample["workspace_id"]]``. No file is
     unpickled, and every file must match the size and SHA-256 the card lists.
 
-    Example:
+    Examples:
         >>> rb, workspaces = load_split("datasets/2d", "train")
         >>> batch = rb.sample(256)
         >>> occupancy = workspaces["occupancy"][batch["workspace_id"]]  # (256, 32, 32)

@@ -23,7 +23,7 @@ _ROUNDING = 1e-9  # an edge of exactly k steps (up to rounding) is split into k 
 def resample_path(path: np.ndarray, step: float) -> np.ndarray:
     """Split every edge into ``ceil(length / step)`` equal pieces; keep every vertex.
 
-    Example:
+    Examples:
         >>> resample_path(np.array([[0.0, 0.0], [2.5, 0.0]]), 1.0)[:, 0].tolist()
         [0.0, 0.8333333333333334, 1.6666666666666667, 2.5]
     """

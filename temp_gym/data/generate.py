@@ -312,7 +312,7 @@ def generate_dataset(
     on the same ``data.dir`` stops with a message naming the first (or, with ``wait``, waits
     for it and then finds the dataset complete).
 
-    Example:
+    Examples:
         >>> config = load_config("configs/tiny.yaml", ["data.dir=/tmp/tiny"])
         >>> rb, workspaces = load_split(generate_dataset(config), "train")
 

@@ -5,7 +5,7 @@ factor of two, while the median barely moves. Reporting both, each with a percen
 bootstrap interval over the tasks, says how far a figure can be trusted, and a claim such as
 "faster than RRT*" can be read off an interval that excludes 1 rather than off one number.
 
-Example:
+Examples:
     >>> summary = describe([0.010, 0.012, 0.011, 0.250])  # one stall
     >>> summary["median"], summary["mean"]
     (0.0115, 0.07075)

@@ -14,7 +14,7 @@ min-max normalization over the steps (Eq. 7):
 
 The output token's attention to itself belongs to no group and is left out.
 
-Example:
+Examples:
     >>> maps = [policy.last_attention for each step]     # each (layers, heads, T, T)
     >>> weights = normalized_group_attention(maps, num_sei_tokens=8)
     >>> weights["SEI"].shape                             # (steps,)

@@ -8,7 +8,7 @@ logits (the grid is 0/1), see `temp_gym.models.loss`. S is trained by both the r
 and the planning (semantic) loss, so it learns what the planner needs, not only what the grid
 looks like.
 
-Example:
+Examples:
     >>> eise = EISE(grid_shape=(32, 32), hidden=256, num_tokens=8, token_dim=64)
     >>> sei = eise(occupancy)          # (B, 32, 32) -> (B, 8, 64)
     >>> logits = eise.decode(sei)      # (B, 32, 32)

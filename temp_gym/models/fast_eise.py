@@ -13,7 +13,7 @@ accumulated in float64 and rounded to float32 once per layer (torch sums in floa
 own order). Any grid values work, not only 0 and 1: a cell of value v adds v times its row,
 and a cell of 0 adds nothing.
 
-Example:
+Examples:
     >>> fast = FastEISE(model.eise)          # once: copies the encoder's weights
     >>> sei = fast(grid)                     # (*grid_shape) -> (num_tokens, token_dim) float32
 

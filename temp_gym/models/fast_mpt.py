@@ -19,7 +19,7 @@ not change the result:
   layer is read, so that layer computes keys and values for every token but the query,
   attention, output projection and FFN for the output token alone.
 
-Example:
+Examples:
     >>> fast = FastMPT(model.mpt)                               # once: copies the weights
     >>> prefix = fast.prefix(sei, goal, goal_radius, start)     # once per problem
     >>> samples = fast.predict(prefix, path, path_length)  # every call, (chunk, d) float32

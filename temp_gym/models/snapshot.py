@@ -13,7 +13,7 @@ used: the checkpoint stays the one source of truth.
 when something asks for it (``backend="torch"``, recorded attention, ``policy.model``).
 ``trainers/ship.py`` writes the snapshots of the shipped policies.
 
-Example:
+Examples:
     >>> write_snapshot("runs/.../best.pt")          # -> runs/.../best.kernels.npz
     >>> snapshot = read_snapshot("runs/.../best.pt", digest)   # None if it does not fit
 """

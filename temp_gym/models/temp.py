@@ -18,7 +18,7 @@ A checkpoint is a plain dict that ``torch.load(path, weights_only=True)`` reads:
 Trainer checkpoints (``last.pt``) add ``optimizer``, ``scheduler``, ``epoch`` and the RNG
 state; `load_checkpoint` reads both kinds.
 
-Example:
+Examples:
     >>> model = TEMPModel.from_config({"num_layers": 2}, robot="point2d",
     ...                               encoding_resolution=32, max_path_length=64)
     >>> out = model(batch)            # batch: a dict of tensors named like the observation

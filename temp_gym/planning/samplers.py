@@ -10,7 +10,7 @@ Samplers draw in batches and serve them one by one (a numpy call per sample woul
 the planner's time). A batch belongs to the generator that drew it: passing a different
 generator, or calling `reset`, discards it, so "same seed, same samples" holds.
 
-Example:
+Examples:
     >>> rng = np.random.default_rng(0)
     >>> sampler = GoalBiasedSampler(UniformSampler(problem.bounds), problem.goal, 0.05)
     >>> sampler.sample(rng).shape

@@ -25,7 +25,7 @@ planning", Thm. 38 and its k-nearest variant), with ``n`` the number of nodes pl
   radius at the cap, the exact volume is not computed (`Tree._gamma_for`; same radii).
 * ``"k_nearest"``: ``k = ceil(rewire_factor * e * (1 + 1/d) * log n)`` nearest nodes.
 
-Example:
+Examples:
     >>> tree = Tree(problem)
     >>> result = tree.extend(np.array([5.0, 5.0]))
     >>> result.node, tree.num_nodes, tree.best_cost

@@ -51,7 +51,7 @@ class Problem:
     Construct one from a `Workspace`, with `Problem.from_dict`, or with `Problem.load`; all
     three validate. Arrays are stored as read-only float64 numpy arrays.
 
-    Example:
+    Examples:
         >>> p = Problem.from_dict({"robot": "point2d", "bounds": [[0, 0], [20, 20]],
         ...     "obstacles": [{"center": [10, 10], "half_extents": [1, 3]}],
         ...     "start": [2, 2], "goal": [18, 18], "goal_radius": 0.5})

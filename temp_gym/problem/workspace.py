@@ -20,7 +20,7 @@ class Workspace:
     stored as a read-only float64 array. Two workspaces are equal when their robot, bounds and
     boxes are, and equal workspaces hash alike, so a workspace can key a cache.
 
-    Example:
+    Examples:
         >>> workspace = Workspace("point2d", [[0, 0], [20, 20]], [[10, 10]], [[1, 3]])
         >>> problem = Problem(workspace, start=[2, 2], goal=[18, 18], goal_radius=0.5)
     """

@@ -1,6 +1,6 @@
 """A problem's collision checkers, as its robot's spec names them, and path certification.
 
-Example:
+Examples:
     >>> checker = make_checker(problem)
     >>> checker.states_free(np.array([[2.0, 2.0], [10.0, 10.0]]))
     array([ True, False])

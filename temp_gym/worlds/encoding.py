@@ -28,7 +28,7 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
 
     The array has one axis per workspace dimension, indexed ``[x, y]`` or ``[x, y, z]``.
 
-    Example:
+    Examples:
         >>> grid = occupancy_grid(problem.workspace, resolution=32)  # (32, 32) for 2D
     """
     if int(resolution) != resolution or resolution < 2:

@@ -5,7 +5,7 @@ state, so the same seed always gives the same problems. What "easy" and "challen
 the robot's generators' to say: `temp_gym.worlds.point_world` (a detour ratio against a
 reference path) and `temp_gym.worlds.iiwa_world` (a blocked straight motion).
 
-Example:
+Examples:
     >>> problem = generate_problem(POINT2D.name, np.random.default_rng(0), "challenging")
 """
 

@@ -40,7 +40,7 @@ does for the point worlds.
 
 All randomness comes from the `numpy.random.Generator` passed in.
 
-Example:
+Examples:
     >>> workspace = generate_iiwa_structured_workspace("kuka_iiwa14", np.random.default_rng(0),
     ...                                                 "maze")
 """

@@ -32,7 +32,7 @@ checker agrees that start and goal are free):
 All randomness comes from the `numpy.random.Generator` passed in: the same seed gives the
 same workspace and tasks.
 
-Example:
+Examples:
     >>> rng = np.random.default_rng(0)
     >>> workspace = generate_iiwa_workspace(KUKA_IIWA14.name, rng)
     >>> problem = generate_iiwa_task(workspace, rng, "challenging", goal_radius=0.1)

@@ -73,7 +73,7 @@ def split_workspace(robot: str, split: str, index: int, family: str = BOXES) -> 
     ``boxes``, is the robot's own generator, whose pools datasets and checkpoints were made
     from.
 
-    Example:
+    Examples:
         >>> maze = split_workspace("point2d", "train", 0, "maze")
     """
     rng = workspace_rng(robot, split, index, family)

@@ -47,7 +47,7 @@ A policy trained on these families has still met walls with openings and cups, s
 results on the OOD scenes measure generalization to unseen layouts of familiar elements, not
 to unseen elements.
 
-Example:
+Examples:
     >>> workspace = generate_structured_workspace("point2d", np.random.default_rng(0), "maze")
 """
 

@@ -56,7 +56,7 @@ class PlanningMetrics(gym.Wrapper):
     `RecordEpisodeStatistics` in either order: that wrapper's ``r``, ``l``, ``t`` stay in
     ``info["episode"]``.
 
-    Example:
+    Examples:
         >>> env = PlanningMetrics(RecordEpisodeStatistics(gymnasium.make("TEMP-2D-v0")))
         >>> ...  # at the last step of an episode:
         >>> info["planning"]["nodes"], info["episode"]["l"]

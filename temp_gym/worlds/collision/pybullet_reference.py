@@ -5,7 +5,7 @@ poses it with its own kinematics and collides its own shapes (each STL mesh's co
 Bullet's 1 mm collision margin; boxes as boxes). Tests and benchmarks use it to cross-check
 states and paths. It runs in its own DIRECT client, never the global pybullet connection.
 
-Example:
+Examples:
     >>> with PybulletIiwa(problem) as bullet:
     ...     bullet.states_free(states)  # bool[N]: no box contact, no self-collision
     ...     bullet.self_collisions(states[0])  # [("link_5", "link_7")] or []

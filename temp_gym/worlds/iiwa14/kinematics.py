@@ -7,7 +7,7 @@ URDF with `xml.etree`, so the kinematics cannot drift from the file pybullet loa
 Link ``j``'s frame is the frame of the joint that carries it (as in URDF and pybullet's
 ``worldLinkFramePosition``), not its inertial frame.
 
-Example:
+Examples:
     >>> poses = forward_kinematics(np.zeros((2, 7)))  # (2, 8, 4, 4) world poses of the links
     >>> poses[0, 7, :3, 3].round(3)  # link_7 origin with the arm stretched up
     array([0.   , 0.   , 1.261])

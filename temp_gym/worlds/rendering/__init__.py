@@ -10,7 +10,7 @@ Both tell a solution (bold red in 2D/3D, start-to-goal arms in 7D) from the path
 before one exists (dashed orange; an orange arm at the newest node), and their titles say
 which (`plan_title`).
 
-Example:
+Examples:
     >>> image = render_point_world(problem, positions=tree.positions, parents=tree.parents,
     ...                            num_nodes=tree.num_nodes, path=tree.best_path())
     >>> image.shape, image.dtype

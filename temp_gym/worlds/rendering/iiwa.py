@@ -117,7 +117,7 @@ class IiwaRenderer:
         fov: Vertical field of view, degrees.
         shadow: Whether the renderer casts shadows (about 3x slower).
 
-    Example:
+    Examples:
         >>> renderer = IiwaRenderer()
         >>> image = renderer.render(problem, path=result.path)  # (480, 480, 3) uint8
         >>> renderer.close()

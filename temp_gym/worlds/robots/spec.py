@@ -56,7 +56,7 @@ StructuredGenerator = Callable[[str, np.random.Generator, str], "Workspace"]
 class RobotSpec:
     """One robot: its dimensions, defaults, checkers, generators and renderer.
 
-    Example:
+    Examples:
         >>> spec = robot_spec("point2d")
         >>> spec.dim, spec.env_id, spec.encoding_resolution
         (2, 'TEMP-2D-v0', 32)
