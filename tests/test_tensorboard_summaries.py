@@ -5,7 +5,7 @@ from torch.utils.tensorboard import SummaryWriter
 from temp_gym.tensorboard_summaries import add_hparams, add_scalar, flatten
 
 
-def test_described_scalars_and_hparams_land_in_the_same_run(tmp_path):
+def test_described_scalars_and_hparams_land_in_the_same_run(tmp_path, hparam_values):
     writer = SummaryWriter(log_dir=str(tmp_path))
     add_scalar(writer, "val/recons", 0.5, 1, description="does not generalize: not divergence")
     add_scalar(writer, "val/recons", 0.6, 2)
@@ -21,9 +21,9 @@ def test_described_scalars_and_hparams_land_in_the_same_run(tmp_path):
     assert [event.step for event in events.Tensors("val/recons")] == [1, 2]
     assert events.SummaryMetadata("train/loss").summary_description == ""
     content = events.PluginTagToContent("hparams")
-    start = metadata.parse_session_start_info_plugin_data(content[metadata.SESSION_START_INFO_TAG])
-    assert start.hparams["optim.lr"].number_value == 1e-3
-    assert start.hparams["seed"].string_value == "null"
+    values = hparam_values(content)
+    assert values["optim.lr"].number_value == 1e-3
+    assert values["seed"].string_value == "null"
     experiment = metadata.parse_experiment_plugin_data(content[metadata.EXPERIMENT_TAG])
     assert [info.name.tag for info in experiment.metric_infos] == ["val/loss"]
 

@@ -56,7 +56,7 @@ from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
-"""The issue's limit on a shipped checkpoint."""
+"""The most a shipped checkpoint may weigh: the package ships three of them."""
 
 
 def slim_checkpoint(

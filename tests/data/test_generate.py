@@ -38,12 +38,14 @@ def dataset(tmp_path_factory) -> Path:
     return generate_dataset(tiny(directory), workers=1, progress=False)
 
 
-def _default_interrupts() -> None:
-    """In the child: Ctrl-C's default disposition, as a terminal's foreground job has it.
+def _as_a_terminal_job() -> None:
+    """In the child: a process group of its own and Ctrl-C's default disposition.
 
-    An ignored SIGINT is inherited across exec, and Python then leaves it ignored, so a test
-    process that ignores it (a test runner's worker may) would hand that on to the job.
+    A terminal signals a job's whole process group, so the job gets a group the test can signal
+    alone. An ignored SIGINT is inherited across exec, and Python then leaves it ignored, so a
+    test process that ignores it (a test runner's worker may) would hand that on to the job.
     """
+    os.setpgrp()
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
@@ -52,7 +54,7 @@ def signal_after_first_unit(command: list[str], root: Path, sig: int) -> tuple[i
     group, as a terminal would, once its first unit is on disk; return (status, stderr)."""
     process = subprocess.Popen(
         command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        start_new_session=True, preexec_fn=_default_interrupts,
+        preexec_fn=_as_a_terminal_job,
     )  # fmt: skip
     units = root / "train" / "units"
     deadline = time.monotonic() + 120

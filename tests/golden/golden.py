@@ -3,8 +3,8 @@ evaluation records. A refactor must leave every one unchanged.
 
 ``python tests/golden/golden.py OUT.json`` writes them for the checkout on ``PYTHONPATH``;
 ``tests/golden/test_golden.py`` recomputes them and compares with the stored
-``tests/golden/golden.json``, made with the code before the renovation (issue 17; first
-from main at a490cc1, then from main at de0f33d, whose evaluation record version 2 changed
+``tests/golden/golden.json``, made with the code before the package was reorganized into its
+layers (first at commit a490cc1, then at de0f33d, whose evaluation record version 2 changed
 TEMP's figures) from an export of that commit:
 
     git archive de0f33d | tar -x -C /tmp/before

@@ -1,5 +1,5 @@
 """Same seeds, same results: what the library computes matches the fingerprints stored from
-the code before the renovation (issue 17; see ``golden.py``).
+the code before the package was reorganized into its layers (see ``golden.py``).
 
 Each section is recomputed in a child process with OpenBLAS's kernel pinned (`PINNED_ENV`),
 so that the fingerprints do not depend on the CPU the suite runs on.

@@ -1,11 +1,10 @@
 """The trainer's TensorBoard run explains itself: descriptions, layout, HParams, aligned steps."""
 
 from tensorboard.backend.event_processing.plugin_event_accumulator import EventAccumulator
-from tensorboard.plugins.hparams import metadata
 from test_bc import run_bc  # the trainer in a subprocess, tiny config
 
 
-def test_dashboard_describes_tags_and_lines_up_evaluations_with_epochs(tmp_path):
+def test_dashboard_describes_tags_and_lines_up_evaluations_with_epochs(tmp_path, hparam_values):
     run_bc(
         tmp_path,
         "train.max_epochs=2",
@@ -22,9 +21,9 @@ def test_dashboard_describes_tags_and_lines_up_evaluations_with_epochs(tmp_path)
     for tag in ("train/loss", "val/loss", "eval/success", "eval/nodes"):
         assert [event.step for event in events.Tensors(tag)] == [1, 2], tag
     content = events.PluginTagToContent("hparams")
-    start = metadata.parse_session_start_info_plugin_data(content[metadata.SESSION_START_INFO_TAG])
-    assert start.hparams["train.max_epochs"].number_value == 2
-    assert start.hparams["env.id"].string_value == "TEMP-2D-v0"
+    values = hparam_values(content)
+    assert values["train.max_epochs"].number_value == 2
+    assert values["env.id"].string_value == "TEMP-2D-v0"
     (layout,) = events.Tensors("custom_scalars__config__")
     charts = layout.tensor_proto.string_val[0]  # a serialized Layout
     assert b"val/recons" in charts and b"not divergence" in charts
