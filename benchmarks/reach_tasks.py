@@ -15,7 +15,7 @@ the generator's clearance. RRT* and every policy plan each task with the same se
 solution at ``--budget`` nodes (a failure counts as the budget); the table gives mean / median
 nodes and the unsolved runs, over all tasks and over the tasks some run solved. A task no
 run solves is rarely unreachable: planned from the goal, Informed RRT* solves most of them in a
-few hundred nodes (`benchmarks/directions.py`, docs/ingredients.md, 7D).
+few hundred nodes (`benchmarks/directions.py`, docs/research/7d.md).
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ node budget / time limit), and hands every returned path, interpolated so that n
 more than ``--max-step`` radians between checked states, to pybullet in its own DIRECT client
 (`temp_gym.worlds.collision.pybullet_reference`), which checks every pair of links two or more
 apart on its own shapes, independently of our checkers. Prints per planner the paths returned,
-the states pybullet checked and the paths it found in self-collision (the figure the README
-quotes: it should be 0).
+the states pybullet checked and the paths it found in self-collision (the figure
+docs/research/collision.md quotes: it should be 0).
 """
 
 from __future__ import annotations

@@ -1,20 +1,18 @@
-"""The README, run as written: its shell lines, its Python snippets in order, its JSON example.
+"""The README, run as written: its Python snippets, its shell lines and its JSON example.
 
-Lines are read from README.md itself, so the docs and the code cannot drift apart:
+Everything is read from README.md itself, so the front page and the code cannot drift apart:
 
-* Every line of a fenced ``bash`` block runs in a scratch copy of the repository's scripts,
-  in README order (a later line may use what an earlier one made, such as the main job's
-  checkpoint), with ``TEMP_GYM_OVERRIDES`` (`temp_gym.config`) shrinking the long jobs to a
-  smoke test. Only these are not run (`CHECK_ONLY`): lines that install packages or create
-  the environment, the test suite itself, a server that runs until stopped, and lines that
-  need a Ray cluster or several processes. They are checked instead: the options they give a
-  third-party program (pip, pytest, torchrun, tensorboard) must be in its ``--help``, and
-  those they give a script of ours must be defined in its source.
-* Commands quoted inline in the text (benchmarks, tuning, shipping: minutes each) name a
-  script or module that exists and options that its source defines (read, not run: some have
-  no ``--help``, and starting each would cost seconds).
-* The ``python`` blocks run one after another in one interpreter, as a reader would paste
-  them, and the ``json`` block is ``examples/point2d.json``.
+* Every ``python`` block runs on its own, in a fresh interpreter, as a reader would paste it
+  alone: a snippet that leans on an earlier one's names fails.
+* The shell lines that plan (``temp-plan ...``) and the main job (``python trainers/bc.py``)
+  run in a scratch copy of the repository's scripts, configs and examples, the main job
+  smoke-sized through ``TEMP_GYM_OVERRIDES`` (config overrides taken from the environment,
+  `temp_gym.config`).
+* The other shell lines are checked, not run: the options they give a third-party program
+  (pip, pytest, mkdocs) must be in its ``--help``, and those they give a script of ours must be
+  defined in its source (the trainers' own tests run them: ``tests/data``, ``tests/trainers``,
+  ``tests/evaluation``).
+* The ``json`` block is ``examples/point2d.json``, and the README stays a front page.
 """
 
 from __future__ import annotations
@@ -33,8 +31,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
-COPIED = ("trainers", "benchmarks", "configs", "examples", "docs")
+COPIED = ("trainers", "configs", "examples")
 """What the README's lines read, copied so that they write nothing into the checkout."""
+MAX_LINES = 300
+"""The README is a front door: what, install, a first plan, results, links."""
 
 SMOKE = " ".join(
     [
@@ -47,26 +47,19 @@ SMOKE = " ".join(
         "train_eval.tasks=2",
         "train_eval.periodic_tasks=1",
         "train_eval.max_nodes=300",
-        "evaluation.tasks=1",
-        "evaluation.max_nodes=300",
-        "evaluation.curve_tasks=1",
-        "evaluation.curve_nodes=100",
-        "evaluation.baselines=[rrt_star]",
-        "evaluation.workers=1",
     ]
 )
-"""Config overrides that make every README job a smoke test (``TEMP_GYM_OVERRIDES``)."""
+"""Config overrides that make the main job a smoke test (``TEMP_GYM_OVERRIDES``)."""
 
-CHECK_ONLY = (
-    (r"^(python3? -m venv|\. )", "creates the environment the tests already run in"),
-    (r"^pip ", "installs packages"),
-    (r"^python -m pytest", "the test suite itself"),
-    (r"^tensorboard ", "a server that runs until stopped"),
-    (r"^torchrun ", "needs several processes, or several nodes"),
-    (r"--backend ray|RAY_ADDRESS=", "needs a Ray cluster"),
-    (r"^bash \.ci/run", "CI's whole install and test run"),
-)
-"""Shell commands that are checked against their ``--help`` instead of run, and why."""
+RUN = (r"^temp-plan ", r"^python trainers/bc\.py$")
+"""Shell commands that run in the test: the plans, and the main job at smoke size."""
+
+THIRD_PARTY = {
+    "pip": [sys.executable, "-m", "pip", "install", "--help"],
+    "pytest": [sys.executable, "-m", "pytest", "--help"],
+    "mkdocs": [str(Path(sys.executable).with_name("mkdocs")), "build", "--help"],
+}
+"""Programs of other projects the README names, and the help that must list its options."""
 
 
 # ---------------------------------------------------------------------- reading the README
@@ -75,77 +68,34 @@ def fenced(language: str) -> list[str]:
     return re.findall(rf"```{language}\n(.*?)```", README, flags=re.S)
 
 
-def shell_lines() -> list[str]:
-    """Every logical line of the ``bash`` blocks: continuations joined, comments dropped."""
-    lines = []
+def shell_commands() -> list[str]:
+    """Every command of the ``bash`` blocks: continuations joined, comments dropped."""
+    commands = []
     for block in fenced("bash"):
         for line in block.replace("\\\n", " ").splitlines():
             line = re.sub(r"\s+#.*$", "", line).strip()
             if line and not line.startswith("#"):
-                lines.append(" ".join(line.split()))
-    return lines
-
-
-def inline_commands() -> list[str]:
-    """Commands quoted inline in the README's text (outside fenced blocks)."""
-    text = re.sub(r"```.*?```", "", README, flags=re.S)
-    commands = []
-    for quoted in re.findall(r"`([^`]+)`", text):
-        command = " ".join(quoted.split())
-        if re.match(r"^([A-Z_]+=\S+ )*(python3? |pip |torchrun |temp-plan |bash )", command):
-            commands.append(command)
+                commands += [" ".join(part.split()) for part in line.split("&&")]
     return commands
 
 
-def commands_of(line: str) -> list[str]:
-    return [part.strip() for part in line.split("&&")]
+def runs(command: str) -> bool:
+    return any(re.search(pattern, command) for pattern in RUN)
 
 
-def check_only_reason(command: str) -> str | None:
-    for pattern, reason in CHECK_ONLY:
-        if re.search(pattern, command):
-            return reason
-    return None
+def _environment(**extra: str) -> dict[str, str]:
+    path = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
+    return dict(os.environ, PATH=path, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", **extra)
 
 
 # ---------------------------------------------------------------------- checking a command
-def flags_of(words: list[str]) -> list[str]:
-    """The options a command uses (``--name`` or ``-x``), optional ``[...]`` parts included."""
-    words = [word.strip("[]") for word in words]
+def options_of(words: list[str]) -> list[str]:
+    """The options a command uses (``--name`` or ``-x``)."""
     return [word.split("=", 1)[0] for word in words if re.match(r"^--?[A-Za-z]", word)]
 
 
-def help_checks(command: str) -> list[tuple[list[str], list[str]]]:
-    """``(help command, flags it must list)`` for the third-party programs of ``command``.
-
-    The repository's own scripts in it are checked by `static_check` (the run test starts
-    them anyway).
-    """
-    words = shlex.split(command)
-    while words and re.match(r"^[A-Z_]+=", words[0]):  # VAR=value prefixes
-        words = words[1:]
-    program, rest = words[0], words[1:]
-    python = [sys.executable]
-    if program in ("python", "python3") and rest[0] == "-m" and rest[1] in ("pytest", "venv"):
-        return [([*python, "-m", rest[1], "--help"], flags_of(rest[2:]))]
-    if program == "pip":
-        check_pip_requirements(rest[1:])
-        return [([*python, "-m", "pip", rest[0], "--help"], flags_of(rest[1:]))]
-    if program == "torchrun":
-        script = next(index for index, word in enumerate(rest) if word.endswith(".py"))
-        assert not static_check(" ".join(["python", *rest[script:]])), command
-        return [([*python, "-m", "torch.distributed.run", "--help"], flags_of(rest[:script]))]
-    if program == "tensorboard":
-        return [([str(Path(sys.executable).with_name("tensorboard")), "--help"], flags_of(rest))]
-    if program == ".":
-        return []  # sourcing the environment `python3 -m venv` made on the same line
-    failure = static_check(command)
-    assert not failure, failure
-    return []
-
-
 def check_pip_requirements(arguments: list[str]) -> None:
-    """Extras exist in pyproject.toml; the torch pin is the one the README and CI use."""
+    """Extras exist in pyproject.toml; the torch pin is the one CI installs."""
     pyproject = (ROOT / "pyproject.toml").read_text()
     for argument in arguments:
         for extras in re.findall(r"\.\[([^\]]+)\]", argument):
@@ -156,53 +106,14 @@ def check_pip_requirements(arguments: list[str]) -> None:
             assert "torch==2.13.0" in (ROOT / ".ci" / "run").read_text()
 
 
-def verify(help_command: list[str], flags: list[str]) -> str:
-    """Run one help command; return a failure message, or "" when every flag is listed."""
-    done = subprocess.run(
-        help_command, capture_output=True, text=True, timeout=120, cwd=ROOT, env=_environment()
-    )
-    if done.returncode != 0:
-        return f"{' '.join(help_command)}: exit {done.returncode}: {done.stderr[-500:]}"
-    missing = [flag for flag in flags if flag not in done.stdout]
-    return f"{' '.join(help_command)}: no {missing}" if missing else ""
-
-
-def _environment(**extra: str) -> dict[str, str]:
-    path = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
-    return dict(os.environ, PATH=path, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", **extra)
-
-
-# ---------------------------------------------------------------------- the tests
-def test_readme_has_what_these_tests_read():
-    assert len(shell_lines()) >= 10 and len(fenced("python")) >= 4 and len(inline_commands()) >= 5
-    for line in shell_lines():
-        for command in commands_of(line):
-            if check_only_reason(command) is None:
-                assert command.split()[0] in ("python", "temp-plan"), command
-
-
-def static_check(command: str) -> str:
-    """A failure message, or "": the script or module of an inline command and its options."""
-    words = shlex.split(command)
-    while words and re.match(r"^[A-Z_]+=", words[0]):
-        words = words[1:]
-    program, rest = words[0], words[1:]
-    if program == "pip":
-        check_pip_requirements(rest[1:])
-        return ""
-    if program == "bash":
-        return "" if (ROOT / rest[0]).is_file() else f"{rest[0]}: no such file"
-    if program not in ("python", "python3"):
-        return f"{command}: expected a python, pip or bash command"
-    if rest[0] == "-m":
-        source, options = ROOT / Path(*rest[1].split(".")).with_suffix(".py"), rest[2:]
-    else:
-        source, options = ROOT / rest[0], rest[1:]
+def our_script_failure(words: list[str]) -> str:
+    """A failure message, or "": ``python SCRIPT`` exists and its source defines the options."""
+    source = ROOT / words[1]
     if not source.is_file():
-        return f"{command}: no {source.relative_to(ROOT)}"
+        return f"{' '.join(words)}: no {words[1]}"
     text = source.read_text()
-    seen: set[str] = set()
     pending = re.findall(r"^from (temp_gym[\w.]*) import", text, flags=re.M)
+    seen: set[str] = set()
     while pending:  # the package modules it imports, and theirs: shared flags live there
         module = pending.pop()
         helper = ROOT / Path(*module.split(".")).with_suffix(".py")
@@ -212,33 +123,61 @@ def static_check(command: str) -> str:
         helper_text = helper.read_text()
         text += helper_text
         pending += re.findall(r"^from (temp_gym[\w.]*) import", helper_text, flags=re.M)
-    missing = [flag for flag in flags_of(options) if f'"{flag}"' not in text]
-    return f"{command}: {source.name} defines no {missing}" if missing else ""
+    missing = [option for option in options_of(words[2:]) if f'"{option}"' not in text]
+    return f"{' '.join(words)}: {words[1]} defines no {missing}" if missing else ""
 
 
-def test_inline_commands_name_existing_scripts_and_options():
-    failures = [static_check(command) for command in inline_commands()]
-    assert not [failure for failure in failures if failure]
-    assert static_check("python benchmarks/planners.py --no-such-flag")  # the check can fail
+def help_check(command: str) -> tuple[list[str], list[str]] | None:
+    """``(help command, options it must list)`` for a command that is checked, not run."""
+    words = shlex.split(command)
+    program, rest = words[0], words[1:]
+    if program in ("python3", ".") or (program == "python" and rest[:2] == ["-m", "venv"]):
+        return None  # creating and entering the environment the tests already run in
+    if program == "pip":
+        check_pip_requirements(rest[1:])
+        return THIRD_PARTY["pip"], options_of(rest[1:])
+    if program == "python" and rest[:2] == ["-m", "pytest"]:
+        return THIRD_PARTY["pytest"], options_of(rest[2:])
+    if program == "mkdocs":
+        return THIRD_PARTY["mkdocs"], options_of(rest[1:])
+    assert program == "python" and rest[0].endswith(".py"), f"{command}: no check for it"
+    failure = our_script_failure(words)
+    assert not failure, failure
+    return None
 
 
-def test_check_only_lines_match_their_help():
-    # Install, server and cluster lines of the code blocks.
-    commands = [
-        command
-        for line in shell_lines()
-        for command in commands_of(line)
-        if check_only_reason(command) is not None
-    ]
+def help_failure(help_command: list[str], options: list[str]) -> str:
+    """Run one help command; a failure message, or "" when it lists every option."""
+    done = subprocess.run(
+        help_command, capture_output=True, text=True, timeout=120, cwd=ROOT, env=_environment()
+    )
+    if done.returncode != 0:
+        return f"{' '.join(help_command)}: exit {done.returncode}: {done.stderr[-500:]}"
+    missing = [option for option in options if option not in done.stdout]
+    return f"{' '.join(help_command)}: no {missing}" if missing else ""
+
+
+# ---------------------------------------------------------------------- the tests
+def test_readme_is_a_front_page_with_what_these_tests_read():
+    assert len(README.splitlines()) <= MAX_LINES
+    assert len(fenced("python")) >= 4
+    assert "python trainers/bc.py" in shell_commands()  # the main job
+    assert "python -m pytest -q -n 2" in shell_commands()  # the command .ci/run runs
+    assert "python -m pytest -q -n 2" in (ROOT / ".ci" / "run").read_text()
+    assert sum(command.startswith("temp-plan ") for command in shell_commands()) >= 3
+
+
+def test_commands_that_are_not_run_match_their_help_or_source():
     checks: dict[tuple[str, ...], set[str]] = {}
-    for command in commands:
-        for help_command, flags in help_checks(command):
-            checks.setdefault(tuple(help_command), set()).update(flags)
+    for command in shell_commands():
+        if not runs(command) and (check := help_check(command)) is not None:
+            checks.setdefault(tuple(check[0]), set()).update(check[1])
+    assert checks, "no third-party command checked"
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
-        failures = list(
-            pool.map(lambda item: verify(list(item[0]), sorted(item[1])), checks.items())
-        )
+        failures = list(pool.map(lambda item: help_failure(list(item[0]), sorted(item[1])),
+                                 checks.items()))  # fmt: skip
     assert not [failure for failure in failures if failure]
+    assert our_script_failure(["python", "trainers/bc.py", "--no-such-flag"])  # it can fail
 
 
 @pytest.fixture(scope="module")
@@ -246,48 +185,52 @@ def scratch(tmp_path_factory) -> Path:
     """A directory with copies of the scripts, configs and examples the README names."""
     root = tmp_path_factory.mktemp("readme")
     for name in COPIED:
-        shutil.copytree(
-            ROOT / name,
-            root / name,
-            ignore=shutil.ignore_patterns("__pycache__", "images", "results", "results.md"),
-        )
+        shutil.copytree(ROOT / name, root / name, ignore=shutil.ignore_patterns("__pycache__"))
     return root
 
 
-def test_shell_lines_run_as_written(scratch):
-    ran: list[str] = []
-    for line in shell_lines():
-        commands = [command for command in commands_of(line) if check_only_reason(command) is None]
-        for command in commands:
-            if command in ran:  # a line the README repeats says nothing new
-                continue
-            done = subprocess.run(
-                command,
-                shell=True,
-                cwd=scratch,
-                env=_environment(TEMP_GYM_OVERRIDES=SMOKE),
-                capture_output=True,
-                text=True,
-                timeout=600,
-            )
-            assert done.returncode == 0, f"{command}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
-            ran.append(command)
-    assert any(command == "python trainers/bc.py" for command in ran)  # the main job
+def test_shell_lines_that_plan_run_as_written(scratch):
+    ran = []
+    for command in shell_commands():
+        if not runs(command):
+            continue
+        done = subprocess.run(
+            command,
+            shell=True,
+            cwd=scratch,
+            env=_environment(TEMP_GYM_OVERRIDES=SMOKE),
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
+        assert done.returncode == 0, f"{command}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
+        ran.append(command)
+    assert "python trainers/bc.py" in ran
     assert (scratch / "runs" / "TEMP-2D-v0__quick__0" / "best.pt").is_file()
-    assert (scratch / "docs" / "results.md").is_file()  # make_results, on the smoke results
+    assert json.loads((scratch / "result.json").read_text())["success"]  # the arm's --out
 
 
-def test_python_snippets_run_in_order(scratch):
-    script = "\n".join(fenced("python"))
+def _run_alone(snippet: str, cwd: Path) -> str:
+    """Run ``snippet`` in a fresh interpreter; a failure message, or ""."""
     done = subprocess.run(
-        [sys.executable, "-c", script],
-        cwd=scratch,
+        [sys.executable, "-c", snippet],
+        cwd=cwd,
         env=_environment(),
         capture_output=True,
         text=True,
-        timeout=600,
+        timeout=900,
     )
-    assert done.returncode == 0, done.stderr[-3000:]
+    return "" if done.returncode == 0 else f"{snippet}\n{done.stderr[-3000:]}"
+
+
+def test_every_python_snippet_runs_on_its_own(scratch):
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        failures = list(pool.map(lambda snippet: _run_alone(snippet, scratch), fenced("python")))
+    assert not [failure for failure in failures if failure]
+
+
+def test_a_snippet_that_leans_on_another_fails_alone(tmp_path):
+    assert _run_alone("problem.start", tmp_path)  # what the test above catches
 
 
 def test_json_block_is_the_shipped_example():

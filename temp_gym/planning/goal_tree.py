@@ -4,7 +4,7 @@ A goal inside a pocket (a bin, a cubby, a window, a bug trap) is hard to enter f
 grown from the start and easy to leave for a tree grown from the goal: on the arm's
 out-of-distribution scenes Informed RRT* from the goal needs a few hundred nodes where from
 the start it fails at 10,000, and the 2D generator's tasks on which TEMP's attention phase
-stalls are solved by it from the goal with half the nodes (docs/ingredients.md). TEMP's
+stalls are solved by it from the goal with half the nodes (docs/research/planner.md). TEMP's
 classical phase uses this tree until the first solution, RRT-Connect's idea (Kuffner and
 LaValle 2000) on RRT* trees:
 

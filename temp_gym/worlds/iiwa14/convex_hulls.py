@@ -3,8 +3,8 @@
 pybullet (like Bullet in general) collides a URDF's STL meshes as their convex hulls, each
 grown by a collision margin of 1 mm. Two links of the iiwa then touch where their meshes do
 not: link_5's mesh has a cut-out, and its hull closes it, so with joint 6 near its limits
-link_7 enters link_5's hull without touching its mesh (the README has the measurements). We
-check self-collision on the same geometry as pybullet, the hulls grown by
+link_7 enters link_5's hull without touching its mesh (docs/research/collision.md has the
+measurements). We check self-collision on the same geometry as pybullet, the hulls grown by
 `SELF_COLLISION_PADDING`:
 
 * it is conservative with respect to the meshes (a hull contains its mesh), so a pose we call
