@@ -33,4 +33,4 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'temp_gym' has no attribute {name!r}")
 
 
-__version__ = "0.1.0"
+__version__ = "0.2.0.dev0"
