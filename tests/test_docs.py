@@ -153,3 +153,45 @@ def test_the_repository_speaks_to_its_users():
         text=True,
     )
     assert done.returncode == 1, done.stdout[:3000]  # 1: no match
+
+
+USER_GUIDE = sorted(
+    page
+    for page in DOCS.rglob("*.md")
+    if "research" not in page.parts and page.name not in ("results.md", "changelog.md")
+)
+"""Pages whose commands must work today (the research notes quote commands as they were run)."""
+
+
+def guide_commands() -> list[tuple[str, list[str]]]:
+    """``(page, words)`` of each command of ours in the user guide: inline or in a block."""
+    commands = []
+    for page in USER_GUIDE:
+        text = page.read_text()
+        quoted = re.findall(r"```bash\n(.*?)```", text, flags=re.S)
+        quoted += re.findall(r"`([^`\n]+)`", re.sub(r"```.*?```", "", text, flags=re.S))
+        for chunk in quoted:
+            for line in chunk.replace("\\\n", " ").splitlines():
+                line = re.sub(r"\s+#.*$", "", line).strip()
+                for command in line.split("&&"):
+                    words = [word.strip("[]") for word in command.split()]
+                    words = [word for word in words if word not in ("--help", "-h")]
+                    while words and re.match(r"^[A-Z_]+=", words[0]):  # VAR=value prefixes
+                        words = words[1:]
+                    if words[:1] == ["temp-plan"]:
+                        commands.append((page.name, ["python", "temp_gym/cli.py", *words[1:]]))
+                    elif words[:2] == ["python", "-m"] and words[2].startswith("temp_gym"):
+                        script = str(Path(*words[2].split(".")).with_suffix(".py"))
+                        commands.append((page.name, ["python", script, *words[3:]]))
+                    elif words[:1] == ["python"] and words[1:2] and words[1].endswith(".py"):
+                        commands.append((page.name, words))
+    return commands
+
+
+def test_commands_in_the_user_guide_name_existing_scripts_and_options():
+    from test_readme import our_script_failure  # the README's check, on the site's pages
+
+    commands = guide_commands()
+    assert len(commands) >= 30
+    failures = [f"{page}: {our_script_failure(words)}" for page, words in commands]
+    assert not [failure for failure in failures if not failure.endswith(": ")]
