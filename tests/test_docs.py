@@ -195,3 +195,14 @@ def test_commands_in_the_user_guide_name_existing_scripts_and_options():
     assert len(commands) >= 30
     failures = [f"{page}: {our_script_failure(words)}" for page, words in commands]
     assert not [failure for failure in failures if not failure.endswith(": ")]
+
+
+def test_the_benchmark_and_example_indexes_list_every_file():
+    benchmarks = (DOCS / "benchmarks.md").read_text()
+    scripts = sorted((ROOT / "benchmarks").glob("*.py"))
+    assert scripts and not [s.name for s in scripts if f"benchmarks/{s.name}" not in benchmarks]
+    examples = (DOCS / "examples.md").read_text()
+    problems = sorted((ROOT / "examples").rglob("*.json"))
+    listed = [str(p.relative_to(ROOT / "examples" / "ood")) if "ood" in p.parts else
+              f"examples/{p.name}" for p in problems]  # fmt: skip
+    assert problems and not [name for name in listed if name not in examples]
