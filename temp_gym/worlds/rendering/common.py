@@ -26,7 +26,32 @@ SOLUTION_COLOR = "#e41a1c"
 PATH_SO_FAR_COLOR = "#f28e2b"
 """The path to the newest node before a solution: orange, dashed."""
 START_COLOR = "#1a9e3a"
+"""The start: green."""
 GOAL_COLOR = "#1f4fd6"
+"""The goal: blue."""
+TREE_COLOR = "#4a7ab5"
+"""The tree's edges: blue-grey, thin."""
+OBSTACLE_COLOR = "#c79461"
+"""Boxes: tan (the point pictures draw them grey, under a light tree)."""
+ROBOT_COLOR = "#8e44ad"
+"""The robot moving along the path in the browser viewer: purple (a hue nothing else has)."""
+
+
+FLOOR_COLOR = "#cccccc"
+"""The floor slab under an arm's base: neutral grey."""
+
+
+def floor_slabs(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Per 3D box: whether it is a floor slab (thin, its top at or below z = 0, the base's)."""
+    lower, upper = np.asarray(lower), np.asarray(upper)
+    if len(lower) == 0:
+        return np.zeros(0, dtype=bool)
+    return (upper[:, 2] <= 0.0) & (upper[:, 2] - lower[:, 2] < 0.2)
+
+
+def rgb255(color: str) -> tuple[int, int, int]:
+    """A ``"#rrggbb"`` colour as ``(r, g, b)`` in 0..255."""
+    return tuple(int(color[k : k + 2], 16) for k in (1, 3, 5))
 
 
 class TreeRenderer(Protocol):

@@ -25,7 +25,13 @@ import numpy as np
 
 from temp_gym.quiet import import_pybullet, native_output_silenced
 from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS
-from temp_gym.worlds.rendering.common import caption, check_paths, check_size, plan_title
+from temp_gym.worlds.rendering.common import (
+    caption,
+    check_paths,
+    check_size,
+    floor_slabs,
+    plan_title,
+)
 
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
@@ -208,6 +214,7 @@ class IiwaRenderer:
             client.removeBody(body)
         self._boxes = []
         lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
+        floors = floor_slabs(lower, upper)
         ground_z = min(0.0, float(lower[:, 2].min())) if len(lower) else 0.0
         boxes = list(
             zip(problem.workspace.obstacle_centers, problem.workspace.obstacle_half_extents)
@@ -219,8 +226,7 @@ class IiwaRenderer:
                 rgba, collision = _GROUND_RGBA, -1
             else:
                 # Thin slabs below the base (the generators' floor) get a neutral colour.
-                is_floor = upper[index - 1, 2] <= 0.0 and half[2] < 0.1
-                rgba = _FLOOR_RGBA if is_floor else _OBSTACLE_RGBA
+                rgba = _FLOOR_RGBA if floors[index - 1] else _OBSTACLE_RGBA
                 collision = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
             visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=rgba)
             body = client.createMultiBody(
