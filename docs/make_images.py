@@ -71,11 +71,11 @@ def make_3d(out: Path) -> None:
 def make_7d(out: Path) -> None:
     """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
     from temp_gym.planning.plan import plan
-    from temp_gym.worlds.iiwa_world import generate_iiwa_task, generate_iiwa_workspace
+    from temp_gym.worlds.generators import generate_task, generate_workspace
 
     rng = np.random.default_rng(SEED_7D)
-    workspace = generate_iiwa_workspace(rng)
-    problem = generate_iiwa_task(workspace, rng, difficulty="challenging")
+    workspace = generate_workspace("kuka_iiwa14", rng)
+    problem = generate_task(workspace, rng, "challenging")
     result = plan(problem, planner="rrt_star", seed=0, max_nodes=NODES)
     print(f"  {result.summary()}")
     with IiwaRenderer() as renderer:

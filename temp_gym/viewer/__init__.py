@@ -9,10 +9,16 @@
 | `command` | ``temp-view``: a problem and, optionally, a stored result or path |
 | `browser` | headless Chromium screenshots of a page (tests, documentation) |
 
-Only `plan_viewer` and `drawing` import viser, and only when a viewer starts, so importing
-this package costs nothing without the extra.
+Only `plan_viewer` and `drawing` import viser, and only when a viewer starts; the names
+below are imported on first use, so ``temp-view --help`` stays quick.
 """
 
-from temp_gym.viewer.plan_viewer import PlanViewer, serve_plan, view_plan
-
 __all__ = ["PlanViewer", "serve_plan", "view_plan"]
+
+
+def __getattr__(name: str):
+    if name in __all__:
+        from temp_gym.viewer import plan_viewer
+
+        return getattr(plan_viewer, name)
+    raise AttributeError(f"module 'temp_gym.viewer' has no attribute {name!r}")

@@ -144,3 +144,54 @@ def caption(image: np.ndarray, text: str) -> np.ndarray:
     )
     figure.text(0.5, 1 - band / 2, text, ha="center", va="center", fontsize=8)
     return canvas_to_array(canvas, width, height)
+
+
+LegendEntry = tuple[str, str, str]
+"""``(label, colour, style)``; style ``"box"`` (a filled square), ``"line"``, ``"dashed"``,
+``"dot"`` or ``"star"``."""
+
+
+def legend_handles(entries: list[LegendEntry]) -> list:
+    """Matplotlib artists that stand for ``entries`` in a legend (`LegendEntry`)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    for label, color, style in entries:
+        if style == "box":
+            handles.append(Patch(facecolor=color, edgecolor="#555555", linewidth=0.4, label=label))
+        elif style in ("dot", "star"):
+            marker = "o" if style == "dot" else "*"
+            handles.append(
+                Line2D([], [], color=color, marker=marker, linestyle="none", label=label)
+            )
+        else:
+            dashes = (0, (4, 2)) if style == "dashed" else "-"
+            line = Line2D([], [], color=color, linewidth=2.0, linestyle=dashes, label=label)
+            handles.append(line)
+    return handles
+
+
+def legend_band(image: np.ndarray, entries: list[LegendEntry]) -> np.ndarray:
+    """``image`` (uint8 RGB) with a legend of ``entries`` on a white band across its bottom."""
+    height, width = image.shape[:2]
+    figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
+    canvas = FigureCanvasAgg(figure)
+    figure.figimage(image, origin="upper")
+    rows = 1 if len(entries) <= 3 or width >= 120 * len(entries) else 2
+    band = min(20 * rows + 4, height // 3) / height
+    figure.add_artist(
+        Rectangle((0, 0), 1, band, transform=figure.transFigure, color="white", alpha=0.85)
+    )
+    figure.legend(
+        handles=legend_handles(entries),
+        loc="center",
+        bbox_to_anchor=(0.5, band / 2),
+        ncol=-(-len(entries) // rows),
+        fontsize=7,
+        frameon=False,
+        handlelength=1.4,
+        columnspacing=1.0,
+        borderaxespad=0.0,
+    )
+    return canvas_to_array(canvas, width, height)
