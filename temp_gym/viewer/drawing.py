@@ -1,7 +1,7 @@
 """`draw_content`: a `PlanContent` added to a viser scene, and the robot that moves along it.
 
 Colours are the static pictures' (`temp_gym.worlds.rendering.common`): start green, goal
-blue, path red, tree blue-grey, boxes tan, and the robot along the path orange. The arm at
+blue, path red, tree blue-grey, boxes tan, and the robot along the path purple. The arm at
 start and goal is drawn translucent in the start and goal colours.
 
 The scene is lit by plain lights, without an environment map: a software renderer (a
@@ -78,7 +78,10 @@ def _add_arm(scene, name: str, content: PlanContent, poses: np.ndarray, color, o
 
 
 class RobotMarker:
-    """The robot at one playback frame: an orange ball (point robot) or the arm's links."""
+    """The robot at one playback frame: a purple ball (point robot) or the arm's links.
+
+    ``lift`` raises a ball above a 2D world's tree and path, so it stays in sight.
+    """
 
     def __init__(self, scene, content: PlanContent, lift: np.ndarray) -> None:
         self.content = content

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import numbers
 import socket
 import threading
 from typing import TYPE_CHECKING
@@ -157,6 +158,8 @@ class PlanViewer:
         """The page's address."""
         host = self.server.get_host()
         shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+        if ":" in shown:  # an IPv6 address
+            shown = f"[{shown}]"
         return f"http://{shown}:{self.port}"
 
     @property
@@ -227,8 +230,9 @@ def view_plan(
     check_address(host, port)
     if not (isinstance(frames, int) and frames >= 2):
         raise ValueError(f"frames: expected an integer of at least 2, got {frames!r}")
-    if not playback_seconds > 0:
-        raise ValueError(f"playback_seconds: expected a positive number, got {playback_seconds!r}")
+    seconds = playback_seconds
+    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real) or not 0 < seconds < 1e6:
+        raise ValueError(f"playback_seconds: expected a positive number, got {seconds!r}")
     if result is not None:
         path = result.path if path is None else path
         tree = result.tree if tree is None else tree

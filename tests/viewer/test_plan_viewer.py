@@ -3,7 +3,7 @@ import urllib.request
 
 import numpy as np
 import pytest
-from conftest import random_tree, straight_path
+from viewer_cases import random_tree, straight_path
 
 from temp_gym.viewer import view_plan
 from temp_gym.viewer.plan_viewer import check_address, legend_html, require_viser
@@ -74,6 +74,10 @@ def test_bad_addresses_and_robots_are_refused_before_serving(point2d):
         view_plan(point2d, host="no.such.host.invalid")
     with pytest.raises(ValueError, match="path: expected shape"):
         view_plan(point2d, path=np.zeros((2, 5)), port=0)
+    with pytest.raises(ValueError, match="frames: expected an integer of at least 2"):
+        view_plan(point2d, port=0, frames=1)
+    with pytest.raises(ValueError, match="playback_seconds: expected a positive number"):
+        view_plan(point2d, port=0, playback_seconds=float("nan"))
 
 
 def test_without_viser_the_error_says_how_to_install_it(monkeypatch):

@@ -5,8 +5,8 @@ Skipped only where no Chromium is installed (CI installs Debian's, `.ci/run`).
 
 import numpy as np
 import pytest
-from conftest import random_tree, straight_path
 from matplotlib.colors import rgb_to_hsv
+from viewer_cases import random_tree, straight_path
 
 from temp_gym.viewer import view_plan
 from temp_gym.viewer.browser import find_chromium, screenshot

@@ -7,7 +7,7 @@ import sys
 import urllib.request
 
 import pytest
-from conftest import POINT2D
+from viewer_cases import POINT2D
 
 from temp_gym.viewer.command import main
 

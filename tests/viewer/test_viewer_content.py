@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from conftest import random_tree, straight_path
+from viewer_cases import random_tree, straight_path
 
 from temp_gym.planning.result import PlanTree
 from temp_gym.viewer.content import FLAT_HEIGHT_SHARE, plan_content, resample_path
