@@ -1,8 +1,8 @@
-"""Make the README pictures ``docs/images/render_{2d,3d,7d}.png`` and ``families_7d.png``.
+"""Make the pictures ``docs/images/render_{2d,3d,7d}.png``, ``families_7d.png``, ``viewer_7d.png``.
 
 Run from the repository root::
 
-    python docs/make_images.py            # all four pictures
+    python docs/make_images.py            # all five pictures
     python docs/make_images.py --only 2d  # one of them
 
 The 2D and 3D pictures grow an RRT* tree of 1500 nodes with uniform samples on a seeded
@@ -10,7 +10,9 @@ challenging point problem and draw its solution; the 7D one plans a seeded chall
 task with ``rrt_star`` and draws the arm along the path, from the camera the renderer chooses
 for the scene. The families picture shows one workspace of each of the arm's structured
 families (`temp_gym.worlds.iiwa_structured`) with the arm at a challenging task's start and
-goal. Everything is seeded, so reruns give the same pictures.
+goal. The viewer picture is the 7D plan in the browser viewer (`temp_gym.viewer`), three
+quarters along the path, taken in headless Chromium (it needs ``temp-gym[test,view]`` and a
+Chromium). Everything is seeded, so reruns give the same pictures.
 """
 
 from __future__ import annotations
@@ -68,16 +70,22 @@ def make_3d(out: Path) -> None:
     make_point("point3d", SEED_3D, out)
 
 
-def make_7d(out: Path) -> None:
-    """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
+def plan_7d():
+    """The challenging iiwa task of the 7D pictures and its RRT* plan."""
     from temp_gym.planning.plan import plan
-    from temp_gym.worlds.iiwa_world import generate_iiwa_task, generate_iiwa_workspace
+    from temp_gym.worlds.generators import generate_task, generate_workspace
 
     rng = np.random.default_rng(SEED_7D)
-    workspace = generate_iiwa_workspace(rng)
-    problem = generate_iiwa_task(workspace, rng, difficulty="challenging")
+    workspace = generate_workspace("kuka_iiwa14", rng)
+    problem = generate_task(workspace, rng, "challenging")
     result = plan(problem, planner="rrt_star", seed=0, max_nodes=NODES)
     print(f"  {result.summary()}")
+    return problem, result
+
+
+def make_7d(out: Path) -> None:
+    """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
+    problem, result = plan_7d()
     with IiwaRenderer() as renderer:
         title = plan_title(problem, result.nodes, result.path)
         image = renderer.render(problem, path=result.path, width=560, height=560, title=title)
@@ -99,11 +107,23 @@ def make_families_7d(out: Path) -> None:
     imsave(out, np.concatenate(tiles, axis=1))
 
 
+def make_viewer_7d(out: Path) -> None:
+    """The 7D plan in the browser viewer, the arm three quarters along the path."""
+    from temp_gym.viewer import view_plan
+    from temp_gym.viewer.browser import screenshot
+
+    problem, result = plan_7d()
+    with view_plan(problem, result=result, port=0) as viewer:
+        viewer.show_frame(3 * viewer.content.frames // 4)
+        screenshot(viewer.url, out, width=1100, height=640, settle=4.0)
+
+
 PICTURES = {
     "2d": ("render_2d", make_2d),
     "3d": ("render_3d", make_3d),
     "7d": ("render_7d", make_7d),
     "families_7d": ("families_7d", make_families_7d),
+    "viewer_7d": ("viewer_7d", make_viewer_7d),
 }
 """Picture name (``--only``) -> (file stem under `IMAGES`, its maker)."""
 

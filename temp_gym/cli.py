@@ -79,6 +79,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--out-dir", default=None, help="write each result to {out-dir}/{problem file stem}.json"
     )
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="one problem: then show the scene, tree and path in the browser at "
+        "http://127.0.0.1:8080 (needs temp-gym[view]) until Ctrl-C",
+    )
     return parser
 
 
@@ -153,6 +159,26 @@ def _solve(path: str, args: argparse.Namespace, policy):
     return result
 
 
+def _check_view(args: argparse.Namespace) -> None:
+    """``--view`` takes one problem and the viewer's extra (`temp_gym.viewer`)."""
+    if len(args.problems) > 1:
+        raise ValueError("--view takes one problem")
+    from temp_gym.viewer.plan_viewer import require_viser
+
+    require_viser()
+
+
+def _view(path: str, result) -> None:
+    """Serve the plan in the browser until Ctrl-C (`temp_gym.viewer.serve_plan`)."""
+    from temp_gym.problem import Problem
+    from temp_gym.viewer import serve_plan
+
+    def announce(line: str) -> None:
+        print(f"temp-plan: {line}", flush=True)
+
+    serve_plan(Problem.load(path), result=result, announce=announce)
+
+
 def _write(result, out: Path, flag: str) -> None:
     """Write ``result`` as JSON to ``out``; a failure names the flag and the file."""
     try:
@@ -168,6 +194,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     batch = len(args.problems) > 1
     try:
         outputs = _outputs(args)
+        if args.view:
+            _check_view(args)
         policy = _policy(args)
     except (OSError, ValueError, ImportError) as error:
         _error(error)
@@ -196,6 +224,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 continue
         if not result.success and status == SOLVED:
             status = NO_PATH
+        if args.view:
+            try:
+                _view(path, result)
+            except (OSError, ValueError) as error:  # a robot it cannot draw, a busy address
+                _error(f"--view: {error}")
+                return BAD_INPUT
     return status
 
 

@@ -300,6 +300,28 @@ class PlanSettings:
         return 100 * self.max_nodes if self.max_samples is None else self.max_samples
 
 
+@dataclass(frozen=True)
+class PlanTree:
+    """The planner's tree when it stopped: what a viewer draws (`temp_gym.viewer`).
+
+    Attributes:
+        positions: Node states ``(N, d)``; node 0 is the start.
+        parents: Parent index per node ``(N,)``, -1 for the root.
+    """
+
+    positions: np.ndarray
+    parents: np.ndarray
+
+    @classmethod
+    def of(cls, tree: Tree) -> PlanTree:
+        """A read-only copy of ``tree``'s nodes and parents (the tree may go on growing)."""
+        positions = tree.positions[: tree.num_nodes].copy()
+        parents = tree.parents.copy()
+        for array in (positions, parents):
+            array.setflags(write=False)
+        return cls(positions, parents)
+
+
 @dataclass
 class PlanResult:
     """The outcome of one planning run; `to_dict` is JSON-able (the CLI writes it)."""
@@ -339,6 +361,9 @@ class PlanResult:
     reports for TEMP), ``policy_calls``, ``stop`` (why it ended,
     `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled), all of
     the first phase; and ``resumes``, how many times the phase resumed after a stall."""
+    tree: PlanTree | None = field(default=None, repr=False, compare=False)
+    """The tree grown from the start (None: a planner that does not expose one, as OMPL's);
+    not part of `to_dict`, so result files stay small."""
 
     def cost_at(self, nodes: int) -> float:
         """Best cost once the tree had ``nodes`` nodes, read off the history (inf: none yet)."""
@@ -490,4 +515,5 @@ def tree_plan_result(
         seed=settings.seed,
         certification_failures=rejected,
         **extra,
+        tree=PlanTree.of(tree),  # last: copied after the clock stopped
     )

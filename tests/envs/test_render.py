@@ -296,3 +296,102 @@ def test_a_copied_or_pickled_7d_env_renders_and_leaves_the_original_rendering(ii
         other.close()
     np.testing.assert_array_equal(env.render(), image)
     env.close()
+
+
+# ---------------------------------------------------------------------- legends and the camera
+def test_point_legend_names_what_is_drawn():
+    from temp_gym.worlds.rendering.points import legend_entries
+
+    problem = Problem.from_dict(POINT2D)
+    path = np.array([problem.start, problem.goal])
+    labels = [label for label, _, _ in legend_entries(problem, True, path, True)]
+    assert labels == ["start", "goal region", "tree", "solution", "obstacles"]
+    labels = [label for label, _, _ in legend_entries(problem, False, path, False)]
+    assert labels == ["start", "goal region", "path so far", "obstacles"]
+    bare = Problem.from_dict({**POINT2D, "obstacles": []})
+    assert [label for label, _, _ in legend_entries(bare, False, None, False)] == [
+        "start",
+        "goal region",
+    ]
+
+
+def test_point_pictures_have_a_legend_across_the_bottom():
+    problem = Problem.from_dict(POINT2D)
+    positions, parents = random_tree(problem, 50)
+    path = np.array([problem.start, [8, 18], problem.goal])
+    shown = render_point_world(problem, positions, parents, path=path)
+    bare = render_point_world(problem, positions, parents, path=path, legend=False)
+    legend_rows = shown[-24:]
+    assert distinct_colours(legend_rows) > distinct_colours(bare[-24:]) + 5
+    assert red_pixels(legend_rows) > 10  # the solution's swatch
+
+
+def test_iiwa_legend_says_which_arm_is_which(iiwa_problems):
+    from temp_gym.worlds.rendering.iiwa import arm_legend
+
+    def labels(*args):
+        return [label for label, _, _ in arm_legend(*args)]
+
+    path = np.linspace(iiwa_problems[0].start, iiwa_problems[0].goal, 4)
+    assert labels(path, None, True) == ["start", "path's end (goal)", "along the path", "obstacles"]
+    assert labels(None, path, True) == [
+        "start",
+        "goal",
+        "newest node",
+        "along the path",
+        "obstacles",
+    ]
+    assert labels(None, None, False) == ["start", "goal", "obstacles"]
+    with IiwaRenderer(legend=False) as bare:
+        plain = bare.render(iiwa_problems[0], path=path, width=320, height=240)
+    with IiwaRenderer() as renderer:
+        legend = renderer.render(iiwa_problems[0], path=path, width=320, height=240)
+    assert not np.array_equal(legend[-20:], plain[-20:])
+    np.testing.assert_array_equal(legend[:-50], plain[:-50])  # the band alone differs
+
+
+def test_iiwa_draws_start_end_and_two_ghosts_along_a_path(iiwa_problems):
+    problem = iiwa_problems[0]
+    path = np.linspace(problem.start, problem.goal, 12)
+    poses = arm_poses(problem, path=path)
+    assert len(poses) == 4  # start, end, two pale arms between
+    np.testing.assert_array_equal(poses[0][0], path[0])
+    np.testing.assert_array_equal(poses[1][0], path[-1])
+
+
+def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, monkeypatch):
+    from temp_gym.worlds.rendering.camera import orbit_position, visible_points
+    from temp_gym.worlds.rendering.iiwa import CANDIDATE_PITCHES, CANDIDATE_YAWS
+
+    # A tall shelf back right behind the goal hand, between it and the +y half of the ring.
+    shelved = Problem.from_dict(
+        {
+            **IIWA,
+            "obstacles": [
+                {"center": [0.2, 0.85, 0.7], "half_extents": [0.7, 0.05, 0.7]},
+                {"center": [0.2, 0.55, 1.35], "half_extents": [0.7, 0.3, 0.05]},
+            ],
+        }
+    )
+    lower, upper = shelved.workspace.obstacle_lower, shelved.workspace.obstacle_upper
+    views = [(float(yaw), pitch) for pitch in CANDIDATE_PITCHES for yaw in CANDIDATE_YAWS]
+    with IiwaRenderer() as renderer:
+        renderer.render(shelved, width=64, height=64)
+        hand, target = renderer._goal_hand, renderer.view_target
+        sees = {
+            view: visible_points(
+                orbit_position(target, *view, renderer.distance), hand, lower, upper
+            ).all()
+            for view in views
+        }
+        assert not all(sees.values())  # some views look at the hand through the shelf
+        assert sees[renderer.view]  # the chosen one sees it
+        assert renderer.visible_arm_pixels(shelved, renderer.view) > 100
+        # Even where a hidden hand's view would show more of the arm, the hand comes first.
+        hidden = [view for view in views if not sees[view]]
+        monkeypatch.setattr(
+            renderer, "_count_arm_pixels", lambda client, view, arms: 1000 * (view in hidden)
+        )
+        renderer.view = None
+        renderer.render(shelved, width=32, height=32)
+        assert sees[renderer.view]

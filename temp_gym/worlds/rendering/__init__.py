@@ -7,8 +7,8 @@
   scene so that the arm is in view.
 
 Both tell a solution (bold red in 2D/3D, start-to-goal arms in 7D) from the path so far
-before one exists (dashed orange; an orange arm at the newest node), and their titles say
-which (`plan_title`).
+before one exists (dashed orange; an orange arm at the newest node), their titles say
+which (`plan_title`), and a legend across the bottom names what is drawn.
 
 Examples:
     >>> image = render_point_world(problem, positions=tree.positions, parents=tree.parents,

@@ -26,7 +26,32 @@ SOLUTION_COLOR = "#e41a1c"
 PATH_SO_FAR_COLOR = "#f28e2b"
 """The path to the newest node before a solution: orange, dashed."""
 START_COLOR = "#1a9e3a"
+"""The start: green."""
 GOAL_COLOR = "#1f4fd6"
+"""The goal: blue."""
+TREE_COLOR = "#4a7ab5"
+"""The tree's edges: blue-grey, thin."""
+OBSTACLE_COLOR = "#c79461"
+"""Boxes: tan (the point pictures draw them grey, under a light tree)."""
+ROBOT_COLOR = "#8e44ad"
+"""The robot moving along the path in the browser viewer: purple (a hue nothing else has)."""
+
+
+FLOOR_COLOR = "#cccccc"
+"""The floor slab under an arm's base: neutral grey."""
+
+
+def floor_slabs(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Per 3D box: whether it is a floor slab (thin, its top at or below z = 0, the base's)."""
+    lower, upper = np.asarray(lower), np.asarray(upper)
+    if len(lower) == 0:
+        return np.zeros(0, dtype=bool)
+    return (upper[:, 2] <= 0.0) & (upper[:, 2] - lower[:, 2] < 0.2)
+
+
+def rgb255(color: str) -> tuple[int, int, int]:
+    """A ``"#rrggbb"`` colour as ``(r, g, b)`` in 0..255."""
+    return tuple(int(color[k : k + 2], 16) for k in (1, 3, 5))
 
 
 class TreeRenderer(Protocol):
@@ -118,4 +143,55 @@ def caption(image: np.ndarray, text: str) -> np.ndarray:
         Rectangle((0, 1 - band), 1, band, transform=figure.transFigure, color="white", alpha=0.85)
     )
     figure.text(0.5, 1 - band / 2, text, ha="center", va="center", fontsize=8)
+    return canvas_to_array(canvas, width, height)
+
+
+LegendEntry = tuple[str, str, str]
+"""``(label, colour, style)``; style ``"box"`` (a filled square), ``"line"``, ``"dashed"``,
+``"dot"`` or ``"star"``."""
+
+
+def legend_handles(entries: list[LegendEntry]) -> list:
+    """Matplotlib artists that stand for ``entries`` in a legend (`LegendEntry`)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    for label, color, style in entries:
+        if style == "box":
+            handles.append(Patch(facecolor=color, edgecolor="#555555", linewidth=0.4, label=label))
+        elif style in ("dot", "star"):
+            marker = "o" if style == "dot" else "*"
+            handles.append(
+                Line2D([], [], color=color, marker=marker, linestyle="none", label=label)
+            )
+        else:
+            dashes = (0, (4, 2)) if style == "dashed" else "-"
+            line = Line2D([], [], color=color, linewidth=2.0, linestyle=dashes, label=label)
+            handles.append(line)
+    return handles
+
+
+def legend_band(image: np.ndarray, entries: list[LegendEntry]) -> np.ndarray:
+    """``image`` (uint8 RGB) with a legend of ``entries`` on a white band across its bottom."""
+    height, width = image.shape[:2]
+    figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
+    canvas = FigureCanvasAgg(figure)
+    figure.figimage(image, origin="upper")
+    rows = 1 if len(entries) <= 3 or width >= 120 * len(entries) else 2
+    band = min(20 * rows + 4, height // 3) / height
+    figure.add_artist(
+        Rectangle((0, 0), 1, band, transform=figure.transFigure, color="white", alpha=0.85)
+    )
+    figure.legend(
+        handles=legend_handles(entries),
+        loc="center",
+        bbox_to_anchor=(0.5, band / 2),
+        ncol=-(-len(entries) // rows),
+        fontsize=7,
+        frameon=False,
+        handlelength=1.4,
+        columnspacing=1.0,
+        borderaxespad=0.0,
+    )
     return canvas_to_array(canvas, width, height)

@@ -2,18 +2,20 @@
 
 The arm is drawn at a few configurations in its own ``DIRECT`` client, with the boxes:
 
-* a solution: the start (green), pale ghosts along the path, the end (blue);
+* a solution: the start (green), two pale ghosts along the path, the end (blue);
 * before a solution: the start (green), the goal (blue) and the newest node of the path so
   far (orange), with pale ghosts between start and newest node;
 * neither: the start and the goal.
 
-A configuration is drawn once: two arms at the same pose would fight over every pixel
-(a speckled picture), so repeated poses are dropped.
+A legend across the bottom names each arm. A configuration is drawn once: two arms at the
+same pose would fight over every pixel (a speckled picture), so repeated poses are dropped.
 
-The camera is chosen per scene (unless fixed by the arguments): among a ring of views around
-the arm, the one that shows the most of the start and goal arms, measured on small
-segmentation renders, so furniture between the camera and the arm does not hide it. The
-choice is made once per problem, so the frames of an episode share one view.
+The camera is chosen per scene (unless fixed by the arguments). It looks at the middle of
+the start and goal arms, from a ring of views around them: first those from which the goal
+hand (wrist to flange) is not hidden behind a box (straight rays to it miss every box,
+`temp_gym.worlds.rendering.camera`), then, among them, the one that shows the most of the
+start and goal arms, measured on small segmentation renders. The choice is made once per
+problem, so the frames of an episode share one view.
 """
 
 from __future__ import annotations
@@ -25,7 +27,16 @@ import numpy as np
 
 from temp_gym.quiet import import_pybullet, native_output_silenced
 from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS
-from temp_gym.worlds.rendering.common import caption, check_paths, check_size, plan_title
+from temp_gym.worlds.rendering.camera import clearest_views
+from temp_gym.worlds.rendering.common import (
+    LegendEntry,
+    caption,
+    check_paths,
+    check_size,
+    floor_slabs,
+    legend_band,
+    plan_title,
+)
 
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
@@ -36,6 +47,8 @@ NEWEST_RGBA = np.array([0.95, 0.55, 0.10, 1.0])
 _GHOST_LIGHTEN = 0.55
 """Ghosts are their tint blended this far towards white (the tiny renderer ignores alpha, so
 paleness stands in for transparency)."""
+GHOSTS = 2
+"""Pale arms drawn along a path between its first and last arm: few enough to tell apart."""
 _OBSTACLE_RGBA = [0.78, 0.58, 0.38, 1.0]
 _FLOOR_RGBA = [0.80, 0.80, 0.80, 1.0]
 _GROUND_RGBA = [0.93, 0.93, 0.93, 1.0]
@@ -48,6 +61,8 @@ CANDIDATE_PITCHES = (-28.0, -50.0)
 """Camera pitches (degrees) tried per scene: the usual view and a steeper one over furniture."""
 _PROBE_SIZE = 96
 """Side in pixels of the segmentation renders that score a view."""
+_HAND_LINKS = 3
+"""The goal hand the camera must see: the origins of the arm's last links (wrist to flange)."""
 
 
 def _path_samples(path: np.ndarray, count: int) -> np.ndarray:
@@ -68,7 +83,7 @@ def arm_poses(
     problem: Problem,
     path: np.ndarray | None = None,
     path_so_far: np.ndarray | None = None,
-    ghosts: int = 5,
+    ghosts: int = GHOSTS,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """The ``(configuration, rgba)`` pairs a render draws, solid arms first, no pose twice.
 
@@ -98,6 +113,30 @@ def arm_poses(
     return poses
 
 
+def _hex(rgba: np.ndarray) -> str:
+    return "#" + "".join(f"{round(255 * float(c)):02x}" for c in rgba[:3])
+
+
+def arm_legend(
+    path: np.ndarray | None, path_so_far: np.ndarray | None, ghosts: bool
+) -> list[LegendEntry]:
+    """The legend of a picture drawn with `arm_poses`: which arm is which."""
+    entries: list[LegendEntry] = [("start", _hex(START_RGBA), "box")]
+    if path is not None:
+        entries.append(("path's end (goal)", _hex(GOAL_RGBA), "box"))
+        last = GOAL_RGBA
+    else:
+        entries.append(("goal", _hex(GOAL_RGBA), "box"))
+        last = None
+        if path_so_far is not None and len(path_so_far) > 1:
+            entries.append(("newest node", _hex(NEWEST_RGBA), "box"))
+            last = NEWEST_RGBA
+    if ghosts and last is not None:
+        entries.append(("along the path", _hex(_pale((START_RGBA + last) / 2)), "box"))
+    entries.append(("obstacles", _hex(np.array(_OBSTACLE_RGBA)), "box"))
+    return entries
+
+
 class IiwaRenderer:
     """Draws iiwa problems with pybullet's tiny (CPU) renderer.
 
@@ -110,12 +149,14 @@ class IiwaRenderer:
     Args:
         ghosts: Most intermediate configurations drawn along a path.
         yaw: Camera yaw around the vertical axis, degrees; None: chosen per scene (with
-            ``pitch``) to show the most of the arm.
+            ``pitch``) to see the goal hand and the most of the arm.
         pitch: Camera pitch, degrees (negative looks down); None: chosen per scene.
         distance: Camera distance from ``target``, metres.
-        target: Point the camera looks at, metres.
+        target: Point the camera looks at, metres; None: the middle of the start and goal
+            arms.
         fov: Vertical field of view, degrees.
         shadow: Whether the renderer casts shadows (about 3x slower).
+        legend: Whether pictures have a legend across the bottom.
 
     Examples:
         >>> renderer = IiwaRenderer()
@@ -125,13 +166,14 @@ class IiwaRenderer:
 
     def __init__(
         self,
-        ghosts: int = 5,
+        ghosts: int = GHOSTS,
         yaw: float | None = None,
         pitch: float | None = None,
         distance: float = 3.3,
-        target: tuple[float, float, float] = (0.0, 0.0, 0.4),
+        target: tuple[float, float, float] | None = None,
         fov: float = 45.0,
         shadow: bool = False,
+        legend: bool = True,
     ) -> None:
         if ghosts < 0:
             raise ValueError(f"ghosts: expected a non-negative count, got {ghosts}")
@@ -139,11 +181,15 @@ class IiwaRenderer:
         self.yaw = None if yaw is None else float(yaw)
         self.pitch = None if pitch is None else float(pitch)
         self.distance = float(distance)
-        self.target = tuple(float(x) for x in target)
+        self.target = None if target is None else tuple(float(x) for x in target)
         self.fov = float(fov)
         self.shadow = bool(shadow)
+        self.legend = bool(legend)
         self.view: tuple[float, float] | None = None
         """The (yaw, pitch) of the last render."""
+        self.view_target: tuple[float, float, float] | None = None
+        """The point the last render looked at."""
+        self._goal_hand = np.empty((0, 3))
         self._client = None
         self._arms: list[int] = []
         self._joints: list[int] = []
@@ -208,6 +254,7 @@ class IiwaRenderer:
             client.removeBody(body)
         self._boxes = []
         lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
+        floors = floor_slabs(lower, upper)
         ground_z = min(0.0, float(lower[:, 2].min())) if len(lower) else 0.0
         boxes = list(
             zip(problem.workspace.obstacle_centers, problem.workspace.obstacle_half_extents)
@@ -219,8 +266,7 @@ class IiwaRenderer:
                 rgba, collision = _GROUND_RGBA, -1
             else:
                 # Thin slabs below the base (the generators' floor) get a neutral colour.
-                is_floor = upper[index - 1, 2] <= 0.0 and half[2] < 0.1
-                rgba = _FLOOR_RGBA if is_floor else _OBSTACLE_RGBA
+                rgba = _FLOOR_RGBA if floors[index - 1] else _OBSTACLE_RGBA
                 collision = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
             visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=rgba)
             body = client.createMultiBody(
@@ -231,7 +277,18 @@ class IiwaRenderer:
             )
             self._boxes.append(body)
         self._problem = problem
+        self._pose_arms(client, [(problem.start, START_RGBA), (problem.goal, GOAL_RGBA)])
+        joints = np.concatenate([self._link_origins(client, arm) for arm in self._arms[:2]])
+        self._goal_hand = self._link_origins(client, self._arms[1])[-_HAND_LINKS:]
+        middle = (joints.min(axis=0) + joints.max(axis=0)) / 2
+        self.view_target = self.target or tuple(float(x) for x in middle)
         return True
+
+    def _link_origins(self, client, arm: int) -> np.ndarray:
+        """World positions ``(links, 3)`` of ``arm``'s base and link frames, base first."""
+        base = client.getBasePositionAndOrientation(arm)[0]
+        links = [client.getLinkState(arm, link)[4] for link in self._links[1:]]
+        return np.array([base, *links], dtype=np.float64)
 
     def _pose_arms(self, client, poses: list[tuple[np.ndarray, np.ndarray]]) -> None:
         """Show the first arms at ``poses``; park the rest."""
@@ -251,7 +308,7 @@ class IiwaRenderer:
     def _camera_image(self, client, view: tuple[float, float], width: int, height: int, seg: bool):
         pybullet = import_pybullet()
         matrix = client.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=self.target,
+            cameraTargetPosition=self.view_target,
             distance=self.distance,
             yaw=view[0],
             pitch=view[1],
@@ -285,17 +342,18 @@ class IiwaRenderer:
         return int(np.isin(mask, self._arms[:arms]).sum())
 
     def _choose_view(self, client, problem: Problem) -> tuple[float, float]:
-        """The fixed view, or the candidate that shows the most of the start and goal arms."""
+        """The fixed view, or the best candidate (module docstring): goal hand in sight first."""
         yaws = CANDIDATE_YAWS if self.yaw is None else (self.yaw,)
         pitches = CANDIDATE_PITCHES if self.pitch is None else (self.pitch,)
-        if len(yaws) * len(pitches) == 1:
-            return yaws[0], pitches[0]
+        views = [(float(yaw), float(pitch)) for pitch in pitches for yaw in yaws]
+        if len(views) == 1:
+            return views[0]
+        lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
+        views = clearest_views(
+            self._goal_hand, lower, upper, views, self.view_target, self.distance
+        )
         self._pose_arms(client, arm_poses(problem, ghosts=0))
-        scores = {
-            (yaw, pitch): self._count_arm_pixels(client, (yaw, pitch), 2)
-            for pitch in pitches
-            for yaw in yaws
-        }
+        scores = {view: self._count_arm_pixels(client, view, 2) for view in views}
         return max(scores, key=scores.get)  # first of the best: the order above breaks ties
 
     # ------------------------------------------------------------------ drawing
@@ -354,7 +412,12 @@ class IiwaRenderer:
         client = self._connect()
         if self._load_problem(client, problem) or self.view is None:
             self.view = self._choose_view(client, problem)
-        self._pose_arms(client, arm_poses(problem, path, path_so_far, self.ghosts))
+        poses = arm_poses(problem, path, path_so_far, self.ghosts)
+        self._pose_arms(client, poses)
         rgba = self._camera_image(client, self.view, width, height, False)[2]
         image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        if self.legend:
+            solid = (START_RGBA, GOAL_RGBA, NEWEST_RGBA)
+            ghosts = any(not any(np.array_equal(c, s) for s in solid) for _, c in poses)
+            image = legend_band(image, arm_legend(path, path_so_far, ghosts))
         return image if title is None else caption(image, title)

@@ -25,9 +25,12 @@ from temp_gym.worlds.rendering.common import (
     PATH_SO_FAR_COLOR,
     SOLUTION_COLOR,
     START_COLOR,
+    TREE_COLOR,
+    LegendEntry,
     canvas_to_array,
     check_paths,
     check_size,
+    legend_handles,
     plan_title,
 )
 
@@ -37,7 +40,6 @@ if TYPE_CHECKING:
 MAX_3D_EDGES = 400
 """Most tree edges drawn in 3D, where more turn the picture into a thicket."""
 _BOX_COLOR = "#8c8c8c"
-_EDGE_COLOR = "#4a7ab5"
 _NODE_COLOR = "#23395d"
 
 
@@ -106,7 +108,7 @@ def _draw_2d(figure, problem, positions, parents, path, solution):
     )
     segments = _tree_segments(positions, parents)
     if len(segments):
-        axes.add_collection(LineCollection(segments, colors=_EDGE_COLOR, linewidths=0.5))
+        axes.add_collection(LineCollection(segments, colors=TREE_COLOR, linewidths=0.5))
     if len(positions):
         axes.plot(*positions.T, linestyle="none", marker=".", markersize=2.0, color=_NODE_COLOR)
     goal = Circle(problem.goal, problem.goal_radius, facecolor=GOAL_COLOR, alpha=0.35)
@@ -144,7 +146,7 @@ def _draw_3d(figure, problem, positions, parents, path, solution):
         axes.add_collection3d(boxes)
     segments = _tree_segments(positions, parents, MAX_3D_EDGES)
     if len(segments):
-        edges = Line3DCollection(segments, colors=_EDGE_COLOR, linewidths=0.5, alpha=0.6)
+        edges = Line3DCollection(segments, colors=TREE_COLOR, linewidths=0.5, alpha=0.6)
         edges.set_zorder(2)
         axes.add_collection3d(edges)
     # The goal ball as a coarse wireframe sphere.
@@ -169,6 +171,26 @@ def _draw_3d(figure, problem, positions, parents, path, solution):
     return axes
 
 
+def legend_entries(
+    problem: Problem, tree_drawn: bool, path: np.ndarray | None, solution: bool
+) -> list[LegendEntry]:
+    """What the picture shows, for its legend: start, goal, and what else is drawn."""
+    entries: list[LegendEntry] = [
+        ("start", START_COLOR, "dot"),
+        ("goal region", GOAL_COLOR, "star"),
+    ]
+    if tree_drawn:
+        entries.append(("tree", TREE_COLOR, "line"))
+    if path is not None and len(path) > 1:
+        if solution:
+            entries.append(("solution", SOLUTION_COLOR, "line"))
+        else:
+            entries.append(("path so far", PATH_SO_FAR_COLOR, "dashed"))
+    if problem.workspace.num_obstacles:
+        entries.append(("obstacles", _BOX_COLOR, "box"))
+    return entries
+
+
 def _sphere(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)
 
@@ -182,6 +204,7 @@ def render_point_world(
     width: int = 480,
     height: int = 480,
     path_so_far: np.ndarray | None = None,
+    legend: bool = True,
 ) -> np.ndarray:
     """Draw a point-robot problem, optionally with a tree and a path.
 
@@ -189,7 +212,8 @@ def render_point_world(
     tree nodes small dots (2D), the start a green dot and the goal region a blue disc (2D) or
     wire sphere (3D). A solution ``path`` is a thick red polyline, titled with its cost; a
     ``path_so_far`` (before any solution: the root path of the newest node) a dashed orange
-    one, titled "no solution yet". The axes span ``problem.bounds`` with equal aspect.
+    one, titled "no solution yet". The axes span ``problem.bounds`` with equal aspect; a
+    legend across the bottom names what is drawn.
 
     Args:
         problem: A point robot's problem (2D or 3D).
@@ -200,6 +224,7 @@ def render_point_world(
         width: Image width in pixels.
         height: Image height in pixels.
         path_so_far: States ``(K, d)`` of a path that does not reach the goal yet.
+        legend: Whether to draw the legend.
 
     Returns:
         A fresh ``uint8`` array of shape ``(height, width, 3)``.
@@ -224,10 +249,26 @@ def render_point_world(
         "orange dashed" if not solution and path_so_far is not None and len(path_so_far) > 1 else ""
     )
     axes.set_title(plan_title(problem, len(positions), path, shown), fontsize=8)
+    bottom = 0.0
+    if legend:
+        drawn = path if solution else path_so_far
+        tree_drawn = parents is not None and len(positions) > 1
+        entries = legend_entries(problem, tree_drawn, drawn, solution)
+        figure.legend(
+            handles=legend_handles(entries),
+            loc="lower center",
+            ncol=len(entries),
+            fontsize=7,
+            frameon=False,
+            handlelength=1.4,
+            columnspacing=1.0,
+            borderaxespad=0.2,
+        )
+        bottom = min(0.07, 24 / height)
     if problem.dim == 2:
-        figure.subplots_adjust(left=0.08, right=0.97, bottom=0.06, top=0.93)
+        figure.subplots_adjust(left=0.08, right=0.97, bottom=0.06 + bottom, top=0.93)
     else:
-        figure.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.95)
+        figure.subplots_adjust(left=0.0, right=1.0, bottom=0.02 + bottom, top=0.95)
     return canvas_to_array(canvas, width, height)
 
 

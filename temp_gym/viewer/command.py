@@ -1,0 +1,111 @@
+"""``temp-view``: show a problem, and a stored path, in the browser.
+
+Example:
+    $ temp-view problem.json                  # the scene, start and goal
+    $ temp-plan problem.json --out r.json && temp-view problem.json r.json
+    temp-view: viewer at http://127.0.0.1:8080 (Ctrl-C to stop)
+
+The path file is what ``temp-plan --out`` writes (a result with a ``"path"``), or a JSON
+list of states. A result file holds no tree; ``temp-plan problem.json --view`` plans and
+shows the tree too.
+
+Exit status: 0 after Ctrl-C, 2 bad input (one line on stderr; nothing is served).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym.jobs import BAD_INPUT
+
+PROG = "temp-view"
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Show a temp-gym problem, and optionally a stored path, in the browser "
+        "(needs temp-gym[view]). Runs until Ctrl-C.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog="exit status: 0 stopped with Ctrl-C, 2 bad input",
+    )
+    parser.add_argument("problem", help="problem JSON file (temp_gym.problem)")
+    parser.add_argument(
+        "path",
+        nargs="?",
+        default=None,
+        help="a result JSON of temp-plan --out, or a JSON list of states",
+    )
+    parser.add_argument(
+        "--host", default="127.0.0.1", help="address to serve on (127.0.0.1: this machine only)"
+    )
+    parser.add_argument(
+        "--port", type=int, default=8080, help="port to serve on (busy: the next free one)"
+    )
+    return parser
+
+
+def load_path(file: str | Path, dim: int) -> np.ndarray | None:
+    """The states ``(K, dim)`` stored in ``file`` (None: a result without a solution).
+
+    Raises:
+        ValueError: naming the file and what is wrong with it.
+        OSError: the file cannot be read.
+    """
+    try:
+        data = json.loads(Path(file).read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{file}: not JSON ({error.msg}, line {error.lineno})") from None
+    if isinstance(data, dict):
+        if "path" not in data:
+            raise ValueError(f"{file}: expected a result with a 'path', or a list of states")
+        data = data["path"]
+        if data is None:
+            return None
+    try:
+        path = np.asarray(data, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{file}: path: expected a list of {dim}-number states") from None
+    if path.ndim != 2 or path.shape[1] != dim or len(path) == 0:
+        raise ValueError(
+            f"{file}: path: expected a non-empty list of {dim}-number states, got shape "
+            f"{path.shape}"
+        )
+    if not np.all(np.isfinite(path)):
+        raise ValueError(f"{file}: path: expected finite numbers")
+    return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``temp-view``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        from temp_gym.problem import Problem
+        from temp_gym.viewer.plan_viewer import check_address, require_viser, serve_plan
+
+        require_viser()
+        check_address(args.host, args.port)
+        problem = Problem.load(args.problem)
+        path = None if args.path is None else load_path(args.path, problem.dim)
+        # Checked (the robot, the path) before anything is served.
+        serve_plan(
+            problem,
+            path=path,
+            host=args.host,
+            port=args.port,
+            announce=lambda line: print(f"{PROG}: {line}", flush=True),
+        )
+    except (OSError, ValueError, ImportError) as error:
+        print(f"{PROG}: error: {error}", file=sys.stderr)
+        return BAD_INPUT
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,95 @@
+"""``temp-view`` and ``temp-plan --view``: bad input gets one line and exit 2; Ctrl-C stops."""
+
+import json
+import signal
+import subprocess
+import sys
+import urllib.request
+
+import pytest
+from viewer_cases import POINT2D
+
+from temp_gym.viewer.command import main
+
+pytest.importorskip("viser", reason="the viewer needs temp-gym[view]")
+
+
+@pytest.fixture
+def problem_file(tmp_path):
+    path = tmp_path / "problem.json"
+    path.write_text(json.dumps(POINT2D))
+    return path
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("{oops", "not JSON"),
+        (json.dumps({"cost": 3}), "expected a result with a 'path'"),
+        (json.dumps([[2, 2], [3]]), "path: expected a list of 2-number states"),
+        (json.dumps([[2, 2, 2]]), "path: expected a non-empty list of 2-number states"),
+        (json.dumps({"path": [[2, 2], [None, 3]]}), "path: expected finite numbers"),
+    ],
+)
+def test_bad_path_files_get_one_line_and_exit_2(tmp_path, problem_file, capsys, content, message):
+    path_file = tmp_path / "path.json"
+    path_file.write_text(content)
+    assert main([str(problem_file), str(path_file), "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("temp-view: error:") and message in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_bad_problems_and_addresses_get_one_line_and_exit_2(tmp_path, problem_file, capsys):
+    for argv, message in [
+        ([str(tmp_path / "missing.json")], "No such file"),
+        ([str(problem_file), "--port", "70000"], "port: expected an integer in 0..65535"),
+        ([str(problem_file), "--host", "no.such.host.invalid"], "host: cannot listen"),
+    ]:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("temp-view: error:") and message in err, err
+        assert len(err.strip().splitlines()) == 1
+
+
+def test_temp_plan_view_takes_one_problem(problem_file, capsys):
+    from temp_gym.cli import main as temp_plan
+
+    assert temp_plan([str(problem_file), str(problem_file), "--view"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == "temp-plan: error: --view takes one problem"
+
+
+def _serve_until_interrupted(command: list[str]) -> tuple[str, int]:
+    """Run ``command``, read its announced address, load the page, press Ctrl-C."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        while not any("viewer: http" in line for line in lines):
+            line = process.stdout.readline()
+            assert line, f"no address announced: {lines} {process.stderr.read()}"
+            lines.append(line)
+        url = lines[-1].split("viewer: ")[1].split()[0]
+        with urllib.request.urlopen(url, timeout=10) as page:
+            assert page.status == 200
+        process.send_signal(signal.SIGINT)
+        process.wait(timeout=30)
+    finally:
+        process.kill()
+    return "".join(lines), process.returncode
+
+
+def test_temp_view_serves_a_stored_path_until_ctrl_c(tmp_path, problem_file):
+    path_file = tmp_path / "path.json"
+    path_file.write_text(json.dumps({"path": [[2, 2], [2, 18], [18, 18]]}))
+    command = [sys.executable, "-m", "temp_gym.viewer.command", str(problem_file), str(path_file)]
+    out, status = _serve_until_interrupted([*command, "--port", "0"])
+    assert status == 0 and out.startswith("temp-view: viewer: http://127.0.0.1:")
+
+
+def test_temp_plan_view_plans_then_serves_until_ctrl_c(problem_file):
+    command = [sys.executable, "-m", "temp_gym.cli", str(problem_file), "--planner", "rrt_star"]
+    out, status = _serve_until_interrupted([*command, "--max-nodes", "300", "--view"])
+    summary, announced = out.strip().splitlines()
+    assert status == 0 and summary.startswith("rrt_star seed=0: cost")
+    assert announced.startswith("temp-plan: viewer: http://127.0.0.1:")
