@@ -1,4 +1,9 @@
-"""Scripts' command lines: flags for argparse, ``key.sub=value`` tokens for the config."""
+"""Scripts' command lines: flags for argparse, ``key.sub=value`` tokens for the config.
+
+Every command of the package parses its flags with a `CommandParser`: a bad flag or value is
+one line on stderr and exit status 2 (argparse's own errors print the usage first), and the
+help shows each flag's default except where the flag is required or a switch.
+"""
 
 from __future__ import annotations
 
@@ -7,15 +12,41 @@ import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
+
+from temp_gym.jobs import BAD_INPUT, brief, one_line
 
 OVERRIDE = re.compile(r"^\+?[A-Za-z_][\w-]*(\.[\w-]+)*=")
 """A ``key.sub=value`` (or ``+key.sub=value``) command-line override."""
 
 
-def script_parser(description: str) -> argparse.ArgumentParser:
-    """An `argparse.ArgumentParser` whose help shows every flag's default."""
-    return argparse.ArgumentParser(
-        description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """argparse's formatter that shows defaults, except of required flags and switches.
+
+    A required flag has no default to show ("default: None" beside "required" says two
+    things at once), and a switch (``--no-progress``) is off unless given.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.required or action.nargs == 0:
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
+class CommandParser(argparse.ArgumentParser):
+    """An `argparse.ArgumentParser` whose every error is one line on stderr, exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``{prog}: error: {message}`` on one line and exit with `BAD_INPUT`."""
+        self.exit(BAD_INPUT, one_line(f"{self.prog}: error: {message} (see --help)") + "\n")
+
+
+def script_parser(
+    description: str, epilog: str | None = None, prog: str | None = None
+) -> CommandParser:
+    """The parser of a command: one-line errors, and help that shows every flag's default."""
+    return CommandParser(
+        prog=prog, description=description, epilog=epilog, formatter_class=DefaultsHelpFormatter
     )
 
 
@@ -84,13 +115,13 @@ def checkpoint_entry(
         key, sep, value = item.partition("=")
         if not sep or key not in CHECKPOINT_SETTINGS:
             raise ValueError(f"{flag} {entry}: expected key=value with a key of "
-                             f"{sorted(CHECKPOINT_SETTINGS)}, got {item!r}")  # fmt: skip
+                             f"{sorted(CHECKPOINT_SETTINGS)}, got {brief(item)}")  # fmt: skip
         kind = CHECKPOINT_SETTINGS[key]
         try:
             settings[key] = kind(value)
         except ValueError:
             raise ValueError(f"{flag} {entry}: {key} must be a {kind.__name__}, "
-                             f"got {value!r}") from None  # fmt: skip
+                             f"got {brief(value)}") from None  # fmt: skip
     return Path(path), settings
 
 
@@ -102,5 +133,5 @@ def labelled_entry(entry: str, flag: str = "--policy") -> tuple[str, str]:
     """
     label, sep, path = entry.rpartition("=")
     if not sep or not label or not path:
-        raise ValueError(f"{flag} {entry!r}: expected LABEL=CHECKPOINT")
+        raise ValueError(f"{flag} {brief(entry)}: expected LABEL=CHECKPOINT")
     return label, path
