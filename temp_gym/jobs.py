@@ -55,6 +55,10 @@ def one_line(message: object, limit: int = MAX_MESSAGE_LENGTH) -> str:
     text = text.replace(" ; ", "; ")
     if len(text) > limit:
         text = f"{text[: limit - 30]}... (message cut at {limit} characters)"
+    try:  # a file name's undecodable bytes (surrogate escapes) shown as \xff
+        text = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:
+        pass
     encoding = getattr(sys.stderr, "encoding", None) or "utf-8"
     return text.encode(encoding, "backslashreplace").decode(encoding, "replace")
 

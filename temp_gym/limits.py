@@ -37,6 +37,10 @@ MAX_MODEL_PARAMETERS = 64 * 2**20
 """Most weights of a `temp_gym.models.TEMPModel` (256 MiB as float32); the shipped ones hold
 well under a million. A model config is checked against it before anything is allocated."""
 
+MAX_WEIGHT_MAGNITUDE = 1e6
+"""Largest magnitude of a weight in a checkpoint or snapshot: trained weights are a few units
+at most (gradients are clipped); beyond this, training diverged or the file was damaged."""
+
 MAX_MODEL_WIDTH = 8192
 """Largest width of any layer of the model (``token_dim``, ``ffn_dim``, ``eise_hidden``)."""
 

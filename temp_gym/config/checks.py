@@ -114,7 +114,7 @@ def check_config(config: Any) -> None:
     Raises:
         ConfigError: the first value out of bounds, naming the key, the value and the bound.
     """
-    _check_section(config, "")
+    check_section(config, "")
     for key in NAMES:
         section, name = key.split(".")
         check_name(getattr(getattr(config, section), name), key)
@@ -125,12 +125,13 @@ def check_config(config: Any) -> None:
     _check_env_id(config.env.id, config.env.robot)
 
 
-def _check_section(section: Any, where: str) -> None:
+def check_section(section: Any, where: str) -> None:
+    """Check every value of one section (a dataclass) against its bounds, as `check_config`."""
     for field in dataclasses.fields(section):
         key = dotted(where, field.name)
         value = getattr(section, field.name)
         if dataclasses.is_dataclass(value):
-            _check_section(value, key)
+            check_section(value, key)
         elif isinstance(value, list):
             for index, item in enumerate(value):
                 _check_value(item, key, f"{key}[{index}]")
