@@ -116,10 +116,16 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
     """Run a script's ``main``; one line and an exit status on Ctrl-C or a `JobError`.
 
     Returns 0 on success, `INTERRUPTED` after Ctrl-C ("rerun the same command to resume")
-    and `BAD_INPUT` after a `JobError`. Any other exception keeps its traceback: it is a bug.
+    and `BAD_INPUT` after a `JobError` (or a ``SystemExit`` with a message); argparse's own
+    exit status passes through. Any other exception keeps its traceback: it is a bug.
     """
     try:
         main(argv)
+    except SystemExit as exit:
+        if exit.code is None or isinstance(exit.code, int):
+            return exit.code or 0
+        report(one_line(f"{name}: error: {exit.code}"))
+        return BAD_INPUT
     except KeyboardInterrupt:
         _close_progress_bars()
         report(f"{name}: interrupted; rerun the same command to resume")

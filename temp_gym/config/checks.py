@@ -87,6 +87,13 @@ POSITIVE = {"env.step_size", "data.planner_step_size", "model.offset_scale", "op
             "optim.eps", "evaluation.time_limit"}  # fmt: skip
 """Numbers that must be above 0 (and finite)."""
 
+CHOICES: dict[str, tuple[str, ...]] = {
+    "train.monitor": ("loss", "semantic", "recons"),
+    "logger.backend": ("tensorboard", ""),
+}
+"""Dotted key -> the values it may take (the home of these choices: the trainer and the logger
+read them from here)."""
+
 NAMES = ("train.exp_name",)
 """Keys that name a run: one path component of `NAME_CHARACTERS`, at most `MAX_NAME_LENGTH`."""
 
@@ -115,6 +122,11 @@ def check_config(config: Any) -> None:
         ConfigError: the first value out of bounds, naming the key, the value and the bound.
     """
     check_section(config, "")
+    for key, choices in CHOICES.items():
+        section, name = key.split(".")
+        value = getattr(getattr(config, section), name)
+        if value not in choices:
+            raise ConfigError(f"{key}: expected one of {list(choices)}, got {brief(value)}")
     for key in NAMES:
         section, name = key.split(".")
         check_name(getattr(getattr(config, section), name), key)

@@ -8,13 +8,15 @@ help shows each flag's default except where the flag is required or a switch.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
 from temp_gym.jobs import BAD_INPUT, brief, one_line
+from temp_gym.limits import MAX_COUNT
 
 OVERRIDE = re.compile(r"^\+?[A-Za-z_][\w-]*(\.[\w-]+)*=")
 """A ``key.sub=value`` (or ``+key.sub=value``) command-line override."""
@@ -39,6 +41,48 @@ class CommandParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         """Print ``{prog}: error: {message}`` on one line and exit with `BAD_INPUT`."""
         self.exit(BAD_INPUT, one_line(f"{self.prog}: error: {message} (see --help)") + "\n")
+
+
+def count(least: int = 0, most: int = MAX_COUNT) -> Callable[[str], int]:
+    """An argparse ``type``: an integer in ``least..most``, else a one-line usage error.
+
+    Example:
+        >>> parser.add_argument("--tasks", type=count(1), default=60)
+    """
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {brief(text)}") from None
+        if value < least or value > most:
+            bound = f"at least {least}" if most >= MAX_COUNT else f"in {least}..{most}"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {value}")
+        return value
+
+    parse.__name__ = "count"
+    return parse
+
+
+def number(least: float = -math.inf, most: float = math.inf) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in ``[least, most]``, else a one-line error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {brief(text)}") from None
+        if not (math.isfinite(value) and least <= value <= most):
+            bound = (
+                f"a finite number of at least {least:g}"
+                if math.isinf(most)
+                else f"a number in [{least:g}, {most:g}]"
+            )
+            raise argparse.ArgumentTypeError(f"expected {bound}, got {value}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
 
 
 def script_parser(

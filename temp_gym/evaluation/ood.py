@@ -31,12 +31,15 @@ check that the two agree. `load_ood_family` reads them.
 
 from __future__ import annotations
 
-import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from temp_gym.config import script_parser
+from temp_gym.config.checks import check_output_dir
+from temp_gym.jobs import run_script
 from temp_gym.problem import Problem
 from temp_gym.worlds.point_world import POINT_WORLD_SIZE
 from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, RobotSpec
@@ -371,9 +374,13 @@ def load_ood_family(robot: str, directory: str | Path | None = None) -> dict[str
 
 def main(argv: list[str] | None = None) -> None:
     """Write every family's problems to ``examples/ood``."""
-    parser = argparse.ArgumentParser(description="Write the out-of-distribution problems.")
+    parser = script_parser(
+        "Write the out-of-distribution problems.",
+        epilog="Output: {out}/{2d,3d,7d}/{problem}.json, made if missing, replaced if present.",
+    )
     parser.add_argument("--out", type=Path, default=EXAMPLES_DIR, help="folder of the families")
     args = parser.parse_args(argv)
+    check_output_dir(args.out, "--out")
     for robot, folder in WORLD_DIRS.items():
         target = args.out / folder
         target.mkdir(parents=True, exist_ok=True)
@@ -383,4 +390,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("python -m temp_gym.evaluation.ood", main))
