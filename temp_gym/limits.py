@@ -33,8 +33,8 @@ MIN_ENCODING_RESOLUTION = 2
 MAX_PATH_LENGTH = 4096
 """Most rows L of the path-so-far observation (and of the model's HPD tokens)."""
 
-MAX_MODEL_PARAMETERS = 64 * 2**20
-"""Most weights of a `temp_gym.models.TEMPModel` (256 MiB as float32); the shipped ones hold
+MAX_MODEL_PARAMETERS = 32 * 2**20
+"""Most weights of a `temp_gym.models.TEMPModel` (128 MiB as float32); the shipped ones hold
 well under a million. A model config is checked against it before anything is allocated."""
 
 MAX_WEIGHT_MAGNITUDE = 1e6
@@ -53,12 +53,13 @@ MAX_SEI_TOKENS = 256
 MAX_CHUNK = 256
 """Most nodes the MPT predicts per call (``model.chunk``)."""
 
-MAX_CHECKPOINT_BYTES = 1 * 2**30
-"""Largest checkpoint file read (1 GiB); reading stops there, so a stream without end
-(``/dev/zero``) is refused, not read into memory."""
+MAX_CHECKPOINT_BYTES = 512 * 2**20
+"""Largest checkpoint file read (512 MiB: a ``last.pt`` of the largest model, its optimizer
+state included). Only a regular file is read, so a device without end (``/dev/zero``) is
+refused before a byte is read."""
 
-MAX_SNAPSHOT_BYTES = 1 * 2**30
-"""Largest inference snapshot (``*.kernels.npz``) read."""
+MAX_SNAPSHOT_BYTES = 256 * 2**20
+"""Largest inference snapshot (``*.kernels.npz``) read: the weights of the largest model."""
 
 MAX_CONFIG_BYTES = 1 * 2**20
 """Largest YAML config file read (1 MiB)."""
@@ -66,9 +67,6 @@ MAX_CONFIG_BYTES = 1 * 2**20
 MAX_CONFIG_DEPTH = 32
 """Deepest nesting of mappings and lists in a YAML config or an override's value. YAML
 anchors and aliases are refused outright, so a small file cannot expand into a huge value."""
-
-MAX_JSON_DEPTH = 64
-"""Deepest nesting of a JSON file temp-gym reads (a problem, a per-task file)."""
 
 MAX_TASKS_PER_WORKSPACE = 100_000
 """Most start-goal pairs per workspace of a dataset (``data.tasks_per_workspace``; the paper's

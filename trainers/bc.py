@@ -174,8 +174,10 @@ def train(
     device = dist.device
     torch.manual_seed(seed)
     np.random.seed(seed)
-    train_data = training.make_replay_buffer(config, "train")
+    train_data = training.make_replay_buffer(config, "train")  # checked: each column's range
     val_data = training.make_replay_buffer(config, "val")
+    if dist.is_main:  # made once the data passed their checks: a refused run leaves no folder
+        run_dir.mkdir(parents=True, exist_ok=True)
     model = training.make_model(config).to(device)
     loss_module = training.make_loss(config)
     optimizer, scheduler = training.make_optimizer(config, model)
@@ -329,9 +331,10 @@ def check_finite(config: Config, epoch: int, values: dict[str, Any]) -> None:
         TrainingDivergedError: saying which setting to lower and how to start over.
     """
     for name, value in values.items():
-        if not math.isfinite(float(value)):
+        number = float(value.detach() if hasattr(value, "detach") else value)
+        if not math.isfinite(number):
             raise TrainingDivergedError(
-                f"training diverged in epoch {epoch + 1}: the {name} is {float(value)} (optim.lr "
+                f"training diverged in epoch {epoch + 1}: the {name} is {number} (optim.lr "
                 f"{config.optim.lr:g}, optim.grad_clip {config.optim.grad_clip:g}); no checkpoint "
                 "of it was written. Lower optim.lr and rerun with --no-resume"
             )
@@ -592,8 +595,6 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     rank = training.launch_rank()
     training.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
     dist = training.Distributed(config.train.device)
-    if dist.is_main:
-        run_dir.mkdir(parents=True, exist_ok=True)
     if config.train.threads:
         torch.set_num_threads(config.train.threads)
     best = train(

@@ -13,6 +13,7 @@ import json
 import sys
 
 from temp_gym.config import load_config, parse_args, script_parser
+from temp_gym.config.checks import check_output_dir
 from temp_gym.distributed import add_backend_arguments
 from temp_gym.jobs import run_script
 
@@ -29,6 +30,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
+    check_output_dir(config.data.dir, "data.dir")
     from temp_gym.data import generate_dataset  # after the command line: numba loads here
     from temp_gym.data.dataset import read_card
 

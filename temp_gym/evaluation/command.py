@@ -163,6 +163,13 @@ def main(argv: list[str] | None = None) -> str:
     config = load_config(args.config, args.overrides)
     out = Path(config.evaluation.out or Path("results") / config.env.id)
     check_output_dir(out, "evaluation.out")
+    if args.checkpoint:  # a file that cannot be a checkpoint is refused before PyTorch loads
+        from temp_gym.models.checkpoint_file import read_checkpoint_bytes
+
+        try:
+            read_checkpoint_bytes(args.checkpoint)
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"--checkpoint: {error}") from None
     from temp_gym.evaluation.report import write_report
     from temp_gym.evaluation.runner import (
         ManifestMismatchError,
