@@ -202,6 +202,9 @@ def _check_env_id(env_id: str, robot: str) -> None:
         )
 
 
+PATH_SHOWN = 300
+"""Most characters of a path quoted in a message (paths are longer than other values)."""
+
 SYSTEM_FOLDERS = ("/proc", "/sys", "/dev")
 """Folders of the kernel's: nothing of ours is written there."""
 
@@ -221,7 +224,7 @@ def check_output_dir(path: str | os.PathLike, key: str) -> Path:
     if "\x00" in str(text):
         raise ConfigError(f"{key}: holds a NUL character")
     folder = Path(text).expanduser().absolute()
-    shown = brief(str(text))
+    shown = brief(str(text), PATH_SHOWN)
     if folder.exists() and not folder.is_dir():
         raise ConfigError(f"{key}: {shown} is a file, not a folder")
     resolved = Path(os.path.realpath(folder))
@@ -232,7 +235,11 @@ def check_output_dir(path: str | os.PathLike, key: str) -> Path:
     while not parent.exists():
         parent = parent.parent
     if not parent.is_dir():
-        raise ConfigError(f"{key}: {shown} cannot be made: {brief(str(parent))} is a file")
+        raise ConfigError(
+            f"{key}: {shown} cannot be made: {brief(str(parent), PATH_SHOWN)} is a file"
+        )
     if not folder.exists() and not os.access(parent, os.W_OK | os.X_OK):
-        raise ConfigError(f"{key}: {shown} cannot be made: {brief(str(parent))} is not writable")
+        raise ConfigError(
+            f"{key}: {shown} cannot be made: {brief(str(parent), PATH_SHOWN)} is not writable"
+        )
     return folder

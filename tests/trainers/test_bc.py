@@ -235,9 +235,9 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
      ("train_eval.tasks=0", "train_eval.tasks: must be at least 1"),
      # found only after the dataset was built, with a traceback, before 2026-11-24:
      ("train.monitor=foo", "train.monitor: expected one of"),
-     ("model.num_heads=3", "model: token_dim 32 is not divisible by num_heads 3"),
+     ("model.num_heads=3", "model.token_dim: 32 is not a multiple of model.num_heads (3)"),
      ("model.prediction=foo", "model: prediction: expected"),
-     ("model.dropout=2", "model: dropout probability"),
+     ("model.dropout=2", "model.dropout: must be at most"),
      ("train.device=foo", "train.device:"),
      ("logger.backend=foo", "logger.backend: expected")],
 )  # fmt: skip
