@@ -17,15 +17,15 @@ Chromium). Everything is seeded, so reruns give the same pictures.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.image import imsave
 
-from temp_gym.worlds.rendering import IiwaRenderer, plan_title, render_point_world
+from temp_gym.config import script_parser
+
+# matplotlib and the renderers (pybullet) load in the picture makers: ``--help`` stays light.
 
 IMAGES = Path(__file__).resolve().parent / "images"
 SEED_2D = 1
@@ -39,8 +39,11 @@ renderer's camera (chosen to show the arm) sees the structure's openings."""
 
 def make_point(robot: str, seed: int, out: Path) -> None:
     """A challenging point problem, its RRT* tree and the best path."""
+    from matplotlib.image import imsave
+
     from temp_gym.planning.tree import Tree
     from temp_gym.worlds.generators import generate_problem
+    from temp_gym.worlds.rendering import render_point_world
 
     problem = generate_problem(robot, np.random.default_rng(seed), "challenging")
     tree = Tree(problem)
@@ -94,8 +97,11 @@ def make_7d(out: Path) -> None:
 
 def make_families_7d(out: Path) -> None:
     """One workspace of each of the iiwa's structured families, the arm at start and goal."""
+    from matplotlib.image import imsave
+
     from temp_gym.worlds.generators import generate_task, generate_workspace
     from temp_gym.worlds.iiwa_structured import FAMILY_STRUCTURES
+    from temp_gym.worlds.rendering import IiwaRenderer
 
     tiles = []
     with IiwaRenderer() as renderer:
@@ -128,11 +134,11 @@ PICTURES = {
 """Picture name (``--only``) -> (file stem under `IMAGES`, its maker)."""
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     """Make the pictures; return the number that failed."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = script_parser(__doc__.splitlines()[0], epilog=f"Output: {IMAGES}/{{picture}}.png.")
     parser.add_argument("--only", choices=tuple(PICTURES), help="make only this picture")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     IMAGES.mkdir(parents=True, exist_ok=True)
     failed = 0
     for name, (stem, make) in PICTURES.items():

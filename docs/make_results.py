@@ -25,7 +25,6 @@ few tasks can move by a factor of two, so the pooled figure says more about what
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import platform
@@ -36,9 +35,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from temp_gym.config import count, script_parser  # noqa: E402
+from temp_gym.config.checks import check_output_dir  # noqa: E402
 from temp_gym.evaluation import command as evaluate  # noqa: E402
 from temp_gym.evaluation.protocol import TAU  # noqa: E402
 from temp_gym.evaluation.statistics import format_interval  # noqa: E402
+from temp_gym.jobs import run_script  # noqa: E402
+from temp_gym.limits import MAX_WORKERS  # noqa: E402
 
 WORLDS = {"2d": "TEMP-2D-v0", "3d": "TEMP-3D-v0", "7d": "TEMP-7D-v0"}
 PAPER_TABLE = {
@@ -299,19 +302,26 @@ def carried_over(page: str, key: str) -> tuple[str, list[str], list[str]] | None
 
 def main(argv: list[str] | None = None) -> Path:
     """Evaluate (resuming) and write ``docs/results.md``; return its path."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", nargs="+", default=list(WORLDS), choices=list(WORLDS))
-    parser.add_argument("--workers", type=int, default=None)
+    parser = script_parser(
+        __doc__.splitlines()[0],
+        epilog="Outputs: results/{env id}[-draw{n}]/ (trainers/evaluate.py's, resumable) and "
+        "{docs-dir}/results.md.",
+    )
+    parser.add_argument(
+        "--worlds", nargs="+", default=list(WORLDS), choices=list(WORLDS), help="worlds to run"
+    )
+    parser.add_argument(
+        "--workers", type=count(1, MAX_WORKERS), default=None,
+        help="processes per evaluation (None: each config's evaluation.workers)",
+    )  # fmt: skip
     parser.add_argument("--skip-evaluation", action="store_true", help="only rewrite the page")
     parser.add_argument("--docs-dir", default=str(ROOT / "docs"), help="where results.md goes")
     parser.add_argument(
-        "--task-draws", type=int, default=1,
+        "--task-draws", type=count(1, 1000), default=1,
         help="draws of test tasks per world (1: the paper's protocol alone; see the docstring)",
     )  # fmt: skip
     args = parser.parse_args(argv)
-    if args.task_draws < 1:
-        parser.error(f"--task-draws: must be at least 1, got {args.task_draws}")
-    docs = Path(args.docs_dir)
+    docs = check_output_dir(args.docs_dir, "--docs-dir")
     previous = (docs / "results.md").read_text() if (docs / "results.md").is_file() else ""
     sections, ratios, check_lines = [], [], []
     for key in WORLDS:
@@ -419,4 +429,4 @@ def main(argv: list[str] | None = None) -> Path:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("make_results.py", main))

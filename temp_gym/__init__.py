@@ -1,13 +1,14 @@
 """temp-gym: sampling-based motion planning as Gymnasium environments, and TEMP.
 
-Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0``.
+Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0``. The planners
+(and numba, which compiles them) load on first use of `plan` or `PlanResult`, and the
+models (and PyTorch) on first use of a policy: importing the package, and every command's
+``--help``, stays light.
 """
 
 from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I001
+from temp_gym import hooks
 from temp_gym.envs import ENV_IDS, register_envs
-from temp_gym.planning.plan import plan
-from temp_gym.planning.result import PlanResult
-from temp_gym.planning.temp_planner import set_default_policy
 from temp_gym.problem import Problem
 
 register_envs()
@@ -20,12 +21,22 @@ def _shipped_policy(robot: str):
     return shipped_policy(robot)
 
 
-set_default_policy(_shipped_policy)  # the planning layer imports no model code itself
+# The planning layer imports no model code itself: its default policy is handed in, through a
+# module that does not load the planners.
+hooks.default_policy_loader = _shipped_policy
 
 __all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "robots"]
 
 
 def __getattr__(name: str):
+    if name == "plan":  # lazy: the planners import numba
+        from temp_gym.planning.plan import plan
+
+        return plan
+    if name == "PlanResult":
+        from temp_gym.planning.result import PlanResult
+
+        return PlanResult
     if name == "load_policy":  # lazy: importing temp_gym does not import torch
         from temp_gym.models.registry import load_policy
 

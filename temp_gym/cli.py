@@ -11,6 +11,10 @@ Batch mode plans every file in one process, so start-up (imports, the per-proces
 the compiled kernels, loading the policy) is paid once; each file gets a summary line and,
 with ``--out-dir``, ``{out-dir}/{file stem}.json``. A bad file is reported and skipped.
 
+Every flag is checked before anything is planned or written. An output never replaces a
+problem file given as input, nor any existing file that is not a result of ``temp-plan``
+(recognised by its ``format`` field, `RESULT_FORMAT`).
+
 Exit status (`EXIT_CODES`): 0 every problem was solved, 3 no path was found for some
 problem, 2 bad input (a one-line error on stderr per bad file or argument, no traceback),
 130 interrupted. 1 is left to Python: an unexpected error, with its traceback, is a bug.
@@ -20,11 +24,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from temp_gym.jobs import BAD_INPUT, INTERRUPTED
+from temp_gym.config.checks import check_output_dir
+from temp_gym.config.command_line import script_parser
+from temp_gym.jobs import BAD_INPUT, INTERRUPTED, display_path, one_line
+from temp_gym.limits import MAX_PROBLEM_BYTES
 
 SOLVED = 0
 NO_PATH = 3
@@ -36,22 +45,41 @@ EXIT_CODES = {
 }
 """Exit status -> meaning."""
 
+RESULT_FORMAT = "temp-gym plan result"
+"""The ``format`` field of every result file ``temp-plan`` writes: an existing file is replaced
+only if it has it (or is a result written before the field, `_LEGACY_RESULT_KEYS`)."""
+_LEGACY_RESULT_KEYS = {"planner", "success", "path", "cost", "nodes", "history", "seed"}
+
+BUILT_IN_PLANNERS = ("temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star",
+                     "ompl_informed_rrt_star")  # fmt: skip
+"""The planners `temp_gym.planning.PLANNERS` registers, for the help text alone: reading them
+from the registry would load numba (a second) on every ``--help``. A test keeps both equal;
+``--planner`` is checked against the registry itself, planners registered later included."""
+DEFAULT_MAX_NODES = 5000
+"""`temp_gym.planning.PlanSettings.max_nodes`, for the help text alone (a test keeps both
+equal)."""
+
 
 def _parser() -> argparse.ArgumentParser:
-    from temp_gym.planning import PLANNERS
-    from temp_gym.planning.result import PlanSettings
-
-    parser = argparse.ArgumentParser(
+    parser = script_parser(
+        "Solve temp-gym problem JSON files with one planner.",
         prog="temp-plan",
-        description="Solve temp-gym problem JSON files with one planner.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
         epilog="exit status: "
-        + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items()),
+        + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items())
+        + ". Units: world units (point robots) or radians (the arm).",
     )
     parser.add_argument(
-        "problems", nargs="+", metavar="problem", help="problem JSON files (temp_gym.problem)"
+        "problems",
+        nargs="+",
+        metavar="problem",
+        help="problem JSON files (temp_gym.problem; docs/security.md lists the sizes accepted)",
     )
-    parser.add_argument("--planner", default="temp", choices=sorted(PLANNERS), help="planner")
+    parser.add_argument(
+        "--planner",
+        default="temp",
+        help=f"one of {', '.join(BUILT_IN_PLANNERS)}, or one registered with "
+        "temp_gym.planning.register_planner",
+    )
     parser.add_argument(
         "--checkpoint", default=None, help="temp: a trained policy (None: the shipped one)"
     )
@@ -59,9 +87,9 @@ def _parser() -> argparse.ArgumentParser:
         "--attention-nodes",
         type=int,
         default=None,
-        help="temp: attention-phase budget n (None: the policy's)",
+        help="temp: attention-phase budget n, in tree nodes (None: the policy's)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the planner's generator")
     parser.add_argument(
         "--time-limit",
         type=float,
@@ -69,15 +97,31 @@ def _parser() -> argparse.ArgumentParser:
         help="seconds of search per problem (None: no limit; see temp_gym.plan for what it covers)",
     )
     parser.add_argument(
-        "--max-nodes", type=int, default=PlanSettings.max_nodes, help="tree-size budget"
+        "--max-nodes",
+        type=int,
+        default=DEFAULT_MAX_NODES,
+        help="tree-size budget, in nodes",
     )
-    parser.add_argument("--step-size", type=float, default=None, help="steering step")
+    parser.add_argument(
+        "--step-size",
+        type=float,
+        default=None,
+        help="steering step: the longest tree edge, in world units for a point robot or "
+        "radians for the arm (None: the robot's, 5%% of the bounds' largest side for a point "
+        "robot, 0.5 rad for the arm)",
+    )
     parser.add_argument("--stop-at-first", action="store_true", help="stop at the first solution")
     parser.add_argument(
-        "--out", default=None, help="one problem: write its result (path included) as JSON"
+        "--out",
+        default=None,
+        help="one problem: write its result (path included) as JSON to this file (None: "
+        "print the summary line only)",
     )
     parser.add_argument(
-        "--out-dir", default=None, help="write each result to {out-dir}/{problem file stem}.json"
+        "--out-dir",
+        default=None,
+        help="write each result to {out-dir}/{problem file stem}.json, making the folder "
+        "(None: print the summary lines only)",
     )
     parser.add_argument(
         "--view",
@@ -89,7 +133,66 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _error(message: object) -> None:
-    print(f"temp-plan: error: {message}", file=sys.stderr)
+    print(one_line(f"temp-plan: error: {message}"), file=sys.stderr, flush=True)
+
+
+def _check_flags(args: argparse.Namespace) -> None:
+    """Every flag but the outputs and the checkpoint, as `temp_gym.plan` would check it."""
+    from temp_gym.planning import PLANNERS
+    from temp_gym.planning.result import PlanSettings
+
+    if args.planner not in PLANNERS:
+        raise ValueError(f"--planner: unknown planner {args.planner!r}; expected one of "
+                         f"{sorted(PLANNERS)}")  # fmt: skip
+    if args.time_limit is not None and not (
+        math.isfinite(args.time_limit) and args.time_limit >= 0
+    ):
+        raise ValueError(f"--time-limit: expected a finite number of seconds >= 0, got "
+                         f"{args.time_limit}")  # fmt: skip
+    try:
+        PlanSettings(seed=args.seed, max_nodes=args.max_nodes, time_limit=args.time_limit,
+                     step_size=args.step_size, attention_nodes=args.attention_nodes)  # fmt: skip
+    except ValueError as error:  # "max_nodes: ..." names the flag --max-nodes
+        field, _, reason = str(error).partition(":")
+        raise ValueError(f"--{field.replace('_', '-')}:{reason}") from None
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _is_our_result(path: Path) -> bool:
+    """Whether ``path`` holds a result ``temp-plan`` wrote (`RESULT_FORMAT`)."""
+    try:
+        with open(path, "rb") as handle:
+            raw = handle.read(MAX_PROBLEM_BYTES + 1)
+        data = json.loads(raw.decode("utf-8")) if len(raw) <= MAX_PROBLEM_BYTES else None
+    except (OSError, ValueError, RecursionError):
+        return False
+    if not isinstance(data, dict):
+        return False
+    return data.get("format") == RESULT_FORMAT or _LEGACY_RESULT_KEYS <= set(data)
+
+
+def _check_output(out: Path, inputs: list[Path], flag: str) -> None:
+    """Refuse an output that is an input, or an existing file that is not our result."""
+    shown = display_path(out)
+    for given in inputs:
+        if out.absolute() == given.absolute() or _same_file(out, given):
+            raise ValueError(f"{flag}: {shown} is the problem file {display_path(given)}; "
+                             "choose another output")  # fmt: skip
+    if out.is_dir():
+        raise ValueError(f"{flag}: {shown} is a directory")
+    if out.exists() and not _is_our_result(out):
+        raise ValueError(f"{flag}: {shown} exists and is not a temp-plan result; move it or "
+                         "choose another output")  # fmt: skip
+    try:
+        check_output_dir(out.parent, flag)
+    except ValueError as error:
+        raise ValueError(str(error)) from None
 
 
 def _outputs(args: argparse.Namespace) -> list[Path | None]:
@@ -98,20 +201,26 @@ def _outputs(args: argparse.Namespace) -> list[Path | None]:
         raise ValueError("--out takes one problem; use --out-dir for several")
     if args.out is not None and args.out_dir is not None:
         raise ValueError("--out and --out-dir: give one of them")
-    if args.out is not None and Path(args.out).is_dir():
-        raise ValueError(f"--out: {args.out} is a directory")
-    out_dir = None if args.out_dir is None else Path(args.out_dir)
-    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
-        raise ValueError(f"--out-dir: {args.out_dir} is not a directory")
+    inputs = [Path(problem) for problem in args.problems]
     if args.out is not None:
-        return [Path(args.out)]
+        out = Path(args.out)
+        _check_output(out, inputs, "--out")
+        return [out]
     if args.out_dir is None:
         return [None] * len(args.problems)
-    stems = [Path(problem).stem for problem in args.problems]
+    out_dir = Path(args.out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"--out-dir: {display_path(out_dir)} is not a directory")
+    check_output_dir(out_dir, "--out-dir")
+    stems = [path.stem for path in inputs]
     repeated = sorted({stem for stem in stems if stems.count(stem) > 1})
     if repeated:
-        raise ValueError(f"--out-dir: several problems would write {repeated[0]}.json")
-    return [Path(args.out_dir) / f"{stem}.json" for stem in stems]
+        raise ValueError(f"--out-dir: several problems would write {display_path(repeated[0])}"
+                         ".json")  # fmt: skip
+    outputs = [out_dir / f"{stem}.json" for stem in stems]
+    for out in outputs:
+        _check_output(out, inputs, "--out-dir")
+    return outputs
 
 
 def _policy(args: argparse.Namespace):
@@ -181,11 +290,15 @@ def _view(path: str, result) -> None:
 
 def _write(result, out: Path, flag: str) -> None:
     """Write ``result`` as JSON to ``out``; a failure names the flag and the file."""
+    from temp_gym.files import write_json_atomic
+
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(result.to_dict()) + "\n")
+        write_json_atomic(out, {"format": RESULT_FORMAT, **result.to_dict()},
+                          indent=None, sort_keys=False)  # fmt: skip
     except OSError as error:
-        raise OSError(f"{flag}: cannot write {out} ({error.strerror or error})") from None
+        raise OSError(
+            f"{flag}: cannot write {display_path(out)} ({error.strerror or error})"
+        ) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -193,6 +306,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     batch = len(args.problems) > 1
     try:
+        _check_flags(args)
         outputs = _outputs(args)
         if args.view:
             _check_view(args)
@@ -205,16 +319,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return INTERRUPTED
     status = SOLVED
     for path, out in zip(args.problems, outputs):
+        shown = display_path(path)
         try:
             result = _solve(path, args, policy)
         except (OSError, ValueError, ImportError) as error:
-            _error(f"{path}: {error}" if batch and path not in str(error) else error)
+            message = str(error)
+            _error(f"{shown}: {message}" if batch and str(path) not in message else message)
             status = BAD_INPUT
             continue
         except KeyboardInterrupt:
             _error("interrupted")
             return INTERRUPTED
-        print(f"{path}: {result.summary()}" if batch else result.summary(), flush=True)
+        print(f"{shown}: {result.summary()}" if batch else result.summary(), flush=True)
         if out is not None:  # after the summary, so a failed write loses no figure
             try:
                 _write(result, out, "--out" if args.out is not None else "--out-dir")

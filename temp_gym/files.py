@@ -21,10 +21,12 @@ Examples:
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import json
 import os
 import socket
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -108,6 +110,33 @@ def remove_leftovers(directory: str | Path) -> None:
     """Delete the temporary files of writers that were killed before their rename."""
     for leftover in Path(directory).glob(".*.tmp*"):
         leftover.unlink(missing_ok=True)
+
+
+def read_capped(path: str | Path, limit: int, what: str, remedy: str) -> bytes:
+    """The bytes of the regular file ``path`` if it holds at most ``limit`` of them.
+
+    A device or pipe (``/dev/zero``, whose reading never ends) and a larger file are refused
+    before anything is read, and reading stops at ``limit`` in case the file grows meanwhile.
+
+    Raises:
+        FileNotFoundError, IsADirectoryError, PermissionError: as `open` raises them.
+        StoredFileError: not a regular file, or larger than ``limit`` (naming ``what``).
+    """
+    path = Path(path)
+    status = os.stat(path)  # before opening: opening a pipe waits for a writer
+    if stat.S_ISDIR(status.st_mode):
+        raise IsADirectoryError(errno.EISDIR, "is a directory", str(path))
+    if not stat.S_ISREG(status.st_mode):
+        raise StoredFileError(path, f"not a regular file, so not {what}", remedy)
+    if status.st_size > limit:
+        raise StoredFileError(
+            path, f"{status.st_size:,} bytes, more than {what} may hold ({limit:,})", remedy
+        )
+    with open(path, "rb") as handle:
+        data = handle.read(limit + 1)
+    if len(data) > limit:
+        raise StoredFileError(path, f"more than {what} may hold ({limit:,} bytes)", remedy)
+    return data
 
 
 def read_json(path: str | Path, remedy: str) -> Any:

@@ -10,9 +10,12 @@ already done, and how long the rest should take from a measured per-unit cost.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
+
+from temp_gym.limits import MAX_MESSAGE_LENGTH, MAX_MESSAGE_VALUE
 
 INTERRUPTED = 130
 """Exit status after Ctrl-C (the shell's 128 + SIGINT)."""
@@ -26,6 +29,47 @@ class JobError(Exception):
     Scripts print it as one line (`run_script`); the classes that inherit it also inherit
     the builtin error that callers already catch (`ValueError`, `RuntimeError`).
     """
+
+
+def brief(value: Any, limit: int = MAX_MESSAGE_VALUE) -> str:
+    """``repr(value)`` for a message, cut to ``limit`` characters (a user's value may be huge).
+
+    A value that cannot even be shown (a recursive structure, say) is named by its type.
+    """
+    try:
+        text = repr(value)
+    except (RecursionError, ValueError):
+        return f"<a {type(value).__name__}>"
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit - 20]}... ({len(text)} characters)"
+
+
+def one_line(message: object, limit: int = MAX_MESSAGE_LENGTH) -> str:
+    """``message`` as one line of at most ``limit`` characters: what a command prints on error.
+
+    Line breaks (a YAML parser's, a traceback's) become ``; ``, runs of spaces one space, and
+    characters the terminal's encoding cannot show (a file name that is not UTF-8) escapes.
+    """
+    text = " ".join(str(message).replace("\r", "\n").replace("\n", " ; ").split())
+    text = text.replace(" ; ", "; ")
+    if len(text) > limit:
+        text = f"{text[: limit - 30]}... (message cut at {limit} characters)"
+    try:  # a file name's undecodable bytes (surrogate escapes) shown as \xff
+        text = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:
+        pass
+    encoding = getattr(sys.stderr, "encoding", None) or "utf-8"
+    return text.encode(encoding, "backslashreplace").decode(encoding, "replace")
+
+
+def display_path(path: str | os.PathLike) -> str:
+    r"""A file name as text any terminal can print: bytes that are not UTF-8 as ``\xff``.
+
+    A name the file system holds in another encoding reaches Python with surrogate escapes;
+    printed as it is to a strict UTF-8 stream it raises `UnicodeEncodeError`.
+    """
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
 def report(message: str) -> None:
@@ -72,16 +116,22 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
     """Run a script's ``main``; one line and an exit status on Ctrl-C or a `JobError`.
 
     Returns 0 on success, `INTERRUPTED` after Ctrl-C ("rerun the same command to resume")
-    and `BAD_INPUT` after a `JobError`. Any other exception keeps its traceback: it is a bug.
+    and `BAD_INPUT` after a `JobError` (or a ``SystemExit`` with a message); argparse's own
+    exit status passes through. Any other exception keeps its traceback: it is a bug.
     """
     try:
         main(argv)
+    except SystemExit as exit:
+        if exit.code is None or isinstance(exit.code, int):
+            return exit.code or 0
+        report(one_line(f"{name}: error: {exit.code}"))
+        return BAD_INPUT
     except KeyboardInterrupt:
         _close_progress_bars()
         report(f"{name}: interrupted; rerun the same command to resume")
         return INTERRUPTED
     except JobError as error:
-        report(f"{name}: error: {error}")
+        report(one_line(f"{name}: error: {error}"))
         return BAD_INPUT
     return 0
 

@@ -199,6 +199,14 @@ def test_help_shows_every_default():
     assert "(default: 5000)" in done.stdout and "exit status" in done.stdout
 
 
+def test_the_help_texts_copies_of_the_registry_are_the_registry():
+    from temp_gym.cli import BUILT_IN_PLANNERS, DEFAULT_MAX_NODES
+    from temp_gym.planning import PLANNERS, PlanSettings
+
+    assert set(BUILT_IN_PLANNERS) <= set(PLANNERS)
+    assert DEFAULT_MAX_NODES == PlanSettings.max_nodes
+
+
 def test_the_shipped_checkpoint_named_plans_as_the_default(tmp_path):
     from temp_gym.models.registry import shipped_checkpoint
 
@@ -233,7 +241,7 @@ def test_output_flags_are_checked_before_planning(tmp_path, capsys):
     assert not (tmp_path / "d").exists() and not (tmp_path / "r.json").exists()
 
 
-def test_an_output_that_cannot_be_written_is_named_after_the_summary(tmp_path, capsys):
+def test_an_output_folder_that_cannot_be_made_is_refused_before_planning(tmp_path, capsys):
     from temp_gym.cli import main
 
     problem = tmp_path / "problem.json"
@@ -243,5 +251,82 @@ def test_an_output_that_cannot_be_written_is_named_after_the_summary(tmp_path, c
     code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50",
                  "--out", str(blocker / "r.json")])  # fmt: skip
     captured = capsys.readouterr()
+    assert captured.out == ""  # nothing planned
+    assert_one_line_error(code, captured.err, "--out", "is a file", str(blocker))
+
+
+def test_a_write_that_fails_is_named_after_the_summary(tmp_path, capsys, monkeypatch):
+    from temp_gym import files
+    from temp_gym.cli import main
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(files, "write_json_atomic", full_disk)
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50",
+                 "--out", str(tmp_path / "r.json")])  # fmt: skip
+    captured = capsys.readouterr()
     assert "rrt_star seed=0" in captured.out  # the plan's figures are not lost
-    assert_one_line_error(code, captured.err, "--out", "cannot write", str(blocker / "r.json"))
+    assert_one_line_error(code, captured.err, "--out", "cannot write", "No space left")
+
+
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(raw_problem())
+    for flags in (["--out", str(problem)], ["--out-dir", str(tmp_path)]):
+        code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "50", *flags])
+        assert_one_line_error(code, capsys.readouterr().err, "is the problem file")
+    (tmp_path / "link.json").symlink_to(problem)  # the same file by another name
+    code = main([str(problem), "--planner", "rrt_star", "--out", str(tmp_path / "link.json")])
+    assert_one_line_error(code, capsys.readouterr().err, "is the problem file")
+    assert problem.read_text() == raw_problem()
+
+
+def test_an_out_dir_holding_other_problems_is_refused_file_by_file(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    inputs, results = tmp_path / "in", tmp_path / "results"
+    inputs.mkdir()
+    results.mkdir()
+    (inputs / "a.json").write_text(raw_problem())
+    (results / "a.json").write_text(raw_problem(goal=[18, 2]))  # a problem, not a result
+    code = main([str(inputs / "a.json"), "--planner", "rrt_star", "--out-dir", str(results)])
+    assert_one_line_error(code, capsys.readouterr().err, "not a temp-plan result")
+    assert json.loads((results / "a.json").read_text())["goal"] == [18, 2]
+
+
+def test_a_result_of_temp_plan_is_replaced(tmp_path, capsys):
+    from temp_gym.cli import RESULT_FORMAT, main
+
+    problem, out = tmp_path / "problem.json", tmp_path / "result.json"
+    problem.write_text(raw_problem())
+    for seed in ("1", "2"):  # the second run replaces the first run's result
+        code = main([str(problem), "--planner", "rrt_star", "--max-nodes", "300",
+                     "--seed", seed, "--out", str(out)])  # fmt: skip
+        assert code in (0, 3), capsys.readouterr().err
+        result = json.loads(out.read_text())
+        assert result["format"] == RESULT_FORMAT and result["seed"] == int(seed)
+
+
+def test_a_batch_with_a_file_name_that_is_not_utf8_goes_on(tmp_path):
+    import os
+
+    folder = os.fsencode(tmp_path)
+    odd = os.path.join(folder, b"caf\xe9.json")  # Latin-1, not UTF-8
+    with open(odd, "w") as handle:
+        handle.write(raw_problem())
+    (tmp_path / "plain.json").write_text(raw_problem(goal=[18, 2]))
+    done = subprocess.run(
+        [sys.executable, "-m", "temp_gym.cli", odd, os.path.join(folder, b"plain.json"),
+         "--planner", "rrt_star", "--max-nodes", "300", "--out-dir", os.path.join(folder, b"r")],
+        capture_output=True, timeout=120, env={**os.environ, "PYTHONIOENCODING": "utf-8:strict"},
+    )  # fmt: skip
+    assert done.returncode in (0, 3), done.stderr.decode()
+    lines = done.stdout.decode("utf-8").splitlines()  # strict UTF-8 throughout
+    assert len(lines) == 2 and lines[0].startswith(str(tmp_path) + "/caf\\xe9.json: ")
+    assert os.path.exists(os.path.join(folder, b"r", b"caf\xe9.json"))
+    assert (tmp_path / "r" / "plain.json").exists()

@@ -24,7 +24,16 @@ LAYERS = {
     "training": 6,
 }
 """``temp_gym.<name>`` -> its layer, lowest first."""
-SUPPORT = {"files", "jobs", "config", "distributed", "quiet", "tensorboard_summaries"}
+SUPPORT = {
+    "files",
+    "jobs",
+    "config",
+    "distributed",
+    "quiet",
+    "tensorboard_summaries",
+    "limits",
+    "hooks",
+}
 """Job-support modules: they import no layer, and any layer may import them."""
 TOP = {"__init__", "cli"}
 """The package's face (``import temp_gym``, the ``temp-plan`` command): may import anything."""

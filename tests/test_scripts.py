@@ -56,7 +56,9 @@ INSPECT = textwrap.dedent(
         parser = captured["parser"]
         actions = [a for a in parser._actions if not isinstance(a, argparse._HelpAction)]
         entry = {
-            "formatter": parser.formatter_class.__name__,
+            "formatter": issubclass(
+                parser.formatter_class, argparse.ArgumentDefaultsHelpFormatter
+            ),
             "no_help": [a.dest for a in actions if not a.help],
         }
         if any(a.dest == "overrides" for a in actions):
@@ -88,7 +90,7 @@ def described() -> dict:
 @pytest.mark.parametrize("script", [p.name for p in SCRIPTS])
 def test_every_flag_has_help_and_shows_its_default(described, script):
     entry = described[script]
-    assert entry["formatter"] == "ArgumentDefaultsHelpFormatter"
+    assert entry["formatter"]  # argparse's formatter that shows defaults, or one derived
     assert entry["no_help"] == []
 
 

@@ -44,14 +44,8 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import torch
-import yaml
-from tqdm import tqdm
-
-from temp_gym import training
 from temp_gym.config import (
     Config,
     ConfigError,
@@ -62,13 +56,14 @@ from temp_gym.config import (
     script_parser,
     upgrade_stored,
 )
-from temp_gym.files import StoredFileError
+from temp_gym.config.checks import CHOICES, check_output_dir
 from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script
-from temp_gym.models.attention import attention_figure, normalized_group_attention
-from temp_gym.models.policy import TEMPPolicy
-from temp_gym.models.snapshot import write_snapshot
-from temp_gym.models.temp import CheckpointError, load_checkpoint
-from temp_gym.worlds.robots import robot_spec
+
+if TYPE_CHECKING:
+    import torch
+
+# PyTorch, numba and the package's training code are imported where they are used, after the
+# command line is read: ``--help`` and a bad value are answered without loading them.
 
 MAIN_JOB = "configs/quick.yaml"
 """The config of ``python trainers/bc.py`` without ``--config``: the main job, 2D on a small
@@ -81,9 +76,12 @@ def run_directory(config: Config) -> Path:
     return Path(config.logger.dir) / name
 
 
-@torch.no_grad()
 def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[str, float]:
     """Sample-weighted mean of each loss term over a whole split (batches split over ranks)."""
+    import torch
+
+    from temp_gym import training
+
     model.eval()
     rank, world = (dist.rank, dist.world) if dist is not None else (0, 1)
     keys = ("loss", "recons", "semantic")
@@ -91,7 +89,8 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
     for number, index in enumerate(training.iterate_batch_indices(data, batch_size)):
         if number % world != rank:
             continue
-        terms = training.model_step(model, loss_module, data.batch(index, device))
+        with torch.no_grad():
+            terms = training.model_step(model, loss_module, data.batch(index, device))
         totals += torch.tensor(
             [float(terms[key]) * len(index) for key in keys], dtype=torch.float64
         )
@@ -102,6 +101,11 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
 
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
     """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
+    from temp_gym import training
+    from temp_gym.models.attention import attention_figure, normalized_group_attention
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.worlds.robots import robot_spec
+
     eval_config = config.train_eval
     env = training.make_env(config, fallback="random", split=eval_config.split)
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0, seed=eval_config.seed)
@@ -142,23 +146,38 @@ def train(
     run_dir: Path,
     resume: bool,
     progress: bool = True,
-    dist: training.Distributed | None = None,
+    dist: Any = None,
 ) -> Path:
     """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path.
 
     Under ``torchrun`` (``dist.world > 1``) the model is wrapped in DistributedDataParallel,
     each rank reads its slice of every global batch (``train.batch_size`` stays the global
     size), and only rank 0 logs and writes checkpoints: the loss curve is the single-process
-    one up to float rounding (tests/trainers/test_ddp.py).
+    one up to float rounding (tests/trainers/test_ddp.py). ``dist`` is a
+    `temp_gym.training.Distributed` (None: this process alone).
+
+    Raises:
+        TrainingDivergedError: a loss, gradient or weight became NaN or inf; ``last.pt``
+            keeps the last epoch that ended finite, and ``best.pt`` is never such a model.
     """
+    import numpy as np
+    import torch
+    from tqdm import tqdm
+
+    from temp_gym import training
+    from temp_gym.models.temp import load_checkpoint
+    from temp_gym.worlds.robots import robot_spec
+
     dist = dist or training.Distributed(config.train.device)
     train_config, eval_config = config.train, config.train_eval
     seed = train_config.seed
     device = dist.device
     torch.manual_seed(seed)
     np.random.seed(seed)
-    train_data = training.make_replay_buffer(config, "train")
+    train_data = training.make_replay_buffer(config, "train")  # checked: each column's range
     val_data = training.make_replay_buffer(config, "val")
+    if dist.is_main:  # made once the data passed their checks: a refused run leaves no folder
+        run_dir.mkdir(parents=True, exist_ok=True)
     model = training.make_model(config).to(device)
     loss_module = training.make_loss(config)
     optimizer, scheduler = training.make_optimizer(config, model)
@@ -240,6 +259,7 @@ def train(
             optimizer.zero_grad(set_to_none=True)
             (terms["loss"] * weight).backward()  # DDP averages: the global batch's gradient
             grad_norm = torch.nn.utils.clip_grad_norm_(model.parameters(), clip)
+            check_finite(config, epoch, {"loss": terms["loss"], "gradient norm": grad_norm})
             optimizer.step()
             sums += torch.tensor(
                 [float(terms[key].detach()) * weight / dist.world for key in keys[:3]]
@@ -250,7 +270,9 @@ def train(
             state["global_step"] += 1
         sums = dict(zip(keys, dist.sum(sums).tolist()))
         seconds = time.perf_counter() - began
+        check_weights(config, epoch, model)
         val = validate(model, loss_module, val_data, batch_size, device, dist)
+        check_finite(config, epoch, {f"validation {key}": value for key, value in val.items()})
         scheduler.step(val[monitor])
         lr = optimizer.param_groups[0]["lr"]
         state["epoch"] = epoch + 1
@@ -298,6 +320,33 @@ def train(
     return best_path
 
 
+class TrainingDivergedError(JobError, FloatingPointError):
+    """A loss, gradient or weight became NaN or inf: training stops, nothing of it is kept."""
+
+
+def check_finite(config: Config, epoch: int, values: dict[str, Any]) -> None:
+    """Stop training, naming what and when, if any of ``values`` is NaN or inf.
+
+    Raises:
+        TrainingDivergedError: saying which setting to lower and how to start over.
+    """
+    for name, value in values.items():
+        number = float(value.detach() if hasattr(value, "detach") else value)
+        if not math.isfinite(number):
+            raise TrainingDivergedError(
+                f"training diverged in epoch {epoch + 1}: the {name} is {number} (optim.lr "
+                f"{config.optim.lr:g}, optim.grad_clip {config.optim.grad_clip:g}); no checkpoint "
+                "of it was written. Lower optim.lr and rerun with --no-resume"
+            )
+
+
+def check_weights(config: Config, epoch: int, model: Any) -> None:
+    """`check_finite` for every weight of ``model`` (once an epoch, before it is saved)."""
+    for name, parameter in model.named_parameters():
+        if not bool(parameter.detach().isfinite().all()):
+            check_finite(config, epoch, {f"weight {name}": float("nan")})
+
+
 RESUMABLE_CHANGES = ("train.max_epochs", "train.threads", "train.device", "data.dir",
                      "data.workers", "train_eval", "evaluation", "logger")  # fmt: skip
 """Config keys that may differ when a run resumes: when to stop, where and how fast it runs,
@@ -320,6 +369,9 @@ def resume_checkpoint(last_path: Path, config: Config, robot: str) -> dict[str, 
         StoredFileError: it is damaged (named, with what to do).
         ResumeMismatchError: it was trained under another config (the keys are named).
     """
+    from temp_gym.files import StoredFileError
+    from temp_gym.models.temp import CheckpointError, load_checkpoint
+
     try:
         _, checkpoint = load_checkpoint(last_path, robot=robot)
     except CheckpointError as error:
@@ -354,6 +406,8 @@ def resume_checkpoint(last_path: Path, config: Config, robot: str) -> dict[str, 
 
 def hardware(device: torch.device, world: int) -> str:
     """What an epoch ran on, for the model card: processes, device and CPU cores."""
+    import torch
+
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     name = torch.cuda.get_device_name(device) if device.type == "cuda" else "CPU"
     return f"{world} x {name}, {cores} CPU cores, torch {torch.__version__}"
@@ -361,6 +415,8 @@ def hardware(device: torch.device, world: int) -> str:
 
 def epoch_estimate(remaining: int, seconds: list[float]) -> str:
     """The time the remaining epochs should take at the measured seconds per epoch."""
+    import numpy as np
+
     line = estimate_line(remaining, float(np.median(seconds)), None, "epochs", "measured")
     return f"{line}, at most: training stops early at the lr floor"
 
@@ -372,6 +428,13 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     ``train_eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
     ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget.
     """
+    import numpy as np
+    import torch
+
+    from temp_gym import training
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.models.temp import load_checkpoint
+
     eval_config = config.train_eval
     torch.set_num_threads(1)  # the per-sample latency a planner sees
     model, _ = load_checkpoint(checkpoint, robot=config.env.robot)
@@ -424,75 +487,114 @@ def results_table(results: dict[str, Any]) -> str:
 
 def read_command_line(argv: list[str] | None) -> tuple[Config, argparse.Namespace]:
     """The config (the file, the main job's by default, and the overrides) and the flags."""
-    parser = script_parser(__doc__.split("\n")[0])
-    parser.add_argument("--config", default=MAIN_JOB, help="YAML config (default: the main job)")
-    parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
+    parser = script_parser(
+        __doc__.split("\n")[0],
+        epilog="Outputs: the dataset in data.dir (made if missing); the run in "
+        "{logger.dir}/{env.id}__{train.exp_name}__{train.seed}/ (best.pt, its "
+        "best.kernels.npz, last.pt, results.yaml, TensorBoard events).",
+    )
+    parser.add_argument("--config", default=MAIN_JOB, help="YAML config")
+    parser.add_argument(
+        "overrides", nargs="*", help="key.sub=value config overrides (train.max_epochs=3)"
+    )
     parser.add_argument("--resume", action="store_true", help="require last.pt and resume")
     parser.add_argument("--no-resume", action="store_true", help="start over, ignore last.pt")
-    parser.add_argument("--skip-eval", action="store_true", help="no final comparison")
+    parser.add_argument(
+        "--skip-eval", action="store_true", help="no final comparison with RRT* after training"
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     args = parse_args(parser, argv)
     return load_config(args.config, args.overrides), args
 
 
-MONITORS = ("loss", "semantic", "recons")
+MONITORS = CHOICES["train.monitor"]
 """The validation losses ``train.monitor`` may choose the best checkpoint on."""
 
 
-def check_job(config: Config, skip_eval: bool) -> None:
-    """Refuse, naming the key, settings that would train on nothing or compare on nothing.
+def check_job(config: Config, args: argparse.Namespace) -> None:
+    """Refuse, naming the key, any setting the run would stumble on, before it writes anything.
+
+    `load_config` has checked every value's bounds; here are the checks of the job itself,
+    cheapest first: a final comparison without tasks, ``--resume`` without ``last.pt``,
+    folders that cannot be made (``data.dir``, ``logger.dir``), correction rounds that are
+    not there, then the data settings, the device, the model's sizes and ``train.init_from``
+    (its robot and sizes), which load PyTorch.
 
     Raises:
-        ConfigError: a non-positive epoch count, batch size or learning rate, no final
-            comparison tasks without ``--skip-eval``, an unknown monitor, logger backend or
-            device, or a model section that builds no model.
+        ConfigError: naming the key or flag and the reason.
     """
-    train = config.train
-    for key, value in (("train.max_epochs", train.max_epochs),
-                       ("train.batch_size", train.batch_size)):  # fmt: skip
-        if value < 1:
-            raise ConfigError(f"{key}: must be at least 1, got {value}")
-    if not config.optim.lr > 0:
-        raise ConfigError(f"optim.lr: must be positive, got {config.optim.lr}")
-    if not skip_eval and config.train_eval.tasks < 1:
+    if args.resume and args.no_resume:
+        raise ConfigError("--resume and --no-resume: give one of them")
+    if not args.skip_eval and config.train_eval.tasks < 1:
         raise ConfigError(
             f"train_eval.tasks: must be at least 1, got {config.train_eval.tasks} (pass "
             "--skip-eval for no final comparison)"
         )
-    # What training would only find after the dataset is built: check it first.
-    if train.monitor not in MONITORS:
-        raise ConfigError(f"train.monitor: expected one of {MONITORS}, got {train.monitor!r}")
+    run_dir = run_directory(config)
+    if args.resume and not (run_dir / "last.pt").is_file():
+        raise ConfigError(f"--resume: no {run_dir / 'last.pt'} to resume from")
+    check_output_dir(config.data.dir, "data.dir")
+    check_output_dir(config.logger.dir, "logger.dir")
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError(f"train.exp_name: {run_dir} is a file, not a run folder")
+    for index, round_dir in enumerate(config.data.corrections):
+        if not Path(round_dir).is_dir():
+            raise ConfigError(f"data.corrections[{index}]: {round_dir} is not a folder")
+    from temp_gym.data.dataset import data_settings  # the data section, as generation reads it
+
+    data_settings(config)
+    import torch
+
+    from temp_gym.models.temp import load_checkpoint
+    from temp_gym.training import make_model
+
     try:
-        training.check_logger_backend(config.logger.backend)
-    except ValueError as error:
-        raise ConfigError(str(error)) from None
-    try:
-        if train.device != "auto":  # auto: CUDA when there is one (`training.Distributed`)
-            torch.device(train.device)
+        if config.train.device != "auto":  # auto: CUDA when there is one (`Distributed`)
+            torch.device(config.train.device)
     except RuntimeError as error:
         raise ConfigError(f"train.device: {error}") from None
     try:  # the model section (widths, heads, prediction, dropout), as training builds it
-        training.make_model(config)
+        model = make_model(config)
     except ValueError as error:
-        raise ConfigError(f"model: {error}") from None
+        message = str(error)
+        raise ConfigError(message if message.startswith("model") else f"model: {message}") from None
+    if config.train.init_from:
+        try:
+            _, source = load_checkpoint(config.train.init_from, robot=config.env.robot)
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"train.init_from: {error}") from None
+        wanted = {name: tuple(t.shape) for name, t in model.state_dict().items()}
+        stored = {name: tuple(t.shape) for name, t in source["state_dict"].items()}
+        if wanted != stored:
+            raise ConfigError(
+                f"train.init_from: {config.train.init_from} holds a model of other sizes than "
+                f"the model section makes (its model_config: {source['model_config']})"
+            )
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any] | None:
-    """Run the job; returns the comparison (None with ``--skip-eval`` or on ranks above 0)."""
+    """Run the job; returns the comparison (None with ``--skip-eval`` or on ranks above 0).
+
+    Raises:
+        ConfigError: a bad value, before anything is written (`check_job`).
+        TrainingDivergedError: a loss or weight became NaN or inf; no checkpoint of it is kept.
+    """
     config, args = read_command_line(argv)
-    check_job(config, args.skip_eval)
+    check_job(config, args)
+    import torch
+    import yaml
+
+    from temp_gym import training
+    from temp_gym.models.snapshot import write_snapshot
+
     began = time.perf_counter()
     run_dir = run_directory(config)
-    if args.resume and not (run_dir / "last.pt").exists():
-        raise SystemExit(f"--resume: no {run_dir / 'last.pt'}")
     # Every rank makes sure of the dataset before the process group exists, so no rank waits
     # at a barrier (with its timeout) while another generates it; the directory lock lets
     # one process per node generate while the others wait for it.
     rank = training.launch_rank()
     training.ensure_dataset(config, progress=not args.no_progress and rank == 0, quiet=rank != 0)
     dist = training.Distributed(config.train.device)
-    if dist.is_main:
-        run_dir.mkdir(parents=True, exist_ok=True)
     if config.train.threads:
         torch.set_num_threads(config.train.threads)
     best = train(
@@ -502,9 +604,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any] | None:
     dist.close()
     if not dist.is_main:
         return None
+    if not best.exists():
+        raise TrainingDivergedError(
+            f"{best}: no epoch ended with a finite validation loss, so there is no best model; "
+            "check the dataset and lower optim.lr"
+        )
     print(f"best checkpoint: {best}")
-    if best.exists():  # temp-plan --checkpoint and policy_from_checkpoint then need no PyTorch
-        write_snapshot(best)
+    write_snapshot(best)  # temp-plan --checkpoint and policy_from_checkpoint need no PyTorch
     if args.skip_eval:
         return None
     results = compare_with_rrt_star(config, best, run_dir)

@@ -22,33 +22,58 @@ first-path cost on the tasks both solved.
 from __future__ import annotations
 
 import json
+import math
 import sys
-from pathlib import Path
 
-import numpy as np
-
-from temp_gym.config import parse_args, script_parser
-from temp_gym.evaluation.statistics import paired_capped_difference
+from temp_gym.config import count, number, parse_args, script_parser
 from temp_gym.jobs import JobError, run_script
+from temp_gym.limits import MAX_PROBLEM_BYTES
 
 KEYS = ("max_nodes", "seeds", "problems", "settings")
+RUN_KEYS = ("nodes", "success", "cost", "attention_solved_both_ways")
+"""What each setting of a per-task file lists, one entry per task."""
 
 
 def _load(path: str, setting: int) -> dict:
-    """One setting's per-task figures from a ``tune_planner.py --per-task`` file."""
+    """One setting's per-task figures from a ``tune_planner.py --per-task`` file.
+
+    Raises:
+        JobError: a file that cannot be read, or is not such a file (naming what is wrong).
+    """
+    import numpy as np
+
+    from temp_gym.files import StoredFileError, read_capped
+
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as error:
-        raise JobError(f"{path}: not a readable per-task file ({error})") from error
+        raw = read_capped(path, MAX_PROBLEM_BYTES, "a per-task file", "give a --per-task file")
+        data = json.loads(raw.decode("utf-8"))
+    except StoredFileError as error:
+        raise JobError(str(error)) from None
+    except (OSError, ValueError, RecursionError) as error:
+        raise JobError(f"{path}: not a readable per-task file ({error})") from None
     missing = [key for key in KEYS if not isinstance(data, dict) or key not in data]
     if missing:
         raise JobError(f"{path}: not a tune_planner.py --per-task file (no {missing[0]!r})")
-    settings = data["settings"]
+    settings, budget = data["settings"], data["max_nodes"]
+    if not isinstance(settings, list) or not isinstance(budget, int) or budget < 1:
+        raise JobError(f"{path}: not a tune_planner.py --per-task file (its settings or budget)")
     if not -len(settings) <= setting < len(settings):
         raise JobError(f"{path}: --setting {setting}, but the file holds {len(settings)}")
     runs = settings[setting]
-    budget = int(data["max_nodes"])
-    nodes = np.where(runs["success"], runs["nodes"], budget).astype(np.float64)
+    tasks = len(data["seeds"]) if isinstance(data["seeds"], list) else -1
+    if not isinstance(runs, dict) or any(
+        not isinstance(runs.get(key), list) or len(runs[key]) != tasks for key in RUN_KEYS
+    ):
+        raise JobError(f"{path}: setting {setting} does not list {RUN_KEYS} for its {tasks} tasks")
+    try:
+        success = np.array(runs["success"], dtype=bool)
+        nodes = np.where(success, np.array(runs["nodes"], dtype=np.float64), budget)
+    except (TypeError, ValueError) as error:
+        raise JobError(
+            f"{path}: setting {setting} holds a value that is not a number ({error})"
+        ) from None
+    if not np.all(np.isfinite(nodes)) or np.any(nodes < 0):
+        raise JobError(f"{path}: setting {setting} holds node counts that are not counts")
     return {"path": path, "data": data, "runs": runs, "nodes": nodes}
 
 
@@ -63,6 +88,8 @@ def _same_tasks(reference: dict, candidate: dict) -> None:
 
 def _cost(reference: dict, candidate: dict) -> tuple[float, float]:
     """Mean first-path cost of each on the tasks both solved."""
+    import numpy as np
+
     both = np.logical_and(reference["runs"]["success"], candidate["runs"]["success"])
     if not both.any():
         return float("nan"), float("nan")
@@ -73,27 +100,32 @@ def _cost(reference: dict, candidate: dict) -> tuple[float, float]:
 
 def main(argv: list[str] | None = None) -> dict:
     """Print the table; return ``{candidate path: its figures}``."""
-    parser = script_parser(__doc__.splitlines()[0])
+    parser = script_parser(__doc__.splitlines()[0], epilog="Output: the table on stdout.")
     parser.add_argument("reference", help="the reference's per-task file (tune_planner.py)")
     parser.add_argument("candidates", nargs="+", help="the candidates' per-task files")
     parser.add_argument(
-        "--cap", type=float, default=1000.0, help="nodes a task counts at most, in every mean"
+        "--cap",
+        type=number(0.0),
+        default=1000.0,
+        help="nodes a task counts at most, in every mean (positive)",
     )
     parser.add_argument(
         "--margin",
-        type=float,
+        type=number(0.0),
         default=0.05,
         help="non-inferiority margin, a share of the reference's capped mean",
     )
     parser.add_argument(
         "--setting", type=int, default=0, help="which setting of each file (its row, from 0)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling")
+    parser.add_argument("--seed", type=count(0), default=0, help="seed of the bootstrap resampling")
     args = parse_args(parser, argv)
-    if not (np.isfinite(args.cap) and args.cap > 0):
+    if not (math.isfinite(args.cap) and args.cap > 0):
         parser.error(f"--cap: expected a finite positive number, got {args.cap}")
-    if not (np.isfinite(args.margin) and args.margin >= 0):
-        parser.error(f"--margin: expected a finite number of at least 0, got {args.margin}")
+    import numpy as np
+
+    from temp_gym.evaluation.statistics import paired_capped_difference
+
     reference = _load(args.reference, args.setting)
     candidates = [_load(path, args.setting) for path in args.candidates]
     for candidate in candidates:

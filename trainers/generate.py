@@ -13,20 +13,27 @@ import json
 import sys
 
 from temp_gym.config import load_config, parse_args, script_parser
-from temp_gym.data import generate_dataset
-from temp_gym.data.dataset import read_card
+from temp_gym.config.checks import check_output_dir
 from temp_gym.distributed import add_backend_arguments
 from temp_gym.jobs import run_script
 
 
 def main(argv: list[str] | None = None) -> None:
     """Parse the command line, generate, print the card's totals and timing."""
-    parser = script_parser(__doc__.splitlines()[0])
+    parser = script_parser(
+        __doc__.splitlines()[0],
+        epilog="Output: data.dir (the replay buffers, workspace and task tables, "
+        "dataset_card.json), made if missing; rerunning resumes.",
+    )
     parser.add_argument("--config", default="configs/2d.yaml", help="YAML config")
     add_backend_arguments(parser, "data.workers", "units")
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
+    check_output_dir(config.data.dir, "data.dir")
+    from temp_gym.data import generate_dataset  # after the command line: numba loads here
+    from temp_gym.data.dataset import read_card
+
     root = generate_dataset(
         config,
         workers=args.workers,

@@ -32,28 +32,31 @@ from __future__ import annotations
 
 import io
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
-import torch
 import yaml
 
 from temp_gym.config import (
     CHECKPOINT_SETTINGS,
     Config,
+    ConfigError,
+    count,
     load_config,
+    number,
     parse_args,
     script_parser,
 )
-from temp_gym.data.dataset import CARD
+from temp_gym.config.checks import check_output_dir
 from temp_gym.files import atomic_write, read_json
+from temp_gym.jobs import run_script
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
-from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
-from temp_gym.planning.attention import RESUME_AFTER
-from temp_gym.planning.goal_tree import ATTENTION_ROUNDS
-from temp_gym.planning.result import near_goal_factor, share
 from temp_gym.worlds.robots import robot_specs
+
+# PyTorch and the planners are imported where they are used, after the command line is read:
+# ``--help`` and a bad value are answered without loading them.
 
 MAX_BYTES = 10 * 2**20
 """The most a shipped checkpoint may weigh: the package ships three of them."""
@@ -100,7 +103,7 @@ def _shipped_path(env_id: str, out_dir: str | Path, flag: str) -> Path:
     """The shipped checkpoint of ``env_id`` in ``out_dir``; an unknown id exits naming ``flag``."""
     stems = _checkpoint_stems()
     if env_id not in stems:
-        raise SystemExit(f"{flag}: expected one of {list(stems)}, got {env_id!r}")
+        raise ConfigError(f"{flag}: expected one of {list(stems)}, got {env_id!r}")
     return Path(out_dir) / f"{stems[env_id]}.pt"
 
 
@@ -108,17 +111,19 @@ def refresh_evaluation(env_id: str, out_dir: str | Path = CHECKPOINT_DIR) -> Pat
     """Rewrite the Evaluation section of ``env_id``'s shipped card from ``results/{env id}``.
 
     Raises:
-        SystemExit: if the card or checkpoint is missing, or the results are of other weights.
+        ConfigError: if the card or checkpoint is missing, or the results are of other weights.
     """
     path = _shipped_path(env_id, out_dir, "--refresh-evaluation")
     card_path = path.with_suffix(".md")
     marker = "\n## Evaluation\n"
     if not (path.is_file() and card_path.is_file() and marker in card_path.read_text()):
-        raise SystemExit(f"{card_path}: no shipped card with an Evaluation section to refresh")
+        raise ConfigError(f"{card_path}: no shipped card with an Evaluation section to refresh")
+    import torch
+
     digest = torch.load(path, weights_only=True)["provenance"]["digest"]
     section = _evaluation_section(env_id, digest)
     if not section.startswith("The paper's protocol"):
-        raise SystemExit(section.strip())
+        raise ConfigError(section.strip())
     head = card_path.read_text().split(marker)[0]
     card_path.write_text(head + marker + section)
     return card_path
@@ -131,23 +136,27 @@ def update_planner(env_id: str, settings: list[str], out_dir: str | Path = CHECK
     section are rewritten, after the new settings pass the checks `load_policy` applies.
 
     Raises:
-        SystemExit: an unknown env id or key, a malformed or invalid value, no shipped card.
+        ConfigError: an unknown env id or key, a malformed or invalid value, no shipped card.
     """
     path = _shipped_path(env_id, out_dir, "--update-planner")
     changes = {}
     for setting in settings:
         key, equals, value = setting.partition("=")
         if not equals or key not in PLANNER_KEYS:
-            raise SystemExit(f"--update-planner: expected key=value with a key of {PLANNER_KEYS}, "
+            raise ConfigError(f"--update-planner: expected key=value with a key of {PLANNER_KEYS}, "
                              f"got {setting!r}")  # fmt: skip
         changes[key] = value if key == "chosen_by" else yaml.safe_load(value)
     if not changes:
-        raise SystemExit("--update-planner: give at least one key=value")
+        raise ConfigError("--update-planner: give at least one key=value")
     card_path = path.with_suffix(".md")
     heading, next_heading = "## Planner settings applied by `load_policy`\n", "\n## Data\n"
     card = card_path.read_text() if card_path.is_file() else ""
     if heading not in card or next_heading not in card:
-        raise SystemExit(f"{card_path}: no shipped card with a planner section to update")
+        raise ConfigError(f"{card_path}: no shipped card with a planner section to update")
+    import torch
+
+    from temp_gym.models.temp import model_config_of
+
     checkpoint = torch.load(path, weights_only=True, map_location="cpu")
     checkpoint["planner"] = {**checkpoint["planner"], **changes}
     buffer = io.BytesIO()
@@ -157,7 +166,7 @@ def update_planner(env_id: str, settings: list[str], out_dir: str | Path = CHECK
         trial.write_bytes(buffer.getvalue())
         policy_from_checkpoint(trial)
     except ValueError as error:
-        raise SystemExit(f"--update-planner: {error}") from None
+        raise ConfigError(f"--update-planner: {error}") from None
     finally:
         trial.unlink(missing_ok=True)
     with atomic_write(path) as handle:
@@ -190,6 +199,8 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     ``hardware`` describes the training machine for runs that predate the history's own record
     of it; the history's record wins where it exists.
     """
+    import torch
+
     last = Path(checkpoint).with_name("last.pt")
     try:
         history = torch.load(last, weights_only=True, map_location="cpu").get("history") or []
@@ -233,6 +244,9 @@ the attention budget, and the text saying how they were chosen."""
 
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:
     """The card's lines on the planner settings ``load_policy`` applies."""
+    from temp_gym.planning.attention import RESUME_AFTER
+    from temp_gym.planning.goal_tree import ATTENTION_ROUNDS
+
     follow = planner.get("attention_follow_fallback")
     resume = planner.get("attention_resume")
     growth = planner.get("attention_resume_growth")
@@ -332,6 +346,9 @@ def model_card(
     size: int,
 ) -> str:
     """The markdown model card of a shipped checkpoint."""
+    from temp_gym.data.dataset import CARD
+    from temp_gym.models.temp import model_config_of
+
     try:
         card = read_json(Path(config.data.dir) / CARD, "the model card is written without it")
         splits = card.get("splits", {})
@@ -396,7 +413,10 @@ def model_card(
 
 def main(argv: list[str] | None = None) -> Path:
     """Write the shipped checkpoint and its card; return the checkpoint path."""
-    parser = script_parser(__doc__.splitlines()[0])
+    parser = script_parser(
+        __doc__.splitlines()[0],
+        epilog="Output: {out-dir}/{2d,3d,7d}.pt, its .kernels.npz snapshot and .md card.",
+    )
     parser.add_argument("--config", help="the config the policy was trained with")
     parser.add_argument("--checkpoint", help="a trainers/bc.py best.pt")
     parser.add_argument(
@@ -404,35 +424,38 @@ def main(argv: list[str] | None = None) -> Path:
     )
     parser.add_argument(
         "--attention-nodes",
-        type=int,
+        type=count(1),
         default=None,
-        help="AP budget n; default: all of the caller's max_nodes, the budget baselines get",
+        help="AP budget n, in tree nodes (None: all of the caller's max_nodes, the budget "
+        "baselines get)",
     )
     parser.add_argument(
-        "--noise-std", type=float, default=0.0, help="output noise applied by load_policy"
+        "--noise-std",
+        type=number(0.0),
+        default=0.0,
+        help="output noise load_policy applies (a standard deviation, normalized units)",
     )
     parser.add_argument(
-        "--horizon", type=int, default=None, help="proposals per MPT call; default: the chunk"
+        "--horizon", type=count(1), default=None, help="proposals per MPT call (None: the chunk)"
     )
     parser.add_argument(
         "--attention-patience",
-        type=int,
+        type=count(0),
         default=None,
-        help="stall patience of the attention phase; default: the planner's rule",
+        help="stall patience of the attention phase, in tree nodes (None: the planner's rule)",
     )
     parser.add_argument(
         "--attention-near-goal-factor",
-        type=float,
+        type=number(1.0),
         default=None,
-        help="how many times that patience the attention phase waits near the goal (>= 1); "
-        "default: 1",
+        help="how many times that patience the attention phase waits near the goal (None: 1)",
     )
     parser.add_argument(
         "--attention-follow-fallback",
-        type=float,
+        type=number(0.0, 1.0),
         default=None,
-        help="probability of going on from a fallback node that got no closer to the goal, in "
-        "[0, 1]; default: 1 (Algorithm 1)",
+        help="probability of going on from a fallback node that got no closer to the goal "
+        "(None: 1, Algorithm 1)",
     )
     parser.add_argument(
         "--update-planner",
@@ -467,29 +490,20 @@ def main(argv: list[str] | None = None) -> Path:
         return card.with_suffix(".pt")
     if args.config is None or args.checkpoint is None:
         parser.error("--config and --checkpoint are required (or --refresh-evaluation)")
-    if (args.attention_nodes is not None and args.attention_nodes < 1) or args.noise_std < 0:
-        raise SystemExit("--attention-nodes must be >= 1 and --noise-std >= 0")
-    if (args.horizon is not None and args.horizon < 1) or (
-        args.attention_patience is not None and args.attention_patience < 0
-    ):
-        raise SystemExit("--horizon must be >= 1 and --attention-patience >= 0")
-    factor = args.attention_near_goal_factor
-    if factor is not None:  # the planner's own check, naming the flag
-        try:
-            factor = near_goal_factor(factor, "--attention-near-goal-factor")
-        except ValueError as error:
-            raise SystemExit(str(error)) from None
-    follow = args.attention_follow_fallback
-    if follow is not None:
-        try:
-            follow = share(follow, "--attention-follow-fallback")
-        except ValueError as error:
-            raise SystemExit(str(error)) from None
     config = load_config(args.config, args.overrides)
     env_id = config.env.id
-    model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    out_dir = check_output_dir(args.out_dir, "--out-dir")
+    from temp_gym.models.temp import load_checkpoint, weights_digest
+
+    try:
+        model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    except (OSError, ValueError) as error:
+        raise ConfigError(f"--checkpoint: {error}") from None
     if args.horizon is not None and args.horizon > model.mpt.chunk:
-        raise SystemExit(f"--horizon {args.horizon}: the model predicts {model.mpt.chunk} per call")
+        raise ConfigError(
+            f"--horizon {args.horizon}: the model predicts {model.mpt.chunk} per call"
+        )
+    factor, follow = args.attention_near_goal_factor, args.attention_follow_fallback
     planner = {
         "attention_nodes": args.attention_nodes,
         "noise_std": args.noise_std,
@@ -509,14 +523,15 @@ def main(argv: list[str] | None = None) -> Path:
         "notes": args.notes,
         "hardware": args.hardware,
     }
-    out_dir = Path(args.out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    import torch
+
     path = out_dir / f"{_checkpoint_stems()[env_id]}.pt"
     buffer = io.BytesIO()
     torch.save(slim_checkpoint(source, planner, provenance), buffer)
     size = buffer.getbuffer().nbytes
     if size > MAX_BYTES:
-        raise SystemExit(f"{path}: {size / 2**20:.1f} MB exceeds the 10 MB limit")
+        raise ConfigError(f"{path}: {size / 2**20:.1f} MB exceeds the 10 MB limit")
+    out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(path) as handle:
         handle.write(buffer.getvalue())
     snapshot = write_snapshot(path)  # what a CPU policy runs on, without PyTorch
@@ -527,4 +542,4 @@ def main(argv: list[str] | None = None) -> Path:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("ship.py", main))

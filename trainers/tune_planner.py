@@ -39,54 +39,58 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import sys
+from pathlib import Path
 
-import numpy as np
-import torch
-
-from temp_gym import training
-from temp_gym.config import load_config, parse_args, script_parser
-from temp_gym.evaluation.ood import load_ood_family
-from temp_gym.files import write_json_atomic
-from temp_gym.models.policy import TEMPPolicy
-from temp_gym.models.temp import load_checkpoint
-from temp_gym.planning.attention import RESUME_AFTER
-from temp_gym.planning.result import (
-    local_fallback_count,
-    near_goal_factor,
-    resume_factor,
-    resume_growth,
-    share,
+from temp_gym.config import (
+    ConfigError,
+    count,
+    load_config,
+    number,
+    parse_args,
+    script_parser,
 )
-from temp_gym.training import plan_episode
+from temp_gym.jobs import run_script
+from temp_gym.limits import MAX_TASKS
+
+PER_TASK_KEYS = ("max_nodes", "seeds", "problems", "settings")
+"""Keys of a ``--per-task`` file: an existing file is replaced only if it has them."""
+
+RESUME_AFTER_DEFAULT = 1.0
+"""`temp_gym.planning.attention.RESUME_AFTER`, for the help text alone (reading it would load
+numba on every ``--help``; a test keeps both equal)."""
 
 
 def main(argv: list[str] | None = None) -> dict:
     """Print the table; return the recommended ``{"attention_nodes", "noise_std"}``."""
-    parser = script_parser(__doc__.splitlines()[0])
+    parser = script_parser(
+        __doc__.splitlines()[0],
+        epilog="Output: the table on stdout; with --per-task, that JSON file too.",
+    )
     parser.add_argument("--config", required=True, help="the config the policy was trained with")
     parser.add_argument("--checkpoint", required=True, help="the policy (a bc.py best.pt)")
     parser.add_argument(
         "--attention-nodes",
-        type=int,
+        type=count(1),
         nargs="+",
         default=[50, 100, 200, 400],
-        help="attention-phase budgets n to try",
+        help="attention-phase budgets n to try, in tree nodes",
     )
     parser.add_argument(
         "--noise-std",
-        type=float,
+        type=number(0.0),
         nargs="+",
         default=[0.0, 0.03],
-        help="output noise levels to try",
+        help="output noise levels to try (standard deviations, normalized units)",
     )
     parser.add_argument(
         "--max-nodes",
-        type=int,
+        type=count(1),
         default=None,
         help="node budget of every run, RRT*'s included (None: train_eval.max_nodes of the "
         "config); each n must fit in it",
     )
-    parser.add_argument("--tasks", type=int, default=60, help="tasks per setting")
+    parser.add_argument("--tasks", type=count(1, MAX_TASKS), default=60, help="tasks per setting")
     parser.add_argument(
         "--split",
         default="val",
@@ -97,42 +101,42 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument(
         "--horizon",
-        type=int,
+        type=count(0),
         nargs="+",
         default=[0],
         help="proposals used per MPT call to try (0: the model's whole chunk)",
     )
     parser.add_argument(
         "--path-window",
-        type=int,
+        type=count(0),
         nargs="+",
         default=[0],
         help="newest path-so-far nodes read per MPT call to try (0: all the model was trained on)",
     )
     parser.add_argument(
         "--patience",
-        type=int,
+        type=count(-1),
         nargs="+",
         default=[-1],
         help="attention-phase stall patience to try (-1: the default rule)",
     )
     parser.add_argument(
         "--uniform",
-        type=float,
+        type=number(0.0, 1.0),
         nargs="+",
         default=[0.0],
         help="shares of uniform samples in the attention phase to try",
     )
     parser.add_argument(
         "--near-goal-factor",
-        type=float,
+        type=number(1.0),
         nargs="+",
         default=[1.0],
         help="stall-patience factors near the goal to try (1: the same patience everywhere)",
     )
     parser.add_argument(
         "--follow-fallback",
-        type=float,
+        type=number(0.0, 1.0),
         nargs="+",
         default=[1.0],
         help="probabilities of going on from a fallback node that got no closer to the goal to "
@@ -140,7 +144,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument(
         "--local-fallback",
-        type=int,
+        type=count(0),
         nargs="+",
         default=[0],
         help="replacements of a colliding proposal drawn near it before uniform ones, to try "
@@ -157,15 +161,15 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument(
         "--resume",
-        type=float,
+        type=number(0.0),
         nargs="+",
-        default=[RESUME_AFTER],
+        default=[RESUME_AFTER_DEFAULT],
         help="classical nodes, in stall patiences, before the attention phase resumes after a "
         "stall, to try (0: never)",
     )
     parser.add_argument(
         "--resume-growth",
-        type=float,
+        type=number(1.0),
         nargs="+",
         default=[1.0],
         help="how many times longer each classical turn between resumed attention phases is "
@@ -191,7 +195,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument(
         "--rounds",
-        type=int,
+        type=count(-1),
         nargs="+",
         default=[-1],
         help="after stalls from the start and from the goal, more rounds of the two (-1: the "
@@ -205,7 +209,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument(
         "--min-attention-success",
-        type=float,
+        type=number(0.0, 1.0),
         default=0.9,
         help="least share of tasks the attention phase must solve (both ways) to be recommended",
     )
@@ -236,6 +240,26 @@ def main(argv: list[str] | None = None) -> dict:
             f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
             f"({budget_from}); pass a larger --max-nodes"
         )
+    if args.per_task is not None:
+        check_per_task_file(Path(args.per_task), [Path(args.config), Path(args.checkpoint)])
+    import numpy as np
+    import torch
+
+    from temp_gym import training
+    from temp_gym.evaluation.ood import load_ood_family
+    from temp_gym.files import write_json_atomic
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.models.temp import load_checkpoint
+    from temp_gym.planning.result import (
+        local_fallback_count,
+        near_goal_factor,
+        resume_factor,
+        resume_growth,
+        share,
+    )
+    from temp_gym.training import plan_episode
+    from temp_gym.worlds.structured import check_family
+
     try:  # the planner's own check, naming the flag
         for factor in args.near_goal_factor:
             near_goal_factor(factor, "--near-goal-factor")
@@ -247,10 +271,14 @@ def main(argv: list[str] | None = None) -> dict:
             resume_factor(resume, "--resume")
         for growth in args.resume_growth:
             resume_growth(growth, "--resume-growth")
+        check_family(config.env.robot, args.family)
     except ValueError as error:
         parser.error(str(error))
     torch.set_num_threads(1)
-    model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    try:
+        model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
+    except (OSError, ValueError) as error:
+        raise ConfigError(f"--checkpoint: {error}") from None
     windows = [window or None for window in args.path_window]  # 0: the whole path
     for window in windows:  # the policy's own check, naming the flag, before any run
         try:
@@ -383,6 +411,31 @@ def main(argv: list[str] | None = None) -> dict:
     return best or {}
 
 
+def check_per_task_file(out: Path, inputs: list[Path]) -> None:
+    """Refuse a ``--per-task`` file that is an input, or an existing file not of this kind.
+
+    Raises:
+        ConfigError: naming the flag and the file.
+    """
+    for given in inputs:
+        if out.absolute() == given.absolute() or (
+            out.exists() and given.exists() and out.samefile(given)
+        ):
+            raise ConfigError(f"--per-task: {out} is an input; choose another file")
+    if out.is_dir():
+        raise ConfigError(f"--per-task: {out} is a directory")
+    if out.exists():
+        try:
+            data = json.loads(out.read_text())
+        except (OSError, ValueError, RecursionError):
+            data = None
+        if not (isinstance(data, dict) and all(key in data for key in PER_TASK_KEYS)):
+            raise ConfigError(
+                f"--per-task: {out} exists and is not a per-task file of this script; move it "
+                "or choose another file"
+            )
+
+
 def _digest(problem) -> str:
     """A short SHA-256 of the problem's JSON: two per-task files name the same tasks or not."""
     text = json.dumps(problem.to_dict(), sort_keys=True)
@@ -403,4 +456,4 @@ def _task_figures(runs: list[dict]) -> dict[str, list]:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("tune_planner.py", main))

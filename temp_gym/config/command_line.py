@@ -1,21 +1,96 @@
-"""Scripts' command lines: flags for argparse, ``key.sub=value`` tokens for the config."""
+"""Scripts' command lines: flags for argparse, ``key.sub=value`` tokens for the config.
+
+Every command of the package parses its flags with a `CommandParser`: a bad flag or value is
+one line on stderr and exit status 2 (argparse's own errors print the usage first), and the
+help shows each flag's default except where the flag is required or a switch.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import NoReturn
+
+from temp_gym.jobs import BAD_INPUT, brief, one_line
+from temp_gym.limits import MAX_COUNT
 
 OVERRIDE = re.compile(r"^\+?[A-Za-z_][\w-]*(\.[\w-]+)*=")
 """A ``key.sub=value`` (or ``+key.sub=value``) command-line override."""
 
 
-def script_parser(description: str) -> argparse.ArgumentParser:
-    """An `argparse.ArgumentParser` whose help shows every flag's default."""
-    return argparse.ArgumentParser(
-        description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """argparse's formatter that shows defaults, except of required flags and switches.
+
+    A required flag has no default to show ("default: None" beside "required" says two
+    things at once), and a switch (``--no-progress``) is off unless given.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.required or action.nargs == 0:
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
+class CommandParser(argparse.ArgumentParser):
+    """An `argparse.ArgumentParser` whose every error is one line on stderr, exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``{prog}: error: {message}`` on one line and exit with `BAD_INPUT`."""
+        self.exit(BAD_INPUT, one_line(f"{self.prog}: error: {message} (see --help)") + "\n")
+
+
+def count(least: int = 0, most: int = MAX_COUNT) -> Callable[[str], int]:
+    """An argparse ``type``: an integer in ``least..most``, else a one-line usage error.
+
+    Example:
+        >>> parser.add_argument("--tasks", type=count(1), default=60)
+    """
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {brief(text)}") from None
+        if value < least or value > most:
+            bound = f"at least {least}" if most >= MAX_COUNT else f"in {least}..{most}"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {value}")
+        return value
+
+    parse.__name__ = "count"
+    return parse
+
+
+def number(least: float = -math.inf, most: float = math.inf) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in ``[least, most]``, else a one-line error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {brief(text)}") from None
+        if not (math.isfinite(value) and least <= value <= most):
+            bound = (
+                f"a finite number of at least {least:g}"
+                if math.isinf(most)
+                else f"a number in [{least:g}, {most:g}]"
+            )
+            raise argparse.ArgumentTypeError(f"expected {bound}, got {value}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def script_parser(
+    description: str, epilog: str | None = None, prog: str | None = None
+) -> CommandParser:
+    """The parser of a command: one-line errors, and help that shows every flag's default."""
+    return CommandParser(
+        prog=prog, description=description, epilog=epilog, formatter_class=DefaultsHelpFormatter
     )
 
 
@@ -84,13 +159,13 @@ def checkpoint_entry(
         key, sep, value = item.partition("=")
         if not sep or key not in CHECKPOINT_SETTINGS:
             raise ValueError(f"{flag} {entry}: expected key=value with a key of "
-                             f"{sorted(CHECKPOINT_SETTINGS)}, got {item!r}")  # fmt: skip
+                             f"{sorted(CHECKPOINT_SETTINGS)}, got {brief(item)}")  # fmt: skip
         kind = CHECKPOINT_SETTINGS[key]
         try:
             settings[key] = kind(value)
         except ValueError:
             raise ValueError(f"{flag} {entry}: {key} must be a {kind.__name__}, "
-                             f"got {value!r}") from None  # fmt: skip
+                             f"got {brief(value)}") from None  # fmt: skip
     return Path(path), settings
 
 
@@ -102,5 +177,5 @@ def labelled_entry(entry: str, flag: str = "--policy") -> tuple[str, str]:
     """
     label, sep, path = entry.rpartition("=")
     if not sep or not label or not path:
-        raise ValueError(f"{flag} {entry!r}: expected LABEL=CHECKPOINT")
+        raise ValueError(f"{flag} {brief(entry)}: expected LABEL=CHECKPOINT")
     return label, path

@@ -10,6 +10,11 @@ accepted and means the same.
 The environment variable ``TEMP_GYM_OVERRIDES`` holds more overrides, separated by spaces,
 that every config load applies after the caller's: the same command then runs at another size
 (the tests run the README's commands as written, smoke-sized this way).
+
+YAML is read with `ConfigLoader`: ``yaml.safe_load``'s loader without anchors and aliases
+(``&a``, ``*a``: a few kB of them expand into gigabytes) and with nesting bounded by
+`temp_gym.limits.MAX_CONFIG_DEPTH`; a file is read up to `temp_gym.limits.MAX_CONFIG_BYTES`.
+After the overrides, every value is checked against its bounds (`temp_gym.config.checks`).
 """
 
 from __future__ import annotations
@@ -22,9 +27,12 @@ from typing import Any
 
 import yaml
 
+from temp_gym.config.checks import check_config
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.sections import Config
 from temp_gym.config.typed import build, fill_defaults, replace_key
+from temp_gym.jobs import brief
+from temp_gym.limits import MAX_CONFIG_BYTES, MAX_CONFIG_DEPTH
 
 CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs"
 """The repository's ``configs/``: a config named by a path that does not exist is looked up
@@ -36,6 +44,54 @@ OVERRIDES_VARIABLE = "TEMP_GYM_OVERRIDES"
 RENAMED_SECTIONS = {"eval": "train_eval"}
 """Sections that older configs named otherwise (old name -> new), for `upgrade_stored` and the
 error that names the new section."""
+
+
+class ConfigLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses anchors and aliases and bounds the nesting depth.
+
+    Both are checked as nodes are composed, before any value is built, so neither an alias
+    bomb nor a file nested thousands deep costs more than reading its text.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        """Compose one node, refusing an alias, an anchor, or a nesting too deep."""
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None) is not None:
+            raise ConfigError(
+                f"YAML anchors and aliases (&{event.anchor} / *{event.anchor}) are not "
+                "supported in configs; write the value out"
+            )
+        self._depth += 1
+        try:
+            if self._depth > MAX_CONFIG_DEPTH:
+                raise ConfigError(
+                    f"nested more than {MAX_CONFIG_DEPTH} levels deep (a config is a few levels)"
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+def safe_yaml(text: str | bytes) -> Any:
+    """The value of a YAML text, read with `ConfigLoader`.
+
+    Raises:
+        ConfigError: an anchor, an alias, a nesting too deep, a number of too many digits.
+        yaml.YAMLError: text that is not YAML.
+    """
+    loader = ConfigLoader(text)
+    try:
+        return loader.get_single_data()
+    except (ValueError, OverflowError) as error:  # an integer of thousands of digits
+        if isinstance(error, ConfigError):
+            raise
+        raise ConfigError(f"a value YAML cannot hold ({brief(str(error))})") from None
+    finally:
+        loader.dispose()
 
 
 def environment_overrides() -> list[str]:
@@ -50,7 +106,7 @@ def parse_value(text: str) -> Any:
     decides (`temp_gym.config.typed.convert`), so ``train.exp_name=1e5`` stays a name.
     """
     try:
-        return yaml.safe_load(text) if text.strip() else ""
+        return safe_yaml(text) if text.strip() else ""
     except yaml.YAMLError:
         return text
 
@@ -70,13 +126,13 @@ def apply_overrides(config: Config, overrides: Sequence[str]) -> Config:
     """
     for item in overrides:
         if "=" not in item:
-            raise ConfigError(f"override {item!r}: expected key.sub=value")
+            raise ConfigError(f"override {brief(item)}: expected key.sub=value")
         key, text = item.split("=", 1)
         try:
             config = replace_key(config, key.lstrip("+"), parse_value(text))
         except ConfigError as error:
             hint = _renamed_hint(key.lstrip("+"))
-            raise ConfigError(f"override {item!r}: {error}{hint}") from None
+            raise ConfigError(f"override {brief(item)}: {error}{hint}") from None
     return config
 
 
@@ -103,10 +159,18 @@ def read_config_file(path: str | Path) -> tuple[Path, Any]:
     if not path.exists() and (CONFIG_DIR / path.name).exists():
         path = CONFIG_DIR / path.name
     try:
-        with open(path) as handle:
-            return path, yaml.safe_load(handle)
+        with open(path, "rb") as handle:
+            raw = handle.read(MAX_CONFIG_BYTES + 1)
     except OSError as error:
-        raise ConfigError(f"{path}: cannot read the config ({error.strerror})") from None
+        raise ConfigError(f"{path}: cannot read the config ({error.strerror or error})") from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{path}: larger than {MAX_CONFIG_BYTES // 2**10} kB, not a config")
+    try:
+        return path, safe_yaml(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError as error:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from None
     except yaml.YAMLError as error:
         raise ConfigError(f"{path}: not valid YAML ({error})") from None
 
@@ -123,9 +187,11 @@ def load_config(path: str | Path, overrides: Sequence[str] | None = None) -> Con
     extra = environment_overrides()
     config = apply_overrides(config, list(overrides or []))
     try:
-        return apply_overrides(config, extra)
+        config = apply_overrides(config, extra)
     except ConfigError as error:
         raise ConfigError(f"${OVERRIDES_VARIABLE}: {error}") from error
+    check_config(config)
+    return config
 
 
 def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:

@@ -37,6 +37,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, TypeVar
 
 from temp_gym.config.errors import ConfigError
+from temp_gym.jobs import brief
 
 T = TypeVar("T")
 
@@ -77,11 +78,12 @@ def build(cls: type[T], values: Mapping[str, Any] | None, where: str = "") -> T:
     if values is None:
         values = {}
     if not isinstance(values, Mapping):
-        raise ConfigError(f"{where or 'config'}: expected a mapping of keys, got {values!r}")
+        raise ConfigError(f"{where or 'config'}: expected a mapping of keys, got {brief(values)}")
     declared = field_types(cls)
     for key in values:
         if key not in declared:
-            raise ConfigError(unknown_key_message(dotted(where, str(key)), list(declared)))
+            name = str(key) if len(str(key)) <= 60 else brief(str(key), 60)
+            raise ConfigError(unknown_key_message(dotted(where, name), list(declared)))
     arguments = {}
     for field in dataclasses.fields(cls):
         key = dotted(where, field.name)
@@ -107,10 +109,10 @@ def convert(value: Any, kind: Any, key: str) -> Any:
                     return convert(value, option, key)
                 except ConfigError:
                     continue
-        raise ConfigError(f"{key}: expected {describe(kind)}, got {value!r}")
+        raise ConfigError(f"{key}: expected {describe(kind)}, got {brief(value)}")
     if origin is list:
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{key}: expected {describe(kind)}, got {value!r}")
+            raise ConfigError(f"{key}: expected {describe(kind)}, got {brief(value)}")
         (item,) = typing.get_args(kind)
         return [convert(entry, item, f"{key}[{index}]") for index, entry in enumerate(value)]
     if kind is bool and isinstance(value, bool):
@@ -129,7 +131,7 @@ def convert(value: Any, kind: Any, key: str) -> Any:
         return value
     if kind is Any:
         return value
-    raise ConfigError(f"{key}: expected {describe(kind)}, got {value!r}")
+    raise ConfigError(f"{key}: expected {describe(kind)}, got {brief(value)}")
 
 
 def describe(kind: Any) -> str:

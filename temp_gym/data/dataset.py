@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from temp_gym.config import Config, ConfigError
+from temp_gym.data.columns import check_buffer, check_workspaces
 from temp_gym.data.format import SPLITS
 from temp_gym.data.tables import checked_manifest, read_table, verify_table
 from temp_gym.files import StoredFileError, read_json
@@ -217,7 +218,9 @@ def load_split(data_dir: str | Path, split: str):
     sample columns, with a `RandomSampler`: draw a batch with ``rb.sample(batch_size)``, or
     read every sample with ``rb[:]`` / ``rb.storage[i]``. Samples hold a ``workspace_id``;
     the encoding is ``workspaces["occupancy"][sample["workspace_id"]]``. No file is
-    unpickled, and every file must match the size and SHA-256 the card lists.
+    unpickled, every file must match the size and SHA-256 the card lists, and every value
+    must lie in its range (`temp_gym.data.columns`: ids, lengths, finite normalized
+    coordinates, occupancy in {0, 1}).
 
     Examples:
         >>> rb, workspaces = load_split("datasets/2d", "train")
@@ -229,13 +232,30 @@ def load_split(data_dir: str | Path, split: str):
 
     Raises:
         StoredFileError: the dataset is incomplete, of an older format, or a file is damaged
-            (the message names the file and what to do).
+            or holds a value out of range (the message names the file and what to do).
     """
     from torchrl.data import ReplayBuffer, TensorStorage
     from torchrl.data.replay_buffers.samplers import RandomSampler
 
     root = Path(data_dir)
-    samples = _tensordict(_table(root, split, "buffer"))
+    settings = _card_settings(root)
+    workspaces = _table(root, split, "workspaces")
+    ids = check_workspaces(root / split / "workspaces", workspaces, settings)
+    columns = _table(root, split, "buffer")
+    check_buffer(root / split / "buffer", columns, settings, ids)
+    samples = _tensordict(columns)
     with torchrl_info_silenced():
         buffer = ReplayBuffer(storage=TensorStorage(samples), sampler=RandomSampler())
-    return buffer, load_workspaces(root, split)
+    return buffer, _tensordict(workspaces)
+
+
+def _card_settings(root: Path) -> dict[str, Any]:
+    """The settings the card says made the dataset, which its columns are checked against."""
+    card = read_card(root)
+    settings = card.get("settings")
+    keys = ("robot", "max_path_length", "encoding_resolution", "workspaces", "tasks_per_workspace")
+    if not isinstance(settings, dict) or any(key not in settings for key in keys):
+        raise StoredFileError(root / CARD, "damaged (no settings that made the dataset)", GENERATE)
+    if settings["robot"] not in robot_names():
+        raise StoredFileError(root / CARD, f"an unknown robot {settings['robot']!r}", GENERATE)
+    return settings

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from temp_gym.config import Config, ConfigError, differing_keys
+from temp_gym.config.checks import check_output_dir
 from temp_gym.data.dataset import (
     CARD,
     SETTINGS,
@@ -317,11 +318,13 @@ def generate_dataset(
         >>> rb, workspaces = load_split(generate_dataset(config), "train")
 
     Raises:
+        temp_gym.config.ConfigError: a bad ``data`` or ``env`` value, or a ``data.dir`` that
+            cannot be a folder (a file, ``/dev/null``, ``/proc/x``), before anything is written.
         temp_gym.files.LockedError: another run holds the directory (without ``wait``).
         temp_gym.files.StoredFileError: a stored file is damaged (named, with the fix).
     """
     settings = data_settings(config)
-    root = data_dir(config)
+    root = check_output_dir(data_dir(config), "data.dir")
     lock = DirectoryLock(root, "generating demonstrations")
     try:
         lock.acquire()

@@ -10,11 +10,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from temp_gym.limits import MAX_COUNT, MAX_PATH_LENGTH
 from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.tree import Tree, default_step_size
 from temp_gym.problem import Problem, Workspace
-from temp_gym.worlds.encoding import occupancy_grid
+from temp_gym.worlds.encoding import check_resolution, occupancy_grid
 from temp_gym.worlds.normalization import MAX_RATIO
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS, split_workspace
@@ -185,13 +186,16 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"step_size: must be positive and finite, got {step_size!r}")
         if goal_radius is not None and not _is_positive(goal_radius):
             raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
-        if encoding_resolution is not None and (
-            not _is_integer(encoding_resolution) or encoding_resolution < 2
+        if encoding_resolution is not None:
+            check_resolution(encoding_resolution, spec.workspace_dim, "encoding_resolution")
+        for name, value, most in (
+            ("max_nodes", max_nodes, MAX_COUNT),
+            ("max_samples", max_samples, MAX_COUNT),
+            ("max_path_length", max_path_length, MAX_PATH_LENGTH),
+            ("max_fallback_tries", max_fallback_tries, MAX_COUNT),
         ):
-            raise ValueError(
-                f"encoding_resolution: expected an integer of at least 2, got "
-                f"{encoding_resolution!r}"
-            )
+            if value is not None and _is_integer(value) and value > most:
+                raise ValueError(f"{name}: at most {most} is supported, got {value}")
         _check_target_cost(target_cost, "target_cost")
         if not _is_integer(max_fallback_tries) or max_fallback_tries < 0:
             raise ValueError(

@@ -25,34 +25,35 @@ import dataclasses
 import functools
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from temp_gym.config import Config, EvaluationConfig, load_config, parse_args, script_parser
+from temp_gym.config.checks import check_output_dir
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.typed import to_dict
 from temp_gym.distributed import add_backend_arguments
-from temp_gym.evaluation.report import write_report
-from temp_gym.evaluation.runner import (
-    EvaluationSettings,
-    ManifestMismatchError,
-    attention_example,
-    run_evaluation,
-)
-from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
-from temp_gym.models.temp import load_checkpoint, weights_digest
-from temp_gym.planning.attention import RESUME_AFTER
-from temp_gym.planning.plan import PLANNERS
-from temp_gym.planning.result import PlanSettings
-from temp_gym.worlds.robots import robot_spec
 
-PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
-                     "attention_patience": None, "attention_near_goal_factor": None,
-                     "attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}  # fmt: skip
-"""What a null planner setting of the ``evaluation`` section takes when the checkpoint names
-none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the
-same patience near the goal, the planner's default resume after a stall and equal classical
-turns between resumed phases (recorded as numbers, so that records made with another default
-do not mix)."""
+if TYPE_CHECKING:
+    from temp_gym.evaluation.runner import EvaluationSettings
+
+# The planners, the models and PyTorch are imported where they are used, after the command
+# line is read: ``--help`` and a bad value are answered without loading them.
+
+
+def planner_fallbacks() -> dict[str, Any]:
+    """What a null planner setting of the ``evaluation`` section takes without the checkpoint's.
+
+    All of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the same
+    patience near the goal, the planner's default resume after a stall and equal classical
+    turns between resumed phases (recorded as numbers, so that records made with another
+    default do not mix).
+    """
+    from temp_gym.planning.attention import RESUME_AFTER
+
+    return {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
+            "attention_patience": None, "attention_near_goal_factor": None,
+            "attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}  # fmt: skip
+
 
 UNRECORDED = ("tasks", "workers", "out")
 """Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
@@ -67,14 +68,17 @@ def settings_from(
     ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience``,
     ``attention_near_goal_factor``, ``attention_resume`` and ``attention_resume_growth`` left
     null take the checkpoint's own planner settings (``planner_defaults``, what
-    `temp_gym.load_policy` applies to a shipped policy), else `PLANNER_FALLBACKS`; a null
+    `temp_gym.load_policy` applies to a shipped policy), else `planner_fallbacks`; a null
     ``tasks`` is the robot's (its spec's ``evaluation_tasks``).
     """
+    from temp_gym.evaluation.runner import EvaluationSettings
+    from temp_gym.worlds.robots import robot_spec
+
     robot = config.env.robot
     section = config.evaluation
     resolved = {
         key: (planner_defaults or {}).get(key, fallback)
-        for key, fallback in PLANNER_FALLBACKS.items()
+        for key, fallback in planner_fallbacks().items()
         if getattr(section, key) is None
     }
     section = dataclasses.replace(section, **resolved)
@@ -107,6 +111,9 @@ def settings_from(
 
 def _check_section(section: EvaluationConfig) -> None:
     """Refuse, naming the key, what the planners would refuse task by task in the workers."""
+    from temp_gym.planning.plan import PLANNERS
+    from temp_gym.planning.result import PlanSettings
+
     if section.tasks is not None and section.tasks < 1:
         raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")
     for key, least in (("curve_tasks", 0), ("curve_nodes", 1)):
@@ -134,8 +141,16 @@ def _check_section(section: EvaluationConfig) -> None:
 
 
 def main(argv: list[str] | None = None) -> str:
-    """Evaluate (resuming), write the report, print the table."""
-    parser = script_parser(__doc__.splitlines()[0])
+    """Evaluate (resuming), write the report, print the table.
+
+    Every value (the config's, the flags', the checkpoint) is checked before the output
+    folder is made; a bad one is a one-line `ConfigError`.
+    """
+    parser = script_parser(
+        __doc__.splitlines()[0],
+        epilog="Output: evaluation.out (default results/{env.id}): results.md, results.json, "
+        "the figures, tensorboard/ and tasks/ (one record per task; rerunning resumes).",
+    )
     parser.add_argument(
         "--config", required=True, help="YAML config of the world (configs/2d.yaml, 3d, 7d)"
     )
@@ -146,12 +161,31 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("overrides", nargs="*", help="key.sub=value overrides")
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
+    out = Path(config.evaluation.out or Path("results") / config.env.id)
+    check_output_dir(out, "evaluation.out")
+    if args.checkpoint:  # a file that cannot be a checkpoint is refused before PyTorch loads
+        from temp_gym.models.checkpoint_file import read_checkpoint_bytes
+
+        try:
+            read_checkpoint_bytes(args.checkpoint)
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"--checkpoint: {error}") from None
+    from temp_gym.evaluation.report import write_report
+    from temp_gym.evaluation.runner import (
+        ManifestMismatchError,
+        attention_example,
+        run_evaluation,
+    )
+    from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
+    from temp_gym.models.temp import load_checkpoint, weights_digest
+
     robot = config.env.robot
+    flag = "--checkpoint" if args.checkpoint else "the shipped policy"
     try:  # fail fast, with one line, on a missing, damaged or other robot's checkpoint
         checkpoint = Path(args.checkpoint) if args.checkpoint else shipped_checkpoint(robot)
         _, stored = load_checkpoint(checkpoint, robot=robot)
     except (OSError, ValueError) as error:
-        raise SystemExit(f"evaluate.py: error: {error}") from None
+        raise ConfigError(f"{flag}: {error}") from None
     settings, section = settings_from(config, stored.get("planner"))
     make_policy = functools.partial(
         policy_from_checkpoint,
@@ -165,7 +199,6 @@ def main(argv: list[str] | None = None) -> str:
         make_policy()
     except ValueError as error:
         raise ConfigError(f"evaluation.{error}") from None
-    out = Path(section.out or Path("results") / config.env.id)
     digest = weights_digest(stored["state_dict"])
     path_window = stored.get("planner", {}).get("path_window")
     window = {} if path_window is None else {"path_window": path_window}  # the checkpoint's own
@@ -185,8 +218,8 @@ def main(argv: list[str] | None = None) -> str:
                 **window,
             },
         )
-    except ManifestMismatchError as error:  # another checkpoint's or settings' records
-        raise SystemExit(f"evaluate.py: error: {error}") from None
+    except ManifestMismatchError:  # another checkpoint's or settings' records: one line
+        raise
     metadata = {
         "checkpoint": str(checkpoint),
         "checkpoint_digest": digest,

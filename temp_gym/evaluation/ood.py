@@ -31,19 +31,33 @@ check that the two agree. `load_ood_family` reads them.
 
 from __future__ import annotations
 
-import argparse
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from temp_gym.config import script_parser
+from temp_gym.config.checks import check_output_dir
+from temp_gym.jobs import run_script
 from temp_gym.problem import Problem
-from temp_gym.worlds.point_world import POINT_WORLD_SIZE
 from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, RobotSpec
 
 EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples" / "ood"
 WORLD_DIRS = {spec.name: spec.short_name for spec in (POINT2D, POINT3D, KUKA_IIWA14)}
 """Robot -> folder of its family under `EXAMPLES_DIR` (the robot's short name)."""
+
+
+def _world_size() -> float:
+    """`temp_gym.worlds.point_world.POINT_WORLD_SIZE`, imported when a problem is built.
+
+    The point worlds' module loads numba, which ``--help`` should not.
+    """
+    from temp_gym.worlds.point_world import POINT_WORLD_SIZE
+
+    return POINT_WORLD_SIZE
+
+
 WALL = 0.25
 """Half thickness of a wall (world units): half a steering step."""
 
@@ -60,7 +74,7 @@ def _problem(spec: RobotSpec, boxes: list[dict], start, goal) -> Problem:
     return Problem.from_dict(
         {
             "robot": spec.name,
-            "bounds": [[0.0] * spec.dim, [POINT_WORLD_SIZE] * spec.dim],
+            "bounds": [[0.0] * spec.dim, [_world_size()] * spec.dim],
             "obstacles": boxes,
             "start": [float(v) for v in start],
             "goal": [float(v) for v in goal],
@@ -89,8 +103,8 @@ def _zigzag_2d(walls: int) -> Problem:
     """``walls`` horizontal walls whose 4-unit openings alternate between the two sides."""
     boxes = []
     for i in range(walls):
-        y = POINT_WORLD_SIZE * (i + 1) / (walls + 1)
-        x0, x1 = (0.0, 16.0) if i % 2 == 0 else (4.0, POINT_WORLD_SIZE)
+        y = _world_size() * (i + 1) / (walls + 1)
+        x0, x1 = (0.0, 16.0) if i % 2 == 0 else (4.0, _world_size())
         boxes.append(_box([x0, y - WALL], [x1, y + WALL]))
     return _problem(POINT2D, boxes, [2, 1], [2, 19])
 
@@ -100,7 +114,7 @@ def _narrow_gap_2d(width: float) -> Problem:
     gap_low, gap_high = 4.0 - width / 2, 4.0 + width / 2
     boxes = [
         _box([10 - WALL, 0.0], [10 + WALL, gap_low]),
-        _box([10 - WALL, gap_high], [10 + WALL, POINT_WORLD_SIZE]),
+        _box([10 - WALL, gap_high], [10 + WALL, _world_size()]),
     ]
     return _problem(POINT2D, boxes, [3, 16], [17, 16])
 
@@ -109,7 +123,7 @@ def _double_wall_2d() -> Problem:
     """Two walls with their gaps at opposite ends: an S-shaped detour."""
     boxes = [
         _box([7 - WALL, 0.0], [7 + WALL, 17.0]),
-        _box([13 - WALL, 3.0], [13 + WALL, POINT_WORLD_SIZE]),
+        _box([13 - WALL, 3.0], [13 + WALL, _world_size()]),
     ]
     return _problem(POINT2D, boxes, [2, 2], [18, 18])
 
@@ -148,7 +162,7 @@ def _cup_3d() -> Problem:
 def _wall_with_hole(x: float, hole_center, half: float) -> list[dict]:
     """A wall across the world at ``x`` with a square hole of side ``2 half`` at (y, z)."""
     y, z = hole_center
-    s = POINT_WORLD_SIZE
+    s = _world_size()
     return [
         _box([x - WALL, 0.0, 0.0], [x + WALL, y - half, s]),
         _box([x - WALL, y + half, 0.0], [x + WALL, s, s]),
@@ -171,7 +185,7 @@ def _double_window_3d() -> Problem:
 def _floors_3d() -> Problem:
     """Three floors, each with a 3 x 3 hole, the holes in alternating corners."""
     boxes = []
-    s = POINT_WORLD_SIZE
+    s = _world_size()
     for i, z in enumerate((5.0, 10.0, 15.0)):
         hx, hy = (3.0, 3.0) if i % 2 == 0 else (17.0, 17.0)
         h = 1.5
@@ -191,13 +205,13 @@ def _pillars_3d() -> Problem:
     for i in range(8):
         for j in range(8):
             x, y = 1.75 + 2.5 * i, 1.75 + 2.5 * j
-            boxes.append(_box([x - 0.4, y - 0.4, 0.0], [x + 0.4, y + 0.4, POINT_WORLD_SIZE]))
+            boxes.append(_box([x - 0.4, y - 0.4, 0.0], [x + 0.4, y + 0.4, _world_size()]))
     return _problem(POINT3D, boxes, [0.5, 0.5, 10], [18.0, 18.0, 10])
 
 
 def _long_detour_3d() -> Problem:
     """A wall across all but a 2.5-unit strip at the far end; start and goal on its sides."""
-    s = POINT_WORLD_SIZE
+    s = _world_size()
     return _problem(POINT3D, [_box([0.0, 0.0, 10 - WALL], [17.5, s, 10 + WALL])],
                     [2, 10, 8], [2, 10, 12])  # fmt: skip
 
@@ -371,9 +385,13 @@ def load_ood_family(robot: str, directory: str | Path | None = None) -> dict[str
 
 def main(argv: list[str] | None = None) -> None:
     """Write every family's problems to ``examples/ood``."""
-    parser = argparse.ArgumentParser(description="Write the out-of-distribution problems.")
+    parser = script_parser(
+        "Write the out-of-distribution problems.",
+        epilog="Output: {out}/{2d,3d,7d}/{problem}.json, made if missing, replaced if present.",
+    )
     parser.add_argument("--out", type=Path, default=EXAMPLES_DIR, help="folder of the families")
     args = parser.parse_args(argv)
+    check_output_dir(args.out, "--out")
     for robot, folder in WORLD_DIRS.items():
         target = args.out / folder
         target.mkdir(parents=True, exist_ok=True)
@@ -383,4 +401,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script("python -m temp_gym.evaluation.ood", main))

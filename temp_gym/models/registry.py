@@ -7,7 +7,8 @@ They are ordinary `TEMPModel` checkpoints, read with
 
 **Loaded once per process.** `load_policy` and `policy_from_checkpoint` keep what they loaded
 (the model in eval mode, its numba MPT, the SEI of each workspace seen: a `PolicyCore`) keyed
-by the checkpoint file's SHA-256 digest. A later call finds the file unchanged by its size,
+by the checkpoint file's SHA-256 digest and its snapshot's (so a snapshot beside one copy of a
+checkpoint never serves another copy). A later call finds the file unchanged by its size,
 modification time and inode (one ``stat``, no read) and builds a new `TEMPPolicy` on the same
 core; a file that changed is read and hashed again, and only a new digest loads new weights.
 Each call still returns its own policy (its own noise generator and problem), so concurrent
@@ -41,6 +42,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from temp_gym.models.checkpoint_file import read_checkpoint_bytes
+from temp_gym.models.snapshot import snapshot_path
 from temp_gym.worlds.robots import RobotSpec, robot_specs
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
@@ -103,14 +106,25 @@ class LoadedCheckpoint:
     """SHA-256 of the file's bytes."""
 
 
-_BY_DIGEST: dict[str, LoadedCheckpoint] = {}
-_BY_FILE: dict[str, tuple[tuple[int, int, int], str]] = {}
+_BY_DIGEST: dict[tuple[str, str | None], LoadedCheckpoint] = {}
+"""(checkpoint digest, snapshot digest or None) -> what was loaded from them."""
+_BY_FILE: dict[str, tuple[tuple, tuple[str, str | None]]] = {}
+"""Absolute checkpoint path -> (the stamps of it and its snapshot, the `_BY_DIGEST` key)."""
 _LOCK = threading.Lock()
 
 
 def _file_stamp(path: str | Path) -> tuple[int, int, int]:
     status = os.stat(path)
     return status.st_size, status.st_mtime_ns, status.st_ino
+
+
+def _stamps(path: str) -> tuple:
+    """The stamps of a checkpoint and of its snapshot (None when there is none)."""
+    try:
+        snapshot = _file_stamp(snapshot_path(path))
+    except OSError:
+        snapshot = None
+    return _file_stamp(path), snapshot
 
 
 def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
@@ -120,24 +134,28 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
         ValueError: not a TEMP checkpoint, or trained for another ``robot`` than asked for.
     """
     from temp_gym.models.policy import PolicyCore
-    from temp_gym.models.snapshot import read_snapshot
+    from temp_gym.models.snapshot import read_snapshot, snapshot_bytes
     from temp_gym.planning.policy import check_compatible
 
-    # An absolute path is key enough (the digest dedups links and copies); resolving it would
+    # An absolute path is key enough (the digests dedup links and copies); resolving it would
     # cost a syscall per path component on every call.
     key = os.path.abspath(os.fspath(path))
-    stamp = _file_stamp(key)
+    stamps = _stamps(key)
     with _LOCK:
         known = _BY_FILE.get(key)
-        loaded = _BY_DIGEST.get(known[1]) if known is not None and known[0] == stamp else None
+        loaded = _BY_DIGEST.get(known[1]) if known is not None and known[0] == stamps else None
     if loaded is None:
         path = Path(key)
-        data = path.read_bytes()
+        data = read_checkpoint_bytes(path)
         digest = hashlib.sha256(data).hexdigest()
+        # Keyed by the snapshot's bytes too: a copy of a checkpoint with another snapshot beside
+        # it (a damaged or tampered one) never shares a core with the original.
+        stored = snapshot_bytes(path)
+        cache_key = (digest, None if stored is None else hashlib.sha256(stored).hexdigest())
         with _LOCK:
-            loaded = _BY_DIGEST.get(digest)
+            loaded = _BY_DIGEST.get(cache_key)
         if loaded is None:
-            snapshot = read_snapshot(path, digest)
+            snapshot = None if stored is None else read_snapshot(path, digest, stored)
             if snapshot is not None:
                 core = PolicyCore.from_snapshot(snapshot, _model_loader(path, digest))
                 loaded = LoadedCheckpoint(core, snapshot.meta, digest)
@@ -146,8 +164,8 @@ def load_cached(path: str | Path, robot: str | None = None) -> LoadedCheckpoint:
                 meta = {k: v for k, v in checkpoint.items() if k != "state_dict"}
                 loaded = LoadedCheckpoint(PolicyCore(model), meta, digest)
         with _LOCK:
-            _BY_DIGEST[digest] = loaded
-            _BY_FILE[key] = (stamp, digest)
+            _BY_DIGEST[cache_key] = loaded
+            _BY_FILE[key] = (stamps, cache_key)
     if robot is not None:
         info = loaded.core.info
         check_compatible(info.robot, info.dim, robot, None, source=key)
@@ -167,7 +185,7 @@ def _model_loader(path: Path, digest: str):
     """Loads the model of a snapshot's checkpoint later, if the file still has ``digest``."""
 
     def load():
-        data = path.read_bytes()
+        data = read_checkpoint_bytes(path)
         if hashlib.sha256(data).hexdigest() != digest:
             raise RuntimeError(
                 f"{path} changed since its policy was loaded (SHA-256 {digest[:12]}...); load "

@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import io
+import math
 import pickle
 import warnings
 from collections.abc import Mapping
@@ -41,12 +42,25 @@ import torch
 from torch import nn
 
 from temp_gym.config import ModelConfig
+from temp_gym.config.checks import check_section
 from temp_gym.config.typed import build
-from temp_gym.files import StoredFileError, atomic_write
+from temp_gym.files import atomic_write
+from temp_gym.jobs import brief
+from temp_gym.limits import (
+    MAX_MODEL_PARAMETERS,
+    MAX_PATH_LENGTH,
+    MAX_WEIGHT_MAGNITUDE,
+)
+from temp_gym.models.checkpoint_file import (  # noqa: F401  (CheckpointError re-exported)
+    NOT_A_CHECKPOINT,
+    CheckpointError,
+    read_checkpoint_bytes,
+)
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
 from temp_gym.planning.policy import check_compatible  # noqa: F401  (re-exported)
 from temp_gym.problem import robot_names
+from temp_gym.worlds.encoding import check_resolution
 from temp_gym.worlds.robots import robot_spec
 
 CHECKPOINT_VERSION = 1
@@ -117,8 +131,16 @@ class TEMPModel(nn.Module):
         encoding_resolution: int,
         max_path_length: int,
     ) -> TEMPModel:
-        """Build from a ``model`` section (or checkpoint dict), the robot, resolution and L."""
+        """Build from a ``model`` section (or checkpoint dict), the robot, resolution and L.
+
+        The sizes are checked first (`weight_shapes`), so a config that asks for more than
+        `temp_gym.limits` supports is refused before anything is allocated.
+
+        Raises:
+            ValueError: a size out of bounds, or too many weights in all (naming which).
+        """
         sizes = dataclasses.asdict(model_config_of(model_config))
+        weight_shapes(sizes, robot, encoding_resolution, max_path_length)
         return cls(robot, encoding_resolution, max_path_length, **sizes)
 
     def forward(
@@ -179,6 +201,47 @@ class TEMPModel(nn.Module):
         return sum(parameter.numel() for parameter in module.parameters())
 
 
+def weight_shapes(
+    model_config: ModelConfig | Mapping[str, Any] | None,
+    robot: str,
+    encoding_resolution: int,
+    max_path_length: int,
+) -> dict[str, tuple[int, ...]]:
+    """The shape of every weight of the model these sizes make, without allocating it.
+
+    Each size is checked against `temp_gym.limits` (the ``model`` section's bounds, the
+    occupancy grid's cells, L), then the model is built on PyTorch's ``meta`` device, which
+    holds shapes and no data, and its weights are counted.
+
+    Raises:
+        ValueError: a size out of bounds, or more than `MAX_MODEL_PARAMETERS` weights.
+    """
+    sizes = model_config_of(model_config)
+    check_section(sizes, "model")
+    spec = robot_spec(robot)
+    check_resolution(encoding_resolution, spec.workspace_dim, "encoding_resolution")
+    if isinstance(max_path_length, bool) or not 1 <= int(max_path_length) <= MAX_PATH_LENGTH:
+        raise ValueError(f"max_path_length: expected 1..{MAX_PATH_LENGTH}, got {max_path_length}")
+    if sizes.token_dim % sizes.num_heads:
+        raise ValueError(
+            f"model.token_dim: {sizes.token_dim} is not a multiple of model.num_heads "
+            f"({sizes.num_heads})"
+        )
+    with torch.device("meta"):
+        model = TEMPModel(
+            robot, int(encoding_resolution), int(max_path_length), **dataclasses.asdict(sizes)
+        )
+    shapes = {name: tuple(tensor.shape) for name, tensor in model.state_dict().items()}
+    count = sum(math.prod(shape) for shape in shapes.values())
+    if count > MAX_MODEL_PARAMETERS:
+        raise ValueError(
+            f"model: {count:,} weights, at most {MAX_MODEL_PARAMETERS:,} are supported "
+            "(temp_gym.limits); make token_dim, ffn_dim, eise_hidden, num_layers or "
+            "encoding_resolution smaller"
+        )
+    return shapes
+
+
 def weights_digest(state_dict: dict[str, torch.Tensor]) -> str:
     """SHA-256 of a state dict (names, shapes, bytes): ties reported figures to their weights."""
     digest = hashlib.sha256()
@@ -190,16 +253,9 @@ def weights_digest(state_dict: dict[str, torch.Tensor]) -> str:
     return digest.hexdigest()
 
 
-class CheckpointError(StoredFileError):
-    """A file that is not a loadable TEMP checkpoint; the message names it and why."""
-
-
-NOT_A_CHECKPOINT = "use a checkpoint written by trainers/bc.py or trainers/ship.py"
-
-
 def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) -> dict[str, Any]:
     """``torch.load(..., weights_only=True)``; every failure becomes a `CheckpointError`."""
-    source = path if data is None else io.BytesIO(data)
+    source = io.BytesIO(read_checkpoint_bytes(path) if data is None else data)
     try:
         with warnings.catch_warnings():  # torch warns about foreign pickle protocols
             warnings.simplefilter("ignore")
@@ -250,6 +306,15 @@ def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) 
                 f"weight {name!r} holds NaN or inf (training diverged, or the file is damaged)",
                 "use an earlier checkpoint, or retrain",
             )
+        if tensor.is_floating_point() and tensor.numel():
+            largest = float(tensor.detach().abs().max())
+            if largest > MAX_WEIGHT_MAGNITUDE:
+                raise CheckpointError(
+                    path,
+                    f"weight {name!r} holds {largest:.3g}, beyond {MAX_WEIGHT_MAGNITUDE:g} "
+                    "(training diverged, or the file is damaged)",
+                    "use an earlier checkpoint, or retrain",
+                )
     return checkpoint
 
 
@@ -274,13 +339,22 @@ def load_checkpoint(
     """
     checkpoint = _read_checkpoint(path, map_location, data)
     check_compatible(checkpoint["robot"], checkpoint["dim"], robot, dim, source=str(path))
+    sizes = (checkpoint["robot"], checkpoint["encoding_resolution"], checkpoint["max_path_length"])
+    try:  # the stored sizes against the limits and the stored weights, before allocating
+        expected = weight_shapes(checkpoint["model_config"], *sizes)
+    except ValueError as error:
+        first = (str(error).splitlines() or [type(error).__name__])[0][:200]
+        raise CheckpointError(
+            path, f"unsupported model sizes ({first})", NOT_A_CHECKPOINT
+        ) from None
+    stored = {name: tuple(tensor.shape) for name, tensor in checkpoint["state_dict"].items()}
+    if stored != expected:
+        raise CheckpointError(
+            path, f"its weights do not fit its model_config ({_shape_mismatch(expected, stored)})",
+            NOT_A_CHECKPOINT,
+        )  # fmt: skip
     try:
-        model = TEMPModel.from_config(
-            checkpoint["model_config"],
-            checkpoint["robot"],
-            checkpoint["encoding_resolution"],
-            checkpoint["max_path_length"],
-        )
+        model = TEMPModel.from_config(checkpoint["model_config"], *sizes)
         model.load_state_dict(checkpoint["state_dict"])
     except (ValueError, TypeError, RuntimeError, KeyError) as error:
         first = (str(error).splitlines() or [type(error).__name__])[0][:200]
@@ -288,3 +362,15 @@ def load_checkpoint(
             path, f"its weights do not fit its model_config ({first})", NOT_A_CHECKPOINT
         ) from None
     return model, checkpoint
+
+
+def _shape_mismatch(expected: dict[str, tuple], stored: dict[str, tuple]) -> str:
+    """The first difference between the weights a config makes and those a file holds."""
+    missing = sorted(set(expected) - set(stored))
+    if missing:
+        return f"no weight {missing[0]!r}"
+    extra = sorted(set(stored) - set(expected))
+    if extra:
+        return f"an unexpected weight {brief(extra[0], 60)}"
+    name = next(name for name in expected if expected[name] != stored[name])
+    return f"{name!r} has shape {stored[name]}, the config makes {expected[name]}"

@@ -95,7 +95,10 @@ class TreeObserver:
         self.problem = problem
         self.max_path_length = int(max_path_length)
         self.max_nodes = int(max_nodes)
-        self.distance = max(float(np.linalg.norm(problem.goal - problem.start)), 1e-12)
+        # A floor relative to the bounds (a start inside the goal region may sit on it), not
+        # an absolute one: worlds may be 1e-30 across.
+        floor = 1e-12 * float(np.linalg.norm(problem.bounds[1] - problem.bounds[0]))
+        self.distance = max(float(np.linalg.norm(problem.goal - problem.start)), floor)
         self._params = np.concatenate(
             [[self.distance, self.max_nodes, self.max_path_length], np.ravel(problem.bounds)]
         )

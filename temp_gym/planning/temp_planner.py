@@ -81,6 +81,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from temp_gym import hooks
 from temp_gym.planning.anytime import finished, grow_anytime
 from temp_gym.planning.attention import (
     RESUME_AFTER,
@@ -110,29 +111,27 @@ from temp_gym.problem import Problem
 Number = TypeVar("Number", int, float)
 """A setting's type: `_given_or_declared` returns what its check and default give."""
 
-_default_policy: Callable[[str], SamplingPolicy] | None = None
-"""``loader(robot name)``: the policy the planner uses when given none (`set_default_policy`)."""
-
 
 def set_default_policy(loader: Callable[[str], SamplingPolicy] | None) -> None:
     """Set what the ``temp`` planner uses when ``plan`` is given no policy.
 
     ``loader(robot)`` returns a `temp_gym.planning.policy.SamplingPolicy` for a robot name.
     Importing `temp_gym` sets the shipped policies (`temp_gym.load_policy`, loaded on first
-    use): the planning layer imports no model code, so the loader is handed in from above.
+    use): the planning layer imports no model code, so the loader is handed in from above
+    (kept in `temp_gym.hooks`, which importing `temp_gym` can set without this module).
     """
-    global _default_policy
-    _default_policy = loader
+    hooks.default_policy_loader = loader
 
 
 def default_policy(robot: str) -> SamplingPolicy:
     """The policy the ``temp`` planner uses for ``robot`` when given none."""
-    if _default_policy is None:
+    loader = hooks.default_policy_loader
+    if loader is None:
         raise ValueError(
             "policy: the temp planner has no default policy (set_default_policy(None) was "
             "called); pass policy=..."
         )
-    return _default_policy(robot)
+    return loader(robot)
 
 
 def temp(problem: Problem, settings: PlanSettings) -> PlanResult:

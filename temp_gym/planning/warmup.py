@@ -16,6 +16,13 @@ compiling with an empty cache, inside its time); a fourth, on uniform samples wi
 patience of one node, stalls, so that the phases after a stall are loaded too (their
 compiled sequence cost the first stalled 2D plan of a process 66 ms of loading).
 
+With an empty cache the compiling takes minutes (longest for the arm), so the first time a
+process meets a compilation it logs one line through the ``temp_gym`` logger at WARNING level,
+which Python prints on stderr unless logging is configured otherwise (as matplotlib announces
+building its font cache): "compiling the planner's kernels for kuka_iiwa14 (first use, about 2
+minutes; cached afterwards)". It is numba's own compile event that triggers it, never a cache
+load, so a warm cache stays quiet.
+
 It leaves no trace in results or in the caller's objects: planners seed their own
 generators from ``settings.seed``, the per-workspace caches it fills (free volume,
 occupancy, EISE encoding) hold the values the timed run would compute, and the caller's
@@ -27,15 +34,20 @@ ours too (OMPL seeds a process-wide stream at its first run, which must stay the
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
+from numba.core import event
 
 from temp_gym.planning.result import PlanResult, PlanSettings
 from temp_gym.planning.tree import default_step_size, workspace_free_volume
 from temp_gym.problem import Problem
 from temp_gym.worlds.checkers import certify_path, make_checker
+from temp_gym.worlds.robots import robot_spec
+
+logger = logging.getLogger("temp_gym")
 
 WARM_UP_NODES = 64
 """Tree nodes of a warm-up plan (half of them attention-based for ``temp``)."""
@@ -43,6 +55,30 @@ STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star"}
 """Planners warmed up through another (see the module docstring)."""
 
 _WARMED: set[tuple[str, str]] = set()
+_ANNOUNCED: set[str] = set()
+
+
+class CompileNotice(event.Listener):
+    """Logs, once per process and robot, that numba is compiling (see the module docstring)."""
+
+    def __init__(self, robot: str) -> None:
+        self.robot = robot
+
+    def on_start(self, event: event.Event) -> None:
+        """The first compilation for this robot in this process: say so, with an estimate."""
+        if self.robot in _ANNOUNCED:
+            return
+        _ANNOUNCED.add(self.robot)
+        minutes = robot_spec(self.robot).compile_minutes
+        estimate = "a minute" if minutes <= 1 else f"{minutes:g} minutes"
+        logger.warning(
+            "compiling the planner's kernels for %s (first use, about %s; cached afterwards)",
+            self.robot,
+            estimate,
+        )
+
+    def on_end(self, event: event.Event) -> None:
+        """Nothing to do when a compilation ends."""
 
 
 def warm_up(
@@ -65,6 +101,20 @@ def warm_up(
     if key in _WARMED:  # checked before any copy of the policy is made: this is per call
         return False
     _WARMED.add(key)
+    with event.install_listener("numba:compile", CompileNotice(problem.robot)):
+        _warm(problem, name, settings, planners)
+    return True
+
+
+def _warm(
+    problem: Problem,
+    name: str,
+    settings: PlanSettings,
+    planners: dict[str, Callable[[Problem, PlanSettings], PlanResult]],
+) -> None:
+    """The warm-up plans and checks of `warm_up` (its docstring and the module's say which)."""
+    policy = settings.policy
+    fresh = None if policy is None else getattr(policy, "fresh", None)
     if name == "temp" and fresh is not None:
         policy = fresh()
         if policy is None:  # no copy to be had: warm up what every planner shares
@@ -105,7 +155,6 @@ def warm_up(
     # to load that kernel: compute it here, untimed, through the per-workspace cache a tree
     # reads (for the iiwa's Monte Carlo estimate the plans above already filled it).
     workspace_free_volume(problem, checker)
-    return True
 
 
 def _joinable_problem(problem: Problem, checker, step_size: float | None) -> Problem | None:

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from temp_gym import limits
 from temp_gym.problem.parsing import (
     MIN_LENGTH,
     as_float,
@@ -83,11 +84,10 @@ class Problem:
             raise ValueError(
                 f"goal_radius: {radius:g} is below {MIN_LENGTH:g} (its square would underflow)"
             )
+        joints = robot_named(self.workspace.robot).joint_limits is not None
         for name, point in (("start", start), ("goal", goal)):
             if np.any(point < bounds[0]) or np.any(point > bounds[1]):
-                raise ValueError(
-                    f"{name}: {point.tolist()} is outside the bounds {bounds.tolist()}"
-                )
+                raise ValueError(f"{name}: {outside_bounds(point, bounds, joints)}")
         start, goal = start + 0.0, goal + 0.0  # -0.0 as 0.0, as `Workspace` stores its arrays
         for array in (start, goal):
             array.setflags(write=False)
@@ -156,7 +156,10 @@ class Problem:
             raise ValueError(f"problem: expected a JSON object, got {type(data).__name__}")
         unknown = set(data) - _KEYS
         if unknown:
-            raise ValueError(f"{sorted(unknown)[0]}: unknown key; allowed keys are {sorted(_KEYS)}")
+            raise ValueError(
+                f"{_cut(sorted(map(str, unknown))[0])}: unknown key; allowed keys are "
+                f"{sorted(_KEYS)}"
+            )
         missing = (_KEYS - {"bounds"}) - set(data)
         if missing:
             raise ValueError(f"{sorted(missing)[0]}: missing required key")
@@ -217,22 +220,56 @@ class Problem:
         Path(path).write_text(json.dumps(self.to_dict(), indent=1) + "\n")
 
 
-MAX_PROBLEM_BYTES = 64 * 2**20
-"""`Problem.load` refuses larger files: that is hundreds of thousands of boxes, far more than
-any collision checker here plans among."""
+def outside_bounds(
+    point: np.ndarray, bounds: np.ndarray, joints: bool = False, most: int = 3
+) -> str:
+    """Which coordinates of ``point`` lie outside ``bounds``, each with its value and limit.
+
+    Names the coordinate (``joint 2`` of an arm, counted from 1 as the URDF does, or ``[1]``)
+    rather than printing every bound; at most ``most`` are listed, then how many more.
+
+    Example:
+        >>> outside_bounds(np.array([0.0, 3.2]), np.array([[-1, -2.9], [1, 2.9]]), joints=True)
+        'outside the bounds: joint 2 = 3.2 is above its limit 2.9'
+    """
+    below = np.flatnonzero(point < bounds[0])
+    above = np.flatnonzero(point > bounds[1])
+    name = (lambda i: f"joint {i + 1}") if joints else (lambda i: f"[{i}]")
+    limit = "its limit" if joints else "the bound"
+    parts = [f"{name(i)} = {point[i]:.6g} is below {limit} {bounds[0, i]:.6g}" for i in below]
+    parts += [f"{name(i)} = {point[i]:.6g} is above {limit} {bounds[1, i]:.6g}" for i in above]
+    more = f" and {len(parts) - most} more" if len(parts) > most else ""
+    return f"outside the bounds: {'; '.join(parts[:most])}{more}"
+
+
+def _cut(key: str, most: int = 40) -> str:
+    """A key for a message, cut short: a hostile file's key may be megabytes long."""
+    return key if len(key) <= most else f"{key[:most]}...({len(key)} characters)"
+
+
+MAX_PROBLEM_BYTES = limits.MAX_PROBLEM_BYTES
+"""`Problem.load` refuses larger files (`temp_gym.limits`)."""
 
 
 def _boxes(obstacles: Any, wdim: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``obstacles`` entry as ``(centers, half_extents)``, each ``(M, wdim)``."""
     if not isinstance(obstacles, (list, tuple)):
         raise ValueError("obstacles: expected a list of boxes")
+    if len(obstacles) > limits.MAX_OBSTACLES:
+        raise ValueError(
+            f"obstacles: {len(obstacles)} boxes, at most {limits.MAX_OBSTACLES} are supported "
+            "(docs/security.md)"
+        )
     centers, halves = [], []
     for i, box in enumerate(obstacles):
         if not isinstance(box, dict):
             raise ValueError(f"obstacles[{i}]: expected an object with center and half_extents")
         extra = set(box) - _BOX_KEYS
         if extra:
-            raise ValueError(f"obstacles[{i}].{sorted(extra)[0]}: unknown key")
+            raise ValueError(
+                f"obstacles[{i}].{_cut(sorted(map(str, extra))[0])}: unknown key; a box "
+                f"has {' and '.join(sorted(_BOX_KEYS))}"
+            )
         if _BOX_KEYS - set(box):
             raise ValueError(f"obstacles[{i}]: needs both center and half_extents")
         centers.append(float_vector(box["center"], f"obstacles[{i}].center", wdim))

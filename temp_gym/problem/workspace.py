@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from temp_gym.limits import MAX_OBSTACLES
 from temp_gym.problem.parsing import MIN_LENGTH, float_array
 from temp_gym.problem.robots import robot_named
 
@@ -62,6 +63,11 @@ class Workspace:
         halves = halves.reshape(-1, wdim)
         if centers.shape != halves.shape:
             raise ValueError("obstacles: centers and half_extents differ in count")
+        if len(centers) > MAX_OBSTACLES:
+            raise ValueError(
+                f"obstacles: {len(centers)} boxes, at most {MAX_OBSTACLES} are supported "
+                "(temp_gym.limits)"
+            )
         if np.any(halves <= 0):
             bad = int(np.argmax(np.any(halves <= 0, axis=1)))
             raise ValueError(

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from temp_gym.config import Config
+from temp_gym.config.checks import CHOICES
 from temp_gym.tensorboard_summaries import add_hparams, add_scalar
 
 _VAL_RECONS = (
@@ -79,7 +80,7 @@ def describe_tag(tag: str) -> str | None:
     return TAG_DESCRIPTIONS.get(tag)
 
 
-LOGGER_BACKENDS = ("tensorboard", "")
+LOGGER_BACKENDS = CHOICES["logger.backend"]
 """``logger.backend``: TensorBoard, or none ("")."""
 
 

@@ -13,9 +13,39 @@ import functools
 import numba
 import numpy as np
 
+from temp_gym.limits import MAX_ENCODING_CELLS, MIN_ENCODING_RESOLUTION
 from temp_gym.problem import Workspace
 from temp_gym.worlds.cells import next_cell
 from temp_gym.worlds.robots import robot_spec
+
+
+def check_resolution(resolution: object, workspace_dim: int, name: str = "resolution") -> int:
+    """``resolution`` as an int if its grid has at most `temp_gym.limits.MAX_ENCODING_CELLS`.
+
+    Raises:
+        ValueError: not an integer of at least `temp_gym.limits.MIN_ENCODING_RESOLUTION`, or
+            a grid of more cells than supported; the message names ``name``.
+    """
+    integral = isinstance(resolution, (float, np.floating)) and float(resolution).is_integer()
+    if isinstance(resolution, bool) or not (isinstance(resolution, (int, np.integer)) or integral):
+        raise ValueError(f"{name}: expected an integer, got {resolution!r}")
+    resolution = int(resolution)
+    if resolution < MIN_ENCODING_RESOLUTION:
+        raise ValueError(
+            f"{name}: expected at least {MIN_ENCODING_RESOLUTION} cells per axis, got {resolution}"
+        )
+    most = int(round(MAX_ENCODING_CELLS ** (1 / workspace_dim)))
+    while (most + 1) ** workspace_dim <= MAX_ENCODING_CELLS:
+        most += 1
+    while most**workspace_dim > MAX_ENCODING_CELLS:
+        most -= 1
+    if resolution > most:
+        raise ValueError(
+            f"{name}: {resolution} cells per axis is {resolution**workspace_dim:,} cells in "
+            f"{workspace_dim}D; at most {most} per axis ({MAX_ENCODING_CELLS:,} cells) are "
+            "supported"
+        )
+    return resolution
 
 
 def workspace_region(workspace: Workspace) -> np.ndarray:
@@ -31,9 +61,8 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     Examples:
         >>> grid = occupancy_grid(problem.workspace, resolution=32)  # (32, 32) for 2D
     """
-    if int(resolution) != resolution or resolution < 2:
-        raise ValueError(f"resolution: expected an integer >= 2, got {resolution!r}")
     region, lower, upper = occupancy_boxes(workspace)
+    resolution = check_resolution(resolution, region.shape[1])
     key = (region.tobytes(), lower.shape, lower.tobytes(), upper.tobytes(), int(resolution))
     return _grid(key).copy()  # a fresh array: callers may write to it
 

@@ -2,14 +2,13 @@
 
 import shutil
 import threading
-from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-from temp_gym import Problem, plan
-from temp_gym.models import registry
+from temp_gym import Problem, files, plan
+from temp_gym.models import checkpoint_file, registry, snapshot
 from temp_gym.models.registry import (
     load_cached,
     load_policy,
@@ -23,19 +22,21 @@ PROBLEM = Problem.load("examples/point2d.json")
 
 @pytest.fixture
 def count_reads(monkeypatch):
-    """Counts checkpoint file reads (both the digest's and torch.load's)."""
-    reads = {"bytes": 0, "torch": 0}
-    read_bytes, torch_load = Path.read_bytes, torch.load
+    """Counts checkpoint file reads (the digest's and torch.load's) and snapshot reads."""
+    reads = {"bytes": 0, "torch": 0, "snapshot": 0}
+    read_capped, torch_load = files.read_capped, torch.load
 
-    def counted_read_bytes(self):
-        reads["bytes"] += 1
-        return read_bytes(self)
+    def counted_read_capped(path, *args, **kwargs):
+        data = read_capped(path, *args, **kwargs)  # a missing snapshot is not a read
+        reads["snapshot" if str(path).endswith(".kernels.npz") else "bytes"] += 1
+        return data
 
     def counted_torch_load(*args, **kwargs):
         reads["torch"] += 1
         return torch_load(*args, **kwargs)
 
-    monkeypatch.setattr(Path, "read_bytes", counted_read_bytes)
+    monkeypatch.setattr(checkpoint_file, "read_capped", counted_read_capped)
+    monkeypatch.setattr(snapshot, "read_capped", counted_read_capped)
     monkeypatch.setattr(torch, "load", counted_torch_load)
     registry.clear_cache()
     yield reads
@@ -44,9 +45,10 @@ def count_reads(monkeypatch):
 
 def test_a_second_plan_reads_nothing_from_disk(count_reads):
     first = plan(PROBLEM, seed=0, stop_at_first=True)
-    assert count_reads == {"bytes": 1, "torch": 0}  # the digest; the weights: the snapshot's
+    # the checkpoint's digest; the weights: the snapshot's, read once
+    assert count_reads == {"bytes": 1, "torch": 0, "snapshot": 1}
     second = plan(PROBLEM, seed=0, stop_at_first=True)
-    assert count_reads == {"bytes": 1, "torch": 0}
+    assert count_reads == {"bytes": 1, "torch": 0, "snapshot": 1}
     np.testing.assert_array_equal(first.path, second.path)  # fresh policy state per call
 
 
@@ -62,7 +64,7 @@ def test_a_changed_file_is_reloaded_an_identical_one_is_not(count_reads, tmp_pat
     first = load_cached(path)
     path.touch()  # new modification time, same bytes: hashed again, not loaded again
     again = load_cached(path)
-    assert again is first and count_reads == {"bytes": 2, "torch": 1}
+    assert again is first and count_reads == {"bytes": 2, "torch": 1, "snapshot": 0}
     shutil.copy(registry.shipped_checkpoint("point3d"), path)  # new content
     other = load_cached(path)
     assert other is not first and other.core.model.robot == "point3d"
@@ -100,7 +102,7 @@ def test_a_relative_path_and_its_absolute_twin_share_one_load(count_reads, tmp_p
     shutil.copy(registry.shipped_checkpoint("point2d"), path)
     monkeypatch.chdir(tmp_path)
     assert load_cached("policy.pt") is load_cached(path)
-    assert count_reads == {"bytes": 1, "torch": 1}
+    assert count_reads == {"bytes": 1, "torch": 1, "snapshot": 0}
 
 
 def test_the_default_policy_is_kept_per_thread_and_per_digest(count_reads, monkeypatch, tmp_path):
@@ -113,16 +115,19 @@ def test_the_default_policy_is_kept_per_thread_and_per_digest(count_reads, monke
     assert elsewhere[0] is not first and elsewhere[0].core is first.core
     shipped = registry.shipped_checkpoint("point2d")
     monkeypatch.setattr(registry, "CHECKPOINT_DIR", tmp_path)
-    shutil.copy(shipped, tmp_path / "2d.pt")  # another file, the same digest: the same policy
+    # another file, the same bytes and the same snapshot beside it: the same policy
+    shutil.copy(shipped, tmp_path / "2d.pt")
+    shutil.copy(snapshot.snapshot_path(shipped), tmp_path / "2d.kernels.npz")
     assert shipped_policy("point2d") is first
+    (tmp_path / "2d.kernels.npz").unlink()
     checkpoint = torch.load(shipped, weights_only=True)
     checkpoint["note"] = "changed"
     torch.save(checkpoint, tmp_path / "2d.pt")  # a new digest: a new policy on new weights
     changed = shipped_policy("point2d")
     assert changed is not first and changed.core is not first.core
-    # The shipped file is read by its snapshot (no torch.load); the copies have none beside
-    # them; one torch.load is this test's own.
-    assert count_reads == {"bytes": 3, "torch": 2}
+    # The shipped file and its copy are read by their snapshot (no torch.load); the changed
+    # copy has none beside it; one torch.load is this test's own.
+    assert count_reads == {"bytes": 3, "torch": 2, "snapshot": 2}
 
 
 def test_plans_with_the_kept_default_policy_equal_plans_with_a_fresh_one(count_reads):
@@ -150,3 +155,36 @@ def test_a_bad_noise_or_seed_is_refused_when_the_policy_is_made(kwargs, name):
     if name == "seed":
         with pytest.raises(ValueError, match="^seed: expected"):
             policy.reset(generate_problem("point2d", np.random.default_rng(0)), seed=kwargs["seed"])
+
+
+def test_a_tampered_snapshot_beside_a_copy_serves_neither_the_copy_nor_the_original(tmp_path):
+    registry.clear_cache()
+    shipped = registry.shipped_checkpoint("point2d")
+    copy = tmp_path / "2d.pt"
+    shutil.copy(shipped, copy)
+    with np.load(snapshot.snapshot_path(shipped), allow_pickle=False) as stored:
+        arrays = {name: stored[name] for name in stored.files}
+    name = next(name for name in sorted(arrays) if name.startswith("mpt."))
+    original = arrays[name]
+    for value, reason in [
+        (0.5, "its arrays do not match their stored digest"),  # plausible weights, edited
+        (np.nan, "holds NaN or inf"),  # and with the digest left out: values no model has
+        (1e30, "beyond"),
+    ]:
+        arrays[name] = np.full_like(original, value)
+        if value != 0.5:
+            arrays.pop("content", None)
+        np.savez(tmp_path / "2d.kernels.npz", **arrays)
+        with pytest.raises(ValueError, match=r"2d\.kernels\.npz: a damaged inference snapshot"):
+            load_cached(copy)
+        with pytest.raises(ValueError, match=reason):
+            load_cached(copy)
+    result = plan(PROBLEM, seed=0, stop_at_first=True)  # the shipped policy, unharmed
+    assert result.success
+    registry.clear_cache()
+
+
+@pytest.mark.parametrize("source", ["/dev/zero", "/dev/null"])
+def test_a_device_is_refused_as_a_checkpoint_before_it_is_read(source):
+    with pytest.raises(ValueError, match="not a regular file"):
+        load_cached(source)

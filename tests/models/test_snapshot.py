@@ -73,6 +73,8 @@ def test_each_shipped_checkpoint_has_its_own_snapshot_beside_it(robot):
         np.testing.assert_array_equal(snapshot.eise[name], value, err_msg=name)
     meta = {key: value for key, value in checkpoint.items() if key != "state_dict"}
     assert snapshot.meta == json.loads(json.dumps(meta))
+    with np.load(snapshot_path(path), allow_pickle=False) as stored:
+        assert "content" in stored.files  # its own arrays' digest, checked when read
 
 
 def test_a_snapshot_of_other_bytes_is_ignored(tmp_path):

@@ -153,6 +153,7 @@ def test_same_seed_same_result_and_policy_validation(wall):
 
 
 def test_without_a_policy_the_planner_asks_the_default_hook(wall, monkeypatch):
+    from temp_gym import hooks
     from temp_gym.planning import temp_planner
 
     asked = []
@@ -162,11 +163,11 @@ def test_without_a_policy_the_planner_asks_the_default_hook(wall, monkeypatch):
         return TowardsGoal()
 
     problem = Problem.from_dict(wall)
-    monkeypatch.setattr(temp_planner, "_default_policy", loader)
+    monkeypatch.setattr(hooks, "default_policy_loader", loader)
     result = plan(problem, planner="temp", seed=0, max_nodes=300, stop_at_first=True)
     assert asked and set(asked) == {problem.robot}
     assert result.success
-    monkeypatch.setattr(temp_planner, "_default_policy", None)
+    monkeypatch.setattr(hooks, "default_policy_loader", None)
     with pytest.raises(ValueError, match="no default policy"):
         temp_planner.temp(problem, temp_planner.PlanSettings(max_nodes=10))
 

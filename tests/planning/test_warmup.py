@@ -214,3 +214,50 @@ def test_the_warm_up_plans_a_query_it_cannot_join_without_failing(monkeypatch, w
     monkeypatch.setattr(warmup, "_WARMED", set())  # as in a fresh process
     result = plan(Problem.from_dict(boxed), seed=0, max_nodes=300, step_size=1.0)
     assert result.nodes > 1
+
+
+def test_a_compilation_during_the_warm_up_is_said_once_with_an_estimate(monkeypatch, caplog):
+    """numba's compile event, not a cache load, triggers one line per robot and process."""
+    import logging
+
+    import numba
+
+    from temp_gym import Problem
+    from temp_gym.planning import warmup
+    from temp_gym.planning.plan import PLANNERS
+    from temp_gym.planning.result import PlanSettings
+
+    monkeypatch.setattr(warmup, "_WARMED", set())
+    monkeypatch.setattr(warmup, "_ANNOUNCED", set())
+    problem = Problem.from_dict(PROBLEMS["point2d"])
+    calls = []
+
+    def compiling_planner(problem, settings):
+        @numba.njit  # a new function on every call: compiled, never loaded from a cache
+        def fresh(x):
+            return x + 1
+
+        fresh(len(calls))
+        calls.append(settings)
+        return PLANNERS["rrt_star"](problem, settings)
+
+    planners = {"rrt_star": compiling_planner}
+    with caplog.at_level(logging.WARNING, logger="temp_gym"):
+        assert warmup.warm_up(problem, "rrt_star", PlanSettings(), planners)
+        assert not warmup.warm_up(problem, "rrt_star", PlanSettings(), planners)  # done
+    lines = [record.getMessage() for record in caplog.records if record.name == "temp_gym"]
+    assert len(calls) >= 2 and lines == [
+        "compiling the planner's kernels for point2d (first use, about a minute; cached afterwards)"
+    ]
+
+
+def test_a_warm_cache_says_nothing(tmp_path):
+    """Once the kernels are in numba's cache, a new process loads them: no line on stderr."""
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEMS["point2d"]))
+    command = [sys.executable, "-m", "temp_gym.cli", str(problem), "--planner", "rrt_star",
+               "--max-nodes", "100"]  # fmt: skip
+    for _ in range(2):  # the first run fills the cache if this is the suite's first plan
+        done = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=ROOT)
+        assert done.returncode in (0, 3), done.stderr
+    assert done.stderr == ""

@@ -235,9 +235,9 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
      ("train_eval.tasks=0", "train_eval.tasks: must be at least 1"),
      # found only after the dataset was built, with a traceback, before 2026-11-24:
      ("train.monitor=foo", "train.monitor: expected one of"),
-     ("model.num_heads=3", "model: token_dim 32 is not divisible by num_heads 3"),
+     ("model.num_heads=3", "model.token_dim: 32 is not a multiple of model.num_heads (3)"),
      ("model.prediction=foo", "model: prediction: expected"),
-     ("model.dropout=2", "model: dropout probability"),
+     ("model.dropout=2", "model.dropout: must be at most"),
      ("train.device=foo", "train.device:"),
      ("logger.backend=foo", "logger.backend: expected")],
 )  # fmt: skip
@@ -248,3 +248,41 @@ def test_settings_that_would_train_or_compare_on_nothing_are_refused(tmp_path, o
     done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and message in done.stderr, done.stderr[-2000:]
     assert not (tmp_path / "data").exists() and not (tmp_path / "runs").exists()  # before any work
+
+
+def test_divergence_and_a_tampered_dataset_stop_in_one_line(tmp_path):
+    """optim.lr=1e30 makes the loss NaN: no checkpoint is kept. Edited columns are refused."""
+    import json
+
+    import numpy as np
+
+    from temp_gym.data.tables import file_digest as table_digest
+
+    def bc(*overrides: str) -> subprocess.CompletedProcess:
+        command = [sys.executable, str(ROOT / "trainers" / "bc.py"), "--config",
+                   str(ROOT / "configs" / "tiny.yaml"), "--no-progress", "--skip-eval",
+                   f"data.dir={tmp_path / 'data'}", "data.workers=1",
+                   f"logger.dir={tmp_path / 'runs'}", "logger.backend=", *overrides]  # fmt: skip
+        env = dict(os.environ, OMP_NUM_THREADS="1")
+        return subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=300)  # fmt: skip
+
+    diverged = bc("optim.lr=1e30", "train.max_epochs=2")
+    assert diverged.returncode == 2, diverged.stderr[-2000:]
+    assert diverged.stderr.strip().splitlines()[-1].startswith("bc.py: error: training diverged")
+    run_dir = tmp_path / "runs" / "TEMP-2D-v0__bc__0"
+    assert not (run_dir / "best.pt").exists() and not (run_dir / "last.pt").exists()
+
+    target = tmp_path / "data" / "train" / "buffer" / "target.npy"
+    values = np.load(target)
+    values[0, 0] = np.nan
+    np.save(target, values)
+    card_path = tmp_path / "data" / "dataset_card.json"
+    card = json.loads(card_path.read_text())
+    card["files"]["train/buffer/target.npy"] = table_digest(target)  # the card rewritten to match
+    card_path.write_text(json.dumps(card))
+    refused = bc("train.max_epochs=1", "train.exp_name=tampered", "--no-resume")
+    assert refused.returncode == 2
+    lines = refused.stderr.strip().splitlines()
+    assert len(lines) == 1 and "target.npy: holds NaN or inf" in lines[0], refused.stderr
+    assert not (tmp_path / "runs" / "TEMP-2D-v0__tampered__0").exists()

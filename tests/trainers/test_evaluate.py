@@ -8,6 +8,7 @@ import pytest
 import torch
 
 from temp_gym.config.errors import ConfigError
+from temp_gym.evaluation.runner import ManifestMismatchError
 from temp_gym.models.temp import TEMPModel, weights_digest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -52,7 +53,7 @@ def test_evaluate_then_make_results(tmp_path, monkeypatch):
 
 def test_evaluate_refuses_a_checkpoint_for_another_robot(tmp_path):
     TEMPModel.from_config(SMALL, "point3d", 8, 64).save(tmp_path / "best.pt")
-    with pytest.raises(SystemExit, match="evaluate.py: error: .*point3d"):
+    with pytest.raises(ConfigError, match="--checkpoint: .*point3d"):
         evaluate.main(["--config", str(ROOT / "configs" / "tiny.yaml"),
                        "--checkpoint", str(tmp_path / "best.pt")])  # fmt: skip
 
@@ -69,13 +70,13 @@ def test_config_is_required_and_every_flag_shows_its_default(capsys):
 
 @pytest.mark.parametrize(
     ("override", "message"),
-    [("evaluation.tasks=0", "evaluation.tasks: expected at least 1"),  # ran the full 100
-     ("evaluation.curve_tasks=-1", "evaluation.curve_tasks: expected at least 0"),  # ran
+    [("evaluation.tasks=0", "evaluation.tasks: must be at least 1"),  # ran the full 100
+     ("evaluation.curve_tasks=-1", "evaluation.curve_tasks: must be at least 0"),  # ran
      # these failed in the workers, with a traceback:
-     ("evaluation.time_limit=-1", "evaluation.time_limit: expected a non-negative"),
-     ("evaluation.max_nodes=0", "evaluation.max_nodes: expected an integer"),
+     ("evaluation.time_limit=-1", "evaluation.time_limit: must be positive"),
+     ("evaluation.max_nodes=0", "evaluation.max_nodes: must be at least 1"),
      ("evaluation.baselines=[foo]", "evaluation.baselines: unknown planner 'foo'"),
-     ("evaluation.noise_std=-1", "evaluation.noise_std: expected a finite number"),
+     ("evaluation.noise_std=-1", "evaluation.noise_std: must be at least 0"),
      ("evaluation.horizon=9", "evaluation.horizon: expected an integer in 1..")],
 )  # fmt: skip
 def test_bad_evaluation_settings_are_refused_by_name_before_any_task(tmp_path, override, message):
@@ -120,7 +121,7 @@ def test_a_checkpoints_path_window_joins_the_manifest(tmp_path, monkeypatch):
     checkpoint = torch.load(tmp_path / "best.pt", weights_only=True)
     checkpoint["planner"] = {**checkpoint.get("planner", {}), "path_window": 3}
     torch.save(checkpoint, tmp_path / "best.pt")
-    with pytest.raises(SystemExit, match="evaluate.py: error"):
+    with pytest.raises(ManifestMismatchError):
         evaluate.main(args)
     evaluate.main([*args[:-1], "evaluation.out=windowed"])
     assert json.loads(Path("windowed/run.json").read_text())["path_window"] == 3

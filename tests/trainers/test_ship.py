@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import torch
 
+from temp_gym.config import ConfigError
 from temp_gym.models import registry
 from temp_gym.models.snapshot import file_digest, read_snapshot
 from temp_gym.models.temp import TEMPModel, load_checkpoint, weights_digest
@@ -64,7 +65,7 @@ def test_refresh_evaluation_rewrites_only_that_section_for_the_same_weights(ship
     (results / "results.md").write_text("| a table |\n")
     (results / "results.json").write_text('{"checkpoint_digest": "other weights"}')
     refresh = ["--refresh-evaluation", "TEMP-2D-v0", "--out-dir", str(path.parent)]
-    with pytest.raises(SystemExit, match="made with other weights"):
+    with pytest.raises(ConfigError, match="made with other weights"):
         ship.main(refresh)
     assert "Not evaluated yet" in card.read_text()
     digest = weights_digest(model.state_dict())
@@ -73,7 +74,7 @@ def test_refresh_evaluation_rewrites_only_that_section_for_the_same_weights(ship
     text = card.read_text()
     assert text.startswith(head + "\n## Evaluation\nThe paper's protocol")
     assert text.endswith("| a table |\n") and "Not evaluated yet" not in text
-    with pytest.raises(SystemExit, match="expected one of"):
+    with pytest.raises(ConfigError, match="expected one of"):
         ship.main(["--refresh-evaluation", "TEMP-9D-v0"])
 
 
@@ -113,7 +114,7 @@ def test_a_near_goal_factor_is_shipped_carried_and_applied(shipped, tmp_path):
     policy = registry.policy_from_checkpoint(again)
     assert policy.attention_near_goal_factor == 5.0
     assert registry.load_policy("TEMP-2D-v0").attention_near_goal_factor is None  # the fixture's
-    with pytest.raises(SystemExit, match="near-goal-factor"):
+    with pytest.raises(SystemExit):  # argparse: one line, exit status 2
         ship.main([*args, "--attention-near-goal-factor", "0.5", "--out-dir", str(out)])
 
 
@@ -192,14 +193,14 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
         ("colour=red", "key=value"),
         ("attention_follow_fallback", "key=value"),
     ]:
-        with pytest.raises(SystemExit, match=message):
+        with pytest.raises(ConfigError, match=message):
             ship.main(["--update-planner", "TEMP-2D-v0", bad, "--out-dir", out])
     _, unchanged = load_checkpoint(path, robot="point2d")  # refused: nothing was written
     assert unchanged["planner"] == {**checkpoint["planner"], "attention_resume": 1,
                                     "attention_resume_growth": 4, "attention_rounds": 2,
                                     "path_window": 3, "attention_uniform": 0,
                                     "attention_local_fallback": 0}  # fmt: skip
-    with pytest.raises(SystemExit, match="expected one of"):
+    with pytest.raises(ConfigError, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
 
 

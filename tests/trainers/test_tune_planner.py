@@ -10,6 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from temp_gym.jobs import run_script  # noqa: E402
 from trainers import tune_planner  # noqa: E402
 
 ARGS = ["--config", "configs/2d.yaml", "--checkpoint", "temp_gym/checkpoints/2d.pt"]
@@ -52,9 +53,9 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
 )  # fmt: skip
 def test_a_bad_setting_is_refused_and_named(capsys, monkeypatch, args, message):
     monkeypatch.chdir(ROOT)
-    with pytest.raises(SystemExit):
-        tune_planner.main([*ARGS, "--tasks", "1", *args])
-    assert message in capsys.readouterr().err
+    code = run_script("tune_planner.py", tune_planner.main, [*ARGS, "--tasks", "1", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
 
 
 def test_near_goal_factors_are_tried(capsys, monkeypatch):
@@ -169,7 +170,9 @@ def test_the_tuning_pool_is_a_split_of_its_own(capsys, monkeypatch):
         drawn.append((split, problems))
         return problems
 
-    monkeypatch.setattr(tune_planner.training, "draw_problems", recording)
+    from temp_gym import training
+
+    monkeypatch.setattr(training, "draw_problems", recording)
     tune_planner.main(
         [*ARGS, "--split", "tune", "--attention-nodes", "40", "--max-nodes", "40",
          "--noise-std", "0", "--tasks", "4", "--min-attention-success", "0"]

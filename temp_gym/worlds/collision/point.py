@@ -4,6 +4,11 @@ A point robot's motion is a straight segment, so the motion check is the analyti
 segment-versus-box "slab" test: no interpolation resolution, nothing can be stepped over,
 however thin the box. Boxes are closed: touching a face counts as a collision, so a path
 this checker accepts keeps strictly clear of every box.
+
+The test holds at every scale the problem format accepts (sides from 1e-30 to 1e30): it has
+no absolute tolerance. Only a change of exactly zero along an axis makes the segment parallel
+to that axis's faces; any other change, however small, is divided by (a quotient that
+overflows to infinity still orders correctly against the segment's ``[0, 1]``).
 """
 
 from __future__ import annotations
@@ -13,8 +18,6 @@ import numpy as np
 
 from temp_gym.worlds.cells import next_cell
 from temp_gym.worlds.collision.compiled import register_motion_kernel
-
-_PARALLEL_EPS = 1e-15
 
 
 @numba.njit(cache=True, nogil=True)
@@ -41,7 +44,7 @@ def _segment_hits_box(start, end, lower, upper) -> bool:
     t_exit = 1.0
     for k in range(start.shape[0]):
         delta = end[k] - start[k]
-        if abs(delta) < _PARALLEL_EPS:
+        if delta == 0.0:
             if start[k] < lower[k] or start[k] > upper[k]:
                 return False
         else:

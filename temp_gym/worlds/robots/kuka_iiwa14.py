@@ -63,4 +63,5 @@ KUKA_IIWA14 = RobotSpec(
     encoding_region=ENCODING_REGION,
     joint_limits=lazy("temp_gym.worlds.iiwa14.kinematics", "joint_limits"),
     allowed_collisions=ALLOWED_COLLISIONS,
+    compile_minutes=2.0,
 )

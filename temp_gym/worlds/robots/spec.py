@@ -113,6 +113,9 @@ class RobotSpec:
     cube_symmetric: bool = False
     """Its world is a cube whose occupancy grid shares the configuration axes (a point robot),
     so mirrored and axis-swapped samples are samples too: training may augment with them."""
+    compile_minutes: float = 1.0
+    """Roughly how long its planners' numba kernels take to compile on first use (an empty
+    cache), for the one line that says so (`temp_gym.planning.warmup`)."""
 
     # ------------------------------------------------------------------ what the library calls
     def make_checker(self, workspace: Workspace, exact: bool = False) -> CollisionChecker:
