@@ -102,9 +102,9 @@ class RobotSpec:
     """The ``(2, workspace_dim)`` box the occupancy grid covers; None: the bounds."""
     joint_limits: Callable[[], np.ndarray] | None = None
     """The robot's own ``(2, dim)`` limits: a problem's bounds default to them and lie within."""
-    allowed_collisions: Path | None = None
-    """The allowed-collision matrix (JSON) of a robot that can collide with itself: which link
-    pairs its checkers test against each other."""
+    description: Path | None = None
+    """The robot description file of an arm (`temp_gym.worlds.arm`): its URDF, chain and
+    planning defaults, with its derived data beside it. None for other robots."""
     structured_generator: StructuredGenerator | None = None
     """``(name, rng, family) -> Workspace``: a workspace of a structured family (corridors,
     maze, traps, narrow, clutter: `temp_gym.worlds.structured` for point robots,

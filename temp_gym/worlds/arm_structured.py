@@ -1,14 +1,15 @@
-"""Structured iiwa workspaces: the arm's counterparts of the point worlds' families.
+"""Structured arm workspaces: the arms' counterparts of the point worlds' families.
 
-The iiwa's own generator (`temp_gym.worlds.iiwa_world`, the family ``boxes``) places three
+An arm's own generator (`temp_gym.worlds.arm_world`, the family ``boxes``) places three
 or four pieces of furniture: tables, shelves, single pillars and solid walls. Nothing in it
 asks the arm to reach through an opening, into a compartment or under a ceiling, which is
 what most real cells ask. These families carry the point worlds' names
 (`temp_gym.worlds.structured`), so one ``workspace_family`` setting means the same idea for
-every robot, built from plates the arm's size:
+every robot, built from plates the arm's size (drawn for the iiwa's reach and scaled with
+the arm's, `temp_gym.worlds.arm_world.arm_scale`):
 
 =============  ===================================================================================
-family         the iiwa's version
+family         the arms' version (at the iiwa's size)
 =============  ===================================================================================
 ``corridors``  one or two partitions around the robot (plates 0.7-1.3 m wide, 0.7-1.1 m tall),
                each with one or two windows (15-35 cm a side) of random place; the arm
@@ -23,10 +24,10 @@ family         the iiwa's version
 =============  ===================================================================================
 
 Every structure stands on one of the four sides of the robot (axis-aligned, like
-`iiwa_world`'s templates); one or two of `iiwa_world`'s templates fill other sides. Every
-piece keeps clear of link_0, and at least `MIN_FREE_FRACTION` of random joint configurations
+`arm_world`'s templates); one or two of `arm_world`'s templates fill other sides. Every
+piece keeps clear of the base, and at least `MIN_FREE_FRACTION` of random joint configurations
 are free (arm against boxes and itself), so tasks can be drawn; tasks come from
-`iiwa_world.generate_iiwa_task` as in the default family.
+`arm_world.generate_arm_task` as in the default family.
 
 **The out-of-distribution scenes stay held out.** ``examples/ood/7d`` (built by
 `temp_gym.evaluation.ood`) are single structures alone on the floor at fixed coordinates: one
@@ -41,8 +42,8 @@ does for the point worlds.
 All randomness comes from the `numpy.random.Generator` passed in.
 
 Examples:
-    >>> workspace = generate_iiwa_structured_workspace("kuka_iiwa14", np.random.default_rng(0),
-    ...                                                 "maze")
+    >>> workspace = generate_arm_structured_workspace("kuka_iiwa14", np.random.default_rng(0),
+    ...                                                "maze")
 """
 
 from __future__ import annotations
@@ -52,17 +53,19 @@ from collections.abc import Callable
 import numpy as np
 
 from temp_gym.problem import Workspace
-from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
-from temp_gym.worlds.iiwa_world import (
+from temp_gym.worlds.arm.model import ArmModel
+from temp_gym.worlds.arm_world import (
     FLOOR_TOP,
     SIDES,
     TEMPLATES,
     Box,
+    arm_of,
+    arm_scale,
     box_corners,
     draw_base_free,
     floor_slab,
     place,
+    scaled,
 )
 
 MIN_FREE_FRACTION = 0.1
@@ -229,24 +232,22 @@ FAMILY_STRUCTURES: dict[str, tuple[dict[str, Callable], tuple[int, int]]] = {
 """Per family: the structures it draws from (by name; one is drawn, with equal chances, for
 each side it takes) and how many of them a workspace has (low, high inclusive)."""
 EXTRA_TEMPLATES = (1, 2)
-"""How many of `iiwa_world`'s templates fill other sides (low, high inclusive)."""
+"""How many of `arm_world`'s templates fill other sides (low, high inclusive)."""
 
 
-def _free_fraction(boxes: list[Box], rng: np.random.Generator) -> float:
-    checker = IiwaSphereChecker(joint_limits(), *box_corners(boxes))
-    states = rng.uniform(*joint_limits(), size=(FREE_PROBES, NUM_JOINTS))
+def _free_fraction(arm: ArmModel, boxes: list[Box], rng: np.random.Generator) -> float:
+    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
+
+    limits = arm.joint_limits()
+    checker = ArmSphereChecker(arm, limits, *box_corners(boxes))
+    states = rng.uniform(*limits, size=(FREE_PROBES, arm.dim))
     return float(checker.states_free(states).mean())
 
 
-def _draw(build: Callable, rng: np.random.Generator, side: int) -> list[Box]:
-    """``build``'s boxes on ``side``, redrawn until they keep clear of the base."""
-    return draw_base_free(build, rng, side, TRIES, build.__name__.strip("_"))
-
-
-def generate_iiwa_structured_workspace(
+def generate_arm_structured_workspace(
     robot: str, rng: np.random.Generator, family: str
 ) -> Workspace:
-    """Draw an iiwa workspace of a structured ``family`` (see the module docstring).
+    """Draw an arm workspace of a structured ``family`` (see the module docstring).
 
     Raises:
         ValueError: an unknown family or a bad ``rng``.
@@ -257,26 +258,34 @@ def generate_iiwa_structured_workspace(
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
     if family not in FAMILY_STRUCTURES:
         raise ValueError(f"family: expected one of {tuple(FAMILY_STRUCTURES)}, got {family!r}")
+    arm = arm_of(robot)
+    scale = arm_scale(arm)
+
+    def draw(build: Callable, rng: np.random.Generator, side: int) -> list[Box]:
+        """``build``'s boxes on ``side``, scaled, redrawn until they keep clear of the base."""
+        return draw_base_free(build, rng, side, TRIES, build.__name__.strip("_"), arm, scale)
+
     builders, (low, high) = FAMILY_STRUCTURES[family]
     names = list(builders)
     templates = list(TEMPLATES)
     for _ in range(TRIES):
         sides = [int(side) for side in rng.permutation(len(SIDES))]
-        boxes = [floor_slab()]
+        boxes = scaled([floor_slab()], scale)
         for _ in range(int(rng.integers(low, high + 1))):
             builder = builders[names[int(rng.integers(len(names)))]]
-            boxes += _draw(builder, rng, sides.pop())
+            boxes += draw(builder, rng, sides.pop())
         if family == "narrow" and rng.random() < 0.5:
-            boxes += _draw(_ceiling, rng, sides.pop())
+            boxes += draw(_ceiling, rng, sides.pop())
         extra = min(int(rng.integers(EXTRA_TEMPLATES[0], EXTRA_TEMPLATES[1] + 1)), len(sides))
         for _ in range(extra):
             template = TEMPLATES[templates[int(rng.integers(len(templates)))]]
-            boxes += _draw(template, rng, sides.pop())
-        if _free_fraction(boxes, rng) >= MIN_FREE_FRACTION:
+            boxes += draw(template, rng, sides.pop())
+        if _free_fraction(arm, boxes, rng) >= MIN_FREE_FRACTION:
             centers = np.array([c for c, _ in boxes])
             halves = np.array([h for _, h in boxes])
-            return Workspace(robot, joint_limits(), centers, halves)
-    raise RuntimeError(f"no {family} iiwa workspace kept {MIN_FREE_FRACTION:.0%} free in {TRIES}")
+            return Workspace(robot, arm.joint_limits(), centers, halves)
+    raise RuntimeError(f"no {family} {robot} workspace kept {MIN_FREE_FRACTION:.0%} free in "
+                       f"{TRIES}")  # fmt: skip
 
 
-__all__ = ["FAMILY_STRUCTURES", "MIN_FREE_FRACTION", "generate_iiwa_structured_workspace"]
+__all__ = ["FAMILY_STRUCTURES", "MIN_FREE_FRACTION", "generate_arm_structured_workspace"]

@@ -1,4 +1,4 @@
-"""Random, structured workspaces and start-goal tasks for the KUKA iiwa 14.
+"""Random furniture workspaces and start-goal tasks for any arm.
 
 A workspace is a floor slab just below the base plus three or four furniture templates placed
 in the arm's reach, each built from axis-aligned boxes:
@@ -13,17 +13,18 @@ wall      one thin, wide plate on one side
 ========  ==============================================================================
 
 Tables, shelves and walls face the robot from one of the four axis directions (boxes stay
-axis-aligned); their distance, size and lateral offset are random. Nothing touches link_0,
-and about half of the random joint configurations are collision-free (the tests check the
-fraction stays within 30-80 %), so tasks are plannable but not trivial.
+axis-aligned); their distance, size and lateral offset are random. Sizes are drawn for an arm
+of the iiwa's reach (`REFERENCE_REACH`) and the whole scene is then scaled by the arm's reach
+over it (`arm_scale`), so every arm gets furniture of its own size. Nothing touches the base.
 
-Start and goal keep a clearance of half the edge checker's resolution (1 cm) from every box.
-The certified edge check grows the spheres at an edge's end states by up to that much, so a
-state that is free but closer to a box is a trap: no edge of planning length leaves it. Before
-this rule, 4 of the 200 7D test tasks had such a start and no planner could grow a tree there.
+**Tasks.** A start and a goal are drawn uniformly in the joint limits until both are free
+(fast checker: the exact checker then agrees). A share `NEAR_SURFACE_SHARE` of goals is drawn
+*near a surface*: the arm within 2-10 mm of a box, its hand nearest (`near_surface`), as a
+grasp, a placement or an insertion has it; `generate_arm_task(..., near="both")` draws starts
+there too. Edges leave and reach such states because the fast checker refines its edge checks
+near surfaces (`temp_gym.worlds.collision.arm_fast`).
 
-Difficulty of a task, measured with the fast checker (which is conservative, so the exact
-checker agrees that start and goal are free):
+Difficulty of a task, measured with the fast checker:
 
 * ``"easy"``: the straight joint-space motion from start to goal is free;
 * ``"challenging"``: it is blocked, so a planner has to go around;
@@ -34,8 +35,8 @@ same workspace and tasks.
 
 Examples:
     >>> rng = np.random.default_rng(0)
-    >>> workspace = generate_iiwa_workspace(KUKA_IIWA14.name, rng)
-    >>> problem = generate_iiwa_task(workspace, rng, "challenging", goal_radius=0.1)
+    >>> workspace = generate_arm_workspace("kuka_iiwa14", rng)
+    >>> problem = generate_arm_task(workspace, rng, "challenging", goal_radius=0.1)
 """
 
 from __future__ import annotations
@@ -45,12 +46,18 @@ from collections.abc import Callable
 import numpy as np
 
 from temp_gym.problem import Problem, Workspace
-from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.arm.model import ArmModel, load_arm
 from temp_gym.worlds.difficulty import check_difficulty
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, joint_limits
 
 FLOOR_TOP = -0.01
-"""Top of the floor slab (m); link_0's lowest point is at z = 0."""
+"""Top of the floor slab (m) for an arm of `REFERENCE_REACH` whose base's lowest point is at
+z = 0; scaled with the scene."""
+REFERENCE_REACH = 1.5490807825132829
+"""The reach (`ArmModel.reach`, m) the templates' sizes are drawn for: the iiwa's."""
+NEAR_SURFACE_SHARE = 0.25
+"""Share of drawn goals placed near a surface (`near_surface`)."""
+NEAR_SURFACE = (0.002, 0.010)
+"""How far (m, by the exact checker) from a box a state near a surface is."""
 SIDES = (
     # (radial axis, sign): a template "in front of" the robot along +x, -x, +y or -y.
     (0, 1.0),
@@ -145,33 +152,69 @@ def box_corners(boxes: list[Box]) -> tuple[np.ndarray, np.ndarray]:
     return lower, upper
 
 
+def arm_of(robot: str) -> ArmModel:
+    """The arm registered as ``robot`` (its spec's description, loaded)."""
+    from temp_gym.worlds.robots import robot_spec
+
+    spec = robot_spec(robot)
+    if spec.description is None:
+        raise ValueError(f"robot: {robot!r} is not an arm")
+    return load_arm(spec.description)
+
+
+def arm_scale(arm: ArmModel) -> float:
+    """How much larger than the templates' drawn sizes an arm's scene is (1 for the iiwa)."""
+    return arm.reach() / REFERENCE_REACH
+
+
+def scaled(boxes: list[Box], scale: float) -> list[Box]:
+    """The scene ``boxes`` scaled about the origin (the base) by ``scale``."""
+    if scale == 1.0:
+        return boxes
+    return [(center * scale, half * scale) for center, half in boxes]
+
+
+def base_free(arm: ArmModel, boxes: list[Box]) -> bool:
+    """Whether the arm's base, at the origin, keeps clear of ``boxes`` (exact test)."""
+    from temp_gym.worlds.collision.arm_exact import base_collides
+
+    if not boxes:
+        return True
+    params = np.array([np.concatenate([c, h]) for c, h in boxes])
+    return not base_collides(arm, params)
+
+
 def draw_base_free(
     build: Callable[[np.random.Generator, int], list[Box]],
     rng: np.random.Generator,
     side: int,
     tries: int,
     what: str,
+    arm: ArmModel,
+    scale: float = 1.0,
 ) -> list[Box]:
-    """``build(rng, side)`` redrawn until its boxes keep clear of link_0.
+    """``build(rng, side)`` redrawn until its boxes, scaled, keep clear of the arm's base.
+
+    Returns the scaled boxes.
 
     Raises:
         RuntimeError: every one of ``tries`` draws touched the base (the message names
             ``what``).
     """
     for _ in range(tries):
-        boxes = build(rng, side)
-        if IiwaSphereChecker(joint_limits(), *box_corners(boxes)).base_free:
+        boxes = scaled(build(rng, side), scale)
+        if base_free(arm, boxes):
             return boxes
     raise RuntimeError(f"{what}: no base-free placement in {tries} draws")
 
 
-def generate_iiwa_workspace(
+def generate_arm_workspace(
     robot: str, rng: np.random.Generator, max_tries: int = 100
 ) -> Workspace:
-    """Draw a floor and 3-4 random furniture templates in the iiwa's reach.
+    """Draw a floor and 3-4 random furniture templates in the arm's reach.
 
     Args:
-        robot: the iiwa's registered name (`temp_gym.worlds.robots.kuka_iiwa14`).
+        robot: a registered arm's name.
         rng: the only source of randomness.
         max_tries: templates redrawn when one touches the robot's base, before giving up.
 
@@ -181,8 +224,10 @@ def generate_iiwa_workspace(
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
-    bounds = joint_limits()
-    boxes: list[Box] = [floor_slab()]
+    arm = arm_of(robot)
+    scale = arm_scale(arm)
+    bounds = arm.joint_limits()
+    boxes: list[Box] = scaled([floor_slab()], scale)
     names = list(TEMPLATES)
 
     def any_template(rng: np.random.Generator, side: int) -> list[Box]:
@@ -191,59 +236,103 @@ def generate_iiwa_workspace(
     sides = list(rng.permutation(len(SIDES)))
     for _ in range(int(rng.integers(3, 5))):
         side = int(sides.pop())
-        boxes += draw_base_free(any_template, rng, side, max_tries, "generate_iiwa_workspace")
+        boxes += draw_base_free(any_template, rng, side, max_tries, "generate_arm_workspace",
+                                arm, scale)  # fmt: skip
     centers = np.array([c for c, _ in boxes])
     halves = np.array([h for _, h in boxes])
     return Workspace(robot, bounds, centers, halves)
 
 
-def generate_iiwa_task(
+def near_surface(checker, states: np.ndarray, hand_only: bool = True) -> np.ndarray:
+    """``bool[N]``: the arm is within `NEAR_SURFACE` of a box (exact checker ``checker``), and,
+    with ``hand_only``, the body nearest a box is the last (the hand)."""
+    last = checker.arm.body_names[-1]
+    out = np.zeros(len(states), dtype=bool)
+    for k, state in enumerate(states):
+        report = checker.obstacle_report(state)
+        if report and NEAR_SURFACE[0] <= report[0][2] <= NEAR_SURFACE[1]:
+            out[k] = not hand_only or report[0][0] == last
+    return out
+
+
+def _draw_near(fast, exact, rng: np.random.Generator, lower: np.ndarray, upper: np.ndarray,
+               count: int) -> np.ndarray:  # fmt: skip
+    """``(count, dim)`` states near a surface: free states whose grown spheres touch a box,
+    kept when the exact checker puts the hand within `NEAR_SURFACE` of one."""
+    found: list[np.ndarray] = []
+    while len(found) < count:
+        states = rng.uniform(lower, upper, size=(256, len(lower)))
+        close = fast.states_free(states) & ~fast.states_free(states, fast.resolution / 2)
+        for state in states[close]:
+            if near_surface(exact, state[None])[0]:
+                found.append(state)
+                if len(found) == count:
+                    break
+    return np.array(found)
+
+
+def generate_arm_task(
     workspace: Workspace,
     rng: np.random.Generator,
     difficulty: str,
     goal_radius: float,
     max_tries: int = 2000,
+    near: str | None = None,
 ) -> Problem:
     """Draw a free start and goal in ``workspace`` matching ``difficulty``.
 
     Args:
-        workspace: an iiwa workspace, e.g. from `generate_iiwa_workspace`.
+        workspace: an arm's workspace, e.g. from `generate_arm_workspace`.
         rng: the only source of randomness.
         difficulty: ``"easy"`` (straight motion free), ``"challenging"`` (blocked) or
             ``"any"``; see the module docstring.
-        goal_radius: radius (rad) of the goal ball; start and goal are more than two radii apart.
+        goal_radius: radius of the goal ball; start and goal are more than two radii apart.
         max_tries: start-goal pairs drawn before giving up.
+        near: ``"goal"`` or ``"both"``: the goal (and the start) near a surface; ``"none"``:
+            neither; None: the goal with probability `NEAR_SURFACE_SHARE`.
 
     Raises:
-        ValueError: bad ``workspace``, ``difficulty`` or ``goal_radius``.
+        ValueError: bad ``workspace``, ``difficulty``, ``goal_radius`` or ``near``.
         RuntimeError: no pair matched within ``max_tries``.
     """
-    if not isinstance(workspace, Workspace) or workspace.dim != NUM_JOINTS:
-        raise ValueError(f"workspace: expected an iiwa Workspace, got {workspace!r}")
+    from temp_gym.worlds.robots import robot_spec
+
+    if not isinstance(workspace, Workspace) or robot_spec(workspace.robot).description is None:
+        raise ValueError(f"workspace: expected an arm's Workspace, got {workspace!r}")
     check_difficulty(difficulty)
     if not (isinstance(goal_radius, (int, float)) and 0 < goal_radius < np.inf):
         raise ValueError(f"goal_radius: expected a positive number, got {goal_radius!r}")
-    checker = IiwaSphereChecker(
-        workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper
-    )
+    if near not in (None, "none", "goal", "both"):
+        raise ValueError(f"near: expected None, 'none', 'goal' or 'both', got {near!r}")
+    spec = robot_spec(workspace.robot)
+    fast = spec.make_checker(workspace)
+    if near is None:
+        near = "goal" if rng.random() < NEAR_SURFACE_SHARE else "none"
+    exact = spec.make_checker(workspace, exact=True) if near != "none" else None
     lower, upper = workspace.bounds
-    clearance = checker.resolution / 2  # so that edges can leave start and goal (docstring)
-    batch = 64
+    dim = workspace.dim
+    batch = 64 if near == "none" else 8
     for first in range(0, max_tries, batch):
         count = min(batch, max_tries - first)
-        starts = rng.uniform(lower, upper, size=(count, NUM_JOINTS))
-        goals = rng.uniform(lower, upper, size=(count, NUM_JOINTS))
-        ok = checker.states_free(starts, clearance) & checker.states_free(goals, clearance)
+        if near == "both":
+            starts = _draw_near(fast, exact, rng, lower, upper, count)
+        else:
+            starts = rng.uniform(lower, upper, size=(count, dim))
+        if near == "none":
+            goals = rng.uniform(lower, upper, size=(count, dim))
+        else:
+            goals = _draw_near(fast, exact, rng, lower, upper, count)
+        ok = fast.states_free(starts) & fast.states_free(goals)
         ok &= np.linalg.norm(goals - starts, axis=1) > 2 * goal_radius
         if difficulty != "any":
-            straight = checker.edges_free(starts, goals)
+            straight = fast.edges_free(starts, goals)
             ok &= straight if difficulty == "easy" else ~straight
         hits = np.flatnonzero(ok)
         if len(hits):
             k = hits[0]
             return Problem(workspace, starts[k], goals[k], float(goal_radius))
     raise RuntimeError(
-        f"generate_iiwa_task: no {difficulty!r} start-goal pair in {max_tries} tries"
+        f"generate_arm_task: no {difficulty!r} start-goal pair in {max_tries} tries"
     )
 
 
@@ -254,7 +343,15 @@ __all__ = [
     "box_corners",
     "draw_base_free",
     "floor_slab",
-    "generate_iiwa_task",
-    "generate_iiwa_workspace",
+    "NEAR_SURFACE",
+    "NEAR_SURFACE_SHARE",
+    "REFERENCE_REACH",
+    "arm_of",
+    "arm_scale",
+    "base_free",
+    "generate_arm_task",
+    "generate_arm_workspace",
+    "near_surface",
+    "scaled",
     "place",
 ]

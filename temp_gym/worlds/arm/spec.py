@@ -1,0 +1,165 @@
+"""An arm's `RobotSpec` from its robot description: every arm is this code plus its data.
+
+`arm_spec` reads the description (and only the URDF's joints, cheaply) and returns a spec whose
+checkers, generators and renderer are the generic arm's, bound to the description by path.
+Nothing loads meshes or compiles kernels until the robot is used; the spec pickles (worker
+processes and Ray ship it by path, and a worker that has never seen the robot registers it
+on first use, `ArmPart`).
+
+Example:
+    >>> spec = register_robot_file("my_arm.yaml")   # after `temp-robot build my_arm.yaml`
+    >>> spec.env_id
+    'TEMP-MyArm-v0'
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from temp_gym.worlds.arm.description import load_description
+from temp_gym.worlds.arm.urdf import read_chain
+from temp_gym.worlds.robots.spec import RobotSpec
+
+
+ARM_COMPILE_MINUTES = 2.0
+"""Roughly how long an arm's planner kernels take to compile on first use."""
+
+
+@dataclass(frozen=True)
+class ArmPart:
+    """One factory of an arm's spec (a checker, a generator, the renderer, the limits),
+    bound to the arm's description file; picklable, and loads nothing until called."""
+
+    description: str
+    part: str
+
+    def arm(self):
+        """The arm, loaded (cached per process)."""
+        from temp_gym.worlds.arm.model import load_arm
+
+        return load_arm(self.description)
+
+    def __call__(self, *args, **kwargs):
+        """Build or draw the part (see `arm_spec`)."""
+        ensure_registered(self.description)
+        if self.part == "checker":
+            workspace, exact = args
+            return make_arm_checker(self.arm(), workspace, exact)
+        if self.part == "joint_limits":
+            return self.arm().joint_limits()
+        if self.part == "workspace":
+            from temp_gym.worlds.arm_world import generate_arm_workspace
+
+            return generate_arm_workspace(*args, **kwargs)
+        if self.part == "task":
+            from temp_gym.worlds.arm_world import generate_arm_task
+
+            return generate_arm_task(*args, **kwargs)
+        if self.part == "structured":
+            from temp_gym.worlds.arm_structured import generate_arm_structured_workspace
+
+            return generate_arm_structured_workspace(*args, **kwargs)
+        if self.part == "renderer":
+            from temp_gym.worlds.rendering.arm import ArmRenderer
+
+            return ArmRenderer(self.arm())
+        raise ValueError(f"part: unknown {self.part!r}")
+
+
+def make_arm_checker(arm, workspace, exact: bool = False):
+    """The fast (default) or exact checker of ``workspace`` for ``arm``."""
+    lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
+    if exact:
+        from temp_gym.worlds.collision.arm_exact import ArmExactChecker
+
+        return ArmExactChecker(arm, workspace.bounds, lower, upper)
+    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
+
+    return ArmSphereChecker(arm, workspace.bounds, lower, upper)
+
+
+def default_region(reach: float) -> np.ndarray:
+    """The occupancy grid's box around an arm of this reach (base at the origin, z up)."""
+    return np.array([[-1.1 * reach, -1.1 * reach, -0.15 * reach],
+                     [1.1 * reach, 1.1 * reach, 1.25 * reach]])  # fmt: skip
+
+
+def arm_spec(path: str | Path) -> RobotSpec:
+    """The `RobotSpec` of the arm described at ``path`` (module docstring).
+
+    Raises:
+        DescriptionError, UrdfError: a bad description or URDF (one line).
+    """
+    description = load_description(path)
+    chain = read_chain(description.urdf, description.base_link, description.tip_link,
+                       dict(description.fixed_joints), dict(description.joint_limits))  # fmt: skip
+    key = str(description.path)
+    region = description.encoding_region
+    if region is None:
+        from temp_gym.worlds.arm.model import load_arm
+
+        region = default_region(load_arm(key, require_derived=False).reach())
+    return RobotSpec(
+        name=description.name,
+        env_id=description.env_id,
+        short_name=description.short_name,
+        seed_code=description.seed_code,
+        dim=chain.dim,
+        workspace_dim=3,
+        encoding_resolution=description.encoding_resolution,
+        goal_radius=description.goal_radius,
+        max_nodes=description.max_nodes,
+        evaluation_rows=dict(description.evaluation_rows),
+        evaluation_tasks=description.evaluation_tasks,
+        checker_factory=ArmPart(key, "checker"),
+        workspace_generator=ArmPart(key, "workspace"),
+        task_generator=ArmPart(key, "task"),
+        structured_generator=ArmPart(key, "structured"),
+        renderer_factory=ArmPart(key, "renderer"),
+        step_size=description.step_size,
+        encoding_region=np.asarray(region, dtype=np.float64),
+        joint_limits=ArmPart(key, "joint_limits"),
+        description=description.path,
+        compile_minutes=ARM_COMPILE_MINUTES,
+    )
+
+
+def ensure_registered(path: str | Path) -> RobotSpec:
+    """The spec of the arm at ``path``, registered if it was not yet.
+
+    A worker process that receives an arm's problem registers the arm on first use (its env
+    is registered by `temp_gym.register_robot_file`, in the package's face).
+    """
+    from temp_gym.worlds.robots import register_robot, robot_specs
+
+    resolved = Path(path).expanduser().resolve()
+    for spec in robot_specs():
+        if spec.description is not None and Path(spec.description) == resolved:
+            return spec
+    spec = arm_spec(resolved)
+    register_robot(spec)
+    return spec
+
+
+def register_robot_file(path: str | Path) -> RobotSpec:
+    """Register the arm described at ``path`` under its name; return its spec.
+
+    A problem file then names it in ``"robot"``. Registering the same file again returns the
+    registered spec.
+
+    Raises:
+        DescriptionError, UrdfError: a bad description or URDF (one line).
+        ArmDataError: its derived data is missing or stale (run ``temp-robot build``).
+        ValueError: another robot already has its name, env id, short name or seed code.
+    """
+    from temp_gym.worlds.arm.model import load_arm
+
+    load_arm(path)  # refuse a robot whose derived data is missing or stale, now
+    return ensure_registered(path)
+
+
+__all__ = ["ArmPart", "arm_spec", "ensure_registered", "make_arm_checker",
+           "register_robot_file"]  # fmt: skip

@@ -1,0 +1,411 @@
+"""Exact collision checking for any arm (python-fcl): boxes and self-collision.
+
+This is the checker that certifies every path a planner returns. Each body's collision
+elements (`temp_gym.worlds.arm.meshes`) are fcl geometry: meshes as ``BVHModel`` (OBBRSS),
+boxes, cylinders and spheres as fcl's own shapes. They are posed by the arm's forward
+kinematics and tested against ``fcl.Box`` obstacles. Self-collision is tested on the bodies'
+convex pieces, padded like pybullet's, for the pairs the allowed-collision matrix enables
+(`temp_gym.worlds.collision.arm_self`).
+
+**States.** A cheap broad phase (each body's local bounding box, posed, enlarged to a world
+AABB) drops the body-box pairs that cannot touch; fcl's narrow phase decides the rest, then the
+enabled body pairs are tested (bounding spheres, then GJK on the pieces). A state outside the
+bounds or the joint limits, whatever the bounds say, or with NaN/inf coordinates, is not free.
+fcl tests a mesh's *surface* against boxes: an obstacle entirely inside a link without
+touching a triangle is missed, which needs a box smaller than a link.
+
+**Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
+point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
+``W_j = sum_i |b_i - a_i| R[i, j]`` (`ArmModel.motion_radii`). If ``d_j`` is a lower bound on
+body ``j``'s distance to every box at ``q(t)``, nothing can touch while ``t`` advances by less
+than ``d_j / W_j``; likewise for body pairs with their relative motion. The checker walks the
+segment with steps of `STEP_SAFETY` times the smallest of these; ``d_j`` is fcl's element
+distance where the body is within `MESH_DISTANCE_BELOW` of a box, and otherwise a cheaper,
+smaller bound (the distance from its convex pieces, or, farther than `EXACT_DISTANCE_BELOW`,
+from its oriented bounding box). It gives up, returning *not free*, when a clearance drops to
+`MIN_CLEARANCE` or after ``max_steps`` steps: the answer is then "not certified", which is what
+a certifier must say when unsure.
+"""
+
+from __future__ import annotations
+
+import fcl
+import numpy as np
+
+from temp_gym.worlds.arm.model import ArmModel
+from temp_gym.worlds.collision.arm_inputs import as_bounds, as_boxes, as_state, as_states
+from temp_gym.worlds.collision.arm_self import (
+    DISTANCE_TOLERANCE,
+    SELF_COLLISION_GAP,
+    BodyHulls,
+    piece_models,
+    transform,
+)
+
+MIN_CLEARANCE = 1e-9
+"""Clearance (m) at or below which a motion is not certified."""
+EXACT_DISTANCE_BELOW = 0.1
+"""Bounding-box clearances (m) below this are refined with the body's convex pieces."""
+MESH_DISTANCE_BELOW = 0.01
+"""Piece clearances (m) below this are refined with fcl's element distance."""
+STEP_SAFETY = 0.9
+"""Fraction of the provably safe step taken, so that the motion never reaches a box."""
+
+
+def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
+    mesh = fcl.BVHModel()
+    mesh.beginModel(len(vertices), len(faces))
+    mesh.addSubModel(vertices, faces)
+    mesh.endModel()
+    return mesh
+
+
+def element_models(arm: ArmModel) -> tuple:
+    """Per body, ``(fcl geometry, 4x4 pose in the body frame)`` of each collision element
+    (cached on the arm: `plan` builds an exact checker on every call to certify its path)."""
+    key = "element_models"
+    if key not in arm._arrays:
+        bodies = []
+        for geometry in arm.geometry:
+            elements = []
+            for (vertices, faces), primitive in zip(geometry.meshes, geometry.primitives):
+                if primitive is None:
+                    elements.append((_mesh_model(vertices, faces), np.eye(4)))
+                    continue
+                kind, size, pose = primitive
+                if kind == "box":
+                    shape = fcl.Box(*size)
+                elif kind == "cylinder":
+                    shape = fcl.Cylinder(float(size[0]), float(size[1]))
+                else:
+                    shape = fcl.Sphere(float(size[0]))
+                elements.append((shape, np.asarray(pose, dtype=np.float64)))
+            bodies.append(tuple(elements))
+        arm._arrays[key] = tuple(bodies)
+    return arm._arrays[key]
+
+
+def _body_bounds(arm: ArmModel) -> tuple[np.ndarray, np.ndarray]:
+    """Each body's local bounding box (centers, half extents), from its pieces (cached)."""
+    key = "body_bounds"
+    if key not in arm._arrays:
+        lows, highs = [], []
+        for geometry in arm.geometry:
+            if geometry.pieces:
+                points = np.concatenate(geometry.pieces)
+                lows.append(points.min(axis=0))
+                highs.append(points.max(axis=0))
+            else:
+                lows.append(np.zeros(3))
+                highs.append(np.zeros(3))
+        lows, highs = np.array(lows), np.array(highs)
+        arrays = ((lows + highs) / 2, (highs - lows) / 2)
+        for array in arrays:
+            array.setflags(write=False)
+        arm._arrays[key] = arrays
+    return arm._arrays[key]
+
+
+def base_collides(arm: ArmModel, box_params: np.ndarray) -> bool:
+    """Whether the base body (at the origin) touches a box ``(cx, cy, cz, hx, hy, hz)``."""
+    request = fcl.CollisionRequest()
+    objects = [fcl.CollisionObject(shape, transform(pose))
+               for shape, pose in element_models(arm)[0]]  # fmt: skip
+    for box in box_params:
+        obstacle = fcl.CollisionObject(fcl.Box(*(2 * box[3:])), fcl.Transform(box[:3]))
+        for obj in objects:
+            if fcl.collide(obj, obstacle, request, fcl.CollisionResult()) > 0:
+                return True
+    return False
+
+
+class ArmExactChecker:
+    """Exact arm checker: fcl on the collision elements and pieces, certified motions.
+
+    Args:
+        arm: the arm (`temp_gym.worlds.arm.load_arm`).
+        bounds: ``(2, dim)`` joint bounds; states outside them or the joint limits are not
+            free.
+        box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
+        box_upper: ``(M, 3)`` upper box corners.
+        max_steps: largest number of certification steps per edge before giving up.
+        self_collision: test the enabled body pairs against each other. Only switched off to
+            measure what self-collision costs; `certify_path` always tests it.
+    """
+
+    def __init__(
+        self,
+        arm: ArmModel,
+        bounds: np.ndarray,
+        box_lower: np.ndarray,
+        box_upper: np.ndarray,
+        max_steps: int = 20_000,
+        self_collision: bool = True,
+    ) -> None:
+        self.arm = arm
+        self.dim = arm.dim
+        self.max_steps = int(max_steps)
+        self._bounds = as_bounds(bounds, arm.dim)
+        self._limits = arm.joint_limits()
+        pairs = arm.enabled_pairs() if self_collision else np.zeros((0, 2), dtype=np.int64)
+        self._hulls = BodyHulls(arm, pairs)
+        lower, upper = as_boxes(box_lower, box_upper)
+        self._box_center = (lower + upper) / 2
+        self._box_half = (upper - lower) / 2
+        self._boxes = [
+            fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(c))
+            for c, h in zip(self._box_center, self._box_half)
+        ]
+        self._elements = [
+            [(fcl.CollisionObject(shape, fcl.Transform()), pose) for shape, pose in body]
+            for body in element_models(arm)
+        ]
+        self._pieces = [
+            [fcl.CollisionObject(model, fcl.Transform()) for model, _ in body]
+            for body in piece_models(arm)
+        ]
+        self._local_center, self._local_half = _body_bounds(arm)
+        self._motion_radii = arm.motion_radii()
+        self._body_boxes = [
+            fcl.CollisionObject(fcl.Box(*np.maximum(2 * half, 1e-9)), fcl.Transform())
+            for half in self._local_half
+        ]
+        self._pair_motion = arm.relative_motion_radii(self._hulls.pairs)
+        self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
+        box_params = np.hstack([self._box_center, self._box_half]) if self._boxes else np.zeros(
+            (0, 6))  # fmt: skip
+        self.base_free = not base_collides(arm, box_params)
+        self.description = (
+            f"fcl on the {arm.name} collision geometry, {len(self._boxes)} boxes, self-collision "
+            f"of {len(self._hulls.pairs)} body pairs (padded convex pieces), certified motions"
+            + ("" if self.base_free else ", base link in collision")
+        )
+
+    # ------------------------------------------------------------------ helpers
+    def _pose_body(self, poses: np.ndarray, j: int) -> None:
+        for obj, pose in self._elements[j]:
+            obj.setTransform(transform(poses[j] @ pose))
+
+    def _body_touches(self, j: int, box: int) -> bool:
+        request = fcl.CollisionRequest()
+        return any(
+            fcl.collide(obj, self._boxes[box], request, fcl.CollisionResult()) > 0
+            for obj, _ in self._elements[j]
+        )
+
+    def _candidate_pairs(self, poses: np.ndarray) -> np.ndarray:
+        """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles."""
+        rotations = poses[..., :3, :3]
+        centers = np.einsum("...ij,...j->...i", rotations, self._local_center) + poses[..., :3, 3]
+        halves = np.einsum("...ij,...j->...i", np.abs(rotations), self._local_half)
+        gap = np.abs(centers[..., None, :] - self._box_center) - halves[..., None, :]
+        return np.all(gap <= self._box_half, axis=-1) & self._has_geometry[:, None]
+
+    def _pose_free(self, poses: np.ndarray, candidates: np.ndarray) -> bool:
+        posed = set()
+        for j, b in zip(*np.nonzero(candidates[1:])):
+            if j + 1 not in posed:
+                self._pose_body(poses, j + 1)
+                posed.add(j + 1)
+            if self._body_touches(j + 1, b):
+                return False
+        return True
+
+    def _in_bounds(self, states: np.ndarray) -> np.ndarray:
+        """Within the bounds and, whatever the bounds say, within the joint limits."""
+        with np.errstate(invalid="ignore"):
+            inside = (states >= self._bounds[0]) & (states <= self._bounds[1])
+            inside &= (states >= self._limits[0]) & (states <= self._limits[1])
+        return np.all(inside, axis=1)
+
+    def _aabb_gaps(self, poses: np.ndarray) -> np.ndarray:
+        """``(B, M)`` distances from each body's world AABB to each box: cheap lower bounds."""
+        rotations = poses[:, :3, :3]
+        centers = np.einsum("jik,jk->ji", rotations, self._local_center) + poses[:, :3, 3]
+        halves = np.einsum("jik,jk->ji", np.abs(rotations), self._local_half)
+        gap = np.abs(centers[:, None, :] - self._box_center) - halves[:, None, :]
+        gap = np.maximum(gap - self._box_half, 0.0)
+        return np.sqrt(np.einsum("jbk,jbk->jb", gap, gap))
+
+    def _body_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
+        """A lower bound on body ``j``'s distance to the nearest box, given its world-AABB
+        ``gaps`` (M,): per box the cheapest informative bound of three nested shapes (the
+        body's bounding box, its convex pieces less fcl's tolerance, its elements), boxes
+        visited nearest first and the visit stopped once no box left can lower it."""
+        box_pose = poses[j].copy()
+        box_pose[:3, 3] += box_pose[:3, :3] @ self._local_center[j]
+        request = fcl.DistanceRequest()
+        posed = [False, False, False]
+        best = np.inf
+        for b in np.argsort(gaps, kind="stable"):
+            if gaps[b] - DISTANCE_TOLERANCE >= best:
+                break
+            for tier in range(3):
+                if tier == 0:
+                    objects, tolerance, enough = [self._body_boxes[j]], 0.0, EXACT_DISTANCE_BELOW
+                    if not posed[0]:
+                        self._body_boxes[j].setTransform(transform(box_pose))
+                elif tier == 1:
+                    objects, tolerance, enough = self._pieces[j], DISTANCE_TOLERANCE, \
+                        MESH_DISTANCE_BELOW  # fmt: skip
+                    if not posed[1]:
+                        for obj in objects:
+                            obj.setTransform(transform(poses[j]))
+                else:
+                    objects, tolerance, enough = [o for o, _ in self._elements[j]], 0.0, 0.0
+                    if not posed[2]:
+                        self._pose_body(poses, j)
+                posed[tier] = True
+                found = min(
+                    fcl.distance(obj, self._boxes[b], request, fcl.DistanceResult())
+                    for obj in objects
+                )
+                bound = max(found - tolerance, 0.0)  # fcl reports -1 for intersecting shapes
+                if bound >= best:
+                    break
+                if bound >= enough:
+                    best = bound
+                    break
+        return best
+
+    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep) -> tuple[float, float]:
+        """``(advance, closest)`` at one pose of a segment: the largest safe step in ``t`` and
+        the smallest clearance measured (bodies and pairs are measured only when their cheap
+        lower bound could still lower the step or reach `MIN_CLEARANCE`)."""
+        bounds, rates, which = [], [], []
+        gaps = None
+        if len(moving):
+            gaps = self._aabb_gaps(poses)
+            bounds.extend(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
+            rates.extend(sweep[moving])
+            which.extend(int(j) for j in moving)
+        spheres = None
+        if len(moving_pairs):
+            spheres = self._hulls.sphere_gaps(poses)[moving_pairs] - SELF_COLLISION_GAP
+            bounds.extend(spheres - DISTANCE_TOLERANCE)
+            rates.extend(pair_sweep[moving_pairs])
+            which.extend(-1 - k for k in range(len(moving_pairs)))
+        bounds, rates = np.asarray(bounds), np.asarray(rates)
+        advance = closest = np.inf
+        for k in np.argsort(bounds / rates, kind="stable"):
+            if bounds[k] > MIN_CLEARANCE and bounds[k] / rates[k] >= advance:
+                continue
+            if which[k] >= 0:
+                value = self._body_clearance(poses, which[k], gaps[which[k]])
+            else:
+                pair = -1 - which[k]
+                value = self._hulls.pair_clearance(poses, moving_pairs[pair], spheres[pair],
+                                                   EXACT_DISTANCE_BELOW)  # fmt: skip
+            closest = min(closest, value)
+            advance = min(advance, value / rates[k])
+        return float(advance), float(closest)
+
+    # ------------------------------------------------------------------ protocol
+    def states_free(self, states: np.ndarray) -> np.ndarray:
+        """Return ``bool[N]``: each state of ``states`` (N x dim) is in bounds and free."""
+        states = as_states(states, self.dim)
+        free = self._in_bounds(states)
+        if not self.base_free:
+            return np.zeros(len(states), dtype=bool)
+        if not free.any():
+            return free
+        index = np.flatnonzero(free)
+        poses = self.arm.forward_kinematics(states[index])
+        if self._boxes:
+            candidates = self._candidate_pairs(poses)
+            for k in np.flatnonzero(candidates[:, 1:].any(axis=(1, 2))):
+                free[index[k]] = self._pose_free(poses[k], candidates[k])
+        near = self._hulls.sphere_gaps(poses) <= SELF_COLLISION_GAP
+        for k, p in zip(*np.nonzero(near)):
+            if free[index[k]]:
+                a, b = self._hulls.pairs[p]
+                free[index[k]] = self._hulls.distance(poses[k], a, b) > SELF_COLLISION_GAP
+        return free
+
+    def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
+        """The enabled body pairs of ``state`` that collide, by chain link name."""
+        poses = self.arm.forward_kinematics(as_state(state, "state", self.dim))[0]
+        colliding = self._hulls.colliding(poses)
+        return [self.arm.pair_name(a, b) for a, b in self._hulls.pairs[colliding]]
+
+    def obstacle_report(self, state: np.ndarray) -> list[tuple[str, int, float]]:
+        """Per body near a box: ``(link, box index, distance)``, the distance in metres (0 or
+        less: touching, with fcl's penetration depth negated where fcl gives one), nearest
+        first. Bodies farther than `MESH_DISTANCE_BELOW` from every box are left out."""
+        poses = self.arm.forward_kinematics(as_state(state, "state", self.dim))[0]
+        if not self._boxes:
+            return []
+        gaps = self._aabb_gaps(poses)
+        report = []
+        for j in range(1, self.arm.num_bodies):
+            if not self._has_geometry[j]:
+                continue
+            self._pose_body(poses, j)
+            for b in np.flatnonzero(gaps[j] <= MESH_DISTANCE_BELOW):
+                distance = min(
+                    fcl.distance(obj, self._boxes[b], fcl.DistanceRequest(), fcl.DistanceResult())
+                    for obj, _ in self._elements[j]
+                )
+                if distance <= 0:
+                    request = fcl.CollisionRequest(num_max_contacts=8, enable_contact=True)
+                    depth = 0.0
+                    for obj, _ in self._elements[j]:
+                        result = fcl.CollisionResult()
+                        if fcl.collide(obj, self._boxes[b], request, result):
+                            depth = max([depth] + [c.penetration_depth for c in result.contacts])
+                    distance = -depth
+                if distance <= MESH_DISTANCE_BELOW:
+                    report.append((self.arm.body_names[j], int(b), float(distance)))
+        return sorted(report, key=lambda entry: entry[2])
+
+    def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
+        """Certify the straight joint-space motion ``start -> end`` (module docstring)."""
+        start = as_state(start, "start", self.dim)
+        end = as_state(end, "end", self.dim)
+        if not np.all(self.states_free(np.stack([start, end]))):
+            return False
+        delta = end - start
+        sweep = np.abs(delta) @ self._motion_radii
+        moving = (np.flatnonzero((sweep > 0) & self._has_geometry) if self._boxes
+                  else np.zeros(0, dtype=np.int64))  # fmt: skip
+        pair_sweep = self._pair_motion @ np.abs(delta)
+        moving_pairs = np.flatnonzero(pair_sweep > 0)
+        if len(moving) == 0 and len(moving_pairs) == 0:
+            return True
+        t = 0.0
+        for _ in range(self.max_steps):
+            poses = self.arm.forward_kinematics(start + t * delta)[0]
+            advance, closest = self._advance(poses, moving, sweep, moving_pairs, pair_sweep)
+            if closest <= MIN_CLEARANCE:
+                return False
+            t += STEP_SAFETY * advance
+            if t >= 1.0:
+                return True
+        return False
+
+    def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Return ``bool[N]``: `edge_free` for each row pair of ``starts`` and ``ends``."""
+        starts = as_states(starts, self.dim, "starts")
+        ends = as_states(ends, self.dim, "ends")
+        if starts.shape != ends.shape:
+            raise ValueError(f"starts, ends: shapes {starts.shape} and {ends.shape} do not match")
+        return np.array([self.edge_free(a, b) for a, b in zip(starts, ends)], dtype=bool)
+
+    def path_free(self, path: np.ndarray) -> bool:
+        """Certify every edge of the polyline ``path`` (K x dim); one state: that state."""
+        path = as_states(path, self.dim, "path")
+        if len(path) == 0:
+            raise ValueError("path: expected at least one state")
+        if len(path) == 1:
+            return bool(self.states_free(path)[0])
+        return all(self.edge_free(a, b) for a, b in zip(path[:-1], path[1:]))
+
+
+__all__ = [
+    "EXACT_DISTANCE_BELOW",
+    "MESH_DISTANCE_BELOW",
+    "MIN_CLEARANCE",
+    "ArmExactChecker",
+    "base_collides",
+    "element_models",
+]

@@ -1,0 +1,278 @@
+"""Fast, conservative collision checking for any arm: boxes and self-collision.
+
+The planners' hot loop. One numba kernel does forward kinematics and walks each body's tree of
+covering spheres (`temp_gym.worlds.arm.sphere_tree`) against the boxes, with early exit, then
+the body pairs that the allowed-collision matrix enables against each other
+(`arm_fast_self`). A body's tree is only walked for a box its root sphere touches (the broad
+phase, SIMD over boxes), and the base, which never moves, is tested against the boxes once in
+``__init__``, by the exact checker's own test. Boxes are closed: touching counts.
+
+**Conservative, and close.** The leaves cover each convex piece of each body, bulging out of it
+by at most about the robot's sphere tolerance (`temp_gym.worlds.arm.spheres`), so a state this
+checker calls free is free for `ArmExactChecker` too; the converse fails only within that
+bulge of a surface. A state the exact checker calls free but this one does not is named by
+`collision_reasons` as the fast model's verdict.
+
+**Invalid states.** A state outside the bounds or the joint limits (bounds wider than the
+limits are cut to them), or with a NaN or inf coordinate, is not free (no exception); wrongly
+shaped input raises `ValueError`.
+
+**Motion validity (resolution), adaptive near surfaces.** An edge is the straight joint-space
+segment. Moving joint ``i`` by ``dq_i`` moves any point of body ``j`` by at most
+``|dq_i| R[i, j]`` (`ArmModel.motion_radii`), so along the edge body ``j`` moves at most
+``W_j = sum_i |dq_i| R[i, j]``. The edge is cut into ``n = ceil(max_j W_j / resolution)``
+intervals; an interval of half-width ``h`` (in the edge's parameter) is certified by the state
+at its middle with body ``j``'s spheres grown by ``W_j h``: every pose of the interval is
+within that of the checked one. An interval whose grown check fails while its middle state is
+free is split in two, and so on until the growth is below `GROWTH_FLOOR`: an edge that runs a
+few millimetres from a surface is certified with small steps there and large ones elsewhere,
+so a start or goal near a surface can be left and reached. The same grown spheres certify the
+relative motion of every enabled body pair (`arm_fast_self`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from temp_gym.worlds.arm.kinematics import FAST_FK_MARGIN
+from temp_gym.worlds.arm.model import ArmModel
+from temp_gym.worlds.arm.pair_tables import table_arrays
+from temp_gym.worlds.arm.sphere_tree import SphereTrees, build_trees
+from temp_gym.worlds.collision.arm_fast_kernels import (
+    GROWTH_FLOOR,
+    _edge_work,
+    colliding_pairs_kernel,
+    edges_free_kernel,
+    motion_free_kernel,
+    states_free_kernel,
+)
+from temp_gym.worlds.collision.arm_fast_self import scratch_for
+from temp_gym.worlds.collision.arm_inputs import (
+    as_bounds,
+    as_boxes,
+    as_state,
+    as_states,
+    within_limits,
+)
+from temp_gym.worlds.collision.compiled import register_motion_kernel
+
+DEFAULT_RESOLUTION = 0.02
+"""Largest workspace displacement (m) of any body point between two checked states, before
+any interval is split."""
+
+
+def sphere_trees(arm: ArmModel) -> SphereTrees:
+    """The arm's sphere trees from its derived data, grown by `FAST_FK_MARGIN` (cached)."""
+    key = "sphere_trees"
+    if key not in arm._arrays:
+        bodies = arm.derived_data()["spheres"]["bodies"]
+        trees = build_trees(
+            [(np.array(b["centers"], dtype=np.float64).reshape(-1, 3),
+              np.array(b["radii"], dtype=np.float64)) for b in bodies]
+        ).grown(FAST_FK_MARGIN)  # fmt: skip
+        for array in trees.arrays():
+            array.setflags(write=False)
+        arm._arrays[key] = trees
+    return arm._arrays[key]
+
+
+def _self_model(arm: ArmModel) -> tuple[np.ndarray, ...]:
+    """``(sphere_pairs, table_grid, table_bounds, table_motion, table_pairs)`` (cached)."""
+    key = "fast_self_model"
+    if key not in arm._arrays:
+        table_pairs, grid, bounds = table_arrays(arm.derived_data()["pair_tables"])
+        pairs = arm.enabled_pairs()
+        tabulated = (pairs[:, None, :] == table_pairs[None, :, :]).all(axis=2).any(axis=1)
+        motion = arm.relative_motion_radii(table_pairs)
+        arrays = (np.ascontiguousarray(pairs[~tabulated]), grid, bounds,
+                  np.ascontiguousarray(motion), table_pairs)  # fmt: skip
+        for array in arrays:
+            array.setflags(write=False)
+        arm._arrays[key] = arrays
+    return arm._arrays[key]
+
+
+class ArmSphereChecker:
+    """Fast, conservative arm checker: sphere trees against boxes and each other.
+
+    Args:
+        arm: the arm (`temp_gym.worlds.arm.load_arm`).
+        bounds: ``(2, dim)`` joint bounds; states outside them or the joint limits are not
+            free.
+        box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
+        box_upper: ``(M, 3)`` upper box corners.
+        resolution: largest workspace motion (m) of any body point between two checked states
+            of an edge before intervals are split (module docstring).
+        self_collision: test the enabled body pairs against each other. Only switched off to
+            measure what self-collision costs; planners and generators always test it.
+    """
+
+    def __init__(
+        self,
+        arm: ArmModel,
+        bounds: np.ndarray,
+        box_lower: np.ndarray,
+        box_upper: np.ndarray,
+        resolution: float = DEFAULT_RESOLUTION,
+        self_collision: bool = True,
+    ) -> None:
+        if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
+            raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
+        if resolution <= 0:
+            raise ValueError(f"resolution: must be positive, got {resolution}")
+        self.arm = arm
+        self.dim = arm.dim
+        self.resolution = float(resolution)
+        self._bounds = within_limits(as_bounds(bounds, arm.dim), arm.joint_limits())
+        lower, upper = as_boxes(box_lower, box_upper)
+        trees = sphere_trees(arm)
+        self._trees = trees.arrays()
+        self._kinematics = arm.kinematic_arrays(snapped=True)
+        self._motion_radii = arm.motion_radii()
+        self_model = _self_model(arm)
+        self._table_pairs = self_model[4]
+        self._self_model = tuple(
+            array if self_collision else array[:0] for array in self_model[:4]
+        )
+        self._scratch = scratch_for(trees)
+        box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
+        from temp_gym.worlds.collision.arm_exact import base_collides
+
+        self.base_free = not base_collides(arm, box_params)
+        self._boxes = self._candidate_boxes(trees, box_params, lower, upper)
+        self._num_boxes = len(box_params)
+        self.description = (
+            f"{arm.name} sphere model ({len(trees.radii)} spheres), {self._num_boxes} boxes, "
+            f"self-collision of {self.num_self_pairs} body pairs, edge resolution "
+            f"{self.resolution} m" + ("" if self.base_free else ", base link in collision")
+        )
+
+    def _candidate_boxes(self, trees: SphereTrees, box_params: np.ndarray, lower: np.ndarray,
+                         upper: np.ndarray) -> tuple[np.ndarray, ...]:  # fmt: skip
+        """Per body, the boxes it can reach: within its reach of the first joint's origin
+        (which never moves), plus half the resolution (the most an edge check grows it)."""
+        arm = self.arm
+        bodies = arm.num_bodies
+        anchor = arm.chain.joint_origins[0, :3, 3]
+        shift = arm.chain.joint_origins[:, :3, 3]
+        slides = np.where(arm.chain.joint_types == 1, np.abs(arm.chain.joint_limits).max(axis=0),
+                          0.0)  # fmt: skip
+        gaps = np.linalg.norm(np.maximum(np.abs(anchor - box_params[:, :3]) - box_params[:, 3:],
+                                         0.0), axis=1)  # fmt: skip
+        body_boxes = np.zeros((bodies, max(len(box_params), 1)), dtype=np.int64)
+        counts = np.zeros(bodies, dtype=np.int64)
+        for j in range(1, bodies):
+            root = trees.body_start[j]
+            if root == trees.body_start[j + 1]:
+                continue
+            extent = float(np.linalg.norm(trees.node_centers[root]) + trees.node_radii[root])
+            reach = (float(np.linalg.norm(shift[1:j], axis=1).sum()) + float(slides[:j].sum())
+                     + extent)  # fmt: skip
+            near = np.flatnonzero(gaps <= reach + self.resolution / 2 + 1e-9)
+            body_boxes[j, : len(near)] = near
+            counts[j] = len(near)
+        body_lower = np.zeros((bodies, 3, body_boxes.shape[1]))
+        body_upper = np.zeros((bodies, 3, body_boxes.shape[1]))
+        for j in range(bodies):
+            near = body_boxes[j, : counts[j]]
+            body_lower[j, :, : len(near)] = lower[near].T
+            body_upper[j, :, : len(near)] = upper[near].T
+        return box_params, body_boxes, counts, body_lower, body_upper
+
+    @property
+    def num_self_pairs(self) -> int:
+        """Number of body pairs tested for self-collision (spheres and tables)."""
+        return len(self._self_model[0]) + len(self._self_model[1])
+
+    @property
+    def num_spheres(self) -> int:
+        """Number of leaf spheres in the model (the base's included)."""
+        return len(self._trees[7])
+
+    def states_free(self, states: np.ndarray, clearance: float = 0.0) -> np.ndarray:
+        """Return ``bool[N]``: each state of ``states`` (N x dim) is in bounds and free.
+
+        With ``clearance`` > 0 a state only counts as free when every moving body's spheres,
+        grown by that many metres, still miss every box, and the bodies of every checked
+        pair keep that much more than their collision gap between them.
+
+        Raises:
+            ValueError: ``clearance`` negative, not finite or above ``resolution / 2`` (the
+                broad phase only keeps boxes within that margin of each body).
+        """
+        if not (isinstance(clearance, (int, float)) and 0 <= clearance <= self.resolution / 2):
+            raise ValueError(
+                f"clearance: expected a number in [0, resolution / 2 = {self.resolution / 2}], "
+                f"got {clearance!r}"
+            )
+        states = as_states(states, self.dim)
+        if not self.base_free:
+            return np.zeros(len(states), dtype=bool)
+        return states_free_kernel(states, self._bounds, self._kinematics, self._trees,
+                                  self._boxes, self._self_model, float(clearance),
+                                  self._scratch)  # fmt: skip
+
+    def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
+        """The body pairs of ``state`` whose spheres touch, by chain link name."""
+        state = as_state(state, "state", self.dim)
+        spheres_hit, tables_hit = colliding_pairs_kernel(state, self._kinematics, self._trees,
+                                                         self._self_model,
+                                                         self._scratch)  # fmt: skip
+        pairs = np.concatenate([self._self_model[0][spheres_hit],
+                                self._table_pairs[: len(tables_hit)][tables_hit]])  # fmt: skip
+        return [self.arm.pair_name(a, b) for a, b in sorted(pairs.tolist())]
+
+    def compiled_context(self) -> tuple:
+        """This checker for `temp_gym.worlds.collision.compiled.motion_free` (compiled loops).
+
+        The same arrays `edges_free` uses, plus private scratch space: one context per loop.
+        """
+        dim, bodies = self.dim, self.dim + 1
+        steps = max(1, int(math.ceil(float(np.max(self._motion_radii.sum(axis=0))) * 2.0
+                                     / self.resolution)))  # fmt: skip
+        work = (np.empty((1, dim)), np.empty((1, dim)),
+                *_edge_work(dim, bodies, len(self._self_model[1]), steps))  # fmt: skip
+        work[3][0] = self._trees[0][self._trees[5][0]] if self._trees[5][1] > 0 else 0.0
+        settings = np.array([1.0 if self.base_free else 0.0, self.resolution])
+        context = (settings, self._bounds, self._kinematics, self._trees, self._boxes,
+                   self._self_model, self._motion_radii, scratch_for(sphere_trees(self.arm)),
+                   work)  # fmt: skip
+        register_motion_kernel(context, motion_free_kernel)
+        return context
+
+    def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Return ``bool[N]``: whether each segment ``starts[i] -> ends[i]`` is free."""
+        starts = as_states(starts, self.dim, "starts")
+        ends = as_states(ends, self.dim, "ends")
+        if starts.shape != ends.shape:
+            try:
+                starts, ends = (np.ascontiguousarray(a) for a in np.broadcast_arrays(starts, ends))
+            except ValueError:
+                raise ValueError(
+                    f"starts, ends: shapes {starts.shape} and {ends.shape} do not match"
+                ) from None
+        if not self.base_free:
+            return np.zeros(len(starts), dtype=bool)
+        return edges_free_kernel(starts, ends, self._bounds, self._kinematics, self._trees,
+                                 self._boxes, self._self_model, self._motion_radii,
+                                 self.resolution, self._scratch)  # fmt: skip
+
+    def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
+        """Whether the straight joint-space motion ``start -> end`` is free, endpoints included."""
+        start = as_state(start, "start", self.dim)
+        end = as_state(end, "end", self.dim)
+        return bool(self.edges_free(start[None], end[None])[0])
+
+    def path_free(self, path: np.ndarray) -> bool:
+        """Whether every edge of the polyline ``path`` (K x dim) is free (one state: that one)."""
+        path = as_states(path, self.dim, "path")
+        if len(path) == 0:
+            raise ValueError("path: expected at least one state")
+        if len(path) == 1:
+            return bool(self.states_free(path)[0])
+        return bool(np.all(self.edges_free(path[:-1], path[1:])))
+
+
+__all__ = ["DEFAULT_RESOLUTION", "GROWTH_FLOOR", "ArmSphereChecker", "sphere_trees"]

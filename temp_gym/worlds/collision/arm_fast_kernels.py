@@ -1,0 +1,409 @@
+"""The fast arm checker's compiled kernels: states and edges against boxes and itself.
+
+`temp_gym.worlds.collision.arm_fast` prepares the arrays and explains why the tests are
+conservative and certify whole motions; `temp_gym.worlds.collision.arm_fast_self` holds the
+self-collision tests. Arrays come unpacked and are indexed whole, never sliced: tuple
+unpacking and row views cost atomic reference counts in the hot loop, and so do calls to
+non-inlined functions, which is why the self-collision pairs are first screened here, on the
+root-sphere centers the box broad phase has just computed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from temp_gym.worlds.arm.kinematics import identity_poses, joint_step_into, sincos_into
+from temp_gym.worlds.collision.arm_fast_self import (
+    FAST_SELF_GAP,
+    pair_free,
+    pairs_free,
+    place,
+    roots_apart,
+    tables_free,
+)
+
+GROWTH_FLOOR = 1e-4
+"""An edge interval whose spheres would grow by at most this (m) and still touch is blocked."""
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
+    """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
+    gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
+    gy = max(abs(y - box_params[b, 1]) - box_params[b, 4], 0.0)
+    gz = max(abs(z - box_params[b, 2]) - box_params[b, 5], 0.0)
+    return gx * gx + gy * gy + gz * gz <= radius * radius
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _in_bounds(states, i, bounds) -> bool:
+    """Whether ``states[i]`` is within ``bounds`` (indexed whole: row views cost refcounts)."""
+    for k in range(states.shape[1]):
+        # Written so that NaN fails the test.
+        if not (states[i, k] >= bounds[0, k] and states[i, k] <= bounds[1, k]):
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
+                  body_start, centers, radii, grow, box_params, b) -> bool:  # fmt: skip
+    """Whether a leaf sphere of body ``j``, grown by ``grow``, touches box ``b`` (a tree walk)."""
+    n = body_start[j]
+    end = body_start[j + 1]
+    while n < end:
+        x, y, z = place(poses, j, node_centers, n)
+        if sphere_hits_box(x, y, z, node_radii[n] + grow, box_params, b):
+            count = node_count[n]
+            if count > 0:
+                for k in range(node_first[n], node_first[n] + count):
+                    x, y, z = place(poses, j, centers, k)
+                    if sphere_hits_box(x, y, z, radii[k] + grow, box_params, b):
+                        return True
+                n = node_skip[n]
+            else:
+                n += 1
+        else:
+            n = node_skip[n]
+    return False
+
+
+@numba.njit(cache=True, nogil=True)
+def _pose_free(sines, cosines, values, base, kind, rotation, shift, permutation, sign,
+               node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
+               radii, box_params, body_boxes, body_box_count, body_lower, body_upper, inflation,
+               poses, root_world) -> bool:  # fmt: skip
+    """Whether the moving bodies' spheres (grown by ``inflation[j]``) miss every box.
+
+    ``sines[base + i]``, ``cosines[base + i]`` and ``values[base + i]`` are joint ``i``'s;
+    ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
+    ``poses`` holds the body frames and ``root_world`` (B, 3) the world centers of the bodies'
+    root spheres (row 0, the base's, never changes): the self-collision test reads them.
+    """
+    for j in range(kind.shape[0]):
+        joint_step_into(poses, j, kind, rotation, shift, permutation, sign,
+                        cosines[base + j], sines[base + j], values[base + j])  # fmt: skip
+    # Distal bodies first: they sweep the most space, so collisions are found sooner.
+    for j in range(poses.shape[0] - 1, 0, -1):
+        root = body_start[j]
+        if root == body_start[j + 1]:
+            continue
+        bx, by, bz = place(poses, j, node_centers, root)
+        root_world[j, 0], root_world[j, 1], root_world[j, 2] = bx, by, bz
+        count = body_box_count[j]
+        bound = node_radii[root] + inflation[j]
+        # Broad phase, branch-free so that LLVM makes it SIMD over the body's candidates.
+        hits = 0
+        for n in range(count):
+            gx = max(max(body_lower[j, 0, n] - bx, bx - body_upper[j, 0, n]), 0.0)
+            gy = max(max(body_lower[j, 1, n] - by, by - body_upper[j, 1, n]), 0.0)
+            gz = max(max(body_lower[j, 2, n] - bz, bz - body_upper[j, 2, n]), 0.0)
+            hits += gx * gx + gy * gy + gz * gz <= bound * bound
+        if hits == 0:
+            continue
+        for n in range(count):
+            b = body_boxes[j, n]
+            if sphere_hits_box(bx, by, bz, bound, box_params, b) and tree_hits_box(
+                poses, j, node_centers, node_radii, node_skip, node_first, node_count,
+                body_start, centers, radii, inflation[j], box_params, b,
+            ):  # fmt: skip
+                return False
+    return True
+
+
+_BLOCK = 256
+"""States per block: sines and cosines are computed a block at a time, vectorized."""
+
+
+@numba.njit(cache=True, nogil=True)
+def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, clearance, scratch):
+    """``bool[N]``: each state in ``bounds`` and free, every sphere grown by ``clearance``.
+
+    The tuples are `ArmSphereChecker`'s arrays; ``scratch`` is `pair_free`'s.
+    """
+    kind, rotation, shift, permutation, sign = kinematics
+    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    num, dim = states.shape
+    bodies = dim + 1
+    out = np.zeros(num, dtype=np.bool_)
+    table_growth = np.full(table_grid.shape[0], clearance)
+    poses = identity_poses(bodies)
+    root_world = np.zeros((bodies, 3))
+    if body_start[0] < body_start[1]:
+        root_world[0, 0] = node_centers[body_start[0], 0]
+        root_world[0, 1] = node_centers[body_start[0], 1]
+        root_world[0, 2] = node_centers[body_start[0], 2]
+    inflation = np.full(bodies, clearance)
+    inflation[0] = 0.0
+    flat = states.reshape(-1)
+    sines = np.empty(_BLOCK * dim)
+    cosines = np.empty(_BLOCK * dim)
+    for first in range(0, num, _BLOCK):
+        last = min(first + _BLOCK, num)
+        sincos_into(flat[first * dim : last * dim], sines, cosines)
+        for i in range(first, last):
+            # The joint-space tables need no kinematics: they go first; the sphere pairs last.
+            if not (_in_bounds(states, i, bounds) and tables_free(
+                    flat, i * dim, table_grid, table_bounds, table_growth,
+                    FAST_SELF_GAP)):  # fmt: skip
+                continue
+            boxes_free = _pose_free(
+                sines, cosines, flat[first * dim :], (i - first) * dim, kind, rotation, shift,
+                permutation, sign, node_centers, node_radii, node_skip, node_first, node_count,
+                body_start, centers, radii, box_params, body_boxes, body_box_count, body_lower,
+                body_upper, inflation, poses, root_world,
+            )  # fmt: skip
+            # Most poses keep every pair's root spheres apart: no tree walk.
+            out[i] = boxes_free and (
+                roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
+                            FAST_SELF_GAP)
+                or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
+                              node_first, node_count, body_start, centers, radii, inflation,
+                              FAST_SELF_GAP, scratch)
+            )  # fmt: skip
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
+                node_skip, node_first, node_count, body_start, centers, radii, box_params,
+                body_boxes, body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
+                table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
+                scratch) -> bool:  # fmt: skip
+    """Whether the one state ``q`` is free with spheres grown by ``inflation`` (no bounds
+    check: an edge's states lie between its checked ends)."""
+    if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
+        return False
+    sincos_into(q, sines, cosines)
+    if not _pose_free(sines, cosines, q, 0, kind, rotation, shift, permutation, sign,
+                      node_centers, node_radii, node_skip, node_first, node_count, body_start,
+                      centers, radii, box_params, body_boxes, body_box_count, body_lower,
+                      body_upper, inflation, poses, root_world):  # fmt: skip
+        return False
+    return roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
+                       FAST_SELF_GAP) or pairs_free(
+        poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
+        body_start, centers, radii, inflation, FAST_SELF_GAP, scratch)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign, node_centers,
+               node_radii, node_skip, node_first, node_count, body_start, centers, radii,
+               box_params, body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+               table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
+               sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
+               stack_high, scratch) -> bool:  # fmt: skip
+    """Whether edge ``starts[e] -> ends[e]`` is free (`arm_fast`'s adaptive intervals)."""
+    # The configuration space is a box: a segment with both ends in bounds stays in bounds.
+    if not (_in_bounds(starts, e, bounds) and _in_bounds(ends, e, bounds)):
+        return False
+    dim = starts.shape[1]
+    worst = 0.0
+    for j in range(sweep.shape[0]):
+        total = 0.0
+        for i in range(dim):
+            total += abs(ends[e, i] - starts[e, i]) * motion[i, j]
+        sweep[j] = total
+        worst = max(worst, total)
+    for p in range(table_sweep.shape[0]):
+        total = 0.0
+        for i in range(dim):
+            total += abs(ends[e, i] - starts[e, i]) * table_motion[p, i]
+        table_sweep[p] = total
+    steps = max(1, int(math.ceil(worst / resolution)))
+    # The intervals [k / steps, (k + 1) / steps], pushed so that the one at the end comes out
+    # first, then the one at the start, then the middle ones in bisection order.
+    top = 0
+    stride = 1
+    while stride < steps:
+        stride *= 2
+    order_count = 0
+    for level in range(64):
+        width = stride >> level
+        if width == 0:
+            break
+        for k in range(width, steps - 1, 2 * width):
+            order_count += 1
+    # Fill the stack bottom-up in reverse of the visiting order.
+    visit = np.empty(order_count, dtype=np.int64)
+    count = 0
+    for level in range(64):
+        width = stride >> level
+        if width == 0:
+            break
+        for k in range(width, steps - 1, 2 * width):
+            visit[count] = k
+            count += 1
+    for m in range(order_count - 1, -1, -1):
+        stack_low[top] = visit[m] / steps
+        stack_high[top] = (visit[m] + 1) / steps
+        top += 1
+    if steps > 1:
+        stack_low[top], stack_high[top] = 0.0, 1.0 / steps
+        top += 1
+    stack_low[top], stack_high[top] = (steps - 1) / steps, 1.0
+    top += 1
+    while top > 0:
+        top -= 1
+        low, high = stack_low[top], stack_high[top]
+        t = 0.5 * (low + high)
+        half = 0.5 * (high - low)
+        for i in range(dim):
+            q[i] = starts[e, i] + t * (ends[e, i] - starts[e, i])
+        for j in range(sweep.shape[0]):
+            inflation[j] = sweep[j] * half
+        for p in range(table_sweep.shape[0]):
+            table_growth[p] = table_sweep[p] * half
+        if _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
+                       node_skip, node_first, node_count, body_start, centers, radii,
+                       box_params, body_boxes, body_box_count, body_lower, body_upper,
+                       sphere_pairs, table_grid, table_bounds, inflation, table_growth, poses,
+                       root_world, sines, cosines, scratch):  # fmt: skip
+            continue
+        if worst * half <= GROWTH_FLOOR or top + 2 > stack_low.shape[0]:
+            return False
+        # Blocked with grown spheres: is the state itself free? Then look closer.
+        for j in range(sweep.shape[0]):
+            inflation[j] = 0.0
+        for p in range(table_sweep.shape[0]):
+            table_growth[p] = 0.0
+        if not _state_free(q, kind, rotation, shift, permutation, sign, node_centers,
+                           node_radii, node_skip, node_first, node_count, body_start, centers,
+                           radii, box_params, body_boxes, body_box_count, body_lower,
+                           body_upper, sphere_pairs, table_grid, table_bounds, inflation,
+                           table_growth, poses, root_world, sines, cosines,
+                           scratch):  # fmt: skip
+            return False
+        stack_low[top], stack_high[top] = t, high
+        top += 1
+        stack_low[top], stack_high[top] = low, t
+        top += 1
+    return True
+
+
+_STACK_DEPTH = 96
+"""Room for nested splits on top of an edge's first intervals."""
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_work(dim, bodies, tables, steps_hint):
+    """Scratch for `_edge_free`: poses, root centers, sweeps, a state, sines, the stack."""
+    return (identity_poses(bodies), np.zeros((bodies, 3)), np.empty(bodies), np.empty(bodies),
+            np.empty(tables), np.empty(tables), np.empty(dim), np.empty(dim), np.empty(dim),
+            np.empty(steps_hint + _STACK_DEPTH), np.empty(steps_hint + _STACK_DEPTH))  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
+def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model, motion,
+                      resolution, scratch):  # fmt: skip
+    """``bool[N]``: each motion ``starts[e] -> ends[e]`` certified free (`_edge_free`)."""
+    kind, rotation, shift, permutation, sign = kinematics
+    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    dim = starts.shape[1]
+    bodies = dim + 1
+    out = np.empty(starts.shape[0], dtype=np.bool_)
+    most = 1
+    for e in range(starts.shape[0]):
+        worst = 0.0
+        for j in range(bodies):
+            total = 0.0
+            for i in range(dim):
+                total += abs(ends[e, i] - starts[e, i]) * motion[i, j]
+            worst = max(worst, total)
+        if worst < 1e9:  # not NaN or inf: such an edge fails its bounds check
+            most = max(most, int(math.ceil(worst / resolution)))
+    (poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines, cosines,
+     stack_low, stack_high) = _edge_work(dim, bodies, table_grid.shape[0], most)  # fmt: skip
+    if body_start[0] < body_start[1]:
+        for k in range(3):
+            root_world[0, k] = node_centers[body_start[0], k]
+    for e in range(starts.shape[0]):
+        out[e] = _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign,
+                            node_centers, node_radii, node_skip, node_first, node_count,
+                            body_start, centers, radii, box_params, body_boxes, body_box_count,
+                            body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
+                            table_motion, motion, resolution, poses, root_world, sweep,
+                            inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
+                            stack_high, scratch)  # fmt: skip
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def motion_free_kernel(context, start, end) -> bool:
+    """One motion ``start -> end`` by `_edge_free`, for compiled callers.
+
+    ``context`` is `ArmSphereChecker.compiled_context`: the checker's arrays plus scratch
+    space, so a call allocates nothing unless the edge needs more intervals than it holds.
+    """
+    settings, bounds, kinematics, trees, boxes, self_model, motion, scratch, work = context
+    if settings[0] == 0.0:  # the base collides: nothing is free
+        return False
+    kind, rotation, shift, permutation, sign = kinematics
+    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
+     cosines, stack_low, stack_high) = work  # fmt: skip
+    for i in range(start.shape[0]):
+        starts[0, i] = start[i]
+        ends[0, i] = end[i]
+    worst = 0.0
+    for j in range(sweep.shape[0]):
+        total = 0.0
+        for i in range(start.shape[0]):
+            total += abs(end[i] - start[i]) * motion[i, j]
+        worst = max(worst, total)
+    if worst < 1e9 and int(math.ceil(worst / settings[1])) + _STACK_DEPTH > stack_low.shape[0]:
+        stack_low = np.empty(int(math.ceil(worst / settings[1])) + _STACK_DEPTH)
+        stack_high = np.empty(stack_low.shape[0])
+    return _edge_free(starts, ends, 0, bounds, kind, rotation, shift, permutation, sign,
+                      node_centers, node_radii, node_skip, node_first, node_count, body_start,
+                      centers, radii, box_params, body_boxes, body_box_count, body_lower,
+                      body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
+                      settings[1], poses, root_world, sweep, inflation, table_sweep,
+                      table_growth, q, sines, cosines, stack_low, stack_high,
+                      scratch)  # fmt: skip
+
+
+@numba.njit(cache=True, nogil=True)
+def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
+    """``(sphere pairs hit, table pairs hit)``: which pairs of one state collide."""
+    kind, rotation, shift, permutation, sign = kinematics
+    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    dim = state.shape[0]
+    poses = identity_poses(dim + 1)
+    inflation = np.zeros(dim + 1)
+    for j in range(dim):
+        q = state[j]
+        joint_step_into(poses, j, kind, rotation, shift, permutation, sign, np.cos(q),
+                        np.sin(q), q)  # fmt: skip
+    spheres_hit = np.zeros(sphere_pairs.shape[0], dtype=np.bool_)
+    for p in range(sphere_pairs.shape[0]):
+        spheres_hit[p] = not pair_free(poses, sphere_pairs[p, 0], sphere_pairs[p, 1],
+                                       node_centers, node_radii, node_skip, node_first,
+                                       node_count, body_start, centers, radii, inflation,
+                                       FAST_SELF_GAP, scratch)  # fmt: skip
+    tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
+    for p in range(table_grid.shape[0]):
+        tables_hit[p] = not tables_free(state, 0, table_grid[p : p + 1], table_bounds[p : p + 1],
+                                        np.zeros(1), FAST_SELF_GAP)  # fmt: skip
+    return spheres_hit, tables_hit
+
+
+__all__ = [
+    "GROWTH_FLOOR",
+    "colliding_pairs_kernel",
+    "edges_free_kernel",
+    "motion_free_kernel",
+    "sphere_hits_box",
+    "states_free_kernel",
+    "tree_hits_box",
+]

@@ -1,0 +1,60 @@
+"""Validation of the arm checkers' inputs: one place for the shapes and the error messages."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_boxes(box_lower: np.ndarray, box_upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validated ``(M, 3)`` float64 box corners."""
+    lower = np.ascontiguousarray(box_lower, dtype=np.float64)
+    upper = np.ascontiguousarray(box_upper, dtype=np.float64)
+    if lower.size == 0 and upper.size == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    if lower.ndim != 2 or lower.shape[1] != 3 or lower.shape != upper.shape:
+        raise ValueError(
+            f"box_lower, box_upper: expected two (M, 3) arrays, got {lower.shape}, {upper.shape}"
+        )
+    if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        raise ValueError("box_lower, box_upper: contain NaN or inf")
+    if np.any(lower > upper):
+        raise ValueError("box_lower, box_upper: a lower corner is above its upper corner")
+    return lower, upper
+
+
+def as_bounds(bounds: np.ndarray, dim: int) -> np.ndarray:
+    """Validated ``(2, dim)`` float64 joint bounds ``[lower, upper]``."""
+    bounds = np.ascontiguousarray(bounds, dtype=np.float64)
+    if bounds.shape != (2, dim):
+        raise ValueError(f"bounds: expected shape (2, {dim}), got {bounds.shape}")
+    if not np.all(np.isfinite(bounds)) or np.any(bounds[0] > bounds[1]):
+        raise ValueError("bounds: must be finite with lower <= upper")
+    return bounds
+
+
+def within_limits(bounds: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """``bounds`` cut to the joint ``limits`` (lower > upper where they do not overlap)."""
+    return np.ascontiguousarray(
+        np.stack([np.maximum(bounds[0], limits[0]), np.minimum(bounds[1], limits[1])])
+    )
+
+
+def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
+    """``(N, dim)`` float64 states (one ``(dim,)`` state becomes ``(1, dim)``)."""
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if states.ndim == 1:
+        states = states.reshape(1, -1)
+    if states.ndim != 2 or states.shape[1] != dim:
+        raise ValueError(f"{name}: expected shape (N, {dim}), got {states.shape}")
+    return states
+
+
+def as_state(state: np.ndarray, name: str, dim: int) -> np.ndarray:
+    """One ``(dim,)`` float64 state; ``name`` is the field named in the error."""
+    state = np.ascontiguousarray(state, dtype=np.float64)
+    if state.shape != (dim,):
+        raise ValueError(f"{name}: expected shape ({dim},), got {state.shape}")
+    return state
+
+
+__all__ = ["as_bounds", "as_boxes", "as_state", "as_states", "within_limits"]
