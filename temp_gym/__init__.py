@@ -25,7 +25,31 @@ def _shipped_policy(robot: str):
 # module that does not load the planners.
 hooks.default_policy_loader = _shipped_policy
 
-__all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "robots"]
+
+
+def register_robot_file(path):
+    """Register the arm described at ``path`` (a robot description, YAML) and its env.
+
+    Its derived data must be built (``temp-robot build path``). A problem file then names the
+    robot in ``"robot"``, and ``gymnasium.make(spec.env_id)`` makes its env. Registering the
+    same file again returns the registered spec.
+
+    Examples:
+        >>> spec = temp_gym.register_robot_file("my_arm.yaml")
+        >>> spec.name, spec.env_id
+        ('my_arm', 'TEMP-MyArm-v0')
+    """
+    from temp_gym.worlds.arm.spec import register_robot_file as register
+
+    spec = register(path)
+    register_envs()
+    return spec
+
+
+hooks.robot_file_loader = register_robot_file
+
+__all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "register_robot_file",
+           "robots"]  # fmt: skip
 
 
 def __getattr__(name: str):

@@ -75,6 +75,14 @@ def _parser() -> argparse.ArgumentParser:
         help="problem JSON files (temp_gym.problem; docs/security.md lists the sizes accepted)",
     )
     parser.add_argument(
+        "--robot",
+        action="append",
+        default=[],
+        metavar="DESCRIPTION",
+        help="a robot description (YAML) to register first, so that problems can name that "
+        "arm; its derived data must be built (temp-robot build DESCRIPTION); repeatable",
+    )
+    parser.add_argument(
         "--planner",
         default="temp",
         help=f"one of {', '.join(BUILT_IN_PLANNERS)}, or one registered with "
@@ -130,6 +138,19 @@ def _parser() -> argparse.ArgumentParser:
         "http://127.0.0.1:8080 (needs temp-gym[view]) until Ctrl-C",
     )
     return parser
+
+
+def _register(description: str) -> None:
+    """Register the arm of a ``--robot`` description (one-line errors name the flag)."""
+    import temp_gym
+    from temp_gym.worlds.arm.description import DescriptionError
+    from temp_gym.worlds.arm.model import ArmDataError
+    from temp_gym.worlds.arm.urdf import UrdfError
+
+    try:
+        temp_gym.register_robot_file(description)
+    except (DescriptionError, UrdfError, ArmDataError, OSError) as error:
+        raise ValueError(f"--robot: {error}") from None
 
 
 def _error(message: object) -> None:
@@ -306,6 +327,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     batch = len(args.problems) > 1
     try:
+        for description in args.robot:
+            _register(description)
         _check_flags(args)
         outputs = _outputs(args)
         if args.view:

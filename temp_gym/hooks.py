@@ -11,6 +11,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+robot_file_loader: Callable[[str], Any] | None = None
+"""``loader(path)``: register the arm described at ``path`` and return its spec (its name,
+``env_id``); `import temp_gym` sets it to `temp_gym.register_robot_file`, so a config can name
+an arm by its description file without the config layer loading the worlds."""
+
 default_policy_loader: Callable[[str], Any] | None = None
 """``loader(robot name)``: the policy the ``temp`` planner uses when given none (None: no
 default; `temp_gym.planning.temp_planner.set_default_policy` sets it)."""

@@ -19,6 +19,8 @@ After the overrides, every value is checked against its bounds (`temp_gym.config
 
 from __future__ import annotations
 
+import dataclasses
+
 import os
 import shlex
 from collections.abc import Mapping, Sequence
@@ -190,8 +192,44 @@ def load_config(path: str | Path, overrides: Sequence[str] | None = None) -> Con
         config = apply_overrides(config, extra)
     except ConfigError as error:
         raise ConfigError(f"${OVERRIDES_VARIABLE}: {error}") from error
+    given_id = any(item.split("=", 1)[0].lstrip("+") == "env.id"
+                   for item in [*(overrides or []), *extra])  # fmt: skip
+    config = resolve_robot_description(config, keep_id=given_id)
     check_config(config)
     return config
+
+
+def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
+    """``config`` with an ``env.robot`` that names a description file (``.yaml``/``.yml``)
+    registered and replaced by the arm's name (the file kept as ``env.description``).
+
+    ``env.id`` becomes the arm's env unless ``keep_id`` (it was given explicitly; then it must
+    match, `check_config`). A config loaded again from a stored copy (``env.description`` set)
+    registers the same file.
+
+    Raises:
+        ConfigError: an unreadable or invalid description (one line naming ``env.robot``).
+    """
+    from temp_gym import hooks
+
+    robot, description = config.env.robot, config.env.description
+    if str(robot).endswith((".yaml", ".yml")):
+        description = robot
+    if description is None:
+        return config
+    if hooks.robot_file_loader is None:
+        raise ConfigError("env.robot: a robot description needs `import temp_gym` first")
+    try:
+        spec = hooks.robot_file_loader(description)
+    except (OSError, ValueError) as error:
+        raise ConfigError(f"env.robot: {brief(str(error), 300)}") from None
+    env = dataclasses.replace(
+        config.env,
+        robot=spec.name,
+        description=str(Path(description).expanduser().resolve()),
+        id=config.env.id if keep_id else spec.env_id,
+    )
+    return dataclasses.replace(config, env=env)
 
 
 def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:

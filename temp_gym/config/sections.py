@@ -34,7 +34,12 @@ class EnvConfig:
     id: str
     """Gymnasium env id (``TEMP-2D-v0``, ...): the world; it also names the run directory."""
     robot: str
-    """The env's robot, a name `temp_gym.worlds.robots` registers: the model's dimension."""
+    """The env's robot, a name `temp_gym.worlds.robots` registers: the model's dimension. A
+    robot description file (``my_arm.yaml``) registers that arm and stands for its name
+    (`temp_gym.config.loading.load_config`); ``env.id`` then defaults to the arm's env."""
+    description: str | None = None
+    """The robot description of an arm given as ``env.robot`` (set when the config is loaded,
+    so that worker processes register the same arm); null for a built-in robot."""
     encoding_resolution: int | None = None
     """Occupancy-grid cells per workspace axis, the EISE's input; null: the robot spec's."""
     max_path_length: int = 64

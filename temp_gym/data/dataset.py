@@ -82,6 +82,8 @@ def data_settings(config: Config) -> dict[str, Any]:
         settings["attempts"] = data.attempts
     if data.expert_reverse:  # absent means False, as for every dataset before the key
         settings["expert_reverse"] = True
+    if env.description is not None:  # an arm of a description file: workers register it
+        settings["robot_description"] = env.description
     try:
         check_family(robot, data.workspace_family)
     except ValueError as error:

@@ -136,6 +136,10 @@ def solve_unit(settings: dict[str, Any], split: str, workspace: int) -> dict[str
     by ``path_offsets``; ``status`` holds a `STATUS` code per task.
     """
     started, started_cpu = time.perf_counter(), time.process_time()
+    if settings.get("robot_description"):  # a worker process meets this arm for the first time
+        from temp_gym.worlds.arm.spec import ensure_registered
+
+        ensure_registered(settings["robot_description"])
     space = split_workspace(settings["robot"], split, workspace, workspace_family(settings))
     count, dim = settings["tasks_per_workspace"], space.dim
     status = np.full(count, STATUS["no_task"], dtype=np.int64)

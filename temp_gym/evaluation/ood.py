@@ -1,6 +1,6 @@
 """Hand-made out-of-distribution problems: structures the task generators never draw.
 
-The default generators (`temp_gym.worlds.point_world`, `temp_gym.worlds.iiwa_world`) scatter
+The default generators (`temp_gym.worlds.point_world`, `temp_gym.worlds.arm_world`) scatter
 a handful of independent random boxes. A policy trained on them can learn that clutter, not
 planning.
 This family is built to tell the two apart: every problem is a deliberate structure, made of
@@ -22,7 +22,7 @@ and the same ideas in 3D (``cup``, ``window``, ``floors``, ``double_window``, ``
 radius, so only the structure differs. No training generator produces these layouts: the
 opt-in families of `temp_gym.worlds.structured` have walls with openings, cups and clutter,
 but randomized and never such a scene (``tests/worlds/test_structured.py`` measures it;
-``tests/worlds/test_iiwa_structured.py`` for the arm's families).
+``tests/worlds/test_arm_structured.py`` for the arms' families).
 
 The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
 ``python -m temp_gym.evaluation.ood`` rewrites those files from the builders here, and the tests
@@ -223,29 +223,31 @@ PLATE = 0.01
 """Half thickness of a plate (m)."""
 
 
-def _iiwa_problem(boxes: list[dict], start_near, goal_near, seed: int) -> Problem:
-    """A task in a fixed iiwa scene: start and goal with the end effector in given regions.
+def _arm_problem(boxes: list[dict], start_near, goal_near, seed: int,
+                 spec: RobotSpec = KUKA_IIWA14) -> Problem:  # fmt: skip
+    """A task in a fixed arm scene: start and goal with the end effector in given regions.
 
-    ``start_near`` and ``goal_near`` are predicates on the end effector's position (link_7's
-    origin). Configurations are drawn from a fixed seed; a pair is kept when both are free
-    with the generators' clearance, the straight motion between them is blocked, and Informed
-    RRT* (seed 0, `FEASIBILITY_NODES` nodes) connects them, so the task is known to be
-    solvable. Deterministic: the same scene and seed give the same task.
+    ``start_near`` and ``goal_near`` are predicates on the end effector's position (the last
+    body's origin). Configurations are drawn from a fixed seed; a pair is kept when both are
+    free, the straight motion between them is blocked, and Informed RRT* (seed 0,
+    `FEASIBILITY_NODES` nodes) connects them, so the task is known to be solvable.
+    Deterministic: the same scene and seed give the same task.
     """
     from temp_gym.planning.plan import plan
-    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-    from temp_gym.worlds.iiwa14.kinematics import forward_kinematics, joint_limits
+    from temp_gym.worlds.arm.model import load_arm
+    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 
-    limits = joint_limits()
+    arm = load_arm(spec.description)
+    limits = arm.joint_limits()
     lower = np.array([np.subtract(b["center"], b["half_extents"]) for b in boxes])
     upper = np.array([np.add(b["center"], b["half_extents"]) for b in boxes])
-    checker = IiwaSphereChecker(limits, lower, upper)
+    checker = ArmSphereChecker(arm, limits, lower, upper)
     rng = np.random.default_rng(seed)
     candidates: dict[str, list[np.ndarray]] = {"start": [], "goal": []}
     for _ in range(400):
-        states = rng.uniform(limits[0], limits[1], size=(512, 7))
-        free = checker.states_free(states, checker.resolution / 2)
-        effector = forward_kinematics(states)[:, -1, :3, 3]
+        states = rng.uniform(limits[0], limits[1], size=(512, arm.dim))
+        free = checker.states_free(states)
+        effector = arm.forward_kinematics(states)[:, -1, :3, 3]
         for name, near in (("start", start_near), ("goal", goal_near)):
             hits = np.flatnonzero(free & np.array([bool(near(p)) for p in effector]))
             candidates[name].extend(states[hits[:4]])
@@ -255,11 +257,11 @@ def _iiwa_problem(boxes: list[dict], start_near, goal_near, seed: int) -> Proble
                 continue
             problem = Problem.from_dict(
                 {
-                    "robot": KUKA_IIWA14.name,
+                    "robot": spec.name,
                     "obstacles": boxes,
                     "start": start.tolist(),
                     "goal": goal.tolist(),
-                    "goal_radius": KUKA_IIWA14.goal_radius,
+                    "goal_radius": spec.goal_radius,
                 }
             )
             result = plan(problem, planner="informed_rrt_star", seed=0,
@@ -284,7 +286,7 @@ def _window_7d() -> Problem:
         _box([x - w, -0.25, -0.01], [x + w, 0.25, 0.3]),
         _box([x - w, -0.25, 0.8], [x + w, 0.25, 1.2]),
     ]
-    return _iiwa_problem(boxes, lambda p: p[0] < -0.2,
+    return _arm_problem(boxes, lambda p: p[0] < -0.2,
                          lambda p: p[0] > x + 0.05 and abs(p[1]) < 0.2 and 0.35 < p[2] < 0.75,
                          seed=1)  # fmt: skip
 
@@ -292,7 +294,7 @@ def _window_7d() -> Problem:
 def _low_ceiling_7d() -> Problem:
     """A ceiling over the whole reach at 0.85 m: the arm must stay folded to swing around."""
     boxes = [FLOOR, _box([-1.2, -1.2, 0.85], [1.2, 1.2, 0.87])]
-    return _iiwa_problem(boxes, lambda p: p[0] > 0.4, lambda p: p[0] < -0.4, seed=2)
+    return _arm_problem(boxes, lambda p: p[0] > 0.4, lambda p: p[0] < -0.4, seed=2)
 
 
 def _slot_7d() -> Problem:
@@ -302,7 +304,7 @@ def _slot_7d() -> Problem:
         _box([0.25, 0.4 - PLATE, -0.01], [0.9, 0.4 + PLATE, 1.0]),
         _box([0.25, 0.7 - PLATE, -0.01], [0.9, 0.7 + PLATE, 1.0]),
     ]
-    return _iiwa_problem(boxes, lambda p: p[1] < -0.3,
+    return _arm_problem(boxes, lambda p: p[1] < -0.3,
                          lambda p: 0.45 < p[1] < 0.65 and p[0] > 0.3, seed=3)  # fmt: skip
 
 
@@ -318,7 +320,7 @@ def _cubby_7d() -> Problem:
         _box([x0 - 2 * PLATE, y0, z0], [x0, y1, z1]),  # back
         _box([-0.85, -0.2, -0.01], [-0.6, 0.2, z0 - 2 * PLATE]),  # stand
     ]
-    return _iiwa_problem(boxes, lambda p: p[0] > 0.3,
+    return _arm_problem(boxes, lambda p: p[0] > 0.3,
                          lambda p: x0 + 0.05 < p[0] < x1 and y0 + 0.05 < p[1] < y1 - 0.05
                          and z0 + 0.05 < p[2] < z1 - 0.05, seed=4)  # fmt: skip
 
@@ -330,7 +332,7 @@ def _pillar_ring_7d() -> Problem:
         angle = 2 * np.pi * k / 8 + np.pi / 8
         x, y = 0.55 * np.cos(angle), 0.55 * np.sin(angle)
         boxes.append(_box([x - 0.05, y - 0.05, -0.01], [x + 0.05, y + 0.05, 1.1]))
-    return _iiwa_problem(boxes, lambda p: np.hypot(p[0], p[1]) > 0.7 and p[0] > 0.3,
+    return _arm_problem(boxes, lambda p: np.hypot(p[0], p[1]) > 0.7 and p[0] > 0.3,
                          lambda p: np.hypot(p[0], p[1]) > 0.7 and p[0] < -0.3, seed=5)  # fmt: skip
 
 

@@ -54,7 +54,7 @@ from temp_gym.worlds.splits import SPLITS, split_workspace
 EVAL_ENTROPY = 7_000_001
 TEST_SET_VERSION = 3
 """Bumped whenever a code change alters which test tasks are drawn (kept in the manifest).
-2: iiwa starts and goals keep a clearance of half the edge resolution (`iiwa_world`).
+2: iiwa starts and goals keep a clearance of half the edge resolution (the arm's generator).
 3: iiwa self-collision is checked, with that clearance between links, and the sphere model
 covers the links' convex hulls (7D test tasks only; 2D and 3D are unchanged)."""
 _DIFFICULTY_CODES = {"any": 0, "easy": 1, "challenging": 2}

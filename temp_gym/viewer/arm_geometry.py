@@ -5,12 +5,12 @@ This module is the viewer's one door to an arm's model. Everything else in
 for an arm, the two functions below. A robot whose configuration is its position in the
 workspace (a point robot) needs neither.
 
-Today the only arm with a model is the KUKA iiwa 14 (`temp_gym.worlds.iiwa14.kinematics`);
-an arm described otherwise (its URDF, say) is wired in here and nowhere else.
+Every arm is read from its robot description (`temp_gym.worlds.arm`): its bodies' collision
+meshes in the bodies' frames, and the bodies' poses from its kinematics.
 
 Example:
     >>> spec = robot_spec("kuka_iiwa14")
-    >>> meshes = arm_link_meshes(spec)  # one (vertices, faces) per link, in the link's frame
+    >>> meshes = arm_link_meshes(spec)  # one (vertices, faces) per body, in the body's frame
     >>> arm_link_poses(spec, np.zeros((3, 7))).shape  # (configs, links, 4, 4) world poses
     (3, 8, 4, 4)
 """
@@ -28,15 +28,13 @@ LinkMesh = tuple[np.ndarray, np.ndarray]
 """``(vertices (V, 3) in the link's frame, faces (F, 3) vertex indices)``."""
 
 
-def _kinematics(spec: RobotSpec):
-    """The module holding ``spec``'s arm model, or a `ValueError` for a robot without one."""
-    from temp_gym.worlds.robots.kuka_iiwa14 import KUKA_IIWA14
+def _arm(spec: RobotSpec):
+    """``spec``'s arm model, or a `ValueError` for a robot without one."""
+    if spec.description is None:
+        raise ValueError(f"robot: {spec.name!r} has no arm geometry the viewer knows")
+    from temp_gym.worlds.arm.model import load_arm
 
-    if spec.name == KUKA_IIWA14.name:
-        from temp_gym.worlds.iiwa14 import kinematics
-
-        return kinematics
-    raise ValueError(f"robot: {spec.name!r} has no arm geometry the viewer knows")
+    return load_arm(spec.description)
 
 
 def is_point_robot(spec: RobotSpec) -> bool:
@@ -46,26 +44,31 @@ def is_point_robot(spec: RobotSpec) -> bool:
 
 def has_arm_geometry(spec: RobotSpec) -> bool:
     """Whether `arm_link_meshes` and `arm_link_poses` know ``spec``."""
-    try:
-        _kinematics(spec)
-    except ValueError:
-        return False
-    return True
+    return spec.description is not None
 
 
 def arm_link_meshes(spec: RobotSpec) -> tuple[LinkMesh, ...]:
-    """The arm's links as meshes, base first, each in its link's frame (`LinkMesh`).
+    """The arm's bodies as meshes, base first, each in its body's frame (`LinkMesh`): the
+    collision elements of the links riding on the body, merged.
 
     Raises:
         ValueError: ``spec`` is not an arm with a known model.
     """
-    return tuple(_kinematics(spec).link_meshes())
+    meshes = []
+    for geometry in _arm(spec).geometry:
+        offsets = np.cumsum([0] + [len(v) for v, _ in geometry.meshes])
+        vertices = (np.concatenate([v for v, _ in geometry.meshes]) if geometry.meshes
+                    else np.zeros((0, 3)))  # fmt: skip
+        faces = (np.concatenate([f + o for (_, f), o in zip(geometry.meshes, offsets)])
+                 if geometry.meshes else np.zeros((0, 3), dtype=np.int64))  # fmt: skip
+        meshes.append((vertices, faces))
+    return tuple(meshes)
 
 
 def arm_link_poses(spec: RobotSpec, configs: np.ndarray) -> np.ndarray:
-    """World poses ``(N, links, 4, 4)`` of the arm's links at configurations ``(N, dim)``.
+    """World poses ``(N, bodies, 4, 4)`` of the arm's bodies at configurations ``(N, dim)``.
 
-    Link ``k``'s pose maps its frame (the frame of `arm_link_meshes`'s ``k``-th mesh) into
+    Body ``k``'s pose maps its frame (the frame of `arm_link_meshes`'s ``k``-th mesh) into
     the world.
 
     Raises:
@@ -74,4 +77,4 @@ def arm_link_poses(spec: RobotSpec, configs: np.ndarray) -> np.ndarray:
     configs = np.asarray(configs, dtype=np.float64)
     if configs.ndim != 2 or configs.shape[1] != spec.dim:
         raise ValueError(f"configs: expected shape (N, {spec.dim}), got {configs.shape}")
-    return _kinematics(spec).forward_kinematics(configs)
+    return _arm(spec).forward_kinematics(configs)

@@ -36,7 +36,7 @@ ring of eight pillars. These families share elements with them (windows, slots, 
 one side, ceilings) but never such a scene: partitions have random windows and other
 furniture beside them and are narrower than the scene's wall, compartments come in grids,
 ceilings cover one side only, and no family draws a ring of pillars.
-``tests/worlds/test_iiwa_structured.py`` measures it, as ``tests/worlds/test_structured.py``
+``tests/worlds/test_arm_structured.py`` measures it, as ``tests/worlds/test_structured.py``
 does for the point worlds.
 
 All randomness comes from the `numpy.random.Generator` passed in.

@@ -1,8 +1,8 @@
 """Task difficulties: what every robot's task generator can be asked for.
 
 What makes a task easy or challenging is the generator's to define (a detour ratio in point
-worlds, `temp_gym.worlds.point_world`; a blocked straight motion for the iiwa,
-`temp_gym.worlds.iiwa_world`); ``"any"`` takes whatever is drawn.
+worlds, `temp_gym.worlds.point_world`; a blocked straight motion for an arm,
+`temp_gym.worlds.arm_world`); ``"any"`` takes whatever is drawn.
 """
 
 from __future__ import annotations

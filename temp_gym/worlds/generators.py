@@ -3,7 +3,7 @@
 All randomness comes from the `numpy.random.Generator` passed in; nothing touches global
 state, so the same seed always gives the same problems. What "easy" and "challenging" mean is
 the robot's generators' to say: `temp_gym.worlds.point_world` (a detour ratio against a
-reference path) and `temp_gym.worlds.iiwa_world` (a blocked straight motion).
+reference path) and `temp_gym.worlds.arm_world` (a blocked straight motion).
 
 Examples:
     >>> problem = generate_problem(POINT2D.name, np.random.default_rng(0), "challenging")
@@ -33,7 +33,7 @@ def generate_workspace(robot: str, rng: np.random.Generator, family: str = BOXES
     ``boxes``: the robot's own generator (its spec's); ``mixed``: a family drawn from ``rng``
     per workspace; any other name: the robot's structured family of that name (its spec's
     ``structured_generator``: `temp_gym.worlds.structured` for point robots,
-    `temp_gym.worlds.iiwa_structured` for the iiwa).
+    `temp_gym.worlds.arm_structured` for arms).
 
     Raises:
         ValueError: an unknown family, or a structured one for a robot that has none.

@@ -17,7 +17,7 @@ is free). Then, for point worlds:
 
 Tasks in between are neither and are only drawn with ``difficulty="any"``. Both kinds keep start
 and goal at least ``MIN_DISTANCE_FRACTION`` of the workspace diagonal apart. The iiwa's own
-definition lives in `temp_gym.worlds.iiwa_world`; `temp_gym.worlds.generators` draws for any
+definition lives in `temp_gym.worlds.arm_world`; `temp_gym.worlds.generators` draws for any
 robot through its spec.
 """
 

@@ -28,7 +28,7 @@ touches a box, so the occupancy measured is an upper bound. All randomness comes
 `numpy.random.Generator` passed in: the same generator state gives the same workspace.
 `temp_gym.worlds.generators.generate_workspace` picks a family by name (``mixed``: one drawn
 per workspace with the weights of `FAMILY_MIX`) through the robot's spec; the iiwa's versions
-of the same names are `temp_gym.worlds.iiwa_structured`.
+of the same names are `temp_gym.worlds.arm_structured`.
 
 **The out-of-distribution scenes stay held out.** ``examples/ood/{2d,3d}`` (built by
 `temp_gym.evaluation.ood`) are single hand-made structures alone in an empty workspace, at
@@ -92,7 +92,7 @@ def check_family(robot: str, family: str) -> None:
 
     Every robot draws ``boxes`` (its own generator); the others need the robot's spec to have
     structured families (`RobotSpec.structured_generator`: the point worlds here, the iiwa in
-    `temp_gym.worlds.iiwa_structured`).
+    `temp_gym.worlds.arm_structured`).
     """
     if family not in FAMILY_NAMES:
         raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")

@@ -154,3 +154,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 __all__ = ["build", "compute_derived", "fit_spheres", "main"]
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -2,12 +2,12 @@
 
 * The **fast** checker is what planners call in their hot loop: batched states ``(N, d)`` to
   ``bool[N]`` and edges to ``bool``. Point robots use an exact analytic segment-versus-box
-  test. The iiwa uses forward kinematics and a sphere model of its links that covers the
-  collision meshes, and tests the link pairs its allowed-collision matrix enables against each
+  test. An arm (`arm_fast`) uses forward kinematics and trees of spheres that cover its links'
+  convex pieces, and tests the body pairs its allowed-collision matrix enables against each
   other, so it is conservative: it never calls a state free that is in collision.
 * The **exact** checker certifies the paths a planner returns. Point robots: the same analytic
-  test, which is exact. The iiwa: python-fcl on the links' collision meshes against the boxes
-  and on their (padded) convex hulls against each other, within the URDF joint limits.
+  test, which is exact. An arm (`arm_exact`): python-fcl on the links' collision meshes against
+  the boxes and on their (padded) convex pieces against each other, within the joint limits.
 
 ``True`` always means *free* (OMPL's "valid"), so ``checker.states_free(x)`` reads as it says.
 

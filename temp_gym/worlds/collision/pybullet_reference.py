@@ -1,40 +1,61 @@
-"""pybullet's own verdict on iiwa collisions: the independent referee of our two checkers.
+"""pybullet's own verdict on arm collisions: the independent referee of our two checkers.
 
-Nothing here shares code with the checkers: pybullet loads ``kuka_iiwa/model.urdf`` itself,
-poses it with its own kinematics and collides its own shapes (each STL mesh's convex hull with
-Bullet's 1 mm collision margin; boxes as boxes). Tests and benchmarks use it to cross-check
-states and paths. It runs in its own DIRECT client, never the global pybullet connection.
+Nothing here shares collision code with the checkers: pybullet loads the arm's URDF itself
+(`temp_gym.worlds.arm.bullet`), poses it with its own kinematics and collides its own shapes
+(each collision mesh's convex hull with Bullet's 1 mm collision margin; boxes as boxes). Tests
+and benchmarks use it to cross-check states and paths. It runs in its own DIRECT client, never
+the global pybullet connection.
 
-Examples:
-    >>> with PybulletIiwa(problem) as bullet:
+**Margins.** Bullet grows every convex mesh by its collision margin, and reports distances
+between the grown shapes. A link and a box therefore count as touching here when pybullet's
+distance is below ``-BULLET_MARGIN``: when the URDF's own shapes overlap (`boxes_free`). Two
+links count as touching as pybullet says, margins included, which is the geometry our
+self-collision test uses (pieces padded by the same 1 mm).
+
+Example:
+    >>> with PybulletArm(arm, problem) as bullet:
     ...     bullet.states_free(states)  # bool[N]: no box contact, no self-collision
-    ...     bullet.self_collisions(states[0])  # [("link_5", "link_7")] or []
+    ...     bullet.self_collisions(states[0])  # [("lbr_iiwa_link_5", "lbr_iiwa_link_7")] or []
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, NUM_LINKS, urdf_path
+from temp_gym.worlds.arm.model import ArmModel
 
-SELF_PAIRS = tuple((a, b) for a in range(NUM_LINKS) for b in range(a + 2, NUM_LINKS))
-"""Every pair of links that no joint joins, the base included: what pybullet is asked about."""
+BULLET_MARGIN = 0.001
+"""Bullet's collision margin of a convex mesh (m)."""
 
 
-class PybulletIiwa:
-    """The iiwa (base at the origin) and optionally a problem's boxes, in a pybullet client.
+class PybulletArm:
+    """An arm (base at the origin) and optionally a problem's boxes, in a pybullet client.
 
     Args:
+        arm: the arm (`temp_gym.worlds.arm.load_arm`).
         problem: a `temp_gym.Problem` or a `temp_gym.problem.Workspace`; ``None`` for the arm
             alone.
     """
 
-    def __init__(self, problem=None) -> None:
+    def __init__(self, arm: ArmModel, problem=None) -> None:
         import pybullet
         from pybullet_utils.bullet_client import BulletClient
 
+        from temp_gym.worlds.arm.bullet import load_bullet_arm
+
+        self.arm = arm
         self._client = BulletClient(connection_mode=pybullet.DIRECT)
-        self._robot = self._client.loadURDF(str(urdf_path()), [0, 0, 0], useFixedBase=True)
+        self._loaded = load_bullet_arm(self._client, arm)
+        self._robot = self._loaded.body
+        # Every pair of links on different bodies that no joint of the chain joins.
+        links = self._loaded.links
+        bodies = arm.chain.link_bodies
+        with_shapes = [name for name in links if name in bodies and any(
+            e.link == name for e in arm.chain.elements[bodies[name]])]  # fmt: skip
+        self.self_pairs = tuple(
+            (a, b) for i, a in enumerate(with_shapes) for b in with_shapes[i + 1 :]
+            if abs(bodies[a] - bodies[b]) >= 2
+        )  # fmt: skip
         self._boxes = []
         if problem is not None:
             space = getattr(problem, "workspace", problem)  # a Problem's, or the Workspace
@@ -46,54 +67,57 @@ class PybulletIiwa:
         """Disconnect the client."""
         self._client.disconnect()
 
-    def __enter__(self) -> PybulletIiwa:
+    def __enter__(self) -> PybulletArm:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
 
     def _pose(self, state: np.ndarray) -> None:
-        for joint in range(NUM_JOINTS):
-            self._client.resetJointState(self._robot, joint, float(state[joint]))
+        from temp_gym.worlds.arm.bullet import set_configuration
+
+        set_configuration(self._client, self._loaded, state)
         self._client.performCollisionDetection()
 
-    def _touch(self, link_a: int, link_b: int) -> bool:
-        # pybullet numbers the base -1 and link j as j - 1.
-        return bool(
-            self._client.getClosestPoints(self._robot, self._robot, 0.0, link_a - 1, link_b - 1)
-        )
-
-    def distance(self, state: np.ndarray, link_a: int, link_b: int, within: float = 0.05) -> float:
-        """The two links' distance in ``state`` by pybullet (negative: penetration).
-
-        ``inf`` when they are farther apart than ``within``.
-        """
-        self._pose(state)
-        points = self._client.getClosestPoints(
-            self._robot, self._robot, within, link_a - 1, link_b - 1
-        )
-        return min((point[8] for point in points), default=np.inf)
+    def _touch(self, link_a: str, link_b: str) -> bool:
+        links = self._loaded.links
+        return bool(self._client.getClosestPoints(self._robot, self._robot, 0.0, links[link_a],
+                                                  links[link_b]))  # fmt: skip
 
     def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
-        """The link pairs (two or more links apart) that touch in ``state``, by link name."""
+        """The link pairs (on bodies two or more joints apart) that touch in ``state``."""
         self._pose(state)
-        return [(f"link_{a}", f"link_{b}") for a, b in SELF_PAIRS if self._touch(a, b)]
+        return [(a, b) for a, b in self.self_pairs if self._touch(a, b)]
 
     def self_collision_free(self, states: np.ndarray) -> np.ndarray:
-        """``bool[N]``: no two links touch, for each state of ``states`` (N x 7)."""
+        """``bool[N]``: no two links touch, for each state of ``states`` (N x dim)."""
+        states = np.asarray(states, dtype=np.float64).reshape(-1, self.arm.dim)
         free = np.empty(len(states), dtype=bool)
-        for k, state in enumerate(np.asarray(states, dtype=np.float64).reshape(-1, NUM_JOINTS)):
+        for k, state in enumerate(states):
             self._pose(state)
-            free[k] = not any(self._touch(a, b) for a, b in SELF_PAIRS)
+            free[k] = not any(self._touch(a, b) for a, b in self.self_pairs)
         return free
 
+    def box_distances(self, state: np.ndarray) -> list[float]:
+        """pybullet's distance from the arm to each box in ``state``, less its margin (negative:
+        the URDF's shapes overlap the box); ``inf`` beyond 5 cm."""
+        self._pose(state)
+        out = []
+        for box in self._boxes:
+            points = self._client.getClosestPoints(self._robot, box, 0.05)
+            out.append(min((p[8] + BULLET_MARGIN for p in points), default=np.inf))
+        return out
+
     def boxes_free(self, states: np.ndarray) -> np.ndarray:
-        """``bool[N]``: the arm touches no box, for each state of ``states`` (N x 7)."""
+        """``bool[N]``: the arm's shapes touch no box, for each state of ``states``."""
+        states = np.asarray(states, dtype=np.float64).reshape(-1, self.arm.dim)
         free = np.empty(len(states), dtype=bool)
-        for k, state in enumerate(np.asarray(states, dtype=np.float64).reshape(-1, NUM_JOINTS)):
+        for k, state in enumerate(states):
             self._pose(state)
             free[k] = not any(
-                self._client.getClosestPoints(self._robot, box, 0.0) for box in self._boxes
+                p[8] + BULLET_MARGIN < 0
+                for box in self._boxes
+                for p in self._client.getClosestPoints(self._robot, box, 0.0)
             )
         return free
 
@@ -115,4 +139,4 @@ def densify(path: np.ndarray, max_step: float) -> np.ndarray:
     return np.concatenate(rows)
 
 
-__all__ = ["SELF_PAIRS", "PybulletIiwa", "densify"]
+__all__ = ["BULLET_MARGIN", "PybulletArm", "densify"]

@@ -2,7 +2,7 @@
 
 * `render_point_world` (`temp_gym.worlds.rendering.points`) draws a ``point2d`` or ``point3d``
   problem with matplotlib: boxes, the planner's tree, a path, the start and the goal region.
-* `IiwaRenderer` (`temp_gym.worlds.rendering.iiwa`) draws a ``kuka_iiwa14`` problem with pybullet's
+* `ArmRenderer` (`temp_gym.worlds.rendering.arm`) draws an arm's problem with pybullet's
   software renderer: the boxes and the arm at a few configurations, from a camera chosen per
   scene so that the arm is in view.
 
@@ -15,14 +15,14 @@ Examples:
     ...                            num_nodes=tree.num_nodes, path=tree.best_path())
     >>> image.shape, image.dtype
     ((480, 480, 3), dtype('uint8'))
-    >>> with IiwaRenderer() as renderer:
-    ...     frame = renderer.render(iiwa_problem, path=result.path)
+    >>> with ArmRenderer(arm) as renderer:
+    ...     frame = renderer.render(arm_problem, path=result.path)
 """
 
 from __future__ import annotations
 
 from temp_gym.worlds.rendering.common import plan_title
-from temp_gym.worlds.rendering.iiwa import IiwaRenderer, arm_poses
+from temp_gym.worlds.rendering.arm import ArmRenderer, arm_poses
 from temp_gym.worlds.rendering.points import MAX_3D_EDGES, render_point_world
 
-__all__ = ["MAX_3D_EDGES", "IiwaRenderer", "arm_poses", "plan_title", "render_point_world"]
+__all__ = ["MAX_3D_EDGES", "ArmRenderer", "arm_poses", "plan_title", "render_point_world"]

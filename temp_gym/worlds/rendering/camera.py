@@ -1,7 +1,7 @@
 """Where a camera may stand to see a point among boxes: orbit positions and ray tests.
 
 A picture of an arm is only useful if the goal pose can be seen, so the renderers (the
-static `temp_gym.worlds.rendering.iiwa.IiwaRenderer` and the browser viewer
+static `temp_gym.worlds.rendering.arm.ArmRenderer` and the browser viewer
 `temp_gym.viewer`) choose among views on an orbit around the scene those from which the
 goal hand is not hidden behind a box: a straight ray from the camera to each of a few points
 of the hand must miss every box.

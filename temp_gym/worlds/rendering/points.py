@@ -235,7 +235,7 @@ def render_point_world(
     if problem.dim not in (2, 3) or problem.dim != problem.workspace.workspace_dim:
         raise ValueError(
             f"problem: render_point_world draws point robots in 2D or 3D, got {problem.robot!r}; "
-            "the iiwa's renderer is IiwaRenderer"
+            "an arm's renderer is ArmRenderer"
         )
     width, height = check_size(width, height)
     positions, parents = _check_tree(problem, positions, parents, num_nodes)

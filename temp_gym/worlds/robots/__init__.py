@@ -4,9 +4,15 @@
 |---|---|---|
 | ``point2d`` | `point2d` (via `point`) | ``TEMP-2D-v0`` |
 | ``point3d`` | `point3d` (via `point`) | ``TEMP-3D-v0`` |
-| ``kuka_iiwa14`` | `kuka_iiwa14` | ``TEMP-7D-v0`` |
+| ``kuka_iiwa14`` | `kuka_iiwa14` (``descriptions/kuka_iiwa14.yaml``) | ``TEMP-7D-v0`` |
+| ``franka_panda`` | `franka_panda` (``descriptions/franka_panda.yaml``) | ``TEMP-Panda-v0`` |
 
-**Adding a robot** is one file and one registry line:
+**Adding an arm** needs no code: write its robot description (a YAML file naming its URDF,
+base and tip links), run ``temp-robot build`` on it, and register it with
+`temp_gym.register_robot_file` (the built-in arms are such descriptions, in ``descriptions/``,
+registered below).
+
+**Adding another kind of robot** is one file and one registry line:
 
 1. a file here that builds its `RobotSpec`: dimensions, defaults, and the factories of its
    checkers (a `temp_gym.worlds.collision.CollisionChecker`; one with a
@@ -24,12 +30,13 @@ from __future__ import annotations
 
 from temp_gym.problem import register_robot as _register_in_problems
 from temp_gym.problem import robot_named, robot_names, unregister_robot
+from temp_gym.worlds.robots.franka_panda import FRANKA_PANDA
 from temp_gym.worlds.robots.kuka_iiwa14 import KUKA_IIWA14
 from temp_gym.worlds.robots.point2d import POINT2D
 from temp_gym.worlds.robots.point3d import POINT3D
 from temp_gym.worlds.robots.spec import RobotSpec
 
-BUILT_IN: tuple[RobotSpec, ...] = (POINT2D, POINT3D, KUKA_IIWA14)
+BUILT_IN: tuple[RobotSpec, ...] = (POINT2D, POINT3D, KUKA_IIWA14, FRANKA_PANDA)
 """The robots registered when `temp_gym` is imported."""
 
 
@@ -88,6 +95,7 @@ for _spec in BUILT_IN:
 
 __all__ = [
     "BUILT_IN",
+    "FRANKA_PANDA",
     "KUKA_IIWA14",
     "POINT2D",
     "POINT3D",

@@ -108,7 +108,7 @@ class RobotSpec:
     structured_generator: StructuredGenerator | None = None
     """``(name, rng, family) -> Workspace``: a workspace of a structured family (corridors,
     maze, traps, narrow, clutter: `temp_gym.worlds.structured` for point robots,
-    `temp_gym.worlds.iiwa_structured` for the iiwa); None: the robot has only its own
+    `temp_gym.worlds.arm_structured` for arms); None: the robot has only its own
     generator."""
     cube_symmetric: bool = False
     """Its world is a cube whose occupancy grid shares the configuration axes (a point robot),
@@ -167,23 +167,38 @@ class RobotSpec:
         return np.asarray(region, dtype=np.float64).copy()
 
     def collision_reasons(self, workspace: Workspace, states: np.ndarray) -> list[str | None]:
-        """Per state: None when the fast checker calls it free, else why not (for messages).
+        """Per state: None when the state is free, else why not (for messages).
 
-        A self-collision names the link pairs; every reason names the checker.
+        A state the fast checker calls free is free. One it refuses is asked of the exact
+        checker too, whose verdict stands: the fast checker is conservative, so a state a few
+        millimetres from a surface may be refused by it and be free. A refused state's
+        reason names the touching link and box with the penetration depth, or the colliding
+        link pairs, and the checker.
         """
         checker = self.make_checker(workspace)
-        reasons: list[str | None] = []
-        for state, free in zip(states, checker.states_free(states)):
-            if free:
-                reasons.append(None)
+        fast_free = checker.states_free(states)
+        reasons: list[str | None] = [None] * len(states)
+        if fast_free.all():
+            return reasons
+        exact = self.make_checker(workspace, exact=True)
+        for k in np.flatnonzero(~fast_free):
+            state = states[k]
+            if exact.states_free(state[None])[0]:
                 continue
-            pairs = (
-                checker.self_collisions(state) if isinstance(checker, SelfCollisionChecker) else []
-            )
-            what = (
-                "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
-                if pairs
-                else "collision"
-            )
-            reasons.append(f"{what} ({checker.description})")
+            reasons[k] = _refusal(exact, state)
         return reasons
+
+
+def _refusal(checker: CollisionChecker, state: np.ndarray) -> str:
+    """Why ``checker`` (an exact one) calls ``state`` in collision, in words."""
+    pairs = checker.self_collisions(state) if isinstance(checker, SelfCollisionChecker) else []
+    report = checker.obstacle_report(state) if hasattr(checker, "obstacle_report") else []
+    if pairs:
+        what = "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
+    elif report and report[0][2] <= 0:
+        link, box, distance = report[0]
+        depth = f", penetration {-distance * 1000:.1f} mm" if distance < 0 else ""
+        what = f"collision: {link} touches box {box}{depth}"
+    else:
+        what = "collision"
+    return f"{what} ({checker.description})"

@@ -1,4 +1,4 @@
-"""`IiwaRenderer`: an iiwa problem drawn with pybullet's software renderer.
+"""`ArmRenderer`: an arm's problem drawn with pybullet's software renderer.
 
 The arm is drawn at a few configurations in its own ``DIRECT`` client, with the boxes:
 
@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from temp_gym.quiet import import_pybullet, native_output_silenced
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS
+from temp_gym.worlds.arm.bullet import set_configuration
 from temp_gym.worlds.rendering.camera import clearest_views
 from temp_gym.worlds.rendering.common import (
     LegendEntry,
@@ -137,8 +137,8 @@ def arm_legend(
     return entries
 
 
-class IiwaRenderer:
-    """Draws iiwa problems with pybullet's tiny (CPU) renderer.
+class ArmRenderer:
+    """Draws an arm's problems with pybullet's tiny (CPU) renderer.
 
     The renderer owns its own ``DIRECT`` pybullet client, created at the first `render`, and
     keeps the arm bodies loaded; the boxes (and the camera, when chosen per scene) change only
@@ -147,6 +147,7 @@ class IiwaRenderer:
     on the next `render`.
 
     Args:
+        arm: the arm (`temp_gym.worlds.arm.load_arm`); None: the iiwa.
         ghosts: Most intermediate configurations drawn along a path.
         yaw: Camera yaw around the vertical axis, degrees; None: chosen per scene (with
             ``pitch``) to see the goal hand and the most of the arm.
@@ -159,13 +160,14 @@ class IiwaRenderer:
         legend: Whether pictures have a legend across the bottom.
 
     Examples:
-        >>> renderer = IiwaRenderer()
+        >>> renderer = ArmRenderer(arm)
         >>> image = renderer.render(problem, path=result.path)  # (480, 480, 3) uint8
         >>> renderer.close()
     """
 
     def __init__(
         self,
+        arm=None,
         ghosts: int = GHOSTS,
         yaw: float | None = None,
         pitch: float | None = None,
@@ -175,6 +177,12 @@ class IiwaRenderer:
         shadow: bool = False,
         legend: bool = True,
     ) -> None:
+        if arm is None:
+            from temp_gym.worlds.arm.model import load_arm
+            from temp_gym.worlds.robots.kuka_iiwa14 import DESCRIPTION
+
+            arm = load_arm(DESCRIPTION)
+        self.arm = arm
         if ghosts < 0:
             raise ValueError(f"ghosts: expected a non-negative count, got {ghosts}")
         self.ghosts = int(ghosts)
@@ -191,15 +199,14 @@ class IiwaRenderer:
         """The point the last render looked at."""
         self._goal_hand = np.empty((0, 3))
         self._client = None
-        self._arms: list[int] = []
-        self._joints: list[int] = []
+        self._arms: list = []
         self._links: list[int] = []
         self._boxes: list[int] = []
         self._problem: Problem | None = None
         self._pid = os.getpid()
 
     # ------------------------------------------------------------------ lifecycle
-    def __enter__(self) -> IiwaRenderer:
+    def __enter__(self) -> ArmRenderer:
         return self
 
     def __exit__(self, *exc_info: object) -> None:
@@ -226,23 +233,21 @@ class IiwaRenderer:
         """The client, connected and holding ``ghosts + 3`` parked arms."""
         if self._client is not None:
             return self._client
-        import pybullet_data
-
         pybullet = import_pybullet()
         from pybullet_utils.bullet_client import BulletClient
+
+        from temp_gym.worlds.arm.bullet import load_bullet_arm
 
         with native_output_silenced():  # no "argv[0]=" on the user's stdout
             client = BulletClient(connection_mode=pybullet.DIRECT)
         self._client, self._pid = client, os.getpid()
-        urdf = f"{pybullet_data.getDataPath()}/kuka_iiwa/model.urdf"
         for _ in range(self.ghosts + 3):
-            self._arms.append(client.loadURDF(urdf, basePosition=_PARKED, useFixedBase=True))
-        arm = self._arms[0]
-        count = client.getNumJoints(arm)
-        self._joints = [
-            j for j in range(count) if client.getJointInfo(arm, j)[2] == pybullet.JOINT_REVOLUTE
-        ]
-        self._links = [-1, *range(count)]
+            loaded = load_bullet_arm(client, self.arm)
+            client.resetBasePositionAndOrientation(loaded.body, _PARKED, (0, 0, 0, 1))
+            self._arms.append(loaded)
+        # The chain's links, base first: the camera aims at them and the legend colours them.
+        self._links = [self._arms[0].links.get(name, -1) for name in self.arm.body_names]
+        self._all_links = sorted(set(self._arms[0].links.values()))
         return client
 
     def _load_problem(self, client, problem: Problem) -> bool:
@@ -286,24 +291,27 @@ class IiwaRenderer:
 
     def _link_origins(self, client, arm: int) -> np.ndarray:
         """World positions ``(links, 3)`` of ``arm``'s base and link frames, base first."""
-        base = client.getBasePositionAndOrientation(arm)[0]
-        links = [client.getLinkState(arm, link)[4] for link in self._links[1:]]
-        return np.array([base, *links], dtype=np.float64)
+        points = [
+            client.getBasePositionAndOrientation(arm.body)[0] if link == -1
+            else client.getLinkState(arm.body, link)[4]
+            for link in self._links
+        ]  # fmt: skip
+        return np.array(points, dtype=np.float64)
 
     def _pose_arms(self, client, poses: list[tuple[np.ndarray, np.ndarray]]) -> None:
         """Show the first arms at ``poses``; park the rest."""
         for index, arm in enumerate(self._arms):
             if index >= len(poses):
-                client.resetBasePositionAndOrientation(arm, _PARKED, (0, 0, 0, 1))
+                client.resetBasePositionAndOrientation(arm.body, _PARKED, (0, 0, 0, 1))
                 continue
             config, rgba = poses[index]
-            client.resetBasePositionAndOrientation(arm, (0, 0, 0), (0, 0, 0, 1))
-            for joint, angle in zip(self._joints, config):
-                client.resetJointState(arm, joint, float(angle))
-            for link in self._links:
+            client.resetBasePositionAndOrientation(arm.body, arm.base_position,
+                                                   arm.base_orientation)  # fmt: skip
+            set_configuration(client, arm, config)
+            for link in self._all_links:
                 # The fixed base is the same for every arm: one neutral colour avoids z-fighting.
-                colour = _BASE_RGBA if link == -1 else rgba.tolist()
-                client.changeVisualShape(arm, link, rgbaColor=colour)
+                colour = _BASE_RGBA if link == self._links[0] else rgba.tolist()
+                client.changeVisualShape(arm.body, link, rgbaColor=colour)
 
     def _camera_image(self, client, view: tuple[float, float], width: int, height: int, seg: bool):
         pybullet = import_pybullet()
@@ -339,7 +347,7 @@ class IiwaRenderer:
 
     def _count_arm_pixels(self, client, view: tuple[float, float], arms: int) -> int:
         mask = np.asarray(self._camera_image(client, view, _PROBE_SIZE, _PROBE_SIZE, True)[4])
-        return int(np.isin(mask, self._arms[:arms]).sum())
+        return int(np.isin(mask, [arm.body for arm in self._arms[:arms]]).sum())
 
     def _choose_view(self, client, problem: Problem) -> tuple[float, float]:
         """The fixed view, or the best candidate (module docstring): goal hand in sight first."""
@@ -388,11 +396,11 @@ class IiwaRenderer:
         """Draw ``problem`` with the arm along a solution, a path so far, or at start and goal.
 
         Args:
-            problem: An iiwa problem.
-            path: Joint configurations ``(K, 7)`` of a solution, or None.
+            problem: A problem of this renderer's arm.
+            path: Joint configurations ``(K, dim)`` of a solution, or None.
             width: Image width in pixels.
             height: Image height in pixels.
-            path_so_far: Joint configurations ``(K, 7)`` of a path that does not reach the
+            path_so_far: Joint configurations ``(K, dim)`` of a path that does not reach the
                 goal yet (the root path of the newest node), or None.
             title: Text on a white band across the top, or None for none.
 
@@ -402,9 +410,9 @@ class IiwaRenderer:
         Raises:
             ValueError: For another robot, a badly shaped path, or both kinds of path.
         """
-        if problem.dim != NUM_JOINTS or problem.workspace.workspace_dim != 3:
+        if problem.robot != self.arm.name:
             raise ValueError(
-                f"problem: IiwaRenderer draws the {NUM_JOINTS}-joint iiwa, got {problem.robot!r}; "
+                f"problem: this ArmRenderer draws {self.arm.name}, got {problem.robot!r}; "
                 "use render_point_world for point robots"
             )
         width, height = check_size(width, height)

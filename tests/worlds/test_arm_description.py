@@ -1,0 +1,106 @@
+"""Robot descriptions and URDF chains: what is read, and one-line errors for what is wrong."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from temp_gym.worlds.arm.description import (
+    DescriptionError,
+    default_env_id,
+    default_seed_code,
+    load_description,
+)
+from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.arm.urdf import PRISMATIC, REVOLUTE, UrdfError, axis_frame
+from arm_fixtures import write_test_arm
+
+
+@pytest.fixture(scope="module")
+def test_arm_path(tmp_path_factory):
+    return write_test_arm(tmp_path_factory.mktemp("arm"))
+
+
+def _description(tmp_path, text):
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_defaults_come_from_the_name(test_arm_path):
+    description = load_description(test_arm_path)
+    assert description.env_id == "TEMP-TestArm-v0"
+    assert default_env_id("my_arm") == "TEMP-MyArm-v0"
+    assert default_seed_code("my_arm") == default_seed_code("my_arm") >= 1000
+    assert description.derived_path.name == "test_arm.derived.json"
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("urdf: x.urdf\nbase_link: a\ntip_link: b\n", "name"),
+        ("name: a\nurdf: x.urdf\nbase_link: a\ntip_link: b\ncolour: red\n", "colour"),
+        ("name: 1abc\nurdf: x.urdf\nbase_link: a\ntip_link: b\n", "name"),
+        ("name: a\nurdf: missing.urdf\nbase_link: a\ntip_link: b\n", "urdf"),
+        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+         "joint_limits: {j: [1, 0]}\n", "joint_limits.j"),
+        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+         "planning: {step: 1}\n", "planning.step"),
+        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+         "spheres: {tolerance: 0.5}\n", "spheres.tolerance"),
+        ("&a name: a\n", "anchors"),
+    ],
+)
+def test_a_bad_key_or_value_is_named_in_one_line(tmp_path, text, field):
+    with pytest.raises(DescriptionError) as caught:
+        load_description(_description(tmp_path, text))
+    message = str(caught.value)
+    assert field in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        ("base_link: nowhere\ntip_link: lbr_iiwa_link_7\n", "no link 'nowhere'"),
+        ("base_link: lbr_iiwa_link_7\ntip_link: lbr_iiwa_link_0\n", "is not below"),
+        ("base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+         "fixed_joints: {lbr_iiwa_joint_2: 0.1}\n", "joint of the chain"),
+        ("base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+         "joint_limits: {no_such_joint: [0, 1]}\n", "no joint 'no_such_joint'"),
+    ],
+)
+def test_a_chain_the_urdf_cannot_give_is_refused_in_one_line(tmp_path, extra, fragment):
+    path = _description(
+        tmp_path, "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\n" + extra
+    )
+    with pytest.raises(UrdfError, match=fragment):
+        load_arm(path, require_derived=False)
+
+
+def test_the_chain_folds_fixed_joints_and_holds_joints_off_it(test_arm_path):
+    arm = load_arm(test_arm_path, require_derived=False)
+    chain = arm.chain
+    assert chain.joint_names == ("j1", "j2", "j3", "j4")
+    assert chain.joint_types.tolist() == [REVOLUTE, REVOLUTE, PRISMATIC, REVOLUTE]
+    assert arm.body_names == ("base", "l1", "l2", "l3", "tip")
+    # A continuous joint without an override is planned in [-pi, pi].
+    assert np.allclose(chain.joint_limits[:, 3], [-np.pi, np.pi])
+    # The fingers ride on the tip, the second mimicking the first's fixed value.
+    assert chain.fixed_values == {"finger_a": 0.03, "finger_b": 0.03}
+    assert chain.link_bodies["finger_left"] == chain.link_bodies["tip"] == 4
+    # Fixed joints in and off the chain fold their links into the body above them.
+    assert chain.link_bodies["l2b"] == chain.link_bodies["camera"] == 2
+    # Links above the base (world) are not part of the arm.
+    assert "world" not in chain.link_bodies
+    kinds = [[element.kind for element in body] for body in chain.elements]
+    assert kinds == [["box"], ["cylinder"], ["mesh", "mesh", "sphere"], ["mesh"],
+                     ["box", "box", "box"]]  # fmt: skip
+
+
+@pytest.mark.parametrize("axis", [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, -1, 0], [0.6, 0.8, 0],
+                                  [1, 2, 3]])  # fmt: skip
+def test_axis_frames_turn_z_onto_the_axis(axis):
+    axis = np.array(axis, float) / np.linalg.norm(axis)
+    frame = axis_frame(axis)
+    assert np.allclose(frame @ [0, 0, 1], axis)
+    assert np.allclose(frame.T @ frame, np.eye(3)) and np.isclose(np.linalg.det(frame), 1.0)
