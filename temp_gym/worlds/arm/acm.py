@@ -8,15 +8,17 @@ bodies gets a reason:
 * ``adjacent``: joined by a joint. Never checked: their pieces meet at the joint by design.
 * ``srdf``: every link pair across the two bodies is disabled by the description's SRDF
   (MoveIt's own matrix, when one is given). Not checked.
-* ``default``: in collision in the zero configuration (clipped to the limits). Not checked,
-  like MoveIt, but *reported* in the file and by the build.
-* ``always``: in collision in at least `ALWAYS_FRACTION` of the samples. Not checked, reported.
+* ``always``: in collision in at least `ALWAYS_FRACTION` of the samples (pieces that overlap by
+  design). Not checked, like MoveIt, but *reported* in the file and by the build.
 * ``never``: no collision in the uniform samples, nor in a local search from the pair's
   closest samples, and the closest approach found stays above `NEVER_CLEARANCE`. Not checked.
   The search and the clearance are ours: uniform samples rarely reach the folded corners of
   the joint box where far bodies meet, and a margin keeps a pair that merely came close
   checked.
-* ``enabled``: everything else; these pairs are checked, by both checkers.
+* ``enabled``: everything else; these pairs are checked, by both checkers. Unlike MoveIt's
+  assistant, a pair in collision in the zero configuration stays checked unless it is
+  ``always`` so: the zero configuration is then simply not free (the Panda's wrist folds its
+  hand onto link 5 there, and can anywhere near it).
 """
 
 from __future__ import annotations
@@ -122,9 +124,7 @@ def compute_acm(arm: ArmModel, samples: int = DEFAULT_SAMPLES, seed: int = 0) ->
                 for k in np.argsort(distances[:, p], kind="stable")[:SEARCH_STARTS]:
                     closest = min(closest, _local_search(hulls, arm, configs[k], (a, b),
                                                          limits, rng))  # fmt: skip
-            if zero[p] <= SELF_COLLISION_GAP:
-                reason = "default"
-            elif collisions >= ALWAYS_FRACTION * samples:
+            if collisions >= ALWAYS_FRACTION * samples:
                 reason = "always"
             elif closest > beyond:
                 reason = "never"
@@ -145,7 +145,7 @@ def compute_acm(arm: ArmModel, samples: int = DEFAULT_SAMPLES, seed: int = 0) ->
             f"convex pieces grown by {SELF_COLLISION_GAP / 2} m; distances in metres"
         ),
         "pairs": entries,
-        "reported": [e["links"] for e in entries if e["reason"] in ("default", "always")],
+        "reported": [e["links"] for e in entries if e["reason"] == "always"],
     }
 
 

@@ -80,8 +80,8 @@ def compute_derived(arm: ArmModel, log=print) -> dict:
     log(f"{arm.name}: allowed-collision matrix")
     acm = compute_acm(arm)
     for links in acm["reported"]:
-        log(f"  warning: {links[0]} - {links[1]} is not checked: in collision in the zero "
-            "configuration or in nearly every sample")  # fmt: skip
+        log(f"  warning: {links[0]} - {links[1]} is not checked: in collision in nearly every "
+            "sample")  # fmt: skip
     pairs = tabulated_pairs(acm)
     if pairs:
         log(f"{arm.name}: pair tables for {[arm.pair_name(a, b) for a, b in pairs]}")

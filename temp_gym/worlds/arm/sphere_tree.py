@@ -17,7 +17,8 @@ axis of their bounding box, until at most `BUCKET` remain.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +40,10 @@ class SphereTrees:
         centers: ``(K, 3)`` leaf sphere centers.
         radii: ``(K,)`` leaf sphere radii.
         sphere_body: ``(K,)`` each leaf sphere's body.
+        inner_centers: ``(I, 3)`` balls inside the bodies' pieces (a box that touches one is
+            in the body), body by body.
+        inner_radii: ``(I,)`` their radii.
+        inner_start: ``(B + 1,)`` each body's first inner ball.
     """
 
     node_centers: np.ndarray
@@ -50,19 +55,25 @@ class SphereTrees:
     centers: np.ndarray
     radii: np.ndarray
     sphere_body: np.ndarray
+    inner_centers: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    inner_radii: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    inner_start: np.ndarray | None = None
 
     def grown(self, margin: float) -> SphereTrees:
-        """A copy with every sphere, leaf and node, grown by ``margin``."""
-        return SphereTrees(
-            self.node_centers.copy(), self.node_radii + margin, self.node_skip.copy(),
-            self.node_first.copy(), self.node_count.copy(), self.body_start.copy(),
-            self.centers.copy(), self.radii + margin, self.sphere_body.copy(),
-        )  # fmt: skip
+        """A copy with every covering sphere, leaf and node, grown by ``margin`` (the inner
+        balls are not: they must stay inside the pieces)."""
+        return dataclasses.replace(self, node_radii=self.node_radii + margin,
+                                   radii=self.radii + margin)  # fmt: skip
 
     def arrays(self) -> tuple[np.ndarray, ...]:
         """The arrays in the order the kernels take them."""
+        inner_start = (np.zeros(len(self.body_start), dtype=np.int64)
+                       if self.inner_start is None else self.inner_start)  # fmt: skip
         return (self.node_centers, self.node_radii, self.node_skip, self.node_first,
-                self.node_count, self.body_start, self.centers, self.radii)  # fmt: skip
+                self.node_count, self.body_start, self.centers, self.radii,
+                np.ascontiguousarray(self.inner_centers, dtype=np.float64).reshape(-1, 3),
+                np.ascontiguousarray(self.inner_radii, dtype=np.float64),
+                np.ascontiguousarray(inner_start, dtype=np.int64))  # fmt: skip
 
 
 def enclosing_sphere(centers: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, float]:

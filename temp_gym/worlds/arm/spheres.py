@@ -18,15 +18,17 @@ and proves that they cover the piece:
    is either outside the piece, or such that its part inside the piece (bounded by the
    cube and the supporting plane nearest the cube's center, a convex polytope) lies in one
    sphere: a ball holds a convex polytope when it holds its corners. A cube still unproven at
-   the smallest size grows the sphere that needs the least growth to hold it. So every
-   point of the piece, not just samples, is inside a sphere; the growth shows in the
-   achieved bulge (`FittedSpheres.bulge`).
+   the smallest size (half the tolerance) grows the sphere that needs the least growth to
+   hold it, up to a bulge of 1.5 tolerances, or else gets a small sphere of its own. So every point of
+   the piece, not just samples, is inside a sphere; `FittedSpheres.bulge` reports how far
+   the farthest one reaches out of the piece.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
@@ -70,16 +72,28 @@ def hull_planes(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return corners, faces, hull.equations.copy()
 
 
+@numba.njit(cache=True, nogil=True)
+def _signed_depth(points, planes, out, which):
+    for i in range(points.shape[0]):
+        best = -np.inf
+        index = 0
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        for f in range(planes.shape[0]):
+            value = planes[f, 0] * x + planes[f, 1] * y + planes[f, 2] * z + planes[f, 3]
+            if value > best:
+                best = value
+                index = f
+        out[i] = -best
+        which[i] = index
+
+
 def signed_depth(points: np.ndarray, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(depth, plane)``: each point's distance to the boundary (negative outside: then a
     lower bound on the distance to the piece) and the plane nearest it. 1-Lipschitz."""
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     out = np.empty(len(points))
     which = np.empty(len(points), dtype=np.int64)
-    chunk = max(1, 2_000_000 // max(len(planes), 1))
-    for first in range(0, len(points), chunk):
-        values = points[first : first + chunk] @ planes[:, :3].T + planes[:, 3]
-        which[first : first + chunk] = np.argmax(values, axis=1)
-        out[first : first + chunk] = -values.max(axis=1)
+    _signed_depth(points, np.ascontiguousarray(planes, dtype=np.float64), out, which)
     return out, which
 
 
@@ -212,14 +226,23 @@ def _best_spheres(points: np.ndarray, mask: np.ndarray, middle: np.ndarray, reac
 
 
 def prove_cover(planes: np.ndarray, lower: np.ndarray, upper: np.ndarray, centers: np.ndarray,
-                radii: np.ndarray, min_size: float) -> np.ndarray:  # fmt: skip
-    """Radii, grown where needed, such that the spheres hold the whole piece (step 3)."""
+                radii: np.ndarray, min_size: float,
+                max_bulge: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The spheres, grown or added where needed, such that they hold the whole piece (step 3).
+
+    A cube still unproven at ``min_size`` grows the sphere that needs the least growth to
+    hold it, if that sphere then bulges at most ``max_bulge`` out of the piece; otherwise it
+    gets a sphere of its own (centred on it, its half-diagonal in radius), which bulges out
+    of the piece by less than the cube's size.
+    """
     radii = radii.astype(np.float64).copy()
     tree = cKDTree(centers)
     size = float(np.max(upper - lower)) / 4
     steps = np.ceil((upper - lower) / size).astype(int)
     grid = np.stack(np.meshgrid(*[np.arange(s) for s in steps], indexing="ij"), -1).reshape(-1, 3)
     pending = lower + (grid + 0.5) * size
+    added = [np.zeros((0, 3))]
+    added_radii = [np.zeros(0)]
     while len(pending):
         half = size / 2
         reach = half * np.sqrt(3.0)
@@ -230,11 +253,18 @@ def prove_cover(planes: np.ndarray, lower: np.ndarray, upper: np.ndarray, center
         sphere, growth = _best_spheres(points, mask, pending, reach, tree, centers, radii)
         failed = growth > 0
         if size <= min_size:
-            np.maximum.at(radii, sphere[failed], radii[sphere[failed]] + growth[failed])
+            # Grow a sphere where that keeps it within the bulge allowed, else add one.
+            sphere, growth = sphere[failed], growth[failed]
+            cubes = pending[failed]
+            allowed = max_bulge - (radii[sphere] - depth(centers[sphere], planes))
+            grow = growth <= allowed
+            np.maximum.at(radii, sphere[grow], radii[sphere[grow]] + growth[grow])
+            added.append(cubes[~grow])
+            added_radii.append(np.full(int(np.sum(~grow)), reach))
             break
         size /= 2
         pending = (pending[failed][:, None, :] + (size / 2) * _CUBE_CORNERS[None]).reshape(-1, 3)
-    return radii
+    return np.concatenate([centers, *added]), np.concatenate([radii, *added_radii])
 
 
 def fit_piece(vertices: np.ndarray, tolerance: float) -> FittedSpheres:
@@ -263,16 +293,19 @@ def fit_piece(vertices: np.ndarray, tolerance: float) -> FittedSpheres:
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     grid = np.concatenate([grid[depth(grid, planes) > 0], centroid[None]])
     grid_radii = depth(grid, planes) + tolerance
+    # A grid point held with half a cell diagonal to spare holds its whole cell.
+    spare = step * np.sqrt(3.0) / 2
     held = np.zeros(len(grid), dtype=bool)
     tree = cKDTree(grid)
     for c, r in zip(centers, radii):
-        held[tree.query_ball_point(c, r)] = True
-    chosen = _greedy(grid, grid, grid_radii, held)
+        held[tree.query_ball_point(c, max(r - spare, 0.0))] = True
+    chosen = _greedy(grid, grid, np.maximum(grid_radii - spare, 0.0), held)
     centers = np.concatenate([centers, grid[chosen]])
     radii = np.concatenate([radii, grid_radii[chosen]])
     # 3. Proof.
-    radii = prove_cover(planes, lower - 1e-9, upper + 1e-9, centers, radii,
-                        tolerance / 2) + MARGIN  # fmt: skip
+    centers, radii = prove_cover(planes, lower - 1e-9, upper + 1e-9, centers, radii,
+                                 tolerance / 2, 1.5 * tolerance)  # fmt: skip
+    radii = radii + MARGIN
     bulge = float(np.max(radii - depth(centers, planes)))
     return FittedSpheres(centers, radii, bulge)
 

@@ -32,6 +32,7 @@ relative motion of every enabled body pair (`arm_fast_self`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -63,15 +64,45 @@ DEFAULT_RESOLUTION = 0.02
 any interval is split."""
 
 
+INNER_BALLS = 8
+"""Inner balls kept per body: the largest balls around leaf centers that its pieces hold."""
+
+
+def _inner_balls(arm: ArmModel, body: int, centers: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Up to `INNER_BALLS` balls inside body ``body``'s pieces, centred on leaf centers: a box
+    that touches one touches the body, so a deep collision is found without a tree walk.
+    Each is shrunk by `FAST_FK_MARGIN`, so the fast kinematics keeps it inside."""
+    from temp_gym.worlds.arm.spheres import depth, hull_planes
+
+    if len(centers) == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    inside = np.zeros(len(centers))
+    for piece in arm.geometry[body].pieces:
+        inside = np.maximum(inside, depth(centers, hull_planes(piece)[2]))
+    chosen: list[int] = []
+    for k in np.argsort(-inside, kind="stable"):
+        if inside[k] <= 2 * FAST_FK_MARGIN or len(chosen) == INNER_BALLS:
+            break
+        if all(np.linalg.norm(centers[k] - centers[m]) > 0.5 * inside[m] for m in chosen):
+            chosen.append(int(k))
+    return centers[chosen], inside[chosen] - FAST_FK_MARGIN
+
+
 def sphere_trees(arm: ArmModel) -> SphereTrees:
-    """The arm's sphere trees from its derived data, grown by `FAST_FK_MARGIN` (cached)."""
+    """The arm's sphere trees from its derived data, grown by `FAST_FK_MARGIN`, with each
+    body's inner balls (cached)."""
     key = "sphere_trees"
     if key not in arm._arrays:
-        bodies = arm.derived_data()["spheres"]["bodies"]
-        trees = build_trees(
-            [(np.array(b["centers"], dtype=np.float64).reshape(-1, 3),
-              np.array(b["radii"], dtype=np.float64)) for b in bodies]
-        ).grown(FAST_FK_MARGIN)  # fmt: skip
+        bodies = [(np.array(b["centers"], dtype=np.float64).reshape(-1, 3),
+                   np.array(b["radii"], dtype=np.float64))
+                  for b in arm.derived_data()["spheres"]["bodies"]]  # fmt: skip
+        inner = [_inner_balls(arm, j, centers) for j, (centers, _) in enumerate(bodies)]
+        trees = dataclasses.replace(
+            build_trees(bodies).grown(FAST_FK_MARGIN),
+            inner_centers=np.concatenate([c for c, _ in inner]).reshape(-1, 3),
+            inner_radii=np.concatenate([r for _, r in inner]),
+            inner_start=np.cumsum([0] + [len(r) for _, r in inner]).astype(np.int64),
+        )
         for array in trees.arrays():
             array.setflags(write=False)
         arm._arrays[key] = trees

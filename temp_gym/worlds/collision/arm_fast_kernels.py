@@ -27,6 +27,8 @@ from temp_gym.worlds.collision.arm_fast_self import (
 
 GROWTH_FLOOR = 1e-4
 """An edge interval whose spheres would grow by at most this (m) and still touch is blocked."""
+FREE, HIT, CERTAIN = 0, 1, 2
+"""`_pose_free`'s answers: free; a grown sphere touches a box; the state itself collides."""
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -71,21 +73,24 @@ def tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first, nod
     return False
 
 
-@numba.njit(cache=True, nogil=True)
-def _pose_free(sines, cosines, values, base, kind, rotation, shift, permutation, sign,
+@numba.njit(cache=True, nogil=True, inline="always")
+def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift, permutation, sign,
                node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
-               radii, box_params, body_boxes, body_box_count, body_lower, body_upper, inflation,
-               poses, root_world) -> bool:  # fmt: skip
-    """Whether the moving bodies' spheres (grown by ``inflation[j]``) miss every box.
+               radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
+               body_box_count, body_lower, body_upper, inflation, poses,
+               root_world) -> int:  # fmt: skip
+    """`FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every box,
+    `HIT` when one touches a box, `CERTAIN` when a body's inner ball (inside its pieces, not
+    grown) does: the state itself is in collision.
 
-    ``sines[base + i]``, ``cosines[base + i]`` and ``values[base + i]`` are joint ``i``'s;
+    ``sines[base + i]``, ``cosines[base + i]`` and ``values[value_base + i]`` are joint ``i``'s;
     ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
     ``poses`` holds the body frames and ``root_world`` (B, 3) the world centers of the bodies'
     root spheres (row 0, the base's, never changes): the self-collision test reads them.
     """
     for j in range(kind.shape[0]):
         joint_step_into(poses, j, kind, rotation, shift, permutation, sign,
-                        cosines[base + j], sines[base + j], values[base + j])  # fmt: skip
+                        cosines[base + j], sines[base + j], values[value_base + j])  # fmt: skip
     # Distal bodies first: they sweep the most space, so collisions are found sooner.
     for j in range(poses.shape[0] - 1, 0, -1):
         root = body_start[j]
@@ -106,12 +111,18 @@ def _pose_free(sines, cosines, values, base, kind, rotation, shift, permutation,
             continue
         for n in range(count):
             b = body_boxes[j, n]
-            if sphere_hits_box(bx, by, bz, bound, box_params, b) and tree_hits_box(
-                poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-                body_start, centers, radii, inflation[j], box_params, b,
-            ):  # fmt: skip
-                return False
-    return True
+            if not sphere_hits_box(bx, by, bz, bound, box_params, b):
+                continue
+            # A box that reaches an inner ball is in the body: no tree walk needed.
+            for k in range(inner_start[j], inner_start[j + 1]):
+                x, y, z = place(poses, j, inner_centers, k)
+                if sphere_hits_box(x, y, z, inner_radii[k], box_params, b):
+                    return CERTAIN
+            if tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first,
+                             node_count, body_start, centers, radii, inflation[j], box_params,
+                             b):  # fmt: skip
+                return HIT
+    return FREE
 
 
 _BLOCK = 256
@@ -125,7 +136,8 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
     The tuples are `ArmSphereChecker`'s arrays; ``scratch`` is `pair_free`'s.
     """
     kind, rotation, shift, permutation, sign = kinematics
-    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
+     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     num, dim = states.shape
@@ -153,11 +165,11 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
                     FAST_SELF_GAP)):  # fmt: skip
                 continue
             boxes_free = _pose_free(
-                sines, cosines, flat[first * dim :], (i - first) * dim, kind, rotation, shift,
+                sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
                 permutation, sign, node_centers, node_radii, node_skip, node_first, node_count,
-                body_start, centers, radii, box_params, body_boxes, body_box_count, body_lower,
-                body_upper, inflation, poses, root_world,
-            )  # fmt: skip
+                body_start, centers, radii, inner_centers, inner_radii, inner_start, box_params,
+                body_boxes, body_box_count, body_lower, body_upper, inflation, poses, root_world,
+            ) == FREE  # fmt: skip
             # Most poses keep every pair's root spheres apart: no tree walk.
             out[i] = boxes_free and (
                 roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
@@ -171,30 +183,34 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
 
 @numba.njit(cache=True, nogil=True)
 def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
-                node_skip, node_first, node_count, body_start, centers, radii, box_params,
-                body_boxes, body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
-                table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
-                scratch) -> bool:  # fmt: skip
-    """Whether the one state ``q`` is free with spheres grown by ``inflation`` (no bounds
-    check: an edge's states lie between its checked ends)."""
+                node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
+                inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
+                body_upper, sphere_pairs, table_grid, table_bounds, inflation, table_growth,
+                poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
+    """`_pose_free`'s answer for the one state ``q`` with spheres grown by ``inflation``, self
+    collision included (no bounds check: an edge's states lie between its checked ends)."""
     if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
-        return False
+        return HIT
     sincos_into(q, sines, cosines)
-    if not _pose_free(sines, cosines, q, 0, kind, rotation, shift, permutation, sign,
-                      node_centers, node_radii, node_skip, node_first, node_count, body_start,
-                      centers, radii, box_params, body_boxes, body_box_count, body_lower,
-                      body_upper, inflation, poses, root_world):  # fmt: skip
-        return False
-    return roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
-                       FAST_SELF_GAP) or pairs_free(
-        poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
-        body_start, centers, radii, inflation, FAST_SELF_GAP, scratch)  # fmt: skip
+    answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift, permutation, sign,
+                        node_centers, node_radii, node_skip, node_first, node_count, body_start,
+                        centers, radii, inner_centers, inner_radii, inner_start, box_params,
+                        body_boxes, body_box_count, body_lower, body_upper, inflation, poses,
+                        root_world)  # fmt: skip
+    if answer != FREE:
+        return answer
+    if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
+                   FAST_SELF_GAP) or pairs_free(
+            poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
+            body_start, centers, radii, inflation, FAST_SELF_GAP, scratch):  # fmt: skip
+        return FREE
+    return HIT
 
 
 @numba.njit(cache=True, nogil=True)
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-               box_params, body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+               inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -259,25 +275,27 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign
             inflation[j] = sweep[j] * half
         for p in range(table_sweep.shape[0]):
             table_growth[p] = table_sweep[p] * half
-        if _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
-                       node_skip, node_first, node_count, body_start, centers, radii,
-                       box_params, body_boxes, body_box_count, body_lower, body_upper,
-                       sphere_pairs, table_grid, table_bounds, inflation, table_growth, poses,
-                       root_world, sines, cosines, scratch):  # fmt: skip
+        answer = _state_free(q, kind, rotation, shift, permutation, sign, node_centers,
+                             node_radii, node_skip, node_first, node_count, body_start, centers,
+                             radii, inner_centers, inner_radii, inner_start, box_params,
+                             body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+                             table_grid, table_bounds, inflation, table_growth, poses,
+                             root_world, sines, cosines, scratch)  # fmt: skip
+        if answer == FREE:
             continue
-        if worst * half <= GROWTH_FLOOR or top + 2 > stack_low.shape[0]:
+        if answer == CERTAIN or worst * half <= GROWTH_FLOOR or top + 2 > stack_low.shape[0]:
             return False
         # Blocked with grown spheres: is the state itself free? Then look closer.
         for j in range(sweep.shape[0]):
             inflation[j] = 0.0
         for p in range(table_sweep.shape[0]):
             table_growth[p] = 0.0
-        if not _state_free(q, kind, rotation, shift, permutation, sign, node_centers,
-                           node_radii, node_skip, node_first, node_count, body_start, centers,
-                           radii, box_params, body_boxes, body_box_count, body_lower,
-                           body_upper, sphere_pairs, table_grid, table_bounds, inflation,
-                           table_growth, poses, root_world, sines, cosines,
-                           scratch):  # fmt: skip
+        if _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
+                       node_skip, node_first, node_count, body_start, centers, radii,
+                       inner_centers, inner_radii, inner_start, box_params, body_boxes,
+                       body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
+                       table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
+                       scratch) != FREE:  # fmt: skip
             return False
         stack_low[top], stack_high[top] = t, high
         top += 1
@@ -303,7 +321,8 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                       resolution, scratch):  # fmt: skip
     """``bool[N]``: each motion ``starts[e] -> ends[e]`` certified free (`_edge_free`)."""
     kind, rotation, shift, permutation, sign = kinematics
-    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
+     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = starts.shape[1]
@@ -327,7 +346,8 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     for e in range(starts.shape[0]):
         out[e] = _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign,
                             node_centers, node_radii, node_skip, node_first, node_count,
-                            body_start, centers, radii, box_params, body_boxes, body_box_count,
+                            body_start, centers, radii, inner_centers, inner_radii, inner_start,
+                            box_params, body_boxes, body_box_count,
                             body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
                             table_motion, motion, resolution, poses, root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
@@ -346,7 +366,8 @@ def motion_free_kernel(context, start, end) -> bool:
     if settings[0] == 0.0:  # the base collides: nothing is free
         return False
     kind, rotation, shift, permutation, sign = kinematics
-    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
+     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
@@ -365,7 +386,7 @@ def motion_free_kernel(context, start, end) -> bool:
         stack_high = np.empty(stack_low.shape[0])
     return _edge_free(starts, ends, 0, bounds, kind, rotation, shift, permutation, sign,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
-                      centers, radii, box_params, body_boxes, body_box_count, body_lower,
+                      centers, radii, inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
                       body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
                       settings[1], poses, root_world, sweep, inflation, table_sweep,
                       table_growth, q, sines, cosines, stack_low, stack_high,
@@ -376,7 +397,8 @@ def motion_free_kernel(context, start, end) -> bool:
 def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     """``(sphere pairs hit, table pairs hit)``: which pairs of one state collide."""
     kind, rotation, shift, permutation, sign = kinematics
-    node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii = trees
+    (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
+     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = state.shape[0]
     poses = identity_poses(dim + 1)

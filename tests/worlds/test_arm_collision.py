@@ -1,0 +1,134 @@
+"""The generic arm's checkers: the fast one is conservative, the exact one certifies, and
+states and motions a few millimetres from a surface are accepted."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds.arm.build import build
+from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.arm.spec import make_arm_checker, register_robot_file
+from temp_gym.worlds.collision import CollisionChecker, SelfCollisionChecker
+from temp_gym.worlds.collision.arm_exact import ArmExactChecker
+from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
+from temp_gym.worlds.robots import forget_robot
+from arm_fixtures import random_configs, write_test_arm
+
+BOXES = (
+    np.array([[0.25, -0.4, -0.1], [-0.5, 0.3, 0.2], [-0.1, -0.6, 0.45], [-0.3, -0.3, -0.2]]),
+    np.array([[0.35, 0.4, 0.5], [-0.25, 0.34, 0.6], [0.1, -0.5, 0.55], [0.3, 0.3, -0.05]]),
+)
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    path = write_test_arm(tmp_path_factory.mktemp("collision"))
+    build(path, log=lambda line: None)
+    spec = register_robot_file(path)
+    yield load_arm(path)
+    forget_robot(spec.name)
+
+
+@pytest.fixture(scope="module")
+def checkers(arm):
+    limits = arm.joint_limits()
+    return ArmSphereChecker(arm, limits, *BOXES), ArmExactChecker(arm, limits, *BOXES)
+
+
+def test_both_follow_the_protocols(checkers):
+    for checker in checkers:
+        assert isinstance(checker, CollisionChecker)
+        assert isinstance(checker, SelfCollisionChecker)
+
+
+def test_the_fast_checker_never_frees_what_the_exact_one_refuses(arm, checkers):
+    fast, exact = checkers
+    states = random_configs(arm, 3000, seed=4)
+    fast_free, exact_free = fast.states_free(states), exact.states_free(states)
+    assert np.all(exact_free[fast_free])
+    assert 0.1 < fast_free.mean() < 0.95  # the scene is neither empty nor solid
+
+
+def test_fast_free_edges_are_certified(arm, checkers):
+    fast, exact = checkers
+    rng = np.random.default_rng(5)
+    starts = random_configs(arm, 300, seed=6)
+    ends = np.clip(starts + rng.normal(0, 0.4, size=starts.shape), *arm.joint_limits())
+    free = fast.edges_free(starts, ends)
+    assert free.any() and not free.all()
+    for start, end in zip(starts[free][:60], ends[free][:60]):
+        assert exact.edge_free(start, end)
+
+
+def _near_surface_state(arm, checkers, low=0.002, high=0.006):
+    """A state whose nearest box is ``low``-``high`` m away, by the exact checker."""
+    fast, exact = checkers
+    for state in random_configs(arm, 20_000, seed=7):
+        if not exact.states_free(state[None])[0]:
+            continue
+        report = exact.obstacle_report(state)
+        if report and low <= report[0][2] <= high:
+            return state, report[0]
+    pytest.fail("no state near a surface in the draws")
+
+
+def test_a_state_millimetres_from_a_box_is_accepted_and_can_be_left(arm, checkers):
+    fast, exact = checkers
+    state, (link, box, distance) = _near_surface_state(arm, checkers)
+    workspace = Workspace(arm.name, arm.joint_limits(), (BOXES[0] + BOXES[1]) / 2,
+                          (BOXES[1] - BOXES[0]) / 2)  # fmt: skip
+    problem = Problem(workspace, state, np.zeros(arm.dim), 0.1)  # the loader accepts it
+    assert np.array_equal(problem.start, state)
+    # Some short motion leaves it, certified by both checkers.
+    rng = np.random.default_rng(8)
+    ends = np.clip(state + 0.05 * rng.normal(size=(64, arm.dim)), *arm.joint_limits())
+    leaving = fast.edges_free(np.repeat(state[None], 64, axis=0), ends)
+    assert leaving.any()
+    assert exact.edge_free(state, ends[np.flatnonzero(leaving)[0]])
+
+
+def test_a_refused_state_names_the_link_the_box_and_the_depth(arm, checkers):
+    _, exact = checkers
+    workspace = Workspace(arm.name, arm.joint_limits(), (BOXES[0] + BOXES[1]) / 2,
+                          (BOXES[1] - BOXES[0]) / 2)  # fmt: skip
+    for state in random_configs(arm, 2000, seed=9):
+        if exact.states_free(state[None])[0] or exact.self_collisions(state):
+            continue
+        with pytest.raises(ValueError) as caught:
+            Problem(workspace, state, np.zeros(arm.dim), 0.1)
+        message = str(caught.value)
+        assert message.startswith("start:") and "touches box" in message
+        assert "penetration" in message and "\n" not in message
+        return
+    pytest.fail("no state in collision with a box in the draws")
+
+
+def test_invalid_states_are_not_free(arm, checkers):
+    for checker in checkers:
+        bad = np.zeros((3, arm.dim))
+        bad[0, 0] = np.nan
+        bad[1, 0] = arm.joint_limits()[1, 0] + 0.1
+        bad[2, 1] = np.inf
+        assert not checker.states_free(bad).any()
+    with pytest.raises(ValueError, match="expected shape"):
+        checkers[0].states_free(np.zeros((2, arm.dim + 1)))
+
+
+def test_self_collisions_are_found_by_both_and_named(arm, checkers):
+    fast, exact = checkers
+    found = 0
+    for state in random_configs(arm, 3000, seed=10):
+        pairs = exact.self_collisions(state)
+        if pairs:
+            found += 1
+            assert not fast.states_free(state[None])[0]
+            assert fast.self_collisions(state)
+    assert found > 0
+
+
+def test_the_spec_makes_both_checkers(arm):
+    workspace = Workspace(arm.name, arm.joint_limits(), np.zeros((0, 3)), np.zeros((0, 3)))
+    assert isinstance(make_arm_checker(arm, workspace), ArmSphereChecker)
+    assert isinstance(make_arm_checker(arm, workspace, exact=True), ArmExactChecker)
