@@ -102,33 +102,39 @@ def joint_step_into(poses, j, kind, rotation, shift, permutation, sign, c, s, q)
     """``poses[j + 1] = poses[j] @ origin[j] @ motion``, 3x4 poses (module docstring).
 
     ``c``, ``s`` are the joint's cosine and sine (revolute), ``q`` its value (prismatic).
+    Every parameter of the joint is read into a local first: the compiler cannot tell that
+    writing ``poses`` leaves the parameter arrays alone, and would read them again per row.
     Indexes whole arrays rather than taking row views: views cost reference counting.
     """
-    general = permutation[j, 0] < 0
-    for r in range(3):
-        if general:
-            m0 = (poses[j, r, 0] * rotation[j, 0, 0] + poses[j, r, 1] * rotation[j, 1, 0]
-                  + poses[j, r, 2] * rotation[j, 2, 0])  # fmt: skip
-            m1 = (poses[j, r, 0] * rotation[j, 0, 1] + poses[j, r, 1] * rotation[j, 1, 1]
-                  + poses[j, r, 2] * rotation[j, 2, 1])  # fmt: skip
-            m2 = (poses[j, r, 0] * rotation[j, 0, 2] + poses[j, r, 1] * rotation[j, 1, 2]
-                  + poses[j, r, 2] * rotation[j, 2, 2])  # fmt: skip
-        else:
-            m0 = sign[j, 0] * poses[j, r, permutation[j, 0]]
-            m1 = sign[j, 1] * poses[j, r, permutation[j, 1]]
-            m2 = sign[j, 2] * poses[j, r, permutation[j, 2]]
-        t = (poses[j, r, 0] * shift[j, 0] + poses[j, r, 1] * shift[j, 1]
-             + poses[j, r, 2] * shift[j, 2] + poses[j, r, 3])  # fmt: skip
-        if kind[j] == 0:
+    t0, t1, t2 = shift[j, 0], shift[j, 1], shift[j, 2]
+    if kind[j] != 0:  # prismatic: no turn, a slide along the joint's z
+        c, s = 1.0, 0.0
+    slide = q if kind[j] != 0 else 0.0
+    if permutation[j, 0] >= 0:
+        p0, p1, p2 = permutation[j, 0], permutation[j, 1], permutation[j, 2]
+        a0, a1, a2 = sign[j, 0], sign[j, 1], sign[j, 2]
+        for r in range(3):
+            m0 = a0 * poses[j, r, p0]
+            m1 = a1 * poses[j, r, p1]
+            m2 = a2 * poses[j, r, p2]
+            poses[j + 1, r, 3] = (poses[j, r, 0] * t0 + poses[j, r, 1] * t1
+                                  + poses[j, r, 2] * t2 + poses[j, r, 3] + slide * m2)  # fmt: skip
+            poses[j + 1, r, 2] = m2
             poses[j + 1, r, 0] = c * m0 + s * m1
             poses[j + 1, r, 1] = c * m1 - s * m0
-            poses[j + 1, r, 2] = m2
-            poses[j + 1, r, 3] = t
-        else:
-            poses[j + 1, r, 0] = m0
-            poses[j + 1, r, 1] = m1
-            poses[j + 1, r, 2] = m2
-            poses[j + 1, r, 3] = t + q * m2
+        return
+    r00, r01, r02 = rotation[j, 0, 0], rotation[j, 0, 1], rotation[j, 0, 2]
+    r10, r11, r12 = rotation[j, 1, 0], rotation[j, 1, 1], rotation[j, 1, 2]
+    r20, r21, r22 = rotation[j, 2, 0], rotation[j, 2, 1], rotation[j, 2, 2]
+    for r in range(3):
+        x, y, z = poses[j, r, 0], poses[j, r, 1], poses[j, r, 2]
+        m0 = x * r00 + y * r10 + z * r20
+        m1 = x * r01 + y * r11 + z * r21
+        m2 = x * r02 + y * r12 + z * r22
+        poses[j + 1, r, 3] = x * t0 + y * t1 + z * t2 + poses[j, r, 3] + slide * m2
+        poses[j + 1, r, 2] = m2
+        poses[j + 1, r, 0] = c * m0 + s * m1
+        poses[j + 1, r, 1] = c * m1 - s * m0
 
 
 @numba.njit(cache=True, nogil=True)
