@@ -1,10 +1,11 @@
-"""The shipped example problems: valid, solvable, with clearance, and kept so for the iiwa.
+"""The shipped example problems: valid, solvable, with clearance, and kept so for the arms.
 
-The 7D example must stay valid once the iiwa's self-collision is checked: its poses are
-plain and unfolded, away from the joint limits, and pybullet's own self-collision test (the
-mesh model, non-adjacent links) finds the links well apart.
+The arm examples must stay valid with self-collision checked: their poses are plain and
+unfolded, away from the joint limits and the furniture, and for the iiwa pybullet's own
+self-collision test (the mesh model, non-adjacent links) finds the links well apart.
 """
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 
 from temp_gym import Problem, plan
 from temp_gym.worlds.checkers import make_checker
+from temp_gym.worlds.robots import robot_spec
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 FILES = sorted(EXAMPLES.glob("*.json"))
@@ -32,20 +34,28 @@ def test_example_is_valid_and_solvable(path):
         assert not make_checker(problem).edge_free(problem.start, problem.goal)
 
 
+ARM_FILES = [
+    path for path in FILES if robot_spec(json.loads(path.read_text())["robot"]).description
+]
+
+
 def _iiwa():
     return Problem.load(EXAMPLES / "kuka_iiwa14.json")
 
 
-def test_iiwa_example_keeps_away_from_limits_and_furniture():
-    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+@pytest.mark.parametrize("path", ARM_FILES, ids=[path.stem for path in ARM_FILES])
+def test_arm_example_keeps_away_from_limits_and_furniture(path):
+    from temp_gym.worlds.arm_world import arm_of
+    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 
-    problem = _iiwa()
+    problem = Problem.load(path)
     configs = np.stack([problem.start, problem.goal])
     low, high = problem.bounds
     assert np.all(configs - low >= 0.3) and np.all(high - configs >= 0.3)
     furniture = problem.workspace.obstacle_upper[:, 2] > 0.0  # all but the floor slab
     margin = 0.05
-    grown = IiwaSphereChecker(
+    grown = ArmSphereChecker(
+        arm_of(problem.robot),
         problem.bounds,
         problem.workspace.obstacle_lower[furniture] - margin,
         problem.workspace.obstacle_upper[furniture] + margin,
@@ -55,19 +65,18 @@ def test_iiwa_example_keeps_away_from_limits_and_furniture():
 
 def test_iiwa_example_is_no_more_folded_than_the_straight_arm():
     # pybullet's mesh model with self-collision on: every pair of non-adjacent links is as far
-    # apart as in the straight, zero pose (the wrist's link_5 and link_7 are 3 cm apart there),
+    # apart as in the straight, zero pose (the wrist's links 5 and 7 are 3 cm apart there),
     # up to 5 cm and a 5 mm tolerance.
     import pybullet
     from pybullet_utils.bullet_client import BulletClient
 
-    from temp_gym.worlds.iiwa14.kinematics import urdf_path
+    from temp_gym.worlds.arm_world import arm_of
 
     problem = _iiwa()
     client = BulletClient(connection_mode=pybullet.DIRECT)
     try:
-        arm = client.loadURDF(
-            str(urdf_path()), useFixedBase=True, flags=pybullet.URDF_USE_SELF_COLLISION
-        )
+        urdf = str(arm_of(problem.robot).chain.urdf)
+        arm = client.loadURDF(urdf, useFixedBase=True, flags=pybullet.URDF_USE_SELF_COLLISION)
         links = client.getNumJoints(arm)
         pairs = [(a, b) for a in range(-1, links) for b in range(a + 2, links)]
 

@@ -231,26 +231,35 @@ IIWA = {
 
 @pytest.mark.parametrize("field", ["start", "goal"])
 def test_iiwa_start_or_goal_in_self_collision_names_the_links(field):
-    folded = [0, 0, 0, 0, 0, 2.08, 0]  # joint 6 at its limit: link_7 against link_5
+    folded = [0, 0, 0, 0, 0, 2.08, 0]  # joint 6 at its limit: link 7 against link 5
     with pytest.raises(ValueError) as error:
         Problem.from_dict({**IIWA, field: folded})
     message = str(error.value)
     assert message.startswith(f"{field}: "), message
-    assert "self-collision between link_5 and link_7" in message, message
+    assert "self-collision between lbr_iiwa_link_5 and lbr_iiwa_link_7" in message, message
     into_the_base = [0, 2.0, 0, -2.0, 0, 0, 0]  # shoulder and elbow folded down
-    with pytest.raises(ValueError, match=f"^{field}: .* self-collision between link_0 and link_5"):
+    with pytest.raises(
+        ValueError, match=f"^{field}: .* self-collision between lbr_iiwa_link_0 and lbr_iiwa_link_5"
+    ):
         Problem.from_dict({**IIWA, field: into_the_base})
 
 
-def test_iiwa_box_collision_keeps_its_message():
-    with pytest.raises(ValueError, match=r"^goal: .* is in collision \(iiwa sphere model"):
-        Problem.from_dict({**IIWA, "goal": [0, 1.2, 0, 0, 0, 0, 0]})
+def test_iiwa_box_collision_names_the_link_the_box_and_the_depth():
+    with pytest.raises(ValueError) as error:
+        Problem.from_dict({**IIWA, "goal": [0, 1.2, 0, 0, 0, 0, 0]})  # the hand in the wall
+    message = str(error.value)
+    assert re.match(
+        r"^goal: .* is in collision: lbr_iiwa_link_7 touches box 0, "
+        r"penetration \d+\.\d mm \(fcl on the kuka_iiwa14",
+        message,
+    ), message
+    assert "\n" not in message
 
 
 def test_iiwa_bounds_must_lie_within_the_joint_limits():
-    from temp_gym.worlds.iiwa14.kinematics import joint_limits
+    from temp_gym.worlds.arm_world import arm_of
 
-    limits = joint_limits()
+    limits = arm_of("kuka_iiwa14").joint_limits()
     inside = Problem.from_dict({**IIWA, "bounds": (limits * 0.9).tolist()})
     np.testing.assert_array_equal(inside.bounds, limits * 0.9)
     np.testing.assert_array_equal(Problem.from_dict(IIWA).bounds, limits)

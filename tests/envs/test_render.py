@@ -4,7 +4,7 @@ import pytest
 from temp_gym.problem import Problem
 from temp_gym.worlds.rendering import (
     MAX_3D_EDGES,
-    IiwaRenderer,
+    ArmRenderer,
     arm_poses,
     plan_title,
     render_point_world,
@@ -34,6 +34,13 @@ IIWA = {
     "obstacles": [{"center": [0.6, 0, 0.3], "half_extents": [0.1, 0.3, 0.3]}],
     "start": [0, 0, 0, 0, 0, 0, 0],
     "goal": [1, 0.5, 0, -1, 0, 0.5, 0],
+    "goal_radius": 0.1,
+}
+PANDA = {
+    "robot": "franka_panda",
+    "obstacles": [{"center": [0.6, 0, 0.3], "half_extents": [0.1, 0.3, 0.3]}],
+    "start": [0, -0.785, 0, -2.356, 0, 1.571, 0.785],  # the Panda's "ready" pose
+    "goal": [1, 0.3, 0, -1.5, 0, 1.8, 0.5],
     "goal_radius": 0.1,
 }
 IIWA_OTHER = {
@@ -123,13 +130,12 @@ def test_point_renderer_rejects_bad_arguments():
 # ---------------------------------------------------------------------- iiwa
 @pytest.fixture(scope="module")
 def iiwa_problems():
-    pytest.importorskip("temp_gym.worlds.collision.iiwa_fast")
     return Problem.from_dict(IIWA), Problem.from_dict(IIWA_OTHER)
 
 
 @pytest.fixture(scope="module")
 def renderer():
-    renderer = IiwaRenderer()
+    renderer = ArmRenderer()
     yield renderer
     renderer.close()
 
@@ -159,23 +165,37 @@ def test_iiwa_two_problems(iiwa_problems, renderer):
 
 
 def test_iiwa_close_twice_and_reconnect(iiwa_problems):
-    renderer = IiwaRenderer(ghosts=2)
+    renderer = ArmRenderer(ghosts=2)
     image = renderer.render(iiwa_problems[0], width=120, height=100)
     renderer.close()
     renderer.close()
     np.testing.assert_array_equal(image, renderer.render(iiwa_problems[0], width=120, height=100))
     renderer.close()
-    with IiwaRenderer() as unused:
+    with ArmRenderer() as unused:
         unused.close()
 
 
 def test_renderers_reject_the_wrong_robot(iiwa_problems):
-    with pytest.raises(ValueError, match="IiwaRenderer"):
+    with pytest.raises(ValueError, match="ArmRenderer"):
         render_point_world(iiwa_problems[0])
     with pytest.raises(ValueError, match="render_point_world"):
-        IiwaRenderer().render(Problem.from_dict(POINT2D))
+        ArmRenderer().render(Problem.from_dict(POINT2D))
     with pytest.raises(ValueError, match="path"):
-        IiwaRenderer().render(iiwa_problems[0], path=np.zeros((3, 6)))
+        ArmRenderer().render(iiwa_problems[0], path=np.zeros((3, 6)))
+
+
+def test_any_arm_is_drawn_by_its_own_renderer(iiwa_problems):
+    from temp_gym.worlds.arm_world import arm_of
+
+    panda = Problem.from_dict(PANDA)
+    with ArmRenderer(arm_of("franka_panda")) as renderer:
+        image = renderer.render(panda, width=320, height=240)
+        check_image(image, 240, 320)
+        r, g, b = (image[..., k].astype(int) for k in range(3))
+        assert np.sum((g > r + 40) & (g > b + 20)) > 100  # the green start arm
+        assert np.sum((b > r + 60) & (b > g + 40)) > 100  # the blue goal arm
+        with pytest.raises(ValueError, match="draws franka_panda, got 'kuka_iiwa14'"):
+            renderer.render(iiwa_problems[0])
 
 
 # ---------------------------------------------------------------------- solution vs path so far
@@ -259,14 +279,14 @@ def test_camera_is_chosen_to_show_the_arm(iiwa_problems):
     walled = Problem.from_dict(
         {**IIWA, "obstacles": [{"center": [1.1, -0.9, 1.0], "half_extents": [0.45, 0.45, 1.0]}]}
     )
-    with IiwaRenderer() as renderer:
+    with ArmRenderer() as renderer:
         assert renderer.visible_arm_pixels(walled, (50.0, -28.0)) < 10
         renderer.render(walled, width=64, height=64)
         assert renderer.visible_arm_pixels(walled, renderer.view) > 200
         first_view = renderer.view
         renderer.render(walled, path_so_far=np.stack([walled.start, walled.goal]))
         assert renderer.view == first_view  # one view per problem: frames do not jump
-    with IiwaRenderer(yaw=50.0, pitch=-28.0) as fixed:
+    with ArmRenderer(yaw=50.0, pitch=-28.0) as fixed:
         fixed.render(walled, width=64, height=64)
         assert fixed.view == (50.0, -28.0)
 
@@ -327,7 +347,7 @@ def test_point_pictures_have_a_legend_across_the_bottom():
 
 
 def test_iiwa_legend_says_which_arm_is_which(iiwa_problems):
-    from temp_gym.worlds.rendering.iiwa import arm_legend
+    from temp_gym.worlds.rendering.arm import arm_legend
 
     def labels(*args):
         return [label for label, _, _ in arm_legend(*args)]
@@ -342,9 +362,9 @@ def test_iiwa_legend_says_which_arm_is_which(iiwa_problems):
         "obstacles",
     ]
     assert labels(None, None, False) == ["start", "goal", "obstacles"]
-    with IiwaRenderer(legend=False) as bare:
+    with ArmRenderer(legend=False) as bare:
         plain = bare.render(iiwa_problems[0], path=path, width=320, height=240)
-    with IiwaRenderer() as renderer:
+    with ArmRenderer() as renderer:
         legend = renderer.render(iiwa_problems[0], path=path, width=320, height=240)
     assert not np.array_equal(legend[-20:], plain[-20:])
     np.testing.assert_array_equal(legend[:-50], plain[:-50])  # the band alone differs
@@ -360,8 +380,8 @@ def test_iiwa_draws_start_end_and_two_ghosts_along_a_path(iiwa_problems):
 
 
 def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, monkeypatch):
+    from temp_gym.worlds.rendering.arm import CANDIDATE_PITCHES, CANDIDATE_YAWS
     from temp_gym.worlds.rendering.camera import orbit_position, visible_points
-    from temp_gym.worlds.rendering.iiwa import CANDIDATE_PITCHES, CANDIDATE_YAWS
 
     # A tall shelf back right behind the goal hand, between it and the +y half of the ring.
     shelved = Problem.from_dict(
@@ -375,7 +395,7 @@ def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, mon
     )
     lower, upper = shelved.workspace.obstacle_lower, shelved.workspace.obstacle_upper
     views = [(float(yaw), pitch) for pitch in CANDIDATE_PITCHES for yaw in CANDIDATE_YAWS]
-    with IiwaRenderer() as renderer:
+    with ArmRenderer() as renderer:
         renderer.render(shelved, width=64, height=64)
         hand, target = renderer._goal_hand, renderer.view_target
         sees = {

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from viewer_cases import reference_body_poses
 
 from temp_gym.viewer.arm_geometry import (
     arm_link_meshes,
@@ -7,7 +8,6 @@ from temp_gym.viewer.arm_geometry import (
     has_arm_geometry,
     is_point_robot,
 )
-from temp_gym.worlds.iiwa14.kinematics import forward_kinematics_reference
 from temp_gym.worlds.robots import robot_spec
 
 
@@ -19,15 +19,16 @@ def test_point_robots_need_no_arm_geometry():
             arm_link_meshes(spec)
 
 
-def test_the_arm_has_a_mesh_per_link_and_poses_from_its_kinematics():
-    spec = robot_spec("kuka_iiwa14")
+@pytest.mark.parametrize("robot", ["kuka_iiwa14", "franka_panda"])
+def test_the_arm_has_a_mesh_per_link_and_poses_from_its_kinematics(robot):
+    spec = robot_spec(robot)
     assert not is_point_robot(spec) and has_arm_geometry(spec)
     meshes = arm_link_meshes(spec)
     configs = np.random.default_rng(0).uniform(-1, 1, size=(3, spec.dim))
     poses = arm_link_poses(spec, configs)
     assert poses.shape == (3, len(meshes), 4, 4)
     for config, pose in zip(configs, poses):
-        np.testing.assert_allclose(pose, forward_kinematics_reference(config), atol=1e-9)
+        np.testing.assert_allclose(pose, reference_body_poses(spec.name, config), atol=1e-9)
     for vertices, faces in meshes:
         assert vertices.shape[1] == 3 and faces.shape[1] == 3
         assert faces.min() >= 0 and faces.max() < len(vertices)

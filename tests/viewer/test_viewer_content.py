@@ -1,10 +1,9 @@
 import numpy as np
 import pytest
-from viewer_cases import random_tree, straight_path
+from viewer_cases import random_tree, reference_body_poses, straight_path
 
 from temp_gym.planning.result import PlanTree
 from temp_gym.viewer.content import FLAT_HEIGHT_SHARE, plan_content, resample_path
-from temp_gym.worlds.iiwa14.kinematics import forward_kinematics_reference
 
 
 def test_resample_path_spaces_states_evenly_by_length():
@@ -44,14 +43,14 @@ def test_a_3d_plan_without_a_tree_or_path(point3d):
 def test_an_arm_plan_is_drawn_at_its_hand(iiwa):
     path = straight_path(iiwa, 3)
     content = plan_content(iiwa, path=path, tree=random_tree(iiwa, 10), frames=7)
-    start_links = forward_kinematics_reference(iiwa.start)
-    goal_links = forward_kinematics_reference(iiwa.goal)
+    start_links = reference_body_poses(iiwa.robot, iiwa.start)
+    goal_links = reference_body_poses(iiwa.robot, iiwa.goal)
     np.testing.assert_allclose(content.start, start_links[-1, :3, 3], atol=1e-9)
     np.testing.assert_allclose(content.goal, goal_links[-1, :3, 3], atol=1e-9)
     np.testing.assert_allclose(content.arm.start_poses, start_links, atol=1e-9)
     np.testing.assert_allclose(content.arm.goal_poses, goal_links, atol=1e-9)
     assert content.arm.frame_poses.shape == (7, 8, 4, 4)
-    middle = forward_kinematics_reference(path[1])  # frame 3 of 7 is the path's midpoint
+    middle = reference_body_poses(iiwa.robot, path[1])  # frame 3 of 7 is the path's midpoint
     np.testing.assert_allclose(content.arm.frame_poses[3], middle, atol=1e-9)
     np.testing.assert_allclose(content.path_trace, content.frame_positions)
     assert content.tree_segments.shape == (9, 2, 3) and content.goal_radius is None

@@ -44,3 +44,25 @@ def random_tree(problem: Problem, count: int, seed: int = 0) -> PlanTree:
 
 def straight_path(problem: Problem, states: int = 5) -> np.ndarray:
     return np.linspace(problem.start, problem.goal, states)
+
+
+def reference_body_poses(robot: str, config: np.ndarray) -> np.ndarray:
+    """Plain-numpy world poses ``(bodies, 4, 4)`` of an arm's bodies at one configuration.
+
+    Read from the arm's chain (each body is its parent's pose, times the joint's origin, times
+    a turn about or a slide along z), apart from the compiled kinematics the package uses.
+    """
+    from temp_gym.worlds.arm.urdf import PRISMATIC
+    from temp_gym.worlds.arm_world import arm_of
+
+    chain = arm_of(robot).chain
+    poses = [np.eye(4)]
+    for origin, kind, value in zip(chain.joint_origins, chain.joint_types, config):
+        motion = np.eye(4)
+        if kind == PRISMATIC:
+            motion[2, 3] = value
+        else:
+            c, s = np.cos(value), np.sin(value)
+            motion[:2, :2] = [[c, -s], [s, c]]
+        poses.append(poses[-1] @ origin @ motion)
+    return np.stack(poses)

@@ -5,7 +5,7 @@ import pytest
 
 from temp_gym.problem import Workspace
 from temp_gym.worlds.encoding import occupancy_grid
-from temp_gym.worlds.robots.kuka_iiwa14 import ENCODING_REGION as IIWA_REGION
+from temp_gym.worlds.robots import KUKA_IIWA14
 
 BOUNDS_2D = [[0.0, 0.0], [20.0, 20.0]]
 
@@ -38,7 +38,7 @@ def test_3d_and_iiwa_shapes():
     point3d = Workspace("point3d", [[0.0] * 3, [20.0] * 3], np.array([[10.0] * 3]),
                         np.array([[1.0] * 3]))  # fmt: skip
     assert occupancy_grid(point3d, 16).shape == (16, 16, 16)
-    centre = IIWA_REGION.mean(axis=0)
+    centre = KUKA_IIWA14.encoding_region.mean(axis=0)
     iiwa = Workspace("kuka_iiwa14", [[-2.0] * 7, [2.0] * 7], centre[None], np.array([[0.1] * 3]))
     grid = occupancy_grid(iiwa, 16)
     assert grid.shape == (16, 16, 16) and 0 < grid.sum() <= 4**3
