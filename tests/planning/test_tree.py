@@ -278,7 +278,7 @@ def test_compiled_extend_gives_the_reference_results_and_tree(robot, neighbourho
     reference = Tree(problem, compiled_extend=False, **settings)
     rng = np.random.default_rng(7)
     low, high = problem.bounds
-    count = 600 if robot == "kuka_iiwa14" else 1500
+    count = 1500
     samples = rng.uniform(low, high, (count, problem.dim))
     samples[::7] = problem.goal  # the goal, over and over: zero-length steps once it is reached
     actions = rng.uniform(-1.2, 1.2, (count, problem.dim))  # normalized, some out of the box

@@ -79,3 +79,15 @@ def test_motion_radii_bound_how_far_points_move(arms, name):
 def test_configs_are_checked_for_shape(arms):
     with pytest.raises(ValueError, match="expected shape"):
         arms["xarm6"].forward_kinematics(np.zeros((2, 7)))
+
+
+def test_a_model_copies_and_pickles_as_its_description(arms):
+    import copy
+    import pickle
+
+    arm = arms["test_arm"]
+    assert copy.deepcopy(arm) is arm  # one model per description and process
+    again = pickle.loads(pickle.dumps(arm))
+    assert again is arm  # the process's cached model
+    np.testing.assert_array_equal(again.forward_kinematics(np.zeros((1, arm.dim))),
+                                  arm.forward_kinematics(np.zeros((1, arm.dim))))  # fmt: skip

@@ -58,6 +58,16 @@ class ArmModel:
     derived: dict | None = None
     _arrays: dict = field(default_factory=dict, repr=False, compare=False)
 
+    # ---------------------------------------------------------------- copies
+    def __deepcopy__(self, memo: dict) -> ArmModel:
+        # One model per description and process, never modified: a copy is the model itself
+        # (its fcl geometry cannot be copied, and needs not be).
+        return self
+
+    def __reduce__(self):
+        # Pickled as its description file: unpickling loads (or finds) the process's model.
+        return (load_arm, (str(self.description.path), self.derived is not None))
+
     # ---------------------------------------------------------------- structure
     @property
     def name(self) -> str:
