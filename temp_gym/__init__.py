@@ -5,8 +5,17 @@ Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0`
 
 from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I001
 from temp_gym.envs import ENV_IDS, register_envs
-from temp_gym.planning.plan import plan
-from temp_gym.planning.result import PlanResult
+from temp_gym.planning import (
+    PLANNERS,
+    InformedRRTStarSettings,
+    OMPLSettings,
+    PlanResult,
+    PlanSettings,
+    RRTStarSettings,
+    TEMPSettings,
+    plan,
+    register_planner,
+)
 from temp_gym.planning.temp_planner import set_default_policy
 from temp_gym.problem import Problem
 
@@ -22,7 +31,21 @@ def _shipped_policy(robot: str):
 
 set_default_policy(_shipped_policy)  # the planning layer imports no model code itself
 
-__all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "robots"]
+__all__ = [
+    "ENV_IDS",
+    "PLANNERS",
+    "InformedRRTStarSettings",
+    "OMPLSettings",
+    "PlanResult",
+    "PlanSettings",
+    "Problem",
+    "RRTStarSettings",
+    "TEMPSettings",
+    "load_policy",
+    "plan",
+    "register_planner",
+    "robots",
+]
 
 
 def __getattr__(name: str):

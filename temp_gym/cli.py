@@ -6,6 +6,12 @@ Example:
     informed_rrt_star seed=3: cost 26.8120, 2000 nodes, ...
     $ temp-plan problem.json --checkpoint runs/TEMP-2D-v0__quick__0/best.pt   # your own policy
     $ temp-plan problems/*.json --out-dir results/   # batch: one process, one result each
+    $ temp-plan problem.json --set attention_patience=60   # any setting of the planner's class
+
+``--set KEY=VALUE`` (repeatable) sets any field of the planner's settings class
+(`temp_gym.planning.PLANNERS`; `temp_gym.planning.TEMPSettings` for ``temp``); the epilog of
+``--help`` lists them. TEMP's settings not given take the policy's own: the shipped policy's,
+or those a ``--checkpoint`` carries.
 
 Batch mode plans every file in one process, so start-up (imports, the per-process warm-up of
 the compiled kernels, loading the policy) is paid once; each file gets a summary line and,
@@ -19,8 +25,10 @@ problem, 2 bad input (a one-line error on stderr per bad file or argument, no tr
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -37,15 +45,28 @@ EXIT_CODES = {
 """Exit status -> meaning."""
 
 
-def _parser() -> argparse.ArgumentParser:
-    from temp_gym.planning import PLANNERS
-    from temp_gym.planning.result import PlanSettings
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Every flag's default shown, the epilog's lines kept."""
 
+
+def _parser() -> argparse.ArgumentParser:
+    from temp_gym.planning import PLANNERS, PlanSettings
+    from temp_gym.planning.settings import field_names
+
+    common = field_names(PlanSettings)
+    own = {
+        name: sorted(field_names(entry.settings) - common - {"policy"})
+        for name, entry in PLANNERS.items()
+    }
+    listed = [f"every planner takes {', '.join(sorted(common))}"] + [
+        f"{name} also {', '.join(names)}" for name, names in own.items() if names
+    ]
     parser = argparse.ArgumentParser(
         prog="temp-plan",
         description="Solve temp-gym problem JSON files with one planner.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-        epilog="exit status: "
+        formatter_class=_HelpFormatter,
+        epilog=textwrap.fill("settings of --set: " + "; ".join(listed) + ".", 79)
+        + "\n\nexit status: "
         + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items()),
     )
     parser.add_argument(
@@ -73,6 +94,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--step-size", type=float, default=None, help="steering step")
     parser.add_argument("--stop-at-first", action="store_true", help="stop at the first solution")
+    parser.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting of the planner (repeatable; listed below), e.g. attention_patience=60",
+    )
     parser.add_argument(
         "--out", default=None, help="one problem: write its result (path included) as JSON"
     )
@@ -126,31 +155,42 @@ def _policy(args: argparse.Namespace):
     return policy_from_checkpoint(args.checkpoint)
 
 
-def _solve(path: str, args: argparse.Namespace, policy):
+def _settings(args: argparse.Namespace):
+    """The planner's settings of the flags and ``--set`` items, checked before any planning."""
+    import yaml
+
+    from temp_gym.planning.registry import settings_for
+
+    given = {}
+    for item in args.settings:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--set {item!r}: expected KEY=VALUE")
+        if key == "policy":
+            raise ValueError("--set policy: give a trained policy as --checkpoint PATH")
+        try:
+            given[key] = yaml.safe_load(text) if text.strip() else None
+        except yaml.YAMLError:
+            given[key] = text
+    flags = {"seed": args.seed, "max_nodes": args.max_nodes, "time_limit": args.time_limit,
+             "stop_at_first": args.stop_at_first, "step_size": args.step_size}  # fmt: skip
+    if args.attention_nodes is not None:
+        flags["attention_nodes"] = args.attention_nodes
+    return settings_for(args.planner, None, **{**flags, **given})
+
+
+def _solve(path: str, args: argparse.Namespace, settings):
     """Plan one problem file; bad input raises `ValueError`/`OSError`."""
     from temp_gym.planning import plan
     from temp_gym.problem import Problem
 
     problem = Problem.load(path)
-    extra = {}
-    if args.planner == "temp":
-        extra["attention_nodes"] = args.attention_nodes
-        if policy is not None:
-            from temp_gym.planning.policy import check_compatible
+    policy = getattr(settings, "policy", None)
+    if policy is not None and args.checkpoint is not None:
+        from temp_gym.planning.policy import check_compatible
 
-            check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
-            extra["policy"] = policy
-    result = plan(
-        problem,
-        planner=args.planner,
-        seed=args.seed,
-        max_nodes=args.max_nodes,
-        time_limit=args.time_limit,
-        stop_at_first=args.stop_at_first,
-        step_size=args.step_size,
-        **extra,
-    )
-    return result
+        check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
+    return plan(problem, args.planner, settings)
 
 
 def _write(result, out: Path, flag: str) -> None:
@@ -168,7 +208,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     batch = len(args.problems) > 1
     try:
         outputs = _outputs(args)
+        settings = _settings(args)
         policy = _policy(args)
+        if policy is not None:
+            settings = dataclasses.replace(settings, policy=policy)
     except (OSError, ValueError, ImportError) as error:
         _error(error)
         return BAD_INPUT
@@ -178,7 +221,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     status = SOLVED
     for path, out in zip(args.problems, outputs):
         try:
-            result = _solve(path, args, policy)
+            result = _solve(path, args, settings)
         except (OSError, ValueError, ImportError) as error:
             _error(f"{path}: {error}" if batch and path not in str(error) else error)
             status = BAD_INPUT

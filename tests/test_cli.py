@@ -245,3 +245,59 @@ def test_an_output_that_cannot_be_written_is_named_after_the_summary(tmp_path, c
     captured = capsys.readouterr()
     assert "rrt_star seed=0" in captured.out  # the plan's figures are not lost
     assert_one_line_error(code, captured.err, "--out", "cannot write", str(blocker / "r.json"))
+
+
+def test_any_setting_of_the_planner_is_set_and_checked_before_planning(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    out = tmp_path / "r.json"
+    base = [str(problem), "--stop-at-first", "--seed", "2", "--max-nodes", "2000"]
+    assert main([*base, "--set", "goal_bias=0.2", "--planner", "rrt_star", "--out", str(out)]) == 0
+    capsys.readouterr()
+    set_once = json.loads(out.read_text())
+    from temp_gym import plan
+    from temp_gym.problem import Problem
+
+    same = plan(Problem.from_dict(PROBLEM), "rrt_star", seed=2, max_nodes=2000,
+                stop_at_first=True, goal_bias=0.2)  # fmt: skip
+    assert set_once["nodes"] == same.nodes and set_once["cost"] == pytest.approx(same.cost)
+    for flags, words in [
+        (["--set", "attention_patience=30", "--planner", "rrt_star"],
+         ("attention_patience: only the temp planner takes it", "TEMPSettings")),
+        (["--set", "attention_patience=-1"], ("attention_patience: expected an integer",)),
+        (["--set", "patience=3"], ("patience: not a setting of the temp planner",)),
+        (["--set", "goal_bias"], ("--set 'goal_bias': expected KEY=VALUE",)),
+        (["--set", "policy=a.pt"], ("--set policy", "--checkpoint")),
+    ]:  # fmt: skip
+        code = main([*base, *flags, "--out", str(tmp_path / "bad.json")])
+        assert_one_line_error(code, capsys.readouterr().err, *words)
+    assert not (tmp_path / "bad.json").exists()
+
+
+def test_temp_plan_uses_the_settings_the_shipped_policy_carries(tmp_path, capsys):
+    """With no setting flag, the shipped policy's settings; the card's values set by hand
+    give the same plan, and a value told otherwise another."""
+    from temp_gym import load_policy
+    from temp_gym.cli import main
+
+    carried = {k: v for k, v in load_policy("point2d").planner_settings().items() if v}
+    as_set = [item for key, value in carried.items() for item in ("--set", f"{key}={value}")]
+    base = ["examples/point2d.json", "--stop-at-first", "--seed", "4", "--max-nodes", "3000"]
+    results = {}
+    for name, flags in (("default", []), ("card", as_set),
+                        ("other", ["--set", "attention_local_fallback=0"])):  # fmt: skip
+        out = tmp_path / f"{name}.json"
+        assert main([*base, *flags, "--out", str(out)]) in (0, 3)
+        results[name] = json.loads(out.read_text())
+    capsys.readouterr()
+    assert carried["attention_local_fallback"] > 0
+
+    def plan_of(result):
+        return [result[key] for key in ("path", "nodes", "samples", "cost", "attention_solved")]
+
+    for result in results.values():
+        result["attention_solved"] = result["attention"]["solved"]
+    assert plan_of(results["card"]) == plan_of(results["default"])
+    assert plan_of(results["other"]) != plan_of(results["default"])

@@ -10,7 +10,7 @@ L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation 
 learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``train_eval.tasks``
 held-out tasks (unseen ``test`` workspaces) up to the first solution with TEMP (the best
 checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for at most
-``train_eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the
+``train_eval.temp.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the
 table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
@@ -103,8 +103,8 @@ def validate(model, loss_module, data, batch_size, device, dist=None) -> dict[st
 def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> dict[str, float]:
     """TEMP on ``problems``: log success/nodes/cost, one plan image and its attention figure."""
     eval_config = config.train_eval
-    env = training.make_env(config, fallback="random", split=eval_config.split)
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0, seed=eval_config.seed)
+    env = training.make_env(config, fallback="random", split=eval_config.split, policy=policy)
     episodes = []
     for index, problem in enumerate(problems):
         policy.record_attention = index == 0
@@ -369,8 +369,8 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
 
     TEMP is the ``temp`` planner: attention-based planning (Algorithm 1) for at most
-    ``train_eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
-    ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget.
+    ``train_eval.temp.attention_nodes`` nodes, then classical planning on the same tree; RRT*
+    is ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget.
     """
     eval_config = config.train_eval
     torch.set_num_threads(1)  # the per-sample latency a planner sees
@@ -398,7 +398,7 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     logger.close()
     return {
         "tasks": len(problems),
-        "attention_nodes": eval_config.attention_nodes,
+        "attention_nodes": eval_config.temp.attention_nodes,
         "temp": temp,
         "rrt_star": rrt_star,
     }

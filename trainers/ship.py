@@ -38,21 +38,17 @@ from typing import Any
 import torch
 import yaml
 
-from temp_gym.config import (
-    CHECKPOINT_SETTINGS,
-    Config,
-    load_config,
-    parse_args,
-    script_parser,
-)
+from temp_gym.config import Config, load_config, parse_args, script_parser
 from temp_gym.data.dataset import CARD
 from temp_gym.files import atomic_write, read_json
+from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.models.temp import load_checkpoint, model_config_of, weights_digest
 from temp_gym.planning.attention import RESUME_AFTER
 from temp_gym.planning.goal_tree import ATTENTION_ROUNDS
-from temp_gym.planning.result import near_goal_factor, share
+from temp_gym.planning.settings import share
+from temp_gym.planning.temp_settings import near_goal_factor
 from temp_gym.worlds.robots import robot_specs
 
 MAX_BYTES = 10 * 2**20
@@ -225,10 +221,11 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     return lines
 
 
-PLANNER_KEYS = ("attention_nodes", *CHECKPOINT_SETTINGS, "chosen_by")
+PLANNER_KEYS = (*CHECKPOINT_SETTINGS, "chosen_by")
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them):
-the settings any checkpoint entry may give (`temp_gym.config.CHECKPOINT_SETTINGS`, one list),
-the attention budget, and the text saying how they were chosen."""
+the settings any checkpoint entry may give
+(`temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`, one list), and the text saying how
+they were chosen."""
 
 
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:

@@ -23,14 +23,12 @@ values. ``TEMP_GYM_OVERRIDES`` holds overrides that every load applies last::
 | `temp_gym.config.sections` | the dataclasses, their defaults and what each key means |
 | `temp_gym.config.typed` | a dataclass from a mapping and back, keys and types checked |
 | `temp_gym.config.loading` | `load_config`, overrides, `upgrade_stored` for older stored configs |
-| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `checkpoint_entry` and kin |
+| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `labelled_entry` |
 | `temp_gym.config.compare` | `differing_keys`: what a resumed run or a rerun would change |
 """
 
 from temp_gym.config.command_line import (
-    CHECKPOINT_SETTINGS,
     OVERRIDE,
-    checkpoint_entry,
     labelled_entry,
     parse_args,
     script_parser,
@@ -39,6 +37,7 @@ from temp_gym.config.compare import differing_keys, flatten
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.loading import (
     CONFIG_DIR,
+    MOVED_KEYS,
     OVERRIDES_VARIABLE,
     RENAMED_SECTIONS,
     apply_overrides,
@@ -56,13 +55,13 @@ from temp_gym.config.sections import (
     LossConfig,
     ModelConfig,
     OptimConfig,
+    TEMPConfig,
     TrainConfig,
     TrainEvalConfig,
     Workspaces,
 )
 
 __all__ = [
-    "CHECKPOINT_SETTINGS",
     "CONFIG_DIR",
     "OVERRIDE",
     "OVERRIDES_VARIABLE",
@@ -74,13 +73,14 @@ __all__ = [
     "EvaluationConfig",
     "LoggerConfig",
     "LossConfig",
+    "MOVED_KEYS",
     "ModelConfig",
     "OptimConfig",
+    "TEMPConfig",
     "TrainConfig",
     "TrainEvalConfig",
     "Workspaces",
     "apply_overrides",
-    "checkpoint_entry",
     "labelled_entry",
     "config_from_dict",
     "differing_keys",

@@ -24,10 +24,18 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Mapping
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from temp_gym.config import Config, EvaluationConfig, load_config, parse_args, script_parser
+from temp_gym.config import (
+    Config,
+    EvaluationConfig,
+    TEMPConfig,
+    load_config,
+    parse_args,
+    script_parser,
+)
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.typed import to_dict
 from temp_gym.distributed import add_backend_arguments
@@ -42,17 +50,19 @@ from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.models.temp import load_checkpoint, weights_digest
 from temp_gym.planning.attention import RESUME_AFTER
 from temp_gym.planning.plan import PLANNERS
-from temp_gym.planning.result import PlanSettings
+from temp_gym.planning.settings import PlanSettings
+from temp_gym.planning.temp_settings import DECLARED, TEMPSettings
 from temp_gym.worlds.robots import robot_spec
 
-PLANNER_FALLBACKS = {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
-                     "attention_patience": None, "attention_near_goal_factor": None,
-                     "attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}  # fmt: skip
-"""What a null planner setting of the ``evaluation`` section takes when the checkpoint names
-none: all of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the
-same patience near the goal, the planner's default resume after a stall and equal classical
-turns between resumed phases (recorded as numbers, so that records made with another default
-do not mix)."""
+POLICY_FALLBACKS = {"noise_std": 0.0, "horizon": None}
+"""What a null policy setting of the ``evaluation`` section takes when the checkpoint names
+none: no noise, the model's whole chunk."""
+
+TEMP_FALLBACKS = {"attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}
+"""What a null setting of ``evaluation.temp`` records when the checkpoint names none, where
+the planner's default is a number: the default resume after a stall and equal classical turns
+between resumed phases (recorded as numbers, so that records made with another default do not
+mix). Every other null one records the checkpoint's value, else null: the planner's default."""
 
 UNRECORDED = ("tasks", "workers", "out")
 """Keys of the ``evaluation`` section that the report's metadata leaves out: the tasks are in
@@ -64,20 +74,27 @@ def settings_from(
 ) -> tuple[EvaluationSettings, EvaluationConfig]:
     """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
-    ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience``,
-    ``attention_near_goal_factor``, ``attention_resume`` and ``attention_resume_growth`` left
-    null take the checkpoint's own planner settings (``planner_defaults``, what
-    `temp_gym.load_policy` applies to a shipped policy), else `PLANNER_FALLBACKS`; a null
-    ``tasks`` is the robot's (its spec's ``evaluation_tasks``).
+    ``noise_std``, ``horizon`` and every key of ``evaluation.temp`` a policy may carry
+    (`temp_gym.planning.temp_settings.DECLARED`) left null take the checkpoint's own
+    (``planner_defaults``, what `temp_gym.load_policy` applies to a shipped policy), else
+    `POLICY_FALLBACKS` and `TEMP_FALLBACKS`; a null ``tasks`` is the robot's (its spec's
+    ``evaluation_tasks``).
+
+    Raises:
+        ConfigError: a key the planners would refuse, named.
     """
     robot = config.env.robot
+    carried = {key: value for key, value in (planner_defaults or {}).items() if value is not None}
     section = config.evaluation
-    resolved = {
-        key: (planner_defaults or {}).get(key, fallback)
-        for key, fallback in PLANNER_FALLBACKS.items()
-        if getattr(section, key) is None
+    temp = {
+        key: carried.get(key, TEMP_FALLBACKS.get(key))
+        if value is None and key in DECLARED
+        else value
+        for key, value in asdict(section.temp).items()
     }
-    section = dataclasses.replace(section, **resolved)
+    policy = {key: carried.get(key, fallback) for key, fallback in POLICY_FALLBACKS.items()
+              if getattr(section, key) is None}  # fmt: skip
+    section = dataclasses.replace(section, temp=TEMPConfig(**temp), **policy)
     spec = robot_spec(robot)
     _check_section(section)
     tasks = section.tasks or spec.evaluation_tasks
@@ -88,14 +105,7 @@ def settings_from(
         baselines=tuple(section.baselines),
         max_nodes=section.max_nodes,
         time_limit=section.time_limit,
-        attention_nodes=section.attention_nodes,
-        attention_patience=section.attention_patience,
-        attention_near_goal_factor=section.attention_near_goal_factor,
-        attention_resume=section.attention_resume,
-        attention_resume_growth=section.attention_resume_growth,
-        goal_tree=section.goal_tree,
-        attention_from_goal=section.attention_from_goal,
-        attention_rounds=section.attention_rounds,
+        temp={key: value for key, value in temp.items() if value is not None},
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,
@@ -120,17 +130,13 @@ def _check_section(section: EvaluationConfig) -> None:
             f"evaluation.baselines: unknown planner {unknown[0]!r}; expected some of {baselines}"
         )
     try:  # plan()'s own checks of the budgets and TEMP's settings
-        PlanSettings(
-            max_nodes=section.max_nodes,
-            time_limit=section.time_limit,
-            attention_nodes=section.attention_nodes,
-            attention_patience=section.attention_patience,
-            attention_near_goal_factor=section.attention_near_goal_factor,
-            attention_resume=section.attention_resume,
-            attention_resume_growth=section.attention_resume_growth,
-        )
+        PlanSettings(max_nodes=section.max_nodes, time_limit=section.time_limit)
     except ValueError as error:
         raise ConfigError(f"evaluation.{error}") from None
+    try:
+        TEMPSettings.at("evaluation.temp", **asdict(section.temp))
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
 
 
 def main(argv: list[str] | None = None) -> str:
