@@ -89,7 +89,12 @@ def planner_entry(name: object) -> Planner:
 
 
 def planner_of(settings: object) -> str | None:
-    """The one registered planner whose settings class ``settings`` is exactly, else None."""
+    """The one registered planner whose settings class ``settings`` is exactly, else None.
+
+    Never for a plain `PlanSettings`, which every planner takes.
+    """
+    if type(settings) is PlanSettings:
+        return None
     names = [entry.name for entry in PLANNERS.values() if type(settings) is entry.settings]
     return names[0] if len(names) == 1 else None
 
@@ -117,10 +122,12 @@ def settings_for(planner: str, settings: object = None, **options: Any) -> PlanS
     """
     entry = planner_entry(planner)
     cls = entry.settings
-    if settings is not None and not isinstance(settings, cls):
-        if type(settings) is not PlanSettings:
-            raise ValueError(_other_settings(entry, settings))
+    if type(settings) is PlanSettings and cls is not PlanSettings:
         settings = cls(**{name: getattr(settings, name) for name in field_names(PlanSettings)})
+    elif settings is not None and (
+        not isinstance(settings, cls) or planner_of(settings) not in (None, entry.name)
+    ):
+        raise ValueError(_other_settings(entry, settings))
     own = field_names(cls)
     given = {}
     for name, value in options.items():

@@ -154,3 +154,17 @@ def test_plan_uses_the_settings_the_shipped_policy_carries_unless_told_otherwise
     told = plan(problem, seed=5, max_nodes=400, stop_at_first=True, attention_local_fallback=0)
     assert same_plan(told, plan(problem, seed=5, max_nodes=400, stop_at_first=True, policy=bare,
                                 **{**carried, "attention_local_fallback": 0}))  # fmt: skip
+
+
+def test_a_planner_of_the_common_settings_alone_takes_no_one_elses(problem):
+    register_planner("plain", lambda problem, settings: _steps(problem, StepsSettings(
+        **vars(settings))), PlanSettings)  # fmt: skip
+    try:
+        common = PlanSettings(seed=1, max_nodes=100)
+        assert plan(problem, settings=common).planner == "temp"  # every planner takes these
+        assert plan(problem, "plain", common).nodes == 100
+        with pytest.raises(ValueError, match="^settings: the plain planner takes PlanSettings, "
+                           "got TEMPSettings \\(the temp planner's\\)"):  # fmt: skip
+            plan(problem, "plain", TEMPSettings(max_nodes=100))
+    finally:
+        PLANNERS.pop("plain")
