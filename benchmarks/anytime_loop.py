@@ -23,7 +23,8 @@ import numpy as np  # noqa: E402
 from temp_gym.config import parse_args, script_parser  # noqa: E402
 from temp_gym.evaluation.runner import evaluation_problem  # noqa: E402
 from temp_gym.planning.anytime import grow_anytime  # noqa: E402
-from temp_gym.planning.result import AnytimeLog, PlanSettings  # noqa: E402
+from temp_gym.planning.result import AnytimeLog  # noqa: E402
+from temp_gym.planning.settings import PlanSettings  # noqa: E402
 from temp_gym.planning.tree import Tree  # noqa: E402
 
 WORLDS = {"2d": ("point2d", "challenging"), "3d": ("point3d", "challenging"),

@@ -9,7 +9,7 @@ TEMP's, so a policy whose first paths are longer gives the baselines an easier t
 runs that protocol on ``--tasks`` validation tasks (the `boxes` workspaces `trainers/
 tune_planner.py` draws from, with its seed plus ``--seed-offset``, so by default other tasks
 than the ones tuned on; no test task), for the shipped policy and each ``--checkpoints``
-entry (``PATH[@key=value,...]``, `temp_gym.config.CHECKPOINT_SETTINGS`), as
+entry (``PATH[@key=value,...]``, `temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`), as
 `trainers/evaluate.py` times a task: each TEMP run after an untimed warm run and on a
 workspace the planners have forgotten (`temp_gym.evaluation.runner.start_timed_run`), the
 policies in alternating order. Our RRT* and Informed RRT* then run once per task, after
@@ -26,9 +26,10 @@ from __future__ import annotations
 import numpy as np
 
 from temp_gym import plan, training
-from temp_gym.config import checkpoint_entry, load_config, parse_args, script_parser
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.protocol import reach_tolerance, tolerance_target
 from temp_gym.evaluation.runner import EvaluationSettings, start_timed_run, warm_up_problem
+from temp_gym.models.checkpoint_settings import checkpoint_entry
 from temp_gym.models.registry import load_policy, policy_from_checkpoint
 from temp_gym.worlds.robots import robot_specs
 
@@ -76,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="bc.py checkpoints to compare with the shipped policy, each "
                         "PATH[@noise_std=X,horizon=K,...]: any planner setting of "
-                        "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
+                        "temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=500, help="validation tasks")
     parser.add_argument(
         "--seed-offset",

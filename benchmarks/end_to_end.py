@@ -46,10 +46,11 @@ import numba
 import numpy as np
 
 from temp_gym import plan
-from temp_gym.config import checkpoint_entry, parse_args, script_parser
+from temp_gym.config import parse_args, script_parser
 from temp_gym.evaluation.ood import WORLD_DIRS, load_ood_family
 from temp_gym.evaluation.protocol import reach_tolerance
 from temp_gym.evaluation.runner import evaluation_problem
+from temp_gym.models.checkpoint_settings import checkpoint_entry
 from temp_gym.models.registry import load_policy, policy_from_checkpoint
 from temp_gym.planning.mpt_kernel import forward_kernel
 from temp_gym.worlds.robots import robot_spec, robot_specs
@@ -368,7 +369,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="also run TEMP with other policies, side by side (one world): "
                         "each PATH[@key=value,...], a bc.py or shipped checkpoint with any "
-                        "planner setting of temp_gym.config.CHECKPOINT_SETTINGS, a column "
+                        "setting of temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS, "
+                        "a column "
                         "'temp:<its folder>'")  # fmt: skip
     args = parse_args(parser, argv)
     if args.checkpoints and len(args.worlds) != 1:

@@ -11,8 +11,8 @@ weaker policy may need more nodes. This measures both in one run. On ``--tasks``
 ``--tasks`` challenging test tasks (unseen workspaces), each policy (the shipped one first,
 then each ``--checkpoints`` entry with the planner settings it carries, or those written after
 an ``@``: ``noise_std``, ``horizon`` or any other planner setting a shipped policy carries
-(`temp_gym.config.CHECKPOINT_SETTINGS`), as `trainers/tune_planner.py` chose them for a run not
-yet shipped, or as the shipped policy has them) and RRT* and Informed
+(`temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`), as `trainers/tune_planner.py`
+chose them for a run not yet shipped, or as the shipped policy has them) and RRT* and Informed
 RRT* are called as users call them, ``plan(problem, policy=..., stop_at_first=True)``, seed by
 seed with the order of the planners alternating, so all see the same machine load. Per row
 and planner: successes, mean and median wall time of the whole call, mean and median nodes to
@@ -40,8 +40,9 @@ from pathlib import Path
 import numpy as np
 
 from temp_gym import plan, training
-from temp_gym.config import checkpoint_entry, load_config, parse_args, script_parser
+from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.evaluation.runner import evaluation_problem
+from temp_gym.models.checkpoint_settings import checkpoint_entry
 from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
 from temp_gym.worlds.robots import robot_spec, robot_specs
 
@@ -58,7 +59,10 @@ def test_rows(robot: str, tasks: int) -> dict[str, list]:
 
 
 def parse_entry(entry: str) -> tuple[Path, dict[str, float | int]]:
-    """A ``--checkpoints`` entry (`temp_gym.config.checkpoint_entry`); a bad one exits."""
+    """A ``--checkpoints`` entry (`temp_gym.models.checkpoint_settings.checkpoint_entry`).
+
+    A bad one exits.
+    """
     try:
         return checkpoint_entry(entry)
     except ValueError as error:
@@ -137,7 +141,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoints", nargs="*", default=[],
                         help="bc.py checkpoints to compare with the shipped policy, each "
                              "PATH[@noise_std=X,horizon=K,...]: any planner setting of "
-                             "temp_gym.config.CHECKPOINT_SETTINGS")  # fmt: skip
+                             "temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS")  # fmt: skip
     parser.add_argument("--tasks", type=int, default=50, help="test tasks per row")
     parser.add_argument("--seeds", type=int, default=2, help="planner seeds per task")
     parser.add_argument("--budget", type=int, default=10_000, help="node budget per run")

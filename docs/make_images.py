@@ -88,6 +88,10 @@ def plan_7d():
 
 def make_7d(out: Path) -> None:
     """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
+    from matplotlib.image import imsave
+
+    from temp_gym.worlds.rendering import IiwaRenderer, plan_title
+
     problem, result = plan_7d()
     with IiwaRenderer() as renderer:
         title = plan_title(problem, result.nodes, result.path)

@@ -1,9 +1,10 @@
 """temp-gym: sampling-based motion planning as Gymnasium environments, and TEMP.
 
 Importing the package registers ``TEMP-2D-v0``, ``TEMP-3D-v0`` and ``TEMP-7D-v0``. The planners
-(and numba, which compiles them) load on first use of `plan` or `PlanResult`, and the
-models (and PyTorch) on first use of a policy: importing the package, and every command's
-``--help``, stays light.
+(and numba, which compiles them) load on first use of `plan`, `PlanResult`, `PLANNERS` or
+`register_planner`, and the models (and PyTorch) on first use of a policy: importing the
+package, and every command's ``--help``, stays light. `PlanSettings` and `TEMPSettings` load
+without the planners.
 """
 
 from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I001
@@ -24,7 +25,6 @@ def _shipped_policy(robot: str):
 # The planning layer imports no model code itself: its default policy is handed in, through a
 # module that does not load the planners.
 hooks.default_policy_loader = _shipped_policy
-
 
 
 def register_robot_file(path):
@@ -48,19 +48,34 @@ def register_robot_file(path):
 
 hooks.robot_file_loader = register_robot_file
 
-__all__ = ["ENV_IDS", "PlanResult", "Problem", "load_policy", "plan", "register_robot_file",
-           "robots"]  # fmt: skip
+__all__ = [
+    "ENV_IDS",
+    "PLANNERS",
+    "InformedRRTStarSettings",
+    "OMPLSettings",
+    "PlanResult",
+    "PlanSettings",
+    "Problem",
+    "RRTStarSettings",
+    "TEMPSettings",
+    "load_policy",
+    "plan",
+    "register_planner",
+    "register_robot_file",
+    "robots",
+]
+
+
+_PLANNING = {"InformedRRTStarSettings", "OMPLSettings", "PLANNERS", "PlanResult", "PlanSettings",
+             "RRTStarSettings", "TEMPSettings", "plan", "register_planner"}  # fmt: skip
+"""Names of `temp_gym.planning`, imported from there on first use."""
 
 
 def __getattr__(name: str):
-    if name == "plan":  # lazy: the planners import numba
-        from temp_gym.planning.plan import plan
+    if name in _PLANNING:  # lazy: the planners import numba
+        import temp_gym.planning
 
-        return plan
-    if name == "PlanResult":
-        from temp_gym.planning.result import PlanResult
-
-        return PlanResult
+        return getattr(temp_gym.planning, name)
     if name == "load_policy":  # lazy: importing temp_gym does not import torch
         from temp_gym.models.registry import load_policy
 

@@ -6,6 +6,12 @@ Example:
     informed_rrt_star seed=3: cost 26.8120, 2000 nodes, ...
     $ temp-plan problem.json --checkpoint runs/TEMP-2D-v0__quick__0/best.pt   # your own policy
     $ temp-plan problems/*.json --out-dir results/   # batch: one process, one result each
+    $ temp-plan problem.json --set attention_patience=60   # any setting of the planner's class
+
+``--set KEY=VALUE`` (repeatable) sets any field of the planner's settings class
+(`temp_gym.planning.PLANNERS`; `temp_gym.planning.TEMPSettings` for ``temp``); the epilog of
+``--help`` lists them. TEMP's settings not given take the policy's own: the shipped policy's,
+or those a ``--checkpoint`` carries.
 
 Batch mode plans every file in one process, so start-up (imports, the per-process warm-up of
 the compiled kernels, loading the policy) is paid once; each file gets a summary line and,
@@ -23,16 +29,18 @@ problem, 2 bad input (a one-line error on stderr per bad file or argument, no tr
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
 import sys
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
 from temp_gym.config.checks import check_output_dir
-from temp_gym.config.command_line import script_parser
-from temp_gym.jobs import BAD_INPUT, INTERRUPTED, display_path, one_line
+from temp_gym.config.command_line import CommandParser, DefaultsHelpFormatter
+from temp_gym.jobs import BAD_INPUT, INTERRUPTED, brief, display_path, one_line
 from temp_gym.limits import MAX_PROBLEM_BYTES
 
 SOLVED = 0
@@ -58,15 +66,48 @@ from the registry would load numba (a second) on every ``--help``. A test keeps 
 DEFAULT_MAX_NODES = 5000
 """`temp_gym.planning.PlanSettings.max_nodes`, for the help text alone (a test keeps both
 equal)."""
+OMPL_OWN_SETTINGS = ("k_nearest", "range")
+"""`temp_gym.planning.OMPLSettings`' own fields, for the help text alone: reading them would
+load numba (a test keeps both equal)."""
+
+
+class _HelpFormatter(DefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Every flag's default shown (`DefaultsHelpFormatter`), the epilog's lines kept."""
+
+
+def own_settings() -> dict[str, list[str]]:
+    """Built-in planner -> the settings of its class beyond the common ones, for ``--help``.
+
+    Read from the settings classes that load without the planners (`PlanSettings`,
+    `TEMPSettings`) and `OMPL_OWN_SETTINGS`; ``rrt_star`` and ``informed_rrt_star`` have none.
+    """
+    from temp_gym.planning.settings import PlanSettings, field_names
+    from temp_gym.planning.temp_settings import TEMPSettings
+
+    common = field_names(PlanSettings)
+    ompl = sorted(OMPL_OWN_SETTINGS)
+    return {"temp": sorted(field_names(TEMPSettings) - common - {"policy"}),
+            "ompl_rrt_star": ompl, "ompl_informed_rrt_star": ompl}  # fmt: skip
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = script_parser(
-        "Solve temp-gym problem JSON files with one planner.",
+    from temp_gym.planning.settings import PlanSettings, field_names
+
+    listed = [f"every planner takes {', '.join(sorted(field_names(PlanSettings)))}"] + [
+        f"{name} also {', '.join(names)}" for name, names in own_settings().items()
+    ]
+    parser = CommandParser(
         prog="temp-plan",
-        epilog="exit status: "
-        + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items())
-        + ". Units: world units (point robots) or radians (the arm).",
+        description="Solve temp-gym problem JSON files with one planner.",
+        formatter_class=_HelpFormatter,
+        epilog=textwrap.fill("settings of --set: " + "; ".join(listed) + ".", 79)
+        + "\n\n"
+        + textwrap.fill(
+            "exit status: "
+            + ", ".join(f"{code} {meaning}" for code, meaning in EXIT_CODES.items())
+            + ". Units: world units (point robots) or radians (the arm).",
+            79,
+        ),
     )
     parser.add_argument(
         "problems",
@@ -120,6 +161,15 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--stop-at-first", action="store_true", help="stop at the first solution")
     parser.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=None,
+        metavar="KEY=VALUE",
+        help="a setting of the planner's settings class, repeatable; listed below, e.g. "
+        "attention_patience=60 (None: the defaults; TEMP's: the policy's own)",
+    )
+    parser.add_argument(
         "--out",
         default=None,
         help="one problem: write its result (path included) as JSON to this file (None: "
@@ -157,25 +207,62 @@ def _error(message: object) -> None:
     print(one_line(f"temp-plan: error: {message}"), file=sys.stderr, flush=True)
 
 
-def _check_flags(args: argparse.Namespace) -> None:
-    """Every flag but the outputs and the checkpoint, as `temp_gym.plan` would check it."""
+def _settings(args: argparse.Namespace):
+    """The planner's settings of the flags and ``--set`` items, checked before any planning.
+
+    Raises:
+        ValueError: one line naming the flag (``--max-nodes``, ``--set KEY``) and the reason.
+    """
     from temp_gym.planning import PLANNERS
-    from temp_gym.planning.result import PlanSettings
+    from temp_gym.planning.registry import settings_for
 
     if args.planner not in PLANNERS:
-        raise ValueError(f"--planner: unknown planner {args.planner!r}; expected one of "
+        raise ValueError(f"--planner: unknown planner {brief(args.planner)}; expected one of "
                          f"{sorted(PLANNERS)}")  # fmt: skip
     if args.time_limit is not None and not (
         math.isfinite(args.time_limit) and args.time_limit >= 0
     ):
         raise ValueError(f"--time-limit: expected a finite number of seconds >= 0, got "
                          f"{args.time_limit}")  # fmt: skip
+    given = {}
+    for item in args.settings or ():
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {brief(item)}: expected KEY=VALUE")
+        if key == "policy":
+            raise ValueError("--set policy: give a trained policy as --checkpoint PATH")
+        given[key] = _setting_value(text)
+    flags = {"seed": args.seed, "max_nodes": args.max_nodes, "time_limit": args.time_limit,
+             "stop_at_first": args.stop_at_first, "step_size": args.step_size}  # fmt: skip
+    if args.attention_nodes is not None:
+        flags["attention_nodes"] = args.attention_nodes
     try:
-        PlanSettings(seed=args.seed, max_nodes=args.max_nodes, time_limit=args.time_limit,
-                     step_size=args.step_size, attention_nodes=args.attention_nodes)  # fmt: skip
-    except ValueError as error:  # "max_nodes: ..." names the flag --max-nodes
+        return settings_for(args.planner, None, **{**flags, **given})
+    except (TypeError, ValueError) as error:  # "max_nodes: ..." names the flag --max-nodes
         field, _, reason = str(error).partition(":")
-        raise ValueError(f"--{field.replace('_', '-')}:{reason}") from None
+        if field in given:
+            raise ValueError(f"--set {field}:{reason}") from None
+        if field in flags:
+            raise ValueError(f"--{field.replace('_', '-')}:{reason}") from None
+        raise ValueError(str(error)) from None
+
+
+def _setting_value(text: str):
+    """A ``--set`` value: a YAML scalar (``60``, ``0.5``, ``true``, ``null``), else the text.
+
+    Numbers YAML reads as text (``1e-3``) are numbers here; an empty value is None (not set).
+    """
+    from temp_gym.config.loading import parse_value
+
+    if not text.strip():
+        return None
+    value = parse_value(text)
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -262,31 +349,18 @@ def _policy(args: argparse.Namespace):
     return policy_from_checkpoint(args.checkpoint)
 
 
-def _solve(path: str, args: argparse.Namespace, policy):
+def _solve(path: str, args: argparse.Namespace, settings):
     """Plan one problem file; bad input raises `ValueError`/`OSError`."""
     from temp_gym.planning import plan
     from temp_gym.problem import Problem
 
     problem = Problem.load(path)
-    extra = {}
-    if args.planner == "temp":
-        extra["attention_nodes"] = args.attention_nodes
-        if policy is not None:
-            from temp_gym.planning.policy import check_compatible
+    policy = getattr(settings, "policy", None)
+    if policy is not None and args.checkpoint is not None:
+        from temp_gym.planning.policy import check_compatible
 
-            check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
-            extra["policy"] = policy
-    result = plan(
-        problem,
-        planner=args.planner,
-        seed=args.seed,
-        max_nodes=args.max_nodes,
-        time_limit=args.time_limit,
-        stop_at_first=args.stop_at_first,
-        step_size=args.step_size,
-        **extra,
-    )
-    return result
+        check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
+    return plan(problem, args.planner, settings)
 
 
 def _check_view(args: argparse.Namespace) -> None:
@@ -329,11 +403,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         for description in args.robot:
             _register(description)
-        _check_flags(args)
+        settings = _settings(args)
         outputs = _outputs(args)
         if args.view:
             _check_view(args)
         policy = _policy(args)
+        if policy is not None:
+            settings = dataclasses.replace(settings, policy=policy)
     except (OSError, ValueError, ImportError) as error:
         _error(error)
         return BAD_INPUT
@@ -344,7 +420,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for path, out in zip(args.problems, outputs):
         shown = display_path(path)
         try:
-            result = _solve(path, args, policy)
+            result = _solve(path, args, settings)
         except (OSError, ValueError, ImportError) as error:
             message = str(error)
             _error(f"{shown}: {message}" if batch and str(path) not in message else message)

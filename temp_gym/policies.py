@@ -31,8 +31,8 @@ import numpy as np
 
 from temp_gym.planning.observation import task_entries
 from temp_gym.planning.policy import SamplingPolicy  # noqa: F401  (the contract, re-exported)
-from temp_gym.planning.result import PlanSettings, seed_value
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
+from temp_gym.planning.settings import PlanSettings, seed_value
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import denormalize, normalize
 

@@ -200,11 +200,27 @@ def test_help_shows_every_default():
 
 
 def test_the_help_texts_copies_of_the_registry_are_the_registry():
-    from temp_gym.cli import BUILT_IN_PLANNERS, DEFAULT_MAX_NODES
+    from temp_gym.cli import BUILT_IN_PLANNERS, DEFAULT_MAX_NODES, own_settings
     from temp_gym.planning import PLANNERS, PlanSettings
+    from temp_gym.planning.settings import field_names
 
     assert set(BUILT_IN_PLANNERS) <= set(PLANNERS)
     assert DEFAULT_MAX_NODES == PlanSettings.max_nodes
+    common = field_names(PlanSettings)
+    registered = {
+        name: sorted(field_names(PLANNERS[name].settings) - common - {"policy"})
+        for name in BUILT_IN_PLANNERS
+    }
+    assert own_settings() == {name: own for name, own in registered.items() if own}
+
+
+def test_help_lists_the_settings_of_set():
+    text = " ".join(run_cli("--help").stdout.split())
+    assert "settings of --set: every planner takes goal_bias, max_nodes" in text
+    assert (
+        "temp also attention_follow_fallback" in text
+        and "ompl_rrt_star also k_nearest, range" in text
+    )
 
 
 def test_the_shipped_checkpoint_named_plans_as_the_default(tmp_path):
@@ -330,3 +346,59 @@ def test_a_batch_with_a_file_name_that_is_not_utf8_goes_on(tmp_path):
     assert len(lines) == 2 and lines[0].startswith(str(tmp_path) + "/caf\\xe9.json: ")
     assert os.path.exists(os.path.join(folder, b"r", b"caf\xe9.json"))
     assert (tmp_path / "r" / "plain.json").exists()
+
+
+def test_any_setting_of_the_planner_is_set_and_checked_before_planning(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    out = tmp_path / "r.json"
+    base = [str(problem), "--stop-at-first", "--seed", "2", "--max-nodes", "2000"]
+    assert main([*base, "--set", "goal_bias=0.2", "--planner", "rrt_star", "--out", str(out)]) == 0
+    capsys.readouterr()
+    set_once = json.loads(out.read_text())
+    from temp_gym import plan
+    from temp_gym.problem import Problem
+
+    same = plan(Problem.from_dict(PROBLEM), "rrt_star", seed=2, max_nodes=2000,
+                stop_at_first=True, goal_bias=0.2)  # fmt: skip
+    assert set_once["nodes"] == same.nodes and set_once["cost"] == pytest.approx(same.cost)
+    for flags, words in [
+        (["--set", "attention_patience=30", "--planner", "rrt_star"],
+         ("attention_patience: only the temp planner takes it", "TEMPSettings")),
+        (["--set", "attention_patience=-1"], ("attention_patience: expected an integer",)),
+        (["--set", "patience=3"], ("patience: not a setting of the temp planner",)),
+        (["--set", "goal_bias"], ("--set 'goal_bias': expected KEY=VALUE",)),
+        (["--set", "policy=a.pt"], ("--set policy", "--checkpoint")),
+    ]:  # fmt: skip
+        code = main([*base, *flags, "--out", str(tmp_path / "bad.json")])
+        assert_one_line_error(code, capsys.readouterr().err, *words)
+    assert not (tmp_path / "bad.json").exists()
+
+
+def test_temp_plan_uses_the_settings_the_shipped_policy_carries(tmp_path, capsys):
+    """With no setting flag, the shipped policy's settings; the card's values set by hand
+    give the same plan, and a value told otherwise another."""
+    from temp_gym import load_policy
+    from temp_gym.cli import main
+
+    carried = {k: v for k, v in load_policy("point2d").planner_settings().items() if v}
+    as_set = [item for key, value in carried.items() for item in ("--set", f"{key}={value}")]
+    base = ["examples/point2d.json", "--stop-at-first", "--seed", "4", "--max-nodes", "3000"]
+    results = {}
+    for name, flags in (("default", []), ("card", as_set),
+                        ("other", ["--set", "attention_local_fallback=0"])):  # fmt: skip
+        out = tmp_path / f"{name}.json"
+        assert main([*base, *flags, "--out", str(out)]) in (0, 3)
+        results[name] = json.loads(out.read_text())
+    capsys.readouterr()
+    assert carried["attention_local_fallback"] > 0
+
+    def plan_of(result):
+        return [result[key] for key in ("path", "nodes", "samples", "cost", "attention_solved")]
+
+    for result in results.values():
+        result["attention_solved"] = result["attention"]["solved"]
+    assert plan_of(results["card"]) == plan_of(results["default"])
+    assert plan_of(results["other"]) != plan_of(results["default"])

@@ -10,8 +10,8 @@ L = λ·L_recons + η·L_semantic, Adam and ReduceLROnPlateau on the validation 
 learning rate reaches ``optim.min_lr`` or ``train.max_epochs``; (3) plan ``train_eval.tasks``
 held-out tasks (unseen ``test`` workspaces) up to the first solution with TEMP (the best
 checkpoint in the ``temp`` planner: attention-based planning, Algorithm 1, for at most
-``train_eval.attention_nodes`` nodes, then classical planning) and with RRT*; (4) print the
-table.
+``train_eval.temp.attention_nodes`` nodes, then classical planning) and with RRT*, each timed
+as a user's warm, compiled ``plan`` call; (4) print the table.
 
 Run directory: ``{logger.dir}/{env.id}__{train.exp_name}__{train.seed}`` with ``best.pt``
 (lowest validation loss), its inference snapshot ``best.kernels.npz`` (written when training
@@ -107,8 +107,8 @@ def evaluate_with_figures(config, model, problems, logger, step, tag="eval") -> 
     from temp_gym.worlds.robots import robot_spec
 
     eval_config = config.train_eval
-    env = training.make_env(config, fallback="random", split=eval_config.split)
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0, seed=eval_config.seed)
+    env = training.make_env(config, fallback="random", split=eval_config.split, policy=policy)
     episodes = []
     for index, problem in enumerate(problems):
         policy.record_attention = index == 0
@@ -425,13 +425,18 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
 
     TEMP is the ``temp`` planner: attention-based planning (Algorithm 1) for at most
-    ``train_eval.attention_nodes`` nodes, then classical planning on the same tree; RRT* is
-    ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget.
+    ``train_eval.temp.attention_nodes`` nodes, then classical planning on the same tree; RRT*
+    is ``rrt_star``. Both get the same tasks, seeds and ``train_eval.max_nodes`` budget, and
+    both are timed as a user's ``plan`` call is, by the evaluation's protocol
+    (`temp_gym.evaluation.runner.start_timed_run`): compiled and warm (an untimed short plan of
+    the same planner elsewhere before each timed run), each timed run paying its set-up on the
+    task's workspace (the tree's free volume, TEMP's encoding) as a first plan there does.
     """
     import numpy as np
     import torch
 
     from temp_gym import training
+    from temp_gym.evaluation.runner import EvaluationSettings, start_timed_run
     from temp_gym.models.policy import TEMPPolicy
     from temp_gym.models.temp import load_checkpoint
 
@@ -444,15 +449,14 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     logger = training.make_logger(config, run_dir)
     evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0)
-    seeds = [eval_config.seed + index for index in range(len(problems))]
-    temp_runs = [
-        training.plan_episode(problem, "temp", seed, eval_config, policy)
-        for problem, seed in zip(problems, seeds)
-    ]
-    rrt_runs = [
-        training.plan_episode(problem, "rrt_star", seed, eval_config)
-        for problem, seed in zip(problems, seeds)
-    ]
+    timing = EvaluationSettings(robot=config.env.robot, groups={}, seed=eval_config.seed)
+    temp_runs, rrt_runs = [], []
+    for index, problem in enumerate(problems):
+        seed = eval_config.seed + index
+        start_timed_run("temp", problem, policy, timing)
+        temp_runs.append(training.plan_episode(problem, "temp", seed, eval_config, policy))
+        start_timed_run("rrt_star", problem, None, timing)
+        rrt_runs.append(training.plan_episode(problem, "rrt_star", seed, eval_config))
     temp = training.summarize(temp_runs, eval_config.max_nodes)
     temp["attention_success"] = float(np.mean([run["attention_solved"] for run in temp_runs]))
     rrt_star = training.summarize(rrt_runs, eval_config.max_nodes)
@@ -461,7 +465,7 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     logger.close()
     return {
         "tasks": len(problems),
-        "attention_nodes": eval_config.attention_nodes,
+        "attention_nodes": eval_config.temp.attention_nodes,
         "temp": temp,
         "rrt_star": rrt_star,
     }

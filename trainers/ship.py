@@ -39,7 +39,6 @@ from typing import Any
 import yaml
 
 from temp_gym.config import (
-    CHECKPOINT_SETTINGS,
     Config,
     ConfigError,
     count,
@@ -51,6 +50,7 @@ from temp_gym.config import (
 from temp_gym.config.checks import check_output_dir
 from temp_gym.files import atomic_write, read_json
 from temp_gym.jobs import run_script
+from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.worlds.robots import robot_specs
@@ -236,10 +236,11 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     return lines
 
 
-PLANNER_KEYS = ("attention_nodes", *CHECKPOINT_SETTINGS, "chosen_by")
+PLANNER_KEYS = (*CHECKPOINT_SETTINGS, "chosen_by")
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them):
-the settings any checkpoint entry may give (`temp_gym.config.CHECKPOINT_SETTINGS`, one list),
-the attention budget, and the text saying how they were chosen."""
+the settings any checkpoint entry may give
+(`temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`, one list), and the text saying how
+they were chosen."""
 
 
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:

@@ -1,30 +1,31 @@
-r"""Choose a policy's planner settings on validation workspaces: budget n, noise, horizon.
+r"""Choose a policy's planner settings on validation workspaces: budget n, noise, horizon, ...
 
     python trainers/tune_planner.py --config configs/2d.yaml --checkpoint runs/.../best.pt \\
         --attention-nodes 50 100 200 400 --noise-std 0 0.03 --horizon 1 2 4 --tasks 60 \\
         [--max-nodes 10000]
+    python trainers/tune_planner.py --config configs/2d.yaml --split test --tasks 1000 \\
+        --max-nodes 10000            # the shipped policy, as it ships
 
-For every combination of n, noise, horizon (proposals used per MPT call, up to the model's chunk;
-0: all), path window (``--path-window``: the newest nodes of the path so far each MPT call reads;
-0: all the model was trained on), stall patience (``--patience``; -1: the default rule), its factor
-near the goal (``--near-goal-factor``), share of uniform samples (``--uniform``) and probability of
-going on from a fallback node (``--follow-fallback``), replacements of a colliding proposal drawn
-near it (``--local-fallback``), whether a chunk goes on past a proposal that
-collided (``--keep-chunk``), the resume factor (``--resume``) and the growth of the classical turns
-between resumed phases (``--resume-growth``), whether a tree grows from the goal after an unsolved
-attention phase (``--goal-tree``), whether the policy grows that tree first after a stall
-(``--from-goal``: the attention phase from the goal) and how many more rounds of the two it takes
-when both stall (``--rounds``) it plans ``--tasks`` tasks drawn from the ``val`` workspaces, or
-from the 100 of the planner-tuning pool (``--split tune``, which estimates a failure rate of half a
-percent better than val's 20 workspaces; both seen in no test; the test workspaces stay untouched
-until the final measurement, ``--split test`` with the chosen setting) with the ``temp`` planner up
-to the first solution, and prints nodes to the first solution (mean and median, a failure counted
-as the whole budget), the share solved by attention-based planning within n (from the start alone,
-and both ways: from the start, or from the goal after a stall, or in a later round), cost and time;
-and, against RRT* on the same tasks, the share of tasks where TEMP needed fewer nodes and the mean
-difference with its 95% paired bootstrap interval. The recommendation minimizes the mean nodes
-among the settings whose attention phase solves at least ``--min-attention-success`` of the tasks
-(both ways); ``trainers/ship.py --attention-nodes ... --noise-std ...`` then ships it.
+Every setting flag (`SWEEPS`: the attention-phase budget n, output noise, horizon, path window,
+stall patience, ...) takes the values to try; a flag not given takes the checkpoint's own
+setting (what `temp_gym.load_policy` applies: a shipped policy's are those it was tuned with,
+its model card says how), else the planner's default, and so do the keys of the config's
+``train_eval.temp`` section, which a flag replaces. So with no setting flag the table measures
+the policy as it ships. ``--checkpoint`` defaults to the policy shipped for the config's robot.
+
+For every combination it plans ``--tasks`` tasks drawn from the ``val`` workspaces, or from the
+100 of the planner-tuning pool (``--split tune``, which estimates a failure rate of half a
+percent better than val's 20 workspaces; both seen in no test; the test workspaces stay
+untouched until the final measurement, ``--split test`` with the chosen setting) with the
+``temp`` planner up to the first solution, and prints nodes to the first solution (mean and
+median, a failure counted as the whole budget), the share solved by attention-based planning
+within n (from the start alone, and both ways: from the start, or from the goal after a stall,
+or in a later round), cost and time; and, against RRT* on the same tasks, the share of tasks
+where TEMP needed fewer nodes and the mean difference with its 95% paired bootstrap interval.
+Each row prints the settings it ran with, the checkpoint's included. The recommendation
+minimizes the mean nodes among the settings whose attention phase solves at least
+``--min-attention-success`` of the tasks (both ways); ``trainers/ship.py --attention-nodes ...
+--noise-std ...`` then ships it.
 
 Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
@@ -41,9 +42,11 @@ import itertools
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from temp_gym.config import (
     ConfigError,
+    TEMPConfig,
     count,
     load_config,
     number,
@@ -53,42 +56,85 @@ from temp_gym.config import (
 from temp_gym.jobs import run_script
 from temp_gym.limits import MAX_TASKS
 
+# PyTorch, numba and the planners are imported where they are used, after the command line is
+# read: ``--help`` and a bad value are answered without loading them.
+
 PER_TASK_KEYS = ("max_nodes", "seeds", "problems", "settings")
 """Keys of a ``--per-task`` file: an existing file is replaced only if it has them."""
 
-RESUME_AFTER_DEFAULT = 1.0
-"""`temp_gym.planning.attention.RESUME_AFTER`, for the help text alone (reading it would load
-numba on every ``--help``; a test keeps both equal)."""
+RULE = -1
+"""``--patience`` and ``--rounds``: the planner's default, not the checkpoint's."""
+
+SWEEPS = (
+    ("--attention-nodes", "attention_nodes", count(1), "attention-phase budgets n, in tree nodes"),
+    ("--noise-std", "noise_std", number(0.0),
+     "output noise levels (standard deviations, normalized units)"),
+    ("--horizon", "horizon", count(0),
+     "proposals used per MPT call (0: the model's whole chunk)"),
+    ("--path-window", "path_window", count(0),
+     "newest path-so-far nodes read per MPT call (0: all the model was trained on)"),
+    ("--patience", "attention_patience", count(RULE), "attention-phase stall patiences (-1: the "
+     "default rule, temp_gym.planning.attention.default_patience; 0: never)"),
+    ("--near-goal-factor", "attention_near_goal_factor", number(1.0),
+     "stall-patience factors near the goal (1: the same patience everywhere)"),
+    ("--uniform", "attention_uniform", number(0.0, 1.0),
+     "shares of uniform samples in the attention phase"),
+    ("--follow-fallback", "attention_follow_fallback", number(0.0, 1.0), "probabilities of "
+     "going on from a fallback node that got no closer to the goal (1: always, Algorithm 1)"),
+    ("--local-fallback", "attention_local_fallback", count(0), "replacements of a colliding "
+     "proposal drawn near it before uniform ones (0: none, Algorithm 1)"),
+    ("--keep-chunk", "attention_keep_chunk", int, "after a chunk's proposal collided and a "
+     "fallback node replaced it: go on with the chunk (1) or call the policy again (0)"),
+    ("--resume", "attention_resume", number(0.0),
+     "classical nodes, in stall patiences, before the attention phase resumes (0: never)"),
+    ("--resume-growth", "attention_resume_growth", number(1.0), "how many times longer each "
+     "classical turn between resumed attention phases is than the one before (1: equal)"),
+    ("--goal-tree", "goal_tree", int,
+     "grow a tree from the goal after an unsolved attention phase (1) or not (0)"),
+    ("--from-goal", "attention_from_goal", int, "after a stall, the policy grows the goal tree "
+     "first (1) or Informed RRT*'s samples alone (0); needs --goal-tree 1"),
+    ("--rounds", "attention_rounds", count(RULE), "after stalls from the start and from the "
+     "goal, more rounds of the two (-1: the planner's default; 0: none); with --from-goal 1"),
+)  # fmt: skip
+"""(flag, setting, argparse type, what it sweeps): each flag takes the values to try."""
+
+POLICY_KEYS = ("noise_std", "horizon", "path_window")
+"""Settings of the policy itself; the others are `TEMPSettings` fields."""
+
+COLUMNS = ("n", "noise", "horizon", "window", "patience", "near goal", "uniform", "follow",
+           "local", "keep chunk", "resume", "growth", "goal tree", "from goal",
+           "rounds")  # fmt: skip
+"""The table's settings columns, one per sweep, in `SWEEPS`' order."""
 
 
-def main(argv: list[str] | None = None) -> dict:
-    """Print the table; return the recommended ``{"attention_nodes", "noise_std"}``."""
+def _parser():
     parser = script_parser(
         __doc__.splitlines()[0],
         epilog="Output: the table on stdout; with --per-task, that JSON file too.",
     )
     parser.add_argument("--config", required=True, help="the config the policy was trained with")
-    parser.add_argument("--checkpoint", required=True, help="the policy (a bc.py best.pt)")
     parser.add_argument(
-        "--attention-nodes",
-        type=count(1),
-        nargs="+",
-        default=[50, 100, 200, 400],
-        help="attention-phase budgets n to try, in tree nodes",
+        "--checkpoint",
+        default=None,
+        help="the policy (a bc.py best.pt; None: the one shipped for the robot)",
     )
-    parser.add_argument(
-        "--noise-std",
-        type=number(0.0),
-        nargs="+",
-        default=[0.0, 0.03],
-        help="output noise levels to try (standard deviations, normalized units)",
-    )
+    for flag, key, kind, what in SWEEPS:
+        choices = [0, 1] if flag in ("--keep-chunk", "--goal-tree", "--from-goal") else None
+        parser.add_argument(
+            flag,
+            dest=key,
+            type=kind,
+            nargs="+",
+            default=None,
+            choices=choices,
+            help=f"{what}, to try (None: the checkpoint's)",
+        )
     parser.add_argument(
         "--max-nodes",
         type=count(1),
         default=None,
-        help="node budget of every run, RRT*'s included (None: train_eval.max_nodes of the "
-        "config); each n must fit in it",
+        help="node budget of every run, RRT*'s included (None: "
+        "train_eval.max_nodes of the config); each n must fit in it",
     )
     parser.add_argument("--tasks", type=count(1, MAX_TASKS), default=60, help="tasks per setting")
     parser.add_argument(
@@ -98,108 +144,6 @@ def main(argv: list[str] | None = None) -> dict:
         help="tune: the planner-tuning pool (100 workspaces; temp_gym.worlds.splits); test: the "
         "final measurement; ood: the out-of-distribution family, --tasks runs spread over its "
         "problems and seeds",
-    )
-    parser.add_argument(
-        "--horizon",
-        type=count(0),
-        nargs="+",
-        default=[0],
-        help="proposals used per MPT call to try (0: the model's whole chunk)",
-    )
-    parser.add_argument(
-        "--path-window",
-        type=count(0),
-        nargs="+",
-        default=[0],
-        help="newest path-so-far nodes read per MPT call to try (0: all the model was trained on)",
-    )
-    parser.add_argument(
-        "--patience",
-        type=count(-1),
-        nargs="+",
-        default=[-1],
-        help="attention-phase stall patience to try (-1: the default rule)",
-    )
-    parser.add_argument(
-        "--uniform",
-        type=number(0.0, 1.0),
-        nargs="+",
-        default=[0.0],
-        help="shares of uniform samples in the attention phase to try",
-    )
-    parser.add_argument(
-        "--near-goal-factor",
-        type=number(1.0),
-        nargs="+",
-        default=[1.0],
-        help="stall-patience factors near the goal to try (1: the same patience everywhere)",
-    )
-    parser.add_argument(
-        "--follow-fallback",
-        type=number(0.0, 1.0),
-        nargs="+",
-        default=[1.0],
-        help="probabilities of going on from a fallback node that got no closer to the goal to "
-        "try (1: always, Algorithm 1)",
-    )
-    parser.add_argument(
-        "--local-fallback",
-        type=count(0),
-        nargs="+",
-        default=[0],
-        help="replacements of a colliding proposal drawn near it before uniform ones, to try "
-        "(0: none, Algorithm 1)",
-    )
-    parser.add_argument(
-        "--keep-chunk",
-        type=int,
-        nargs="+",
-        choices=[0, 1],
-        default=[0],
-        help="after a chunk's proposal collided and a fallback node replaced it: go on with "
-        "the chunk (1) or call the policy again (0), to try",
-    )
-    parser.add_argument(
-        "--resume",
-        type=number(0.0),
-        nargs="+",
-        default=[RESUME_AFTER_DEFAULT],
-        help="classical nodes, in stall patiences, before the attention phase resumes after a "
-        "stall, to try (0: never)",
-    )
-    parser.add_argument(
-        "--resume-growth",
-        type=number(1.0),
-        nargs="+",
-        default=[1.0],
-        help="how many times longer each classical turn between resumed attention phases is "
-        "than the one before, to try (1: equal turns)",
-    )
-    parser.add_argument(
-        "--goal-tree",
-        type=int,
-        nargs="+",
-        choices=[0, 1],
-        default=[1],
-        help="grow a tree from the goal after an unsolved attention phase (1, the planner's "
-        "default) or not (0), to try",
-    )
-    parser.add_argument(
-        "--from-goal",
-        type=int,
-        nargs="+",
-        choices=[0, 1],
-        default=[1],
-        help="after a stall, the policy grows the goal tree first (1, the planner's default) or "
-        "Informed RRT*'s samples alone (0), to try; needs --goal-tree 1",
-    )
-    parser.add_argument(
-        "--rounds",
-        type=count(-1),
-        nargs="+",
-        default=[-1],
-        help="after stalls from the start and from the goal, more rounds of the two (-1: the "
-        "planner's default; 0: none), to try; with --from-goal 1",
     )
     parser.add_argument(
         "--family",
@@ -225,6 +169,120 @@ def main(argv: list[str] | None = None) -> dict:
         "(trainers/compare_policies.py pairs two such files)",
     )
     parser.add_argument("overrides", nargs="*", help="key.sub=value config overrides")
+    return parser  # fmt: skip
+
+
+def _check_values(args, budget: int, budget_from: str) -> None:
+    """Refuse, naming the flag, a value the planner or the policy would refuse."""
+    from temp_gym.planning.settings import noise_level
+    from temp_gym.planning.temp_settings import check
+
+    too_large = [n for n in args.attention_nodes or () if n > budget]
+    if too_large:  # n beyond the budget would silently mean n = budget
+        raise ValueError(
+            f"--attention-nodes {too_large[0]} exceeds the node budget {budget} "
+            f"({budget_from}); pass a larger --max-nodes"
+        )
+    for flag, key, _, _ in SWEEPS:
+        for value in getattr(args, key) or ():
+            if key in ("attention_patience", "attention_rounds") and value == RULE:
+                continue
+            if key == "noise_std":
+                noise_level(value, flag)
+            elif key not in POLICY_KEYS and key not in ("goal_tree", "attention_from_goal",
+                                                        "attention_keep_chunk"):  # fmt: skip
+                check(key, value, flag)
+
+
+def _rows(args) -> list[dict[str, Any]]:
+    """Every combination of the values given, one dict per row (None: not given)."""
+    lists = [getattr(args, key) or [None] for _, key, _, _ in SWEEPS]
+    first = {key: values[0] for (_, key, _, _), values in zip(SWEEPS, lists)}
+    rows = []
+    for values in itertools.product(*lists):
+        row = dict(zip([key for _, key, _, _ in SWEEPS], values))
+        # Rows a setting makes no difference to are run once: the first value of the other.
+        if row["attention_resume"] == 0 and row["attention_resume_growth"] != first[
+                "attention_resume_growth"]:  # fmt: skip
+            continue
+        if row["goal_tree"] == 0 and row["attention_from_goal"] != first["attention_from_goal"]:
+            continue
+        from_goal = row["goal_tree"] != 0 and row["attention_from_goal"] != 0
+        if not from_goal and row["attention_rounds"] != first["attention_rounds"]:
+            continue
+        rows.append(row)
+    return rows
+
+
+def _row_setup(row: dict[str, Any], base, config_temp: TEMPConfig):
+    """The row's policy and its ``train_eval.temp`` section (what `plan_episode` reads)."""
+    changes = {key: row[key] or None for key in ("horizon", "path_window") if row[key] is not None}
+    if row["noise_std"] is not None:
+        changes["noise_std"] = row["noise_std"]
+    for key in ("attention_patience", "attention_rounds"):
+        if row[key] == RULE:  # the planner's default: the policy carries none
+            changes[key] = None
+    policy = base.fresh(**changes)
+    temp = {key: value for key, value in dataclasses.asdict(config_temp).items()}
+    for _, key, _, _ in SWEEPS:
+        value = row[key]
+        if key in POLICY_KEYS or value is None or value == RULE and key in changes:
+            continue
+        temp[key] = bool(value) if key in ("goal_tree", "attention_from_goal",
+                                           "attention_keep_chunk") else value  # fmt: skip
+    if temp["goal_tree"] is False:  # no goal tree: no phase from the goal, no rounds
+        temp["attention_from_goal"], temp["attention_rounds"] = False, 0
+    elif temp["attention_from_goal"] is False:
+        temp["attention_rounds"] = 0
+    return policy, TEMPConfig(**temp)
+
+
+def _effective(policy, temp: TEMPConfig, budget: int) -> dict[str, Any]:
+    """The settings a row ran with: given, else the policy's, else the planner's defaults."""
+    from temp_gym import training
+    from temp_gym.planning.attention import RESUME_AFTER
+    from temp_gym.planning.temp_settings import DECLARED, resolve
+
+    settings = training.temp_settings(temp, policy)
+    value = {name: resolve(settings, policy, name, None) for name in DECLARED}
+    goal = temp.goal_tree is not False
+    from_goal = goal and temp.attention_from_goal is not False
+    return {
+        "attention_nodes": value["attention_nodes"] or budget, "noise_std": policy.noise_std,
+        "horizon": policy.chunk, "path_window": policy.path_window,
+        "attention_patience": value["attention_patience"],
+        "attention_near_goal_factor": value["attention_near_goal_factor"] or 1.0,
+        "attention_uniform": value["attention_uniform"] or 0.0,
+        "attention_follow_fallback": value["attention_follow_fallback"] or 1.0,
+        "attention_local_fallback": value["attention_local_fallback"] or 0,
+        "attention_keep_chunk": bool(temp.attention_keep_chunk),
+        "attention_resume": RESUME_AFTER if value["attention_resume"] is None
+        else value["attention_resume"],
+        "attention_resume_growth": value["attention_resume_growth"] or 1.0,
+        "goal_tree": goal, "attention_from_goal": from_goal,
+        "attention_rounds": (value["attention_rounds"] if from_goal else 0),
+    }  # fmt: skip
+
+
+def _cells(setting: dict[str, Any], window: int) -> list[str]:
+    """The settings columns of a row (`COLUMNS`)."""
+    patience, rounds = setting["attention_patience"], setting["attention_rounds"]
+    return [
+        str(setting["attention_nodes"]), f"{setting['noise_std']:g}", str(setting["horizon"]),
+        str(window), "rule" if patience is None else str(patience),
+        f"{setting['attention_near_goal_factor']:g}", f"{setting['attention_uniform']:g}",
+        f"{setting['attention_follow_fallback']:g}", str(setting["attention_local_fallback"]),
+        str(int(setting["attention_keep_chunk"])), f"{setting['attention_resume']:g}",
+        f"{setting['attention_resume_growth']:g}", str(int(setting["goal_tree"])),
+        str(int(setting["attention_from_goal"])) if setting["goal_tree"] else "-",
+        "-" if not setting["attention_from_goal"]
+        else "default" if rounds is None else str(rounds),
+    ]  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Print the table; return the recommended setting (every key, as the row ran)."""
+    parser = _parser()
     args = parse_args(parser, argv)
     config = load_config(args.config, args.overrides)
     eval_config = config.train_eval
@@ -234,57 +292,34 @@ def main(argv: list[str] | None = None) -> dict:
         budget_from = "--max-nodes"
     if eval_config.max_nodes < 1:
         parser.error(f"{budget_from}: must be at least 1, got {eval_config.max_nodes}")
-    too_large = [n for n in args.attention_nodes if n > eval_config.max_nodes]
-    if too_large:  # n beyond the budget would silently mean n = budget
-        parser.error(
-            f"--attention-nodes {too_large[0]} exceeds the node budget {eval_config.max_nodes} "
-            f"({budget_from}); pass a larger --max-nodes"
-        )
     if args.per_task is not None:
-        check_per_task_file(Path(args.per_task), [Path(args.config), Path(args.checkpoint)])
+        inputs = [Path(args.config), *([Path(args.checkpoint)] if args.checkpoint else [])]
+        check_per_task_file(Path(args.per_task), inputs)
     import numpy as np
-    import torch
 
     from temp_gym import training
     from temp_gym.evaluation.ood import load_ood_family
     from temp_gym.files import write_json_atomic
-    from temp_gym.models.policy import TEMPPolicy
-    from temp_gym.models.temp import load_checkpoint
-    from temp_gym.planning.result import (
-        local_fallback_count,
-        near_goal_factor,
-        resume_factor,
-        resume_growth,
-        share,
-    )
+    from temp_gym.models.registry import policy_from_checkpoint, shipped_checkpoint
     from temp_gym.training import plan_episode
     from temp_gym.worlds.structured import check_family
 
-    try:  # the planner's own check, naming the flag
-        for factor in args.near_goal_factor:
-            near_goal_factor(factor, "--near-goal-factor")
-        for follow in args.follow_fallback:
-            share(follow, "--follow-fallback")
-        for tries in args.local_fallback:
-            local_fallback_count(tries, "--local-fallback")
-        for resume in args.resume:
-            resume_factor(resume, "--resume")
-        for growth in args.resume_growth:
-            resume_growth(growth, "--resume-growth")
+    try:
+        _check_values(args, eval_config.max_nodes, budget_from)
         check_family(config.env.robot, args.family)
     except ValueError as error:
         parser.error(str(error))
-    torch.set_num_threads(1)
+    flag = "--checkpoint" if args.checkpoint else "the shipped policy"
     try:
-        model, _ = load_checkpoint(args.checkpoint, robot=config.env.robot)
+        checkpoint = args.checkpoint or str(shipped_checkpoint(config.env.robot))
+        base = policy_from_checkpoint(checkpoint, robot=config.env.robot)
     except (OSError, ValueError) as error:
-        raise ConfigError(f"--checkpoint: {error}") from None
-    windows = [window or None for window in args.path_window]  # 0: the whole path
-    for window in windows:  # the policy's own check, naming the flag, before any run
-        try:
-            TEMPPolicy(model, path_window=window)
-        except ValueError as error:
-            parser.error(f"--path-window: {error}")
+        raise ConfigError(f"{flag}: {error}") from None
+    try:  # the policy's own checks (horizon, path window), naming the flag, before any run
+        rows = [(row, *_row_setup(row, base, eval_config.temp)) for row in _rows(args)]
+    except ValueError as error:
+        message = str(error)
+        parser.error(message if message.startswith("--") else f"--{_flag_of(message)}{message}")
     if args.split == "ood":
         family = list(load_ood_family(config.env.robot).values())
         problems = [family[index % len(family)] for index in range(args.tasks)]
@@ -304,11 +339,12 @@ def main(argv: list[str] | None = None) -> dict:
         )
     print(
         f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}), "
-        f"budget {eval_config.max_nodes} nodes per run; {baseline}"
+        f"budget {eval_config.max_nodes} nodes per run; {baseline}; settings not given: "
+        f"{checkpoint}'s"
     )
     per_task = {
         "config": args.config,
-        "checkpoint": args.checkpoint,
+        "checkpoint": checkpoint,
         "split": args.split,
         "family": "OOD" if args.split == "ood" else args.family,
         "max_nodes": eval_config.max_nodes,
@@ -317,60 +353,15 @@ def main(argv: list[str] | None = None) -> dict:
         "rrt_star": None if rrt_runs is None else _task_figures(rrt_runs),
         "settings": [],
     }
-    print(
-        "| n | noise | horizon | window | patience | near goal | uniform | follow | local "
-        "| keep chunk | resume | growth | goal tree | from goal | rounds "
-        "| nodes mean "
-        "| median "
-        "| AP solved | AP both ways | success | cost | time (ms) | fewer than RRT* "
-        "| mean difference [95% CI] |"
-    )
-    print(
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:"
-        "|---:|---:|---:|---:|---|"
-    )
+    figures = ("nodes mean", "median", "AP solved", "AP both ways", "success", "cost",
+               "time (ms)", "fewer than RRT*", "mean difference [95% CI]")  # fmt: skip
+    print("| " + " | ".join((*COLUMNS, *figures)) + " |")
+    print("|" + "---:|" * (len(COLUMNS) + len(figures) - 1) + "---|")
     best, best_nodes = None, np.inf
-    settings = itertools.product(
-        args.attention_nodes, args.noise_std, args.horizon, windows, args.patience,
-        args.near_goal_factor, args.uniform, args.follow_fallback, args.local_fallback,
-        args.keep_chunk, args.resume, args.resume_growth, args.goal_tree, args.from_goal,
-        args.rounds,
-    )  # fmt: skip
-    for (
-        budget, noise, horizon, window, patience, factor, uniform, follow, local, keep, resume,
-        growth, goal, from_goal, rounds,
-    ) in settings:  # fmt: skip
-        if resume == 0 and growth != args.resume_growth[0]:
-            continue  # without resumed phases --resume-growth changes nothing: one row
-        if not goal and from_goal != args.from_goal[0]:
-            continue  # without the goal tree --from-goal changes nothing: one row
-        from_goal = bool(goal and from_goal)
-        if not from_goal and rounds != args.rounds[0]:
-            continue  # without the phase from the goal --rounds changes nothing: one row
-        rounds = (None if rounds < 0 else rounds) if from_goal else 0
-        eval_config = dataclasses.replace(
-            eval_config,
-            attention_nodes=budget,
-            attention_patience=None if patience < 0 else patience,
-            attention_uniform=uniform,
-            attention_near_goal_factor=factor,
-            attention_follow_fallback=follow,
-            attention_local_fallback=local,
-            attention_keep_chunk=bool(keep),
-            attention_resume=resume,
-            attention_resume_growth=growth,
-            goal_tree=bool(goal),
-            attention_from_goal=from_goal,
-            attention_rounds=rounds,
-        )
-        policy = TEMPPolicy(
-            model,
-            noise_std=noise,
-            horizon=horizon or None,
-            path_window=window,
-        )
-        runs = [plan_episode(p, "temp", s, eval_config, policy) for p, s in zip(problems, seeds)]
-        row = training.summarize(runs, eval_config.max_nodes)
+    for _, policy, temp in rows:
+        row_config = dataclasses.replace(eval_config, temp=temp)
+        runs = [plan_episode(p, "temp", s, row_config, policy) for p, s in zip(problems, seeds)]
+        summary = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         both_ways = float(np.mean([run["attention_solved_both_ways"] for run in runs]))
         if rrt_runs is None:
@@ -381,29 +372,17 @@ def main(argv: list[str] | None = None) -> dict:
                 f"{paired['fewer']:.2f} | {paired['difference']:+.1f} "
                 f"[{paired['low']:+.1f}, {paired['high']:+.1f}]"
             )
-        setting = {"attention_nodes": budget, "noise_std": noise, "horizon": policy.chunk,
-                   "path_window": policy.path_window,
-                   "attention_patience": eval_config.attention_patience,
-                   "attention_uniform": uniform, "attention_near_goal_factor": factor,
-                   "attention_follow_fallback": follow, "attention_local_fallback": local,
-                   "attention_keep_chunk": bool(keep),
-                   "attention_resume": resume, "attention_resume_growth": growth,
-                   "goal_tree": bool(goal),
-                   "attention_from_goal": from_goal, "attention_rounds": rounds}  # fmt: skip
+        setting = _effective(policy, temp, eval_config.max_nodes)
         per_task["settings"].append({"setting": setting, **_task_figures(runs)})
         print(
-            f"| {budget} | {noise} | {policy.chunk} | {policy.window} | {patience} | {factor:g} | "
-            f"{uniform} | {follow:g} | {local} | {keep} | {resume:g} | {growth:g} | {goal} | "
-            f"{int(from_goal) if goal else '-'} | "
-            f"{'-' if not from_goal else 'default' if rounds is None else rounds} | "
-            f"{row['nodes_mean']:.1f} | "
-            f"{row['nodes_median']:.0f} | "
-            f"{solved:.3f} | {both_ways:.3f} | {row['success']:.3f} | {row['cost']:.2f} | "
-            f"{row['time'] * 1e3:.2f} | {versus_rrt} |",
+            "| " + " | ".join(_cells(setting, policy.window)) + " | "
+            f"{summary['nodes_mean']:.1f} | {summary['nodes_median']:.0f} | "
+            f"{solved:.3f} | {both_ways:.3f} | {summary['success']:.3f} | "
+            f"{summary['cost']:.2f} | {summary['time'] * 1e3:.2f} | {versus_rrt} |",
             flush=True,
         )
-        if both_ways >= args.min_attention_success and row["nodes_mean"] < best_nodes:
-            best, best_nodes = setting, row["nodes_mean"]
+        if both_ways >= args.min_attention_success and summary["nodes_mean"] < best_nodes:
+            best, best_nodes = setting, summary["nodes_mean"]
     print(f"recommended: {best}")
     if args.per_task is not None:
         write_json_atomic(args.per_task, per_task)
@@ -434,6 +413,12 @@ def check_per_task_file(out: Path, inputs: list[Path]) -> None:
                 f"--per-task: {out} exists and is not a per-task file of this script; move it "
                 "or choose another file"
             )
+
+
+def _flag_of(message: str) -> str:
+    """``path-window: `` for a message about ``path_window``; the flag of a policy's check."""
+    name = message.split(":", 1)[0]
+    return f"{name.replace('_', '-')}: " if name in POLICY_KEYS else ""
 
 
 def _digest(problem) -> str:

@@ -23,14 +23,12 @@ values. ``TEMP_GYM_OVERRIDES`` holds overrides that every load applies last::
 | `temp_gym.config.sections` | the dataclasses, their defaults and what each key means |
 | `temp_gym.config.typed` | a dataclass from a mapping and back, keys and types checked |
 | `temp_gym.config.loading` | `load_config`, overrides, `upgrade_stored` for older stored configs |
-| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `checkpoint_entry` and kin |
+| `temp_gym.config.command_line` | `script_parser`, `parse_args`, `count`, `number` and kin |
 | `temp_gym.config.compare` | `differing_keys`: what a resumed run or a rerun would change |
 """
 
 from temp_gym.config.command_line import (
-    CHECKPOINT_SETTINGS,
     OVERRIDE,
-    checkpoint_entry,
     count,
     labelled_entry,
     number,
@@ -41,6 +39,7 @@ from temp_gym.config.compare import differing_keys, flatten
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.loading import (
     CONFIG_DIR,
+    MOVED_KEYS,
     OVERRIDES_VARIABLE,
     RENAMED_SECTIONS,
     apply_overrides,
@@ -58,13 +57,13 @@ from temp_gym.config.sections import (
     LossConfig,
     ModelConfig,
     OptimConfig,
+    TEMPConfig,
     TrainConfig,
     TrainEvalConfig,
     Workspaces,
 )
 
 __all__ = [
-    "CHECKPOINT_SETTINGS",
     "CONFIG_DIR",
     "OVERRIDE",
     "OVERRIDES_VARIABLE",
@@ -76,13 +75,14 @@ __all__ = [
     "EvaluationConfig",
     "LoggerConfig",
     "LossConfig",
+    "MOVED_KEYS",
     "ModelConfig",
     "OptimConfig",
+    "TEMPConfig",
     "TrainConfig",
     "TrainEvalConfig",
     "Workspaces",
     "apply_overrides",
-    "checkpoint_entry",
     "count",
     "labelled_entry",
     "config_from_dict",

@@ -65,20 +65,23 @@ RANGES: dict[str, tuple[float, float]] = {
     "train_eval.tasks": (0, MAX_TASKS),
     "train_eval.periodic_tasks": (0, MAX_TASKS),
     "train_eval.max_nodes": (1, MAX_COUNT),
-    "train_eval.attention_nodes": (1, MAX_COUNT),
-    "train_eval.attention_uniform": (0.0, 1.0),
-    "train_eval.attention_near_goal_factor": (1.0, INF),
-    "train_eval.attention_follow_fallback": (0.0, 1.0),
-    "train_eval.attention_resume_growth": (1.0, INF),
     "evaluation.tasks": (1, MAX_TASKS),
     "evaluation.max_nodes": (1, MAX_COUNT),
-    "evaluation.attention_nodes": (1, MAX_COUNT),
     "evaluation.curve_tasks": (0, MAX_TASKS),
     "evaluation.curve_nodes": (1, MAX_COUNT),
     "evaluation.horizon": (1, MAX_CHUNK),
-    "evaluation.attention_near_goal_factor": (1.0, INF),
-    "evaluation.attention_resume_growth": (1.0, INF),
     "evaluation.workers": (0, MAX_WORKERS),
+    **{
+        f"{section}.temp.{key}": bounds
+        for section in ("train_eval", "evaluation")
+        for key, bounds in {
+            "attention_nodes": (1, MAX_COUNT),
+            "attention_uniform": (0.0, 1.0),
+            "attention_near_goal_factor": (1.0, INF),
+            "attention_follow_fallback": (0.0, 1.0),
+            "attention_resume_growth": (1.0, INF),
+        }.items()
+    },
 }
 """Dotted key -> its inclusive ``(least, most)`` (each item of a list). A null stays allowed
 where the section declares the key optional."""

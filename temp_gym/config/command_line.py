@@ -12,7 +12,6 @@ import math
 import re
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import NoReturn
 
 from temp_gym.jobs import BAD_INPUT, brief, one_line
@@ -119,54 +118,6 @@ def parse_args(
     args = parser.parse_args(rest)
     args.overrides = list(getattr(args, "overrides", None) or []) + overrides
     return args
-
-
-CHECKPOINT_SETTINGS = {
-    "noise_std": float,
-    "horizon": int,
-    "path_window": int,
-    "attention_patience": int,
-    "attention_uniform": float,
-    "attention_near_goal_factor": float,
-    "attention_follow_fallback": float,
-    "attention_resume": float,
-    "attention_resume_growth": float,
-    "attention_rounds": int,
-    "attention_local_fallback": int,
-}
-"""Planner settings a checkpoint entry may give after its ``@`` (`checkpoint_entry`), with
-their types: the ones `temp_gym.models.registry.policy_from_checkpoint` takes (it reads the
-keys from here), so that a run not yet shipped can be compared under the shipped policy's
-settings."""
-
-
-def checkpoint_entry(
-    entry: str, flag: str = "--checkpoints"
-) -> tuple[Path, dict[str, float | int]]:
-    """``PATH[@key=value,...]`` -> the checkpoint and its planner settings.
-
-    The keys are `CHECKPOINT_SETTINGS`'. The benchmarks that compare checkpoints with the
-    shipped policy take such entries, each with the settings `trainers/tune_planner.py` chose
-    for a run not yet shipped.
-
-    Raises:
-        ValueError: an item that is not ``key=value`` with a known key, or a value of the
-            wrong type, naming ``flag`` and the entry.
-    """
-    path, _, spec = entry.partition("@")
-    settings: dict[str, float | int] = {}
-    for item in filter(None, spec.split(",")):
-        key, sep, value = item.partition("=")
-        if not sep or key not in CHECKPOINT_SETTINGS:
-            raise ValueError(f"{flag} {entry}: expected key=value with a key of "
-                             f"{sorted(CHECKPOINT_SETTINGS)}, got {brief(item)}")  # fmt: skip
-        kind = CHECKPOINT_SETTINGS[key]
-        try:
-            settings[key] = kind(value)
-        except ValueError:
-            raise ValueError(f"{flag} {entry}: {key} must be a {kind.__name__}, "
-                             f"got {brief(value)}") from None  # fmt: skip
-    return Path(path), settings
 
 
 def labelled_entry(entry: str, flag: str = "--policy") -> tuple[str, str]:

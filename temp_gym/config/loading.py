@@ -4,8 +4,8 @@ Values in overrides are parsed as YAML scalars (``3`` is an int, ``1e-3`` a floa
 None, ``[1, 2]`` a list, ``{train: 2, val: 1}`` a mapping) and then checked against the
 field's type. Every key a section declares can be overridden, whether the file lists it or
 not; a key no section declares is an error, so a typo never passes silently. A leading ``+``
-(``+train_eval.attention_patience=0``), which once added a key the file lacked, is still
-accepted and means the same.
+(``+train_eval.seed=3``), which once added a key the file lacked, is still accepted and means
+the same.
 
 The environment variable ``TEMP_GYM_OVERRIDES`` holds more overrides, separated by spaces,
 that every config load applies after the caller's: the same command then runs at another size
@@ -31,8 +31,8 @@ import yaml
 
 from temp_gym.config.checks import check_config
 from temp_gym.config.errors import ConfigError
-from temp_gym.config.sections import Config
-from temp_gym.config.typed import build, fill_defaults, replace_key
+from temp_gym.config.sections import Config, TEMPConfig
+from temp_gym.config.typed import build, field_types, fill_defaults, replace_key
 from temp_gym.jobs import brief
 from temp_gym.limits import MAX_CONFIG_BYTES, MAX_CONFIG_DEPTH
 
@@ -46,6 +46,15 @@ OVERRIDES_VARIABLE = "TEMP_GYM_OVERRIDES"
 RENAMED_SECTIONS = {"eval": "train_eval"}
 """Sections that older configs named otherwise (old name -> new), for `upgrade_stored` and the
 error that names the new section."""
+
+MOVED_KEYS = {
+    f"{section}.{name}": f"{section}.temp.{name}"
+    for section in ("train_eval", "evaluation")
+    for name in field_types(TEMPConfig)
+}
+"""Keys that older configs held elsewhere (old dotted key -> new): TEMP's planner settings,
+now one ``temp`` section (`TEMPConfig`) in each section that plans with TEMP; for
+`upgrade_stored` and the error that names the new key."""
 
 
 class ConfigLoader(yaml.SafeLoader):
@@ -114,6 +123,8 @@ def parse_value(text: str) -> Any:
 
 
 def _renamed_hint(key: str) -> str:
+    if key in MOVED_KEYS:
+        return f" (the key is now {MOVED_KEYS[key]})"
     section = key.split(".", 1)[0]
     new = RENAMED_SECTIONS.get(section)
     return f" (the {section} section is now {new})" if new else ""
@@ -150,9 +161,26 @@ def config_from_dict(values: Mapping[str, Any] | None, source: str = "config") -
     try:
         return build(Config, values)
     except ConfigError as error:
-        unknown = next((key for key in values if key in RENAMED_SECTIONS), None)
-        hint = _renamed_hint(unknown) if unknown and f"unknown key {unknown}" in str(error) else ""
+        hint = next(
+            (
+                _renamed_hint(key)
+                for key in [*values, *_dotted_keys(values)]
+                if key in RENAMED_SECTIONS or key in MOVED_KEYS
+                if f"unknown key {key}" in str(error)
+            ),
+            "",
+        )
         raise ConfigError(f"{source}: {error}{hint}") from None
+
+
+def _dotted_keys(values: Mapping[str, Any]) -> list[str]:
+    """``section.key`` of every key one level down (where `MOVED_KEYS` looks)."""
+    return [
+        f"{section}.{key}"
+        for section, inner in values.items()
+        if isinstance(inner, Mapping)
+        for key in inner
+    ]
 
 
 def read_config_file(path: str | Path) -> tuple[Path, Any]:
@@ -235,10 +263,20 @@ def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
 def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:
     """A config dict stored by an older temp-gym (``last.pt``), in today's layout.
 
-    Renamed sections take their new names (`RENAMED_SECTIONS`) and keys added since take
-    their defaults, so that a run started before either change compares equal to the same
-    config today. Values are kept as stored, and keys this version no longer declares stay,
-    so a comparison still names them.
+    Renamed sections take their new names (`RENAMED_SECTIONS`), moved keys their new places
+    (`MOVED_KEYS`) and keys added since their defaults, so that a run started before any of
+    these changes compares equal to the same config today. Values are kept as stored, and
+    keys this version no longer declares stay, so a comparison still names them.
     """
     renamed = {RENAMED_SECTIONS.get(key, key): value for key, value in stored.items()}
+    renamed = {
+        key: dict(value) if isinstance(value, Mapping) else value for key, value in renamed.items()
+    }
+    for old, new in MOVED_KEYS.items():
+        section, name = old.split(".")
+        inner = renamed.get(section)
+        if isinstance(inner, dict) and name in inner:
+            moved = inner.setdefault("temp", {})
+            if isinstance(moved, Mapping):
+                inner["temp"] = {**moved, new.rsplit(".", 1)[1]: inner.pop(name)}
     return fill_defaults(Config, renamed)

@@ -194,6 +194,52 @@ class TrainConfig:
 
 
 @dataclass(frozen=True)
+class TEMPConfig:
+    """``train_eval.temp``, ``evaluation.temp``: the ``temp`` planner's own settings.
+
+    One key per field of `temp_gym.planning.TEMPSettings` beyond the common ones (its
+    ``policy`` aside), which say what each means; the planner checks them. Null, the default
+    of each: the policy's own setting (a shipped policy carries those it was tuned with),
+    else the planner's default.
+    """
+
+    attention_nodes: int | None = None
+    """The attention-phase budget n of Algorithm 1; the planner's default: all of the nodes."""
+    attention_patience: int | None = None
+    """Attention-phase nodes without progress before classical planning takes over (0:
+    never)."""
+    attention_uniform: float | None = None
+    """Probability of a uniform sample in the attention phase."""
+    attention_near_goal_factor: float | None = None
+    """How many times its patience the attention phase waits once the tree is near the goal
+    (at least 1)."""
+    attention_follow_fallback: float | None = None
+    """Probability that the policy goes on from a fallback node that got no closer to the
+    goal."""
+    attention_keep_chunk: bool | None = None
+    """After a chunk's proposal collided and a fallback node replaced it, go on with the chunk
+    (true) or call the policy again (false, the planner's default)."""
+    attention_resume: float | None = None
+    """Classical nodes, in stall patiences, before the attention phase resumes after a stall
+    (0: never)."""
+    attention_resume_growth: float | None = None
+    """How many times longer each classical turn between resumed attention phases is than the
+    one before (at least 1)."""
+    goal_tree: bool | None = None
+    """Whether TEMP grows a tree from the goal when its attention phase ends unsolved (the
+    planner's default: true)."""
+    attention_from_goal: bool | None = None
+    """Whether, after a stall, the policy grows that tree first (the attention phase from the
+    goal; needs ``goal_tree``; the planner's default: true)."""
+    attention_rounds: int | None = None
+    """After the attention phases from the start and from the goal both stalled, at most this
+    many more rounds of the two (0: none; needs ``attention_from_goal``)."""
+    attention_local_fallback: int | None = None
+    """Replacements of a colliding proposal drawn near it before uniform ones (0: none,
+    Algorithm 1)."""
+
+
+@dataclass(frozen=True)
 class TrainEvalConfig:
     """``train_eval``: ``trainers/bc.py``'s planning on held-out tasks.
 
@@ -217,42 +263,11 @@ class TrainEvalConfig:
     """Node budget per episode; a failure counts as all of it."""
     noise_std: float | None = 0.03
     """Gaussian noise on TEMP's samples (normalized units); null: the checkpoint's own setting
-    (a shipped policy's, for ``trainers/correct.py``), else none."""
-    attention_nodes: int | None = None
-    """The temp planner's attention-phase budget n; null: all of ``max_nodes``."""
-    attention_patience: int | None = None
-    """Attention-phase nodes without progress before classical planning takes over; null:
-    the planner's default rule."""
-    attention_uniform: float | None = None
-    """Probability of a uniform sample in the attention phase; null: the policy's own."""
-    attention_near_goal_factor: float | None = None
-    """How many times its patience the attention phase waits once the tree is near the goal
-    (at least 1); null: the policy's own, else 1."""
-    attention_follow_fallback: float | None = None
-    """Probability that the policy goes on from a fallback node that got no closer to the
-    goal; null: the policy's own, else 1."""
-    attention_local_fallback: int | None = None
-    """Replacements of a colliding proposal drawn near it before uniform ones (0: none,
-    Algorithm 1); null: the policy's own, else 0."""
-    attention_resume: float | None = None
-    """Classical nodes, in stall patiences, before the attention phase resumes after a stall
-    (0: never); null: the policy's own, else the planner's default."""
-    attention_resume_growth: float | None = None
-    """How many times longer each classical turn between resumed attention phases is than the
-    one before (at least 1); null: the policy's own, else 1."""
-    attention_keep_chunk: bool | None = None
-    """After a chunk's proposal collided and a fallback node replaced it, go on with the
-    chunk (true) or call the policy again (false); null: false."""
-    goal_tree: bool = True
-    """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
-    (`temp_gym.planning.goal_tree`)."""
-    attention_from_goal: bool = True
-    """Whether, after a stall, the policy grows that tree first (the attention phase from the
-    goal; needs ``goal_tree``)."""
-    attention_rounds: int | None = None
-    """After the attention phases from the start and from the goal both stalled, at most this
-    many more rounds of the two (0: none; needs ``attention_from_goal``); null: the planner's
-    default."""
+    (a shipped policy's, for ``trainers/correct.py`` and ``trainers/tune_planner.py``), else
+    none."""
+    temp: TEMPConfig = field(default_factory=TEMPConfig)
+    """TEMP's planner settings (`TEMPConfig`); null ones: the policy's own, else the
+    planner's defaults."""
     seed: int = 1000
     """Seed of the periodic tasks (task i: seed + i); the final comparison's are drawn from
     seed + 10000 and ``tune_planner.py``'s from seed + 20000, so the sets differ."""
@@ -270,8 +285,6 @@ class EvaluationConfig:
     """Node budget of every run."""
     time_limit: float = 60.0
     """Seconds per run."""
-    attention_nodes: int | None = None
-    """TEMP's attention-phase budget n; null: the checkpoint's, else all of ``max_nodes``."""
     curve_tasks: int = 10
     """Per row, tasks that also get fixed-budget runs (the cost-vs-nodes curves)."""
     curve_nodes: int = 3000
@@ -280,27 +293,9 @@ class EvaluationConfig:
     """TEMP's output noise; null: the checkpoint's setting, else none."""
     horizon: int | None = None
     """Proposals used per MPT call; null: the checkpoint's, else the model's whole chunk."""
-    attention_patience: int | None = None
-    """The attention phase's stall patience; null: the checkpoint's, else the default rule."""
-    attention_near_goal_factor: float | None = None
-    """How many times that patience the attention phase waits near the goal; null: the
-    checkpoint's, else 1."""
-    attention_resume: float | None = None
-    """Classical nodes, in stall patiences, before a stalled attention phase resumes (0:
-    never); null: the checkpoint's, else the planner's default."""
-    attention_resume_growth: float | None = None
-    """How many times longer each classical turn between resumed attention phases is than the
-    one before (at least 1); null: the checkpoint's, else 1."""
-    goal_tree: bool = True
-    """Whether TEMP grows a tree from the goal when its attention phase ends unsolved
-    (`temp_gym.planning.goal_tree`; false: Informed RRT* alone, as before it existed)."""
-    attention_from_goal: bool = True
-    """Whether, after a stall, the policy grows that tree first (the attention phase from the
-    goal; needs ``goal_tree``; false: Informed RRT*'s samples alone grow it, as before)."""
-    attention_rounds: int | None = None
-    """After the attention phases from the start and from the goal both stalled, at most this
-    many more rounds of the two (0: none, as before they existed; needs
-    ``attention_from_goal``); null: the planner's default."""
+    temp: TEMPConfig = field(default_factory=TEMPConfig)
+    """TEMP's planner settings (`TEMPConfig`); null ones: the checkpoint's, else the
+    planner's defaults."""
     seed: int = 0
     """Seeds the test tasks drawn and every planner's runs on them."""
     warm_runs: bool = True

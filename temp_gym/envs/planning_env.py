@@ -13,6 +13,7 @@ from gymnasium import spaces
 from temp_gym.limits import MAX_COUNT, MAX_PATH_LENGTH
 from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
+from temp_gym.planning.temp_settings import local_fallback_count
 from temp_gym.planning.tree import Tree, default_step_size
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import check_resolution, occupancy_grid
@@ -71,8 +72,11 @@ class PlanningEnv(gym.Env):
 
     With ``fallback="random"`` (the paper's Algorithm 1, lines 7-10) a sample whose steered
     edge collides is replaced by uniform random samples until an extension succeeds (at most
-    ``max_fallback_tries``); each failure is counted. With ``fallback="none"`` a colliding
-    action adds no node and ``info["added"]`` is False.
+    ``max_fallback_tries``); each failure is counted. With ``attention_local_fallback`` N > 0
+    the first N replacements are drawn near the action, as the ``temp`` planner draws them
+    (`temp_gym.planning.TEMPSettings.attention_local_fallback`; a shipped policy carries its
+    N, ``policy.attention_local_fallback``). With ``fallback="none"`` a colliding action adds
+    no node and ``info["added"]`` is False.
 
     ## Observation Space
     A `Dict` of fresh arrays (normalized coordinates are in [-1, 1]). ``path`` holds the
@@ -126,7 +130,8 @@ class PlanningEnv(gym.Env):
       ``step_size``: steering step (world units; default
       `temp_gym.planning.tree.default_step_size`). ``goal_radius``: goal radius of drawn tasks
       (default: the robot's).
-    * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``.
+    * ``fallback``: ``random`` or ``none``; ``max_fallback_tries``; ``attention_local_fallback``
+      (default 0, Algorithm 1).
     * ``encoding_resolution``: cells per axis of the occupancy grid (32 in 2D, 16 in 3D/7D).
     * ``split``: ``train``, ``val``, ``test`` or ``tune`` workspace pool for drawn tasks.
     * ``workspace_family``: the family of those workspaces (`temp_gym.worlds.structured`;
@@ -153,6 +158,7 @@ class PlanningEnv(gym.Env):
         goal_radius: float | None = None,
         fallback: str = "random",
         max_fallback_tries: int = 1000,
+        attention_local_fallback: int = 0,
         encoding_resolution: int | None = None,
         split: str = "train",
         workspace_family: str = BOXES,
@@ -217,6 +223,7 @@ class PlanningEnv(gym.Env):
         self.goal_radius = goal_radius
         self.fallback = fallback
         self.max_fallback_tries = int(max_fallback_tries)
+        self.local_fallback = local_fallback_count(attention_local_fallback)
         self.resolution = (
             spec.encoding_resolution if encoding_resolution is None else int(encoding_resolution)
         )
@@ -327,6 +334,7 @@ class PlanningEnv(gym.Env):
                 self.np_random,
                 self.max_fallback_tries,
                 normalized=True,
+                local_tries=self.local_fallback,
             )
         else:
             result = tree.extend(action, normalized=True)

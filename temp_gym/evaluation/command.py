@@ -24,10 +24,18 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Mapping
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from temp_gym.config import Config, EvaluationConfig, load_config, parse_args, script_parser
+from temp_gym.config import (
+    Config,
+    EvaluationConfig,
+    TEMPConfig,
+    load_config,
+    parse_args,
+    script_parser,
+)
 from temp_gym.config.checks import check_output_dir
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.typed import to_dict
@@ -39,20 +47,22 @@ if TYPE_CHECKING:
 # The planners, the models and PyTorch are imported where they are used, after the command
 # line is read: ``--help`` and a bad value are answered without loading them.
 
+POLICY_FALLBACKS = {"noise_std": 0.0, "horizon": None}
+"""What a null policy setting of the ``evaluation`` section takes when the checkpoint names
+none: no noise, the model's whole chunk."""
 
-def planner_fallbacks() -> dict[str, Any]:
-    """What a null planner setting of the ``evaluation`` section takes without the checkpoint's.
 
-    All of ``max_nodes``, no noise, the model's whole chunk, the default stall rule, the same
-    patience near the goal, the planner's default resume after a stall and equal classical
-    turns between resumed phases (recorded as numbers, so that records made with another
-    default do not mix).
+def temp_fallbacks() -> dict[str, Any]:
+    """What a null setting of ``evaluation.temp`` records when the checkpoint names none.
+
+    Where the planner's default is a number: the default resume after a stall and equal
+    classical turns between resumed phases (recorded as numbers, so that records made with
+    another default do not mix). Every other null one records the checkpoint's value, else
+    null: the planner's default.
     """
     from temp_gym.planning.attention import RESUME_AFTER
 
-    return {"attention_nodes": None, "noise_std": 0.0, "horizon": None,
-            "attention_patience": None, "attention_near_goal_factor": None,
-            "attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}  # fmt: skip
+    return {"attention_resume": RESUME_AFTER, "attention_resume_growth": 1.0}
 
 
 UNRECORDED = ("tasks", "workers", "out")
@@ -65,23 +75,30 @@ def settings_from(
 ) -> tuple[EvaluationSettings, EvaluationConfig]:
     """The evaluation settings of a config's ``evaluation`` section, its nulls resolved.
 
-    ``attention_nodes``, ``noise_std``, ``horizon``, ``attention_patience``,
-    ``attention_near_goal_factor``, ``attention_resume`` and ``attention_resume_growth`` left
-    null take the checkpoint's own planner settings (``planner_defaults``, what
-    `temp_gym.load_policy` applies to a shipped policy), else `planner_fallbacks`; a null
-    ``tasks`` is the robot's (its spec's ``evaluation_tasks``).
+    ``noise_std``, ``horizon`` and every key of ``evaluation.temp`` a policy may carry
+    (`temp_gym.planning.temp_settings.DECLARED`) left null take the checkpoint's own
+    (``planner_defaults``, what `temp_gym.load_policy` applies to a shipped policy), else
+    `POLICY_FALLBACKS` and `temp_fallbacks`; a null ``tasks`` is the robot's (its spec's
+    ``evaluation_tasks``).
+
+    Raises:
+        ConfigError: a key the planners would refuse, named.
     """
     from temp_gym.evaluation.runner import EvaluationSettings
+    from temp_gym.planning.temp_settings import DECLARED
     from temp_gym.worlds.robots import robot_spec
 
+    fallbacks = temp_fallbacks()
     robot = config.env.robot
+    carried = {key: value for key, value in (planner_defaults or {}).items() if value is not None}
     section = config.evaluation
-    resolved = {
-        key: (planner_defaults or {}).get(key, fallback)
-        for key, fallback in planner_fallbacks().items()
-        if getattr(section, key) is None
+    temp = {
+        key: carried.get(key, fallbacks.get(key)) if value is None and key in DECLARED else value
+        for key, value in asdict(section.temp).items()
     }
-    section = dataclasses.replace(section, **resolved)
+    policy = {key: carried.get(key, fallback) for key, fallback in POLICY_FALLBACKS.items()
+              if getattr(section, key) is None}  # fmt: skip
+    section = dataclasses.replace(section, temp=TEMPConfig(**temp), **policy)
     spec = robot_spec(robot)
     _check_section(section)
     tasks = section.tasks or spec.evaluation_tasks
@@ -92,14 +109,7 @@ def settings_from(
         baselines=tuple(section.baselines),
         max_nodes=section.max_nodes,
         time_limit=section.time_limit,
-        attention_nodes=section.attention_nodes,
-        attention_patience=section.attention_patience,
-        attention_near_goal_factor=section.attention_near_goal_factor,
-        attention_resume=section.attention_resume,
-        attention_resume_growth=section.attention_resume_growth,
-        goal_tree=section.goal_tree,
-        attention_from_goal=section.attention_from_goal,
-        attention_rounds=section.attention_rounds,
+        temp={key: value for key, value in temp.items() if value is not None},
         curve_tasks=section.curve_tasks,
         curve_nodes=section.curve_nodes,
         seed=section.seed,
@@ -112,7 +122,8 @@ def settings_from(
 def _check_section(section: EvaluationConfig) -> None:
     """Refuse, naming the key, what the planners would refuse task by task in the workers."""
     from temp_gym.planning.plan import PLANNERS
-    from temp_gym.planning.result import PlanSettings
+    from temp_gym.planning.settings import PlanSettings
+    from temp_gym.planning.temp_settings import TEMPSettings
 
     if section.tasks is not None and section.tasks < 1:
         raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")
@@ -127,17 +138,13 @@ def _check_section(section: EvaluationConfig) -> None:
             f"evaluation.baselines: unknown planner {unknown[0]!r}; expected some of {baselines}"
         )
     try:  # plan()'s own checks of the budgets and TEMP's settings
-        PlanSettings(
-            max_nodes=section.max_nodes,
-            time_limit=section.time_limit,
-            attention_nodes=section.attention_nodes,
-            attention_patience=section.attention_patience,
-            attention_near_goal_factor=section.attention_near_goal_factor,
-            attention_resume=section.attention_resume,
-            attention_resume_growth=section.attention_resume_growth,
-        )
+        PlanSettings(max_nodes=section.max_nodes, time_limit=section.time_limit)
     except ValueError as error:
         raise ConfigError(f"evaluation.{error}") from None
+    try:
+        TEMPSettings.at("evaluation.temp", **asdict(section.temp))
+    except ValueError as error:
+        raise ConfigError(str(error)) from None
 
 
 def main(argv: list[str] | None = None) -> str:

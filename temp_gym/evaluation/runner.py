@@ -28,7 +28,7 @@ import json
 import sys
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +45,7 @@ from temp_gym.files import (
 )
 from temp_gym.jobs import JobError, estimate_line, progress_line, report
 from temp_gym.planning.plan import plan
+from temp_gym.planning.temp_settings import TEMPSettings
 from temp_gym.planning.tree import forget_workspace
 from temp_gym.planning.warmup import WARM_UP_NODES
 from temp_gym.problem import Problem
@@ -75,26 +76,10 @@ class EvaluationSettings:
     """Node budget of every run."""
     time_limit: float = 30.0
     """Seconds per run."""
-    attention_nodes: int | None = None
-    """TEMP's attention-phase node budget (None: all of ``max_nodes``)."""
-    attention_patience: int | None = None
-    """TEMP's stall patience (None: `temp_gym.planning.attention.default_patience`)."""
-    attention_near_goal_factor: float | None = None
-    """How many times that patience TEMP waits near the goal (None: the policy's own, else 1)."""
-    attention_resume: float | None = None
-    """Classical nodes, in stall patiences, before TEMP's stalled attention phase resumes
-    (None: the policy's own, else the planner's default)."""
-    attention_resume_growth: float | None = None
-    """How many times longer each classical turn between TEMP's resumed attention phases is
-    than the one before (None: the policy's own, else 1)."""
-    goal_tree: bool = True
-    """Whether TEMP grows a tree from the goal after an unsolved attention phase
-    (`temp_gym.planning.goal_tree`)."""
-    attention_from_goal: bool = True
-    """Whether, after a stall, TEMP's policy grows that tree first (needs ``goal_tree``)."""
-    attention_rounds: int | None = None
-    """After TEMP's phases from the start and from the goal both stalled, at most this many
-    more rounds of the two (None: the planner's default)."""
+    temp: dict[str, Any] = field(default_factory=dict)
+    """TEMP's own settings for every TEMP run: fields of `temp_gym.planning.TEMPSettings`
+    beyond the common ones (its policy aside); absent or None: the policy's own, else the
+    planner's defaults."""
     curve_tasks: int = 10
     """Per group, how many tasks also get fixed-budget runs for the cost-vs-nodes curves."""
     curve_nodes: int = 2000
@@ -120,22 +105,10 @@ class EvaluationSettings:
     cached, and TEMP finds its encoding cached when the same worker planned in that
     workspace before (test task ``i`` lives in workspace ``i mod 50``)."""
 
-    def temp_options(self) -> dict[str, Any]:
-        """The TEMP planner's settings of these, as ``plan`` takes them (every TEMP run).
-
-        Without the goal tree there is no phase from the goal, whatever
-        ``attention_from_goal`` says, and without that no rounds (``plan`` refuses the pairs).
-        """
-        from_goal = self.attention_from_goal and self.goal_tree
-        return {
-            "attention_patience": self.attention_patience,
-            "attention_near_goal_factor": self.attention_near_goal_factor,
-            "attention_resume": self.attention_resume,
-            "attention_resume_growth": self.attention_resume_growth,
-            "goal_tree": self.goal_tree,
-            "attention_from_goal": from_goal,
-            "attention_rounds": self.attention_rounds if from_goal else 0,
-        }
+    def temp_settings(self, policy: Any, **changes: Any) -> TEMPSettings:
+        """Every TEMP run's settings: these budgets and seed, ``temp``, then ``changes``."""
+        common = {"seed": self.seed, "max_nodes": self.max_nodes, "time_limit": self.time_limit}
+        return TEMPSettings(**{**common, **self.temp, "policy": policy, **changes})
 
 
 def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
@@ -200,11 +173,7 @@ def evaluate_task(
     seed = settings.seed
     record: dict[str, Any] = {"problem": problem.to_dict(), "planners": {}}
     start_timed_run("temp", problem, policy, settings)
-    temp = plan(
-        problem, planner="temp", policy=policy, seed=seed, max_nodes=settings.max_nodes,
-        time_limit=settings.time_limit, attention_nodes=settings.attention_nodes,
-        stop_at_first=True, **settings.temp_options(),
-    )  # fmt: skip
+    temp = plan(problem, "temp", settings.temp_settings(policy, stop_at_first=True))
     attention = temp.attention
     solved = bool(temp.success and temp.time_to_first_solution is not None)
     record["planners"]["temp"] = {
@@ -232,10 +201,10 @@ def evaluate_task(
     if with_curves:
         record["curves"] = {}
         for name in ("temp", *settings.baselines):
-            kwargs = {"policy": policy, **settings.temp_options()} if name == "temp" else {}
+            chosen = settings.temp_settings(policy) if name == "temp" else None
             result = plan(
-                problem, planner=name, seed=seed, max_nodes=settings.curve_nodes,
-                time_limit=settings.time_limit, **kwargs,
+                problem, name, chosen, seed=seed, max_nodes=settings.curve_nodes,
+                time_limit=settings.time_limit,
             )  # fmt: skip
             record["curves"][name] = {k: np.asarray(v).tolist() for k, v in result.history.items()}
     return record
@@ -402,9 +371,8 @@ def attention_example(
     policy = make_policy()
     policy.record_attention = True
     result = plan(
-        problem, planner="temp", policy=policy, seed=settings.seed, stop_at_first=True,
-        max_nodes=settings.max_nodes, attention_nodes=settings.attention_nodes,
-        **{**settings.temp_options(), "attention_from_goal": False, "attention_rounds": 0},
+        problem, "temp", settings.temp_settings(policy, stop_at_first=True, time_limit=None,
+                                                attention_from_goal=False, attention_rounds=0),
     )  # fmt: skip
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {

@@ -10,6 +10,7 @@
 | `temp_gym.models.fast_eise` | `FastEISE`: one grid's EISE encoding in numba (CPU) |
 | `temp_gym.models.policy` | `TEMPPolicy`: a `SamplingPolicy` (env, `temp` planner) |
 | `temp_gym.models.registry` | the shipped policies: `load_policy`, `shipped_checkpoint` |
+| `temp_gym.models.checkpoint_settings` | the planner settings a checkpoint carries |
 | `temp_gym.models.attention` | per-group attention (SEI, Goal, Start, HPD), Eq. 7-8 |
 | `temp_gym.models.snapshot` | a checkpoint's inference snapshot (numpy), stored beside it |
 | `temp_gym.models.array_backed` | `ArrayBacked`: what `FastMPT` and `FastEISE` build on |

@@ -55,16 +55,9 @@ from temp_gym.models.fast_eise import FastEISE
 from temp_gym.models.fast_mpt import FastMPT, Prefix
 from temp_gym.models.snapshot import ModelInfo, Snapshot
 from temp_gym.planning.policy import check_compatible
-from temp_gym.planning.result import (
-    local_fallback_count,
-    near_goal_factor,
-    noise_level,
-    resume_factor,
-    resume_growth,
-    rounds_count,
-    seed_value,
-    share,
-)
+from temp_gym.planning.settings import noise_level, seed_value
+from temp_gym.planning.temp_settings import DECLARED
+from temp_gym.planning.temp_settings import check as check_setting
 from temp_gym.policies import TASK_KEYS, carries, problem_signature, task_signature
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.encoding import clear_occupancy_grids, occupancy_grid
@@ -245,39 +238,20 @@ class TEMPPolicy:
         backend: ``"torch"``, ``"numba"`` (`FastMPT`, CPU only, takes a snapshot of the
             weights now: build a new policy after training the model further) or ``"auto"``:
             numba on the CPU whenever attention is not recorded, PyTorch otherwise.
-        attention_nodes: the attention-phase budget n the ``temp`` planner uses with this
-            policy when ``plan`` is given none (None: all of ``max_nodes``); shipped policies
-            carry theirs (`temp_gym.load_policy`).
         core: a `PolicyCore` of ``model`` to share (None: a new one); `load_policy` passes
             the cached core of its checkpoint, which may be a snapshot's (no PyTorch until
             the model itself is needed).
         horizon: proposals per call, the first ``horizon`` of the model's chunk (None: all);
             later ones continue a longer guess, so fewer can waste fewer samples.
-        attention_patience: the stall patience the ``temp`` planner uses with this policy when
-            ``plan`` is given none (None: the planner's default rule).
-        attention_uniform: the share of uniform samples the ``temp`` planner mixes into the
-            attention phase with this policy when ``plan`` is given none (None: none).
-        attention_near_goal_factor: how many times its stall patience the attention phase
-            waits with this policy once the tree is near the goal, when ``plan`` is given none
-            (None: 1, the same patience everywhere; `temp_gym.planning.attention`).
-        attention_follow_fallback: probability that the policy goes on from a fallback node
-            that brought the tree no closer to the goal, when ``plan`` is given none (None: 1,
-            always, Algorithm 1's rule; `temp_gym.planning.attention`).
-        attention_resume: classical nodes, in stall patiences, before the attention phase
-            resumes after a stall, when ``plan`` is given none (None: the planner's
-            `temp_gym.planning.attention.RESUME_AFTER`; 0: never).
-        attention_resume_growth: how many times longer each classical turn between resumed
-            attention phases is than the one before, when ``plan`` is given none (None: 1,
-            equal turns).
-        attention_rounds: rounds of the attention phase from both trees after it stalled from
-            the start and from the goal, when ``plan`` is given none (None: the planner's
-            `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`; 0: none).
-        attention_local_fallback: replacements of a colliding proposal drawn near it before
-            uniform ones, when ``plan`` is given none (None: 0, Algorithm 1).
         path_window: the newest nodes of the path so far the MPT reads, at most the L it was
             trained on (None: all L). The path tokens' positions count back from the newest
             node, so a window shows the model the same tokens as the whole path less the oldest
             ones; each MPT call then costs the same in a deep tree as in a shallow one.
+        **planner_settings: the ``temp`` planner's settings this policy carries
+            (`temp_gym.planning.temp_settings.DECLARED`: ``attention_nodes``,
+            ``attention_patience``, ``attention_local_fallback``, ...), each checked as
+            `temp_gym.planning.TEMPSettings` checks it; the planner uses them where its
+            caller set none. Shipped policies carry theirs (`temp_gym.load_policy`).
     """
 
     BACKENDS = ("auto", "torch", "numba")
@@ -290,55 +264,24 @@ class TEMPPolicy:
         record_attention: bool = False,
         device: str | torch.device = "cpu",
         backend: str = "auto",
-        attention_nodes: int | None = None,
         core: PolicyCore | None = None,
         horizon: int | None = None,
-        attention_patience: int | None = None,
-        attention_uniform: float | None = None,
-        attention_near_goal_factor: float | None = None,
-        attention_follow_fallback: float | None = None,
-        attention_resume: float | None = None,
-        attention_resume_growth: float | None = None,
-        attention_rounds: int | None = None,
         path_window: int | None = None,
-        attention_local_fallback: int | None = None,
+        **planner_settings: Any,
     ) -> None:
         noise_std = noise_level(noise_std)
         if seed is not None:
             seed = seed_value(seed)
         if backend not in self.BACKENDS:
             raise ValueError(f"backend: expected one of {self.BACKENDS}, got {backend!r}")
-        if attention_nodes is not None and int(attention_nodes) < 1:
-            raise ValueError(f"attention_nodes: expected >= 1 or None, got {attention_nodes}")
-        self.attention_nodes = None if attention_nodes is None else int(attention_nodes)
-        if attention_patience is not None and int(attention_patience) < 0:
-            raise ValueError(f"attention_patience: expected >= 0 or None, got {attention_patience}")
-        self.attention_patience = None if attention_patience is None else int(attention_patience)
-        self.attention_uniform = (
-            None if attention_uniform is None else share(attention_uniform, "attention_uniform")
-        )
-        self.attention_near_goal_factor = (
-            None
-            if attention_near_goal_factor is None
-            else near_goal_factor(attention_near_goal_factor)
-        )
-        self.attention_follow_fallback = (
-            None
-            if attention_follow_fallback is None
-            else share(attention_follow_fallback, "attention_follow_fallback")
-        )
-        self.attention_resume = (
-            None if attention_resume is None else resume_factor(attention_resume)
-        )
-        self.attention_resume_growth = (
-            None if attention_resume_growth is None else resume_growth(attention_resume_growth)
-        )
-        self.attention_rounds = None if attention_rounds is None else rounds_count(attention_rounds)
-        self.attention_local_fallback = (
-            None
-            if attention_local_fallback is None
-            else local_fallback_count(attention_local_fallback)
-        )
+        for name in DECLARED:  # each set, None when not carried
+            value = planner_settings.pop(name, None)
+            setattr(self, name, None if value is None else check_setting(name, value))
+        if planner_settings:
+            raise TypeError(
+                f"TEMPPolicy: unknown settings {sorted(planner_settings)}; the planner settings "
+                f"a policy carries are {list(DECLARED)}"
+            )
         self.device = device
         if backend == "numba" and (_device_type(device) != "cpu" or record_attention):
             raise ValueError(
@@ -422,6 +365,10 @@ class TEMPPolicy:
         """The dimension d of the robot's configuration space."""
         return self.info.dim
 
+    def planner_settings(self) -> dict[str, Any]:
+        """The ``temp`` planner's settings this policy carries, by name (None: not carried)."""
+        return {name: getattr(self, name) for name in DECLARED}
+
     def fresh(self, **changes: Any) -> TEMPPolicy:
         """A policy of the same model and settings with its own state (noise, problem).
 
@@ -430,15 +377,8 @@ class TEMPPolicy:
         """
         settings = dict(
             noise_std=self.noise_std, seed=self.seed, record_attention=self.record_attention,
-            device=self.device, backend=self.backend, attention_nodes=self.attention_nodes,
-            core=self.core, horizon=self.horizon, attention_patience=self.attention_patience,
-            attention_uniform=self.attention_uniform,
-            attention_near_goal_factor=self.attention_near_goal_factor,
-            attention_follow_fallback=self.attention_follow_fallback,
-            attention_resume=self.attention_resume,
-            attention_resume_growth=self.attention_resume_growth,
-            attention_rounds=self.attention_rounds, path_window=self.path_window,
-            attention_local_fallback=self.attention_local_fallback,
+            device=self.device, backend=self.backend, core=self.core, horizon=self.horizon,
+            path_window=self.path_window, **self.planner_settings(),
         )  # fmt: skip
         unknown = set(changes) - set(settings)
         if unknown:

@@ -210,79 +210,55 @@ def policy_from_checkpoint(
     seed: int | None = None,
     attention_nodes: int | None = None,
     horizon: int | None = None,
-    **planner: float | int,
+    **replaced: float | int,
 ):
-    """A `TEMPPolicy` on the cached checkpoint at ``path``, with its shipped planner settings.
+    """A `TEMPPolicy` on the cached checkpoint at ``path``, with the settings it carries.
 
-    The checkpoint carries the planner settings it was shipped with (`trainers/ship.py`): the
-    attention-phase budget n, used unless ``attention_nodes`` is given, the output noise,
-    used unless ``noise_std`` is given, the proposals used per MPT call (``horizon``), the
-    stall patience and the path window. A checkpoint without them gets n = None (all of the
-    planner's ``max_nodes``), no noise, its whole chunk, the planner's default patience and
-    the whole path the model was trained on. Any other of them given by keyword (those of
-    `temp_gym.config.CHECKPOINT_SETTINGS`: ``path_window=16``, ``attention_rounds=2``, ...)
-    replaces the checkpoint's: a training run not yet shipped is then compared under a
-    shipped policy's settings (`benchmarks/policy_speed.py`).
+    The checkpoint carries the settings it was shipped with (`trainers/ship.py`;
+    `temp_gym.models.checkpoint_settings`): the output noise, the proposals used per MPT
+    call (``horizon``), the path window, and the ``temp`` planner's settings a policy may
+    carry (the attention-phase budget n, the stall patience, ...), which the planner uses
+    where its caller set none. A checkpoint without them gets no noise, its whole chunk, the
+    whole path it was trained on and the planner's defaults. Each given by keyword (those of
+    `temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`: ``path_window=16``,
+    ``attention_rounds=2``, ...) replaces the checkpoint's: a training run not yet shipped is
+    then compared under a shipped policy's settings (`benchmarks/policy_speed.py`).
 
     Raises:
-        ValueError: a keyword that is not one of those.
+        ValueError: a keyword that is not one of those, or an invalid value (naming it).
     """
-    if planner:  # imported only here: the config package would add to a first plan's start-up
-        from temp_gym.config.command_line import CHECKPOINT_SETTINGS
+    from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
 
-        keys = [key for key in CHECKPOINT_SETTINGS if key not in ("noise_std", "horizon")]
-        unknown = sorted(set(planner) - set(keys))
-        if unknown:
-            raise ValueError(f"planner settings: unknown {unknown}; expected some of {keys}")
-    return _policy_on(load_cached(path, robot), noise_std, seed, attention_nodes, horizon, planner)
+    unknown = sorted(set(replaced) - set(CHECKPOINT_SETTINGS))
+    if unknown:
+        raise ValueError(
+            f"planner settings: unknown {unknown}; expected some of {list(CHECKPOINT_SETTINGS)}"
+        )
+    given = {"noise_std": noise_std, "attention_nodes": attention_nodes, "horizon": horizon}
+    replaced.update({key: value for key, value in given.items() if value is not None})
+    return _policy_on(load_cached(path, robot), seed, replaced)
 
 
-def _policy_on(
-    loaded: LoadedCheckpoint,
-    noise_std: float | None = None,
-    seed: int | None = None,
-    attention_nodes: int | None = None,
-    horizon: int | None = None,
-    replaced: dict | None = None,
-):
-    """A new `TEMPPolicy` on a cached checkpoint (`policy_from_checkpoint`'s settings)."""
+def _policy_on(loaded: LoadedCheckpoint, seed: int | None = None, replaced: dict | None = None):
+    """A new `TEMPPolicy` on a cached checkpoint, with its settings (``replaced`` win)."""
+    from temp_gym.models.checkpoint_settings import policy_keywords
     from temp_gym.models.policy import TEMPPolicy
 
-    planner = {**loaded.meta.get("planner", {}), **(replaced or {})}
-    if noise_std is None:
-        noise_std = float(planner.get("noise_std", 0.0))
-    if attention_nodes is None:
-        attention_nodes = planner.get("attention_nodes")
-    if horizon is None:
-        horizon = planner.get("horizon")
-    return TEMPPolicy(
-        None,
-        noise_std=noise_std,
-        seed=seed,
-        attention_nodes=attention_nodes,
-        core=loaded.core,
-        horizon=horizon,
-        attention_patience=planner.get("attention_patience"),
-        attention_uniform=planner.get("attention_uniform"),
-        attention_near_goal_factor=planner.get("attention_near_goal_factor"),
-        attention_follow_fallback=planner.get("attention_follow_fallback"),
-        attention_resume=planner.get("attention_resume"),
-        attention_resume_growth=planner.get("attention_resume_growth"),
-        attention_rounds=planner.get("attention_rounds"),
-        path_window=planner.get("path_window"),
-        attention_local_fallback=planner.get("attention_local_fallback"),
-    )
+    carried = {**loaded.meta.get("planner", {}), **(replaced or {})}
+    return TEMPPolicy(None, seed=seed, core=loaded.core, **policy_keywords(carried))
 
 
 def load_policy(name: str, noise_std: float | None = None, seed: int | None = None):
     """The shipped `TEMPPolicy` for an env id or robot, e.g. ``load_policy("TEMP-7D-v0")``.
 
-    Cached per process (module docstring). The checkpoint carries the planner settings it was
-    shipped with (its model card says how they were chosen): the attention-phase budget n of
-    Algorithm 1, which the ``temp`` planner uses when ``attention_nodes`` is not given, and
-    the output noise, used unless ``noise_std`` is given.
+    Cached per process (module docstring). The checkpoint carries the settings it was shipped
+    with (its model card says how they were chosen; `policy_from_checkpoint` lists them): the
+    output noise, used unless ``noise_std`` is given, and the ``temp`` planner's settings it
+    was tuned with (the attention-phase budget n, the stall patience, ...), which ``plan``
+    uses where its caller sets none (`temp_gym.planning.TEMPSettings`).
     """
-    return _policy_on(_load_shipped(robot_of(name)), noise_std, seed)
+    given = {} if noise_std is None else {"noise_std": noise_std}
+    return _policy_on(_load_shipped(robot_of(name)), seed, given)
 
 
 def _load_shipped(spec: RobotSpec) -> LoadedCheckpoint:

@@ -21,8 +21,9 @@ import numpy as np
 from temp_gym.planning import _compiled_anytime as compiled
 from temp_gym.planning._compiled_tree import slice_length
 from temp_gym.planning._generator import address
-from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.result import AnytimeLog
 from temp_gym.planning.samplers import GoalBiasedSampler, InformedSampler, UniformSampler
+from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
 

@@ -66,8 +66,8 @@ from temp_gym.planning._compiled_tree import FALLBACK_BATCH, slice_length, squar
 from temp_gym.planning._generator import address
 from temp_gym.planning.observation import TreeObserver
 from temp_gym.planning.policy import SamplingPolicy, fast_path, observation_settings
-from temp_gym.planning.result import MAX_COUNT
 from temp_gym.planning.samplers import UniformSampler
+from temp_gym.planning.settings import MAX_COUNT
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.collision.compiled import compiled_context_of

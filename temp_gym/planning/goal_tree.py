@@ -59,7 +59,8 @@ from temp_gym.planning.attention import (
     run_attention_phase,
 )
 from temp_gym.planning.policy import SamplingPolicy, fast_path
-from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.result import AnytimeLog
+from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
 

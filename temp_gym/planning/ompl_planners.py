@@ -24,7 +24,7 @@ longest edge and near-radius cap as ours (its steered edges are then up to two o
 long). In the same empty 3D world OMPL's RRTstar then reaches 1.18x at 2000 nodes (2D: 1.015x,
 against 1.04x with ``range = step``). ``K_NEAREST = False`` selects OMPL's radius rule, the rule
 our planners use; InformedRRTstar keeps OMPL's other defaults (tree pruning, informed sampling).
-Set ``RANGE_FACTOR = 1.0`` for OMPL's steps equal to ours.
+Pass ``range=step_size`` (`OMPLSettings.range`) for OMPL's steps equal to ours.
 
 Not the cause (checked): the termination condition is evaluated once per iteration and
 ``solve`` runs once; the objective's cost threshold is ``-inf`` unless ``stop_at_first`` or
@@ -49,10 +49,12 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings
+from temp_gym.planning.result import AnytimeLog, PlanResult
+from temp_gym.planning.settings import PlanSettings, flag, positive
 from temp_gym.planning.tree import default_step_size
 from temp_gym.problem import Problem
 from temp_gym.worlds.checkers import certify_path, make_checker
@@ -60,9 +62,10 @@ from temp_gym.worlds.collision import CollisionChecker
 
 OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star")
 RANGE_FACTOR = 2.0
-"""OMPL's ``range`` is this many steering steps (see the module docstring)."""
+"""OMPL's ``range`` is this many steering steps unless given (see the module docstring)."""
 K_NEAREST = False
-"""Whether OMPL's RRTstar uses k-nearest neighbours (True) or its radius rule (False)."""
+"""Whether OMPL's RRTstar uses k-nearest neighbours (True) or its radius rule (False), unless
+given."""
 _SEEDED = False
 MAX_SEED = 2**64 - 2
 """Largest seed the OMPL planners take (OMPL's seeds are 64-bit and may not be 0)."""
@@ -102,12 +105,39 @@ class _Counters:
         self.first_check_pending = False
 
 
+@dataclass(frozen=True)
+class OMPLSettings(PlanSettings):
+    """The settings of OMPL's planners: the common ones plus OMPL's own."""
+
+    range: float | None = None
+    """OMPL's ``range``: the steering step and longest edge (world units; None:
+    `RANGE_FACTOR` steering steps, see the module docstring)."""
+    k_nearest: bool = K_NEAREST
+    """Neighbours by OMPL's k-nearest rule (True) or by its radius rule (False, ours)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.range is not None:
+            self._normalize("range", positive(self.range, "range"))
+        self._normalize("k_nearest", flag(self.k_nearest, "k_nearest"))
+
+
+@dataclass(frozen=True)
+class OMPLRRTStarSettings(OMPLSettings):
+    """``ompl_rrt_star``'s settings (`OMPLSettings`)."""
+
+
+@dataclass(frozen=True)
+class OMPLInformedRRTStarSettings(OMPLSettings):
+    """``ompl_informed_rrt_star``'s settings (`OMPLSettings`)."""
+
+
 MIN_EXTENT = 1e-12
 """Shortest diagonal of the bounds OMPL plans in: its longest valid segment (1% of the
 diagonal) must be a positive double well above rounding, or ``SpaceInformation.setup`` fails."""
 
 
-def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> PlanResult:
+def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> PlanResult:
     """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result.
 
     A start already in the goal region is a solution of cost 0, returned as our planners
@@ -183,8 +213,8 @@ def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> Plan
 
     planner = og.RRTstar(si) if name == "ompl_rrt_star" else og.InformedRRTstar(si)
     step = default_step_size(problem) if settings.step_size is None else settings.step_size
-    planner.setRange(RANGE_FACTOR * step)
-    planner.setKNearest(K_NEAREST)
+    planner.setRange(RANGE_FACTOR * step if settings.range is None else settings.range)
+    planner.setKNearest(settings.k_nearest)
     planner.setGoalBias(settings.goal_bias)
     planner.setProblemDefinition(pdef)
     planner.setup()

@@ -2,12 +2,25 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from temp_gym.planning.anytime import grow_anytime
-from temp_gym.planning.result import AnytimeLog, PlanResult, PlanSettings, tree_plan_result
+from temp_gym.planning.result import AnytimeLog, PlanResult, tree_plan_result
+from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
+
+
+@dataclass(frozen=True)
+class RRTStarSettings(PlanSettings):
+    """``rrt_star``'s settings: the common ones (`PlanSettings`); it has none of its own."""
+
+
+@dataclass(frozen=True)
+class InformedRRTStarSettings(PlanSettings):
+    """``informed_rrt_star``'s settings: the common ones (`PlanSettings`); none of its own."""
 
 
 def run_tree_planner(
@@ -27,11 +40,11 @@ def run_tree_planner(
     return tree_plan_result(problem, tree, name, settings, log)
 
 
-def rrt_star(problem: Problem, settings: PlanSettings) -> PlanResult:
+def rrt_star(problem: Problem, settings: RRTStarSettings) -> PlanResult:
     """RRT* (Karaman & Frazzoli 2011) with goal-biased uniform sampling."""
     return run_tree_planner(problem, settings, "rrt_star", informed=False)
 
 
-def informed_rrt_star(problem: Problem, settings: PlanSettings) -> PlanResult:
+def informed_rrt_star(problem: Problem, settings: InformedRRTStarSettings) -> PlanResult:
     """Informed RRT* (Gammell et al. 2014): uniform until a solution, then informed sampling."""
     return run_tree_planner(problem, settings, "informed_rrt_star", informed=True)

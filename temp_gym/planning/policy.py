@@ -35,17 +35,10 @@ policy without one (or with None) gets the default:
   (default: the robot's);
 * ``max_path_length``: L, the path-so-far rows of the observation (default
   `DEFAULT_MAX_PATH_LENGTH`);
-* ``attention_nodes``, ``attention_patience``, ``attention_uniform``,
-  ``attention_near_goal_factor``, ``attention_follow_fallback``, ``attention_resume``,
-  ``attention_resume_growth``, ``attention_rounds``, ``attention_local_fallback``: the
-  attention phase's budget, stall patience, share of uniform samples, patience factor near
-  the goal, probability of going on from a fallback node, classical nodes before it resumes
-  after a stall (in patiences), how much longer each later classical turn is, rounds from
-  both trees after it stalled both ways, and replacements of a colliding proposal drawn near
-  it, when ``plan`` is given none (defaults: all of ``max_nodes``,
-  `temp_gym.planning.attention.default_patience`, 0, 1, 1,
-  `temp_gym.planning.attention.RESUME_AFTER`, 1, `temp_gym.planning.goal_tree.ATTENTION_ROUNDS`,
-  0).
+* the ``temp`` planner's settings a policy may carry (`temp_gym.planning.temp_settings.DECLARED`:
+  ``attention_nodes``, ``attention_patience``, ``attention_local_fallback``, ...), which the
+  planner uses where the caller set none (`temp_gym.planning.temp_settings.TEMPSettings` says
+  what each means and its default). A shipped policy carries those it was tuned with.
 
 A policy whose ``reset`` takes the problem alone still works through `as_sampling_policy`
 (``plan`` adapts it, with a ``DeprecationWarning``).
@@ -57,12 +50,13 @@ import inspect
 import warnings
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import make_dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH
+from temp_gym.planning.temp_settings import DECLARED
 from temp_gym.problem import Problem
 
 
@@ -116,25 +110,22 @@ class CompiledProposer(Protocol):
         ...
 
 
-@dataclass(frozen=True)
-class PolicySettings:
-    """The settings a policy declares (None: not declared, the default applies)."""
+OBSERVATION_SETTINGS = ("encoding_resolution", "max_path_length")
+"""The declared settings that shape the observation a policy reads."""
 
-    encoding_resolution: int | None = None
-    max_path_length: int | None = None
-    attention_nodes: int | None = None
-    attention_patience: int | None = None
-    attention_uniform: float | None = None
-    attention_near_goal_factor: float | None = None
-    attention_follow_fallback: float | None = None
-    attention_resume: float | None = None
-    attention_resume_growth: float | None = None
-    attention_rounds: int | None = None
-    attention_local_fallback: int | None = None
-
-
-POLICY_SETTINGS = tuple(field.name for field in fields(PolicySettings))
+POLICY_SETTINGS = (*OBSERVATION_SETTINGS, *DECLARED)
 """The optional attributes a policy may declare (module docstring)."""
+
+PolicySettings = make_dataclass(
+    "PolicySettings",
+    [(name, Any, None) for name in POLICY_SETTINGS],
+    frozen=True,
+)
+PolicySettings.__module__ = __name__
+PolicySettings.__doc__ = """The settings a policy declares (None: not declared, the default).
+
+One field per name of `POLICY_SETTINGS`: the observation's sizes, then the ``temp`` planner's
+settings a policy may carry (`temp_gym.planning.temp_settings.DECLARED`)."""
 
 
 FAST_PATHS = ("compiled_proposer", "propose_chunk", "propose")

@@ -77,7 +77,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Iterator
-from typing import TypeVar
 
 import numpy as np
 
@@ -92,24 +91,11 @@ from temp_gym.planning.attention import (
     run_attention_phase,
 )
 from temp_gym.planning.goal_tree import ATTENTION_ROUNDS, GoalTree
-from temp_gym.planning.policy import PolicySettings, SamplingPolicy, policy_settings
-from temp_gym.planning.result import (
-    AnytimeLog,
-    PlanResult,
-    PlanSettings,
-    local_fallback_count,
-    near_goal_factor,
-    resume_factor,
-    resume_growth,
-    rounds_count,
-    share,
-    tree_plan_result,
-)
+from temp_gym.planning.policy import SamplingPolicy
+from temp_gym.planning.result import AnytimeLog, PlanResult, tree_plan_result
+from temp_gym.planning.temp_settings import TEMPSettings, resolve
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
-
-Number = TypeVar("Number", int, float)
-"""A setting's type: `_given_or_declared` returns what its check and default give."""
 
 
 def set_default_policy(loader: Callable[[str], SamplingPolicy] | None) -> None:
@@ -134,8 +120,14 @@ def default_policy(robot: str) -> SamplingPolicy:
     return loader(robot)
 
 
-def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
-    """Plan with a sampling policy (AP, Algorithm 1), then Informed RRT* (CP)."""
+def temp(problem: Problem, settings: TEMPSettings) -> PlanResult:
+    """Plan with a sampling policy (AP, Algorithm 1), then Informed RRT* (CP).
+
+    Each setting left None takes the policy's own, else the planner's default
+    (`temp_gym.planning.temp_settings.resolve`).
+    """
+    if not isinstance(settings, TEMPSettings):  # common settings alone: TEMP's defaults
+        settings = TEMPSettings(**vars(settings.common()))
     policy = settings.policy
     if policy is None:
         policy = default_policy(problem.robot)
@@ -143,28 +135,19 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
     policy.reset(problem, seed=settings.seed)
-    declared = policy_settings(policy)
-    attention_nodes = settings.attention_nodes
-    if attention_nodes is None:  # the policy's own budget n (a shipped one carries it)
-        attention_nodes = declared.attention_nodes
-    if attention_nodes is None:
-        attention_nodes = settings.max_nodes
-    patience = settings.attention_patience
-    if patience is None:  # the policy's own (a shipped one may carry it), else the rule
-        patience = declared.attention_patience
+    # The budget n (all of max_nodes by default) and the patience (its default follows the
+    # start-goal distance) are resolved like every other setting.
+    attention_nodes = resolve(settings, policy, "attention_nodes", settings.max_nodes)
+    patience = resolve(settings, policy, "attention_patience", None)
     if patience is None:
         patience = default_patience(problem, tree.step_size)
-    factor = _given_or_declared(
-        settings, declared, "attention_near_goal_factor", near_goal_factor, default=1.0
-    )
+    factor = resolve(settings, policy, "attention_near_goal_factor", 1.0)
     near_sq, near_patience = (
         near_goal_limits(problem, patience, factor) if factor > 1 else (-1.0, 0)
     )
 
     # ---- attention-based planning (Algorithm 1)
-    local_tries = _given_or_declared(
-        settings, declared, "attention_local_fallback", local_fallback_count, default=0
-    )
+    local_tries = resolve(settings, policy, "attention_local_fallback", 0)
     limits = AttentionLimits(
         attention_nodes=attention_nodes,
         max_nodes=settings.max_nodes,
@@ -175,19 +158,11 @@ def temp(problem: Problem, settings: PlanSettings) -> PlanResult:
         deadline=settings.deadline(log.started),
         local_tries=local_tries,
     )
-    uniform = settings.attention_uniform
-    if uniform is None:
-        uniform = declared.attention_uniform or 0.0
-    follow = _given_or_declared(settings, declared, "attention_follow_fallback", share, default=1.0)
-    resume = _given_or_declared(
-        settings, declared, "attention_resume", resume_factor, default=RESUME_AFTER
-    )
-    growth = _given_or_declared(
-        settings, declared, "attention_resume_growth", resume_growth, default=1.0
-    )
-    rounds = _given_or_declared(
-        settings, declared, "attention_rounds", rounds_count, default=ATTENTION_ROUNDS
-    )
+    uniform = resolve(settings, policy, "attention_uniform", 0.0)
+    follow = resolve(settings, policy, "attention_follow_fallback", 1.0)
+    resume = resolve(settings, policy, "attention_resume", RESUME_AFTER)
+    growth = resolve(settings, policy, "attention_resume_growth", 1.0)
+    rounds = resolve(settings, policy, "attention_rounds", ATTENTION_ROUNDS)
     keep_chunk = bool(settings.attention_keep_chunk)  # None: False, the rule shipped policies use
     outcome = run_attention_phase(
         tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow,
@@ -263,30 +238,11 @@ def attention_solved_both_ways(attention: dict) -> bool:
     )
 
 
-def _less_budget(settings: PlanSettings, nodes: int) -> PlanSettings:
+def _less_budget(settings: TEMPSettings, nodes: int) -> TEMPSettings:
     """``settings`` with ``nodes`` fewer tree nodes (grown elsewhere: the goal tree's)."""
     if nodes == 0:
         return settings
     return settings.derived(max_nodes=int(max(settings.max_nodes - nodes, 1)))
-
-
-def _given_or_declared(
-    settings: PlanSettings,
-    declared: PolicySettings,
-    name: str,
-    check: Callable[[object, str], Number],
-    default: Number,
-) -> Number:
-    """Setting ``name``: ``plan()``'s (already checked), else the policy's, else ``default``.
-
-    A policy's declared value is checked as ``plan()`` checks its argument, naming it
-    ``policy.<name>``.
-    """
-    given = getattr(settings, name)
-    if given is not None:
-        return given
-    value = getattr(declared, name)
-    return default if value is None else check(value, f"policy.{name}")
 
 
 def _resume_until_solved(
@@ -294,7 +250,7 @@ def _resume_until_solved(
     policy: SamplingPolicy,
     rng: np.random.Generator,
     log: AnytimeLog,
-    settings: PlanSettings,
+    settings: TEMPSettings,
     limits: AttentionLimits,
     classical_nodes: int,
     growth: float,

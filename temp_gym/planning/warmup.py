@@ -35,13 +35,15 @@ ours too (OMPL seeds a process-wide stream at its first run, which must stay the
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numba.core import event
 
-from temp_gym.planning.result import PlanResult, PlanSettings
+from temp_gym.planning.settings import PlanSettings
+from temp_gym.planning.temp_settings import TEMPSettings
 from temp_gym.planning.tree import default_step_size, workspace_free_volume
 from temp_gym.problem import Problem
 from temp_gym.worlds.checkers import certify_path, make_checker
@@ -82,18 +84,16 @@ class CompileNotice(event.Listener):
 
 
 def warm_up(
-    problem: Problem,
-    planner: str,
-    settings: PlanSettings,
-    planners: dict[str, Callable[[Problem, PlanSettings], PlanResult]],
+    problem: Problem, planner: str, settings: PlanSettings, planners: Mapping[str, Any]
 ) -> bool:
     """Plan ``problem`` briefly with ``planner`` unless this process already did; untimed.
 
-    Returns whether a warm-up ran. Keyed by (robot, planner): kernels are compiled per
-    process, not per problem.
+    ``settings`` are the planner's (`temp_gym.planning.registry.settings_for`), ``planners``
+    the registry. Returns whether a warm-up ran. Keyed by (robot, planner): kernels are
+    compiled per process, not per problem.
     """
     name = STAND_INS.get(planner, planner)
-    policy = settings.policy
+    policy = settings.policy if isinstance(settings, TEMPSettings) else None
     fresh = None if policy is None else getattr(policy, "fresh", None)
     if name == "temp" and policy is not None and fresh is None:
         name = "rrt_star"
@@ -102,33 +102,37 @@ def warm_up(
         return False
     _WARMED.add(key)
     with event.install_listener("numba:compile", CompileNotice(problem.robot)):
-        _warm(problem, name, settings, planners)
+        _warm(problem, planner, name, settings, planners)
     return True
 
 
 def _warm(
     problem: Problem,
+    planner: str,
     name: str,
     settings: PlanSettings,
-    planners: dict[str, Callable[[Problem, PlanSettings], PlanResult]],
+    planners: Mapping[str, Any],
 ) -> None:
-    """The warm-up plans and checks of `warm_up` (its docstring and the module's say which)."""
-    policy = settings.policy
+    """The warm-up plans and checks of `warm_up` (its docstring and the module's say which).
+
+    ``name`` is the planner that plans them: ``planner`` itself, or its stand-in.
+    """
+    policy = settings.policy if isinstance(settings, TEMPSettings) else None
     fresh = None if policy is None else getattr(policy, "fresh", None)
     if name == "temp" and fresh is not None:
         policy = fresh()
         if policy is None:  # no copy to be had: warm up what every planner shares
             name = "rrt_star"
     short = replace(
-        settings,
+        settings if name == planner else settings.common(),  # a stand-in: the common ones
         max_nodes=WARM_UP_NODES,
         max_samples=None,
         time_limit=None,
         stop_at_first=False,
         target_cost=None,
-        attention_nodes=WARM_UP_NODES // 2,
-        policy=policy if name == "temp" else None,
     )
+    if isinstance(short, TEMPSettings):
+        short = replace(short, attention_nodes=WARM_UP_NODES // 2, policy=policy)
     planners[name](problem, short)
     # The short plan may find no path: plan once more with the start inside the goal region
     # (solution extraction), and certify one short motion (the exact checker).
@@ -138,7 +142,7 @@ def _warm(
     # Our planners' loops check motions in compiled code; OMPL's callbacks (and Python loops)
     # call the fast checker's Python methods: compile those too.
     checker = make_checker(problem)
-    if name == "temp" and settings.goal_tree is not False:
+    if isinstance(short, TEMPSettings) and settings.goal_tree is not False:
         near = _joinable_problem(problem, checker, settings.step_size)
         if near is not None:  # the attention phase ends unsolved, the goal tree joins
             planners[name](near, replace(short, attention_nodes=1))

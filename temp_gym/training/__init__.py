@@ -34,6 +34,7 @@ from temp_gym.training.episodes import (
     plan_episode,
     run_episode,
     summarize,
+    temp_settings,
 )
 from temp_gym.training.logs import (
     FINAL_DESCRIPTION,
@@ -82,4 +83,5 @@ __all__ = [
     "plan_episode",
     "run_episode",
     "summarize",
+    "temp_settings",
 ]

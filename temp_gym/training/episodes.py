@@ -8,35 +8,46 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import asdict
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from temp_gym.config import Config, TrainEvalConfig
+from temp_gym.config import Config, TEMPConfig, TrainEvalConfig
 from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.planning.plan import plan
 from temp_gym.planning.temp_planner import attention_solved_both_ways
+from temp_gym.planning.temp_settings import TEMPSettings, resolve
 from temp_gym.problem import Problem
 from temp_gym.worlds.structured import BOXES
 from temp_gym.wrappers.metrics import INFO_KEY, PlanningMetrics
 
 
 def make_env(
-    config: Config, fallback: str = "random", split: str = "test", workspace_family: str = BOXES
+    config: Config,
+    fallback: str = "random",
+    split: str = "test",
+    workspace_family: str = BOXES,
+    policy: Any = None,
 ) -> gym.Env:
     """The planning env of the ``env`` section, with ``train_eval``'s tasks and budget.
 
     Its tasks are drawn in ``split``'s workspaces of ``workspace_family`` (the paper's
-    protocol: ``boxes``). Wrapped in `PlanningMetrics`.
+    protocol: ``boxes``). Its fallback draws ``train_eval.temp.attention_local_fallback``
+    replacements near a colliding action, else as many as ``policy`` carries (the one that
+    will step it), else none, as the ``temp`` planner would with that policy. Wrapped in
+    `PlanningMetrics`.
     """
     env_config, eval_config = config.env, config.train_eval
+    local = resolve(temp_settings(eval_config.temp), policy, "attention_local_fallback", 0)
     env = gym.make(
         env_config.id,
         difficulty=eval_config.difficulty,
         max_nodes=eval_config.max_nodes,
         step_size=env_config.step_size,
         fallback=fallback,
+        attention_local_fallback=local,
         encoding_resolution=env_config.encoding_resolution,
         split=split,
         workspace_family=workspace_family,
@@ -139,34 +150,35 @@ def summarize(episodes: list[dict[str, float]], max_nodes: int) -> dict[str, flo
     }
 
 
+def temp_settings(
+    section: TEMPConfig, policy: Any = None, where: str = "train_eval.temp"
+) -> TEMPSettings:
+    """The `TEMPSettings` of a config's ``temp`` section (and ``policy``), checked.
+
+    Null keys stay None: the policy's own, else the planner's defaults. A bad key's error
+    names it ``{where}.{key}``.
+    """
+    return TEMPSettings.at(where, policy=policy, **asdict(section))
+
+
 def plan_episode(
     problem: Problem, planner: str, seed: int, eval_config: TrainEvalConfig, policy=None
 ) -> dict:
     """One `temp_gym.plan` run up to the first solution, as a `summarize` episode.
 
-    ``eval_config`` gives the budget and, for ``temp``, the attention phase's settings.
+    ``eval_config`` gives the budget and, for ``temp``, the planner's settings (its ``temp``
+    section, `TEMPSettings`); its null ones take the policy's own.
     """
-    temp = planner == "temp"
-    from_goal = eval_config.attention_from_goal and eval_config.goal_tree
+    settings = None
+    if planner == "temp":
+        settings = temp_settings(eval_config.temp, policy)
     result = plan(
         problem,
-        planner=planner,
+        planner,
+        settings,
         seed=seed,
         max_nodes=eval_config.max_nodes,
         stop_at_first=True,
-        policy=policy,
-        attention_nodes=eval_config.attention_nodes if temp else None,
-        attention_patience=eval_config.attention_patience if temp else None,
-        attention_uniform=eval_config.attention_uniform if temp else None,
-        attention_near_goal_factor=eval_config.attention_near_goal_factor if temp else None,
-        attention_follow_fallback=eval_config.attention_follow_fallback if temp else None,
-        attention_local_fallback=eval_config.attention_local_fallback if temp else None,
-        attention_resume=eval_config.attention_resume if temp else None,
-        attention_resume_growth=eval_config.attention_resume_growth if temp else None,
-        attention_keep_chunk=eval_config.attention_keep_chunk if temp else None,
-        goal_tree=eval_config.goal_tree if temp else None,
-        attention_from_goal=from_goal if temp else None,
-        attention_rounds=(eval_config.attention_rounds if from_goal else 0) if temp else None,
     )
     episode = {
         "success": float(result.success),

@@ -69,6 +69,20 @@ CASES = {
         ("evaluate.py", "--config", TINY, "evaluation.tasks=0", "evaluation.out=out"),
         ["evaluation.tasks"],
     ),
+    "evaluate: a TEMP setting under its old flat key": (
+        ("evaluate.py", "--config", TINY, "evaluation.attention_rounds=2", "evaluation.out=out"),
+        ["evaluation.temp.attention_rounds"],
+    ),
+    "evaluate: a TEMP setting out of range": (
+        (
+            "evaluate.py",
+            "--config",
+            TINY,
+            "evaluation.temp.attention_uniform=2",
+            "evaluation.out=out",
+        ),
+        ["evaluation.temp.attention_uniform", "at most 1"],
+    ),
     "temp-plan: planner unknown": (
         ("temp-plan", "{folder}/problem.json", "--planner", "rrt"),
         ["--planner", "rrt_star"],
@@ -97,6 +111,25 @@ CASES = {
         ("temp-plan", "{folder}/problem.json", "--out", "{folder}/file.txt"),
         ["not a temp-plan result"],
     ),
+    "temp-plan: a setting of another planner": (
+        (
+            "temp-plan",
+            "{folder}/problem.json",
+            "--planner",
+            "rrt_star",
+            "--set",
+            "attention_patience=30",
+        ),
+        ["--set attention_patience", "TEMPSettings"],
+    ),
+    "temp-plan: a setting out of range": (
+        ("temp-plan", "{folder}/problem.json", "--set", "goal_bias=2"),
+        ["--set goal_bias", "[0, 1]"],
+    ),
+    "temp-plan: a setting that is not KEY=VALUE": (
+        ("temp-plan", "{folder}/problem.json", "--set", "goal_bias"),
+        ["--set", "KEY=VALUE"],
+    ),
     "temp-plan: /dev/zero as checkpoint": (
         ("temp-plan", "{folder}/problem.json", "--checkpoint", "/dev/zero"),
         ["not a regular file"],
@@ -104,6 +137,10 @@ CASES = {
     "tune_planner: no tasks": (
         ("tune_planner.py", "--config", TINY, "--checkpoint", SHIPPED_2D, "--tasks", "0"),
         ["--tasks"],
+    ),
+    "tune_planner: no attention-phase budget in the config": (
+        ("tune_planner.py", "--config", TINY, "train_eval.temp.attention_nodes=0"),
+        ["train_eval.temp.attention_nodes", "at least 1"],
     ),
     "tune_planner: per-task file over the config": (
         (

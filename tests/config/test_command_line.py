@@ -2,7 +2,8 @@ from pathlib import Path
 
 import pytest
 
-from temp_gym.config import checkpoint_entry, labelled_entry
+from temp_gym.config import labelled_entry
+from temp_gym.models.checkpoint_settings import checkpoint_entry
 
 
 def test_a_checkpoint_entry_gives_its_path_and_typed_settings():

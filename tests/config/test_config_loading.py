@@ -5,13 +5,16 @@ from __future__ import annotations
 import doctest
 import json
 import re
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
 
 import temp_gym.config
 from temp_gym.config import (
+    MOVED_KEYS,
     ConfigError,
+    TEMPConfig,
     apply_overrides,
     differing_keys,
     load_config,
@@ -173,16 +176,9 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
     assert "eval" in stored and "train_eval" not in stored
     assert "horizon" not in stored["evaluation"]
     upgraded = upgrade_stored(stored)
-    assert upgraded["train_eval"] == {**stored["eval"], "attention_patience": None,
-                                      "attention_uniform": None,
-                                      "attention_near_goal_factor": None,
-                                      "attention_follow_fallback": None,
-                                      "attention_local_fallback": None,
-                                      "attention_resume": None,
-                                      "attention_resume_growth": None,
-                                      "attention_keep_chunk": None,
-                                      "goal_tree": True, "attention_from_goal": True,
-                                      "attention_rounds": None}  # fmt: skip
+    flat = {key: value for key, value in stored["eval"].items() if key != "attention_nodes"}
+    assert upgraded["train_eval"] == {**flat, "temp": {**asdict(TEMPConfig()),
+                                                       "attention_nodes": None}}  # fmt: skip
     assert upgraded["evaluation"]["horizon"] is None and "eval" not in upgraded
     # The command that started that run gives the same config today, key for key.
     today = load_config("configs/3d.yaml", [
@@ -194,6 +190,22 @@ def test_a_config_stored_before_the_rename_upgrades_to_the_same_config():
     # ... and a real difference still shows.
     changed = apply_overrides(today, ["model.num_layers=2"]).to_dict()
     assert differing_keys(upgraded, changed) == ["model.num_layers"]
+
+
+def test_temp_settings_stored_flat_move_into_their_section_and_old_keys_name_the_new():
+    # Configs stored before TEMP's settings had their own section held them flat.
+    stored = load_config("configs/2d.yaml").to_dict()
+    stored["train_eval"].pop("temp")
+    stored["train_eval"].update(attention_patience=30, goal_tree=False)
+    upgraded = upgrade_stored(stored)
+    assert "attention_patience" not in upgraded["train_eval"]
+    assert upgraded["train_eval"]["temp"] == {**asdict(TEMPConfig()), "attention_patience": 30,
+                                              "goal_tree": False}  # fmt: skip
+    assert MOVED_KEYS["evaluation.attention_rounds"] == "evaluation.temp.attention_rounds"
+    with pytest.raises(
+        ConfigError, match=r"\(the key is now train_eval.temp.attention_patience\)$"
+    ):
+        load_config("configs/2d.yaml", ["train_eval.attention_patience=30"])
 
 
 def test_upgrading_keeps_keys_that_are_gone():

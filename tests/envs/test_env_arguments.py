@@ -23,6 +23,8 @@ import temp_gym  # noqa: F401  (registers the envs)
         ({"step_size": float("inf")}, "step_size"),
         ({"max_fallback_tries": float("nan")}, "max_fallback_tries"),  # failed at the first step
         ({"max_fallback_tries": -3}, "max_fallback_tries"),
+        ({"attention_local_fallback": -1}, "attention_local_fallback"),
+        ({"attention_local_fallback": 2.5}, "attention_local_fallback"),
         ({"step_penalty": float("nan")}, "step_penalty"),  # gave NaN rewards
         ({"success_reward": "1"}, "success_reward"),
     ],
@@ -75,3 +77,36 @@ def test_an_episode_of_colliding_actions_is_truncated_by_the_sample_budget():
     assert info["nodes"] < 50 and not info["added"]  # the node budget never ended it
     default = gym.make("TEMP-2D-v0", max_nodes=50).unwrapped
     assert default.max_samples == 5000
+
+
+def test_replacements_near_the_action_are_drawn_as_the_planner_draws_them():
+    """With ``attention_local_fallback`` the env's fallback is `Tree.extend_with_fallback`'s
+    with that many tries near the action, the attention phase's."""
+    from temp_gym.planning.samplers import UniformSampler
+    from temp_gym.planning.tree import Tree
+
+    env = gym.make("TEMP-2D-v0", attention_local_fallback=5).unwrapped
+    env.reset(seed=3)
+    tree = Tree(env.problem, step_size=env.tree.step_size)
+    sampler, rng = UniformSampler(env.problem.bounds), np.random.default_rng(11)
+    env.np_random = np.random.default_rng(11)
+    actions = np.random.default_rng(0).uniform(-1, 1, (40, 2)).astype(np.float32)
+    for action in actions:
+        env.step(action)
+        tree.extend_with_fallback(action, sampler, rng, 1000, normalized=True, local_tries=5)
+    n = tree.num_nodes
+    assert env.tree.num_nodes == n and env.tree.sampling_failures == tree.sampling_failures
+    np.testing.assert_array_equal(env.tree.positions[:n], tree.positions[:n])
+
+
+def test_the_trainers_env_takes_the_local_fallback_of_the_policy_that_steps_it():
+    from temp_gym import load_policy
+    from temp_gym.config import load_config
+    from temp_gym.training import make_env
+
+    config = load_config("configs/2d.yaml")
+    policy = load_policy("TEMP-2D-v0")
+    assert make_env(config, policy=policy).unwrapped.local_fallback == 5  # what it carries
+    assert make_env(config).unwrapped.local_fallback == 0  # no policy: Algorithm 1
+    told = load_config("configs/2d.yaml", ["train_eval.temp.attention_local_fallback=2"])
+    assert make_env(told, policy=policy).unwrapped.local_fallback == 2

@@ -16,6 +16,7 @@ from temp_gym.evaluation.runner import (
     warm_up_problem,
 )
 from temp_gym.planning.plan import plan
+from temp_gym.planning.temp_settings import OWN
 from temp_gym.policies import UniformPolicy
 
 
@@ -24,12 +25,15 @@ def make_policy():
 
 
 def settings(**changes):
+    """Evaluation settings with ``changes``; TEMP's own settings among them go to ``temp``."""
+    temp = {name: changes.pop(name) for name in list(changes) if name in OWN}
     base = dict(
         robot="point2d",
         groups={"2D easy": ("easy", 2), "2D challenging": ("challenging", 2)},
         max_nodes=3000,
         curve_tasks=1,
         curve_nodes=300,
+        temp=temp,
     )
     base.update(changes)
     return EvaluationSettings(**base)
@@ -50,9 +54,9 @@ def test_each_timed_run_follows_a_warm_run_of_its_planner_that_changes_no_result
     assert warm.workspace not in tests  # warm runs fill no cache a timed run reads
     calls = []
 
-    def recording(problem, planner="temp", **kwargs):
+    def recording(problem, planner="temp", settings=None, **kwargs):
         calls.append((planner, problem is warm))
-        return plan(problem, planner=planner, **kwargs)
+        return plan(problem, planner, settings, **kwargs)
 
     monkeypatch.setattr(runner, "plan", recording)
     problem = evaluation_problem("point2d", "easy", 0)
@@ -87,7 +91,7 @@ def test_each_timed_run_starts_on_a_workspace_nothing_remembers(monkeypatch):
     policy = load_policy("TEMP-2D-v0")
     seen = []
 
-    def recording(planned, planner="temp", **kwargs):
+    def recording(planned, planner="temp", settings=None, **kwargs):
         if planned is problem:  # a timed run
             space = planned.workspace
             seen.append(
@@ -98,7 +102,7 @@ def test_each_timed_run_starts_on_a_workspace_nothing_remembers(monkeypatch):
                     space in policy.core._sei,
                 )
             )
-        return plan(planned, planner=planner, **kwargs)
+        return plan(planned, planner, settings, **kwargs)
 
     monkeypatch.setattr(runner, "plan", recording)
     records = {}
@@ -311,10 +315,14 @@ def test_the_evaluation_takes_the_rounds_it_is_set_to(rounds):
     temp = record["planners"]["temp"]
     assert temp["nodes"] == run.nodes_to_first_solution and temp["cost"] == run.cost
     assert temp["rounds_solved"] == run.attention["rounds_solved"]
-    # Without the goal tree there are no rounds, whatever the setting says.
+    # Without the goal tree there are no rounds: asking for some is refused, naming them.
     alone = settings(attention_patience=5, baselines=(), attention_rounds=rounds, goal_tree=False)
-    assert alone.temp_options()["attention_rounds"] == 0
-    assert evaluate_task(problem, Stuck(), alone, with_curves=False)["planners"]["temp"]["success"]
+    if rounds:
+        with pytest.raises(ValueError, match="^attention_rounds: .*goal_tree=False"):
+            evaluate_task(problem, Stuck(), alone, with_curves=False)
+    else:
+        record = evaluate_task(problem, Stuck(), alone, with_curves=False)
+        assert record["planners"]["temp"]["success"]
 
 
 def test_attention_example_shows_the_phase_from_the_start_whatever_stalls():

@@ -404,3 +404,15 @@ def test_observations_a_policy_cannot_read_are_named_not_crashed_on(small_model)
         with pytest.raises(ValueError, match=message):
             policy(bad)
     assert policy(observation).shape == (2,)  # the policy still plans after the refusals
+
+
+def test_the_planner_settings_a_policy_carries_are_checked_as_the_planner_checks_them(
+    small_model,
+):
+    with pytest.raises(TypeError, match=r"unknown settings \['attention_patiense'\]"):
+        TEMPPolicy(small_model, attention_patiense=3)
+    with pytest.raises(ValueError, match="^attention_rounds: expected an integer"):
+        TEMPPolicy(small_model, attention_rounds=-1)
+    policy = TEMPPolicy(small_model, attention_rounds=2)
+    assert policy.planner_settings()["attention_rounds"] == 2
+    assert policy.fresh().attention_rounds == 2 and policy.fresh().attention_patience is None

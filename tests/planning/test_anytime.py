@@ -5,7 +5,9 @@ import pytest
 
 from temp_gym.planning import anytime, plan
 from temp_gym.planning.anytime import finished, grow_anytime
-from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.result import AnytimeLog
+from temp_gym.planning.settings import PlanSettings
+from temp_gym.planning.temp_settings import TEMPSettings
 from temp_gym.planning.tree import Tree
 
 
@@ -79,17 +81,14 @@ def test_temp_classical_phase_is_the_same_loop(problem_2d):
 )
 def test_plan_settings_check_themselves(changes, match):
     with pytest.raises(ValueError, match=f"^{match}"):
-        PlanSettings(**changes)
+        TEMPSettings(**changes)
 
 
 def test_plan_settings_normalize_numbers():
     settings = PlanSettings(seed=np.int64(4), max_nodes=np.int32(9), goal_bias=1, time_limit=2)
     assert type(settings.seed) is int and type(settings.max_nodes) is int
     assert type(settings.goal_bias) is float and type(settings.time_limit) is float
-    assert (
-        settings.attention_patience is None
-        and PlanSettings(attention_patience=0).attention_patience == 0
-    )
+    assert TEMPSettings(attention_patience=np.int64(0)).attention_patience == 0
 
 
 def _grown(problem, seed, informed, compiled_loop, **settings):

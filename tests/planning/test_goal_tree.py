@@ -6,7 +6,8 @@ import pytest
 from temp_gym import Problem, plan
 from temp_gym.planning._compiled_tree import graft_branch
 from temp_gym.planning.goal_tree import GoalTree
-from temp_gym.planning.result import AnytimeLog, PlanSettings
+from temp_gym.planning.result import AnytimeLog
+from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.temp_planner import attention_solved_both_ways
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.checkers import certify_path

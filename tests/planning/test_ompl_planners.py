@@ -56,6 +56,16 @@ def test_ompl_range_is_the_near_radius_cap_of_our_planners(problem_2d):
     assert edges.max() > 0.5 + 1e-6
 
 
+def test_ompl_range_is_a_setting_of_the_ompl_planners(problem_2d):
+    from temp_gym.planning import OMPLRRTStarSettings
+
+    settings = OMPLRRTStarSettings(seed=0, max_nodes=1000, step_size=0.5, range=0.4)
+    result = plan(problem_2d, settings=settings)  # the planner its settings class names
+    assert result.planner == "ompl_rrt_star"
+    edges = np.linalg.norm(np.diff(result.path, axis=0), axis=1)
+    assert edges.max() <= 0.4 + 1e-9
+
+
 @pytest.mark.parametrize("planner", ["ompl_rrt_star", "ompl_informed_rrt_star"])
 def test_ompl_target_cost_is_in_the_history(problem_2d, planner):
     # OMPL returns as soon as a solution meets the cost threshold; the tolerance protocol reads

@@ -169,7 +169,7 @@ def test_without_a_policy_the_planner_asks_the_default_hook(wall, monkeypatch):
     assert result.success
     monkeypatch.setattr(hooks, "default_policy_loader", None)
     with pytest.raises(ValueError, match="no default policy"):
-        temp_planner.temp(problem, temp_planner.PlanSettings(max_nodes=10))
+        temp_planner.temp(problem, temp_planner.TEMPSettings(max_nodes=10))
 
 
 def test_replacements_near_the_proposal_are_a_setting_of_plan_or_of_the_policy():

@@ -29,7 +29,7 @@ PROBLEMS = {
 # specializations (compiled, or loaded from numba's cache) appeared during it.
 SCRIPT = textwrap.dedent(
     """
-    import importlib, json, sys
+    import dataclasses, importlib, json, sys
     import numba
     from temp_gym import Problem, plan
     registry = importlib.import_module("temp_gym.planning.plan").PLANNERS
@@ -44,13 +44,13 @@ SCRIPT = textwrap.dedent(
         return total
 
     calls = []
-    for name, function in list(registry.items()):
-        def counted(problem, settings, function=function, name=name):
+    for name, entry in list(registry.items()):
+        def counted(problem, settings, function=entry.function, name=name):
             before = specializations()
             result = function(problem, settings)
             calls.append([name, settings.max_nodes, specializations() - before])
             return result
-        registry[name] = counted
+        registry[name] = dataclasses.replace(entry, function=counted)
 
     problems, options = json.loads(sys.argv[1]), json.loads(sys.argv[2])
     problems = problems if isinstance(problems, list) else [problems]
@@ -225,7 +225,7 @@ def test_a_compilation_during_the_warm_up_is_said_once_with_an_estimate(monkeypa
     from temp_gym import Problem
     from temp_gym.planning import warmup
     from temp_gym.planning.plan import PLANNERS
-    from temp_gym.planning.result import PlanSettings
+    from temp_gym.planning.settings import PlanSettings
 
     monkeypatch.setattr(warmup, "_WARMED", set())
     monkeypatch.setattr(warmup, "_ANNOUNCED", set())

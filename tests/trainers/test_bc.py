@@ -163,12 +163,12 @@ def test_a_run_started_before_the_eval_section_was_renamed_resumes(tmp_path):
     old_layout = config.to_dict()
     old_layout["eval"] = old_layout.pop("train_eval")
     for section, key in [
-        ("eval", "attention_patience"),
-        ("eval", "attention_uniform"),
+        ("eval", "temp"),  # TEMP's settings were flat then: attention_nodes alone
         ("evaluation", "horizon"),
-        ("evaluation", "attention_patience"),
+        ("evaluation", "temp"),
     ]:
         del old_layout[section][key]  # fmt: skip
+    old_layout["eval"]["attention_nodes"] = old_layout["evaluation"]["attention_nodes"] = None
     path = write_last(tmp_path, config, stored=old_layout)
     assert bc.resume_checkpoint(path, config, "point2d")["epoch"] == 1
     assert bc.resume_checkpoint(path, tiny_config("train_eval.every=0"), "point2d")

@@ -38,7 +38,7 @@ def test_evaluate_then_make_results(tmp_path, monkeypatch):
     assert "| 2D easy |" in table and "| 2D challenging |" in table
     results = json.loads((out / "results.json").read_text())
     assert results["checkpoint_digest"] == weights_digest(model.state_dict())
-    assert results["settings"]["attention_nodes"] is None  # no planner settings: all of it
+    assert results["settings"]["temp"]["attention_nodes"] is None  # none carried: all of it
     for name in ("results.md", "success_vs_time.png", "cost_vs_nodes.png", "attention.png"):
         assert (out / name).is_file()
     page = make_results.main(
@@ -99,11 +99,18 @@ def test_the_goal_tree_setting_reaches_the_evaluation_and_is_type_checked():
     from temp_gym.config import load_config
 
     tiny = ROOT / "configs" / "tiny.yaml"
-    assert evaluate.settings_from(load_config(tiny, []))[0].goal_tree is True
-    off = load_config(tiny, ["evaluation.goal_tree=false"])
-    assert evaluate.settings_from(off)[0].goal_tree is False
-    with pytest.raises(ConfigError, match="evaluation.goal_tree"):
-        load_config(tiny, ["evaluation.goal_tree=3"])
+    assert "goal_tree" not in evaluate.settings_from(load_config(tiny, []))[0].temp  # default
+    off = load_config(tiny, ["evaluation.temp.goal_tree=false"])
+    assert evaluate.settings_from(off)[0].temp["goal_tree"] is False
+    with pytest.raises(ConfigError, match="evaluation.temp.goal_tree"):
+        load_config(tiny, ["evaluation.temp.goal_tree=3"])
+    with pytest.raises(ConfigError, match=r"\(the key is now evaluation.temp.goal_tree\)"):
+        load_config(tiny, ["evaluation.goal_tree=false"])
+    both = load_config(
+        tiny, ["evaluation.temp.goal_tree=false", "evaluation.temp.attention_rounds=2"]
+    )
+    with pytest.raises(ConfigError, match="^evaluation.temp.attention_rounds: "):
+        evaluate.settings_from(both)
 
 
 def test_a_checkpoints_path_window_joins_the_manifest(tmp_path, monkeypatch):

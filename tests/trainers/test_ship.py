@@ -205,6 +205,6 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
 
 
 def test_ship_updates_every_setting_a_checkpoint_entry_may_give():
-    from temp_gym.config import CHECKPOINT_SETTINGS
+    from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
 
     assert set(CHECKPOINT_SETTINGS) <= set(ship.PLANNER_KEYS)

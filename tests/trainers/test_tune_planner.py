@@ -183,3 +183,30 @@ def test_the_tuning_pool_is_a_split_of_its_own(capsys, monkeypatch):
     val = [split_workspace("point2d", "val", i) for i in range(SPLITS["val"])]
     assert split == "tune"
     assert all(p.workspace in pool and p.workspace not in val for p in problems)
+
+
+def test_with_no_setting_flag_the_policy_is_measured_as_it_ships(capsys, monkeypatch):
+    """No flag gives the node counts of the model card's flags: the tools default to what
+    ships. (The card's command: trainers/tune_planner.py ... --noise-std 0 --horizon 4
+    --path-window 16 --patience 30 --resume-growth 2 --rounds 16 --local-fallback 5.)"""
+    monkeypatch.chdir(ROOT)
+    common = ["--config", "configs/2d.yaml", "--split", "test", "--tasks", "6", "--no-rrt",
+              "--min-attention-success", "0"]  # fmt: skip
+    card = ["--noise-std", "0", "--horizon", "4", "--path-window", "16", "--patience", "30",
+            "--resume-growth", "2", "--rounds", "16", "--local-fallback", "5"]  # fmt: skip
+    shipped = tune_planner.main(common)  # no --checkpoint either: the one shipped for 2D
+    as_shipped = capsys.readouterr().out.splitlines()
+    by_hand = tune_planner.main([*common, "--checkpoint", "temp_gym/checkpoints/2d.pt", *card])
+    by_flags = capsys.readouterr().out.splitlines()
+    other = tune_planner.main([*common, "--local-fallback", "0"])
+    told_otherwise = capsys.readouterr().out.splitlines()
+    header, _ = _table(as_shipped)
+
+    def figures(out):
+        [row] = [line.split("|") for line in out if line.startswith("| 3000 |")]
+        return [row[header.index(name)].strip() for name in ("nodes mean", "median", "cost")]
+
+    assert figures(as_shipped) == figures(by_flags)
+    assert shipped == by_hand and shipped["attention_local_fallback"] == 5
+    assert other["attention_local_fallback"] == 0 and other["attention_patience"] == 30
+    assert figures(told_otherwise) != figures(as_shipped)
