@@ -105,8 +105,12 @@ def main(argv: list[str] | None = None) -> None:
                         help="radians between the states pybullet checks")  # fmt: skip
     parser.add_argument("--planners", nargs="+", default=["temp", "informed_rrt_star"],
                         help="planners to run")  # fmt: skip
-    parser.add_argument("--refusals", type=int, default=0,
-                        help="random states per kind for the fast model's refusals (0: none)")
+    parser.add_argument(
+        "--refusals",
+        type=int,
+        default=0,
+        help="random states per kind for the fast model's refusals (0: none)",
+    )
     parser.add_argument("--workers", type=int, default=2, help="processes")
     parser.add_argument("--seed", type=int, default=0, help="seed of the task draws")
     args = parse_args(parser, argv)
@@ -126,8 +130,10 @@ def main(argv: list[str] | None = None) -> None:
         solved = [r for r in runs if r["solved"]]
         colliding = sum(1 for r in solved if r["pybullet_collisions"])
         outside = sum(1 for r in solved if r["outside_limits"])
-        print(f"| {name} | {len(solved)} / {len(runs)} ({len(solved) / len(runs):.1%}) | "
-              f"{colliding} | {outside} |")
+        print(
+            f"| {name} | {len(solved)} / {len(runs)} ({len(solved) / len(runs):.1%}) | "
+            f"{colliding} | {outside} |"
+        )
 
 
 if __name__ == "__main__":

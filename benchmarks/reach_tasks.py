@@ -24,14 +24,14 @@ import dataclasses
 import statistics
 
 import numpy as np
+from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, forward_kinematics, joint_limits
 
 from temp_gym import training
 from temp_gym.config import labelled_entry, load_config, parse_args, script_parser
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.problem import Problem, Workspace
 from temp_gym.training import plan_episode
-from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, forward_kinematics, joint_limits
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import split_workspace
 

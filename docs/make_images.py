@@ -102,9 +102,9 @@ def make_7d(out: Path) -> None:
 def make_families_7d(out: Path) -> None:
     """One workspace of each of the iiwa's structured families, the arm at start and goal."""
     from matplotlib.image import imsave
+    from temp_gym.worlds.iiwa_structured import FAMILY_STRUCTURES
 
     from temp_gym.worlds.generators import generate_task, generate_workspace
-    from temp_gym.worlds.iiwa_structured import FAMILY_STRUCTURES
     from temp_gym.worlds.rendering import IiwaRenderer
 
     tiles = []

@@ -20,7 +20,6 @@ After the overrides, every value is checked against its bounds (`temp_gym.config
 from __future__ import annotations
 
 import dataclasses
-
 import os
 import shlex
 from collections.abc import Mapping, Sequence
@@ -228,8 +227,10 @@ def load_config(path: str | Path, overrides: Sequence[str] | None = None) -> Con
 
 
 def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
-    """``config`` with an ``env.robot`` that names a description file (``.yaml``/``.yml``)
-    registered and replaced by the arm's name (the file kept as ``env.description``).
+    """``config`` with its ``env.robot`` description file registered.
+
+    An ``env.robot`` that names a description file (``.yaml``/``.yml``) is replaced by the
+    arm's name (the file kept as ``env.description``).
 
     ``env.id`` becomes the arm's env unless ``keep_id`` (it was given explicitly; then it must
     match, `check_config`). A config loaded again from a stored copy (``env.description`` set)

@@ -48,8 +48,9 @@ def has_arm_geometry(spec: RobotSpec) -> bool:
 
 
 def arm_link_meshes(spec: RobotSpec) -> tuple[LinkMesh, ...]:
-    """The arm's bodies as meshes, base first, each in its body's frame (`LinkMesh`): the
-    collision elements of the links riding on the body, merged.
+    """The arm's bodies as meshes, base first, each in its body's frame (`LinkMesh`).
+
+    Each merges the collision elements of the links riding on the body.
 
     Raises:
         ValueError: ``spec`` is not an arm with a known model.

@@ -208,9 +208,7 @@ def draw_base_free(
     raise RuntimeError(f"{what}: no base-free placement in {tries} draws")
 
 
-def generate_arm_workspace(
-    robot: str, rng: np.random.Generator, max_tries: int = 100
-) -> Workspace:
+def generate_arm_workspace(robot: str, rng: np.random.Generator, max_tries: int = 100) -> Workspace:
     """Draw a floor and 3-4 random furniture templates in the arm's reach.
 
     Args:
@@ -244,8 +242,10 @@ def generate_arm_workspace(
 
 
 def near_surface(checker, states: np.ndarray, hand_only: bool = True) -> np.ndarray:
-    """``bool[N]``: the arm is within `NEAR_SURFACE` of a box (exact checker ``checker``), and,
-    with ``hand_only``, the body nearest a box is the last (the hand)."""
+    """``bool[N]``: the arm is within `NEAR_SURFACE` of a box (exact checker ``checker``).
+
+    With ``hand_only``, the body nearest a box must also be the last (the hand).
+    """
     last = checker.arm.body_names[-1]
     out = np.zeros(len(states), dtype=bool)
     for k, state in enumerate(states):
@@ -257,8 +257,11 @@ def near_surface(checker, states: np.ndarray, hand_only: bool = True) -> np.ndar
 
 def _draw_near(fast, exact, rng: np.random.Generator, lower: np.ndarray, upper: np.ndarray,
                count: int) -> np.ndarray:  # fmt: skip
-    """``(count, dim)`` states near a surface: free states whose grown spheres touch a box,
-    kept when the exact checker puts the hand within `NEAR_SURFACE` of one."""
+    """``(count, dim)`` states near a surface.
+
+    Free states whose grown spheres touch a box, kept when the exact checker puts the hand
+    within `NEAR_SURFACE` of one.
+    """
     found: list[np.ndarray] = []
     while len(found) < count:
         states = rng.uniform(lower, upper, size=(256, len(lower)))
@@ -331,9 +334,7 @@ def generate_arm_task(
         if len(hits):
             k = hits[0]
             return Problem(workspace, starts[k], goals[k], float(goal_radius))
-    raise RuntimeError(
-        f"generate_arm_task: no {difficulty!r} start-goal pair in {max_tries} tries"
-    )
+    raise RuntimeError(f"generate_arm_task: no {difficulty!r} start-goal pair in {max_tries} tries")
 
 
 __all__ = [

@@ -24,18 +24,23 @@ URDF = """<?xml version="1.0"?>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
     <origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5"/></joint>
   <link name="l1">
-    <collision><origin xyz="0 0 0.15"/><geometry><cylinder radius="0.04" length="0.3"/></geometry></collision>
+    <collision><origin xyz="0 0 0.15"/>
+      <geometry><cylinder radius="0.04" length="0.3"/></geometry></collision>
   </link>
   <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="0 0 0.3" rpy="0.3 0 0.2"/><axis xyz="0.6 0.8 0"/><limit lower="-2.8" upper="2.8"/></joint>
+    <origin xyz="0 0 0.3" rpy="0.3 0 0.2"/><axis xyz="0.6 0.8 0"/>
+    <limit lower="-2.8" upper="2.8"/></joint>
   <link name="l2">
-    <collision><origin xyz="0 0 0.1" rpy="0 0.2 0"/><geometry><mesh filename="package://test_arm/meshes/link.stl"/></geometry></collision>
+    <collision><origin xyz="0 0 0.1" rpy="0 0.2 0"/>
+      <geometry><mesh filename="package://test_arm/meshes/link.stl"/></geometry></collision>
   </link>
-  <joint name="j2_fixed" type="fixed"><parent link="l2"/><child link="l2b"/><origin xyz="0 0 0.2"/></joint>
+  <joint name="j2_fixed" type="fixed"><parent link="l2"/><child link="l2b"/>
+    <origin xyz="0 0 0.2"/></joint>
   <link name="l2b">
     <collision><geometry><mesh filename="meshes/link.obj" scale="1 1 0.5"/></geometry></collision>
   </link>
-  <joint name="camera_mount" type="fixed"><parent link="l2"/><child link="camera"/><origin xyz="0.05 0 0.1"/></joint>
+  <joint name="camera_mount" type="fixed"><parent link="l2"/><child link="camera"/>
+    <origin xyz="0.05 0 0.1"/></joint>
   <link name="camera">
     <collision><geometry><sphere radius="0.02"/></geometry></collision>
   </link>

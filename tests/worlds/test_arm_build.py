@@ -7,10 +7,10 @@ import subprocess
 import sys
 
 import pytest
+from arm_fixtures import write_test_arm
 
 from temp_gym.worlds.arm.build import build
 from temp_gym.worlds.arm.model import ArmDataError, load_arm
-from arm_fixtures import write_test_arm
 
 
 @pytest.fixture(scope="module")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import random_configs, write_test_arm
 
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.arm.build import build
@@ -14,7 +15,6 @@ from temp_gym.worlds.collision import CollisionChecker, SelfCollisionChecker
 from temp_gym.worlds.collision.arm_exact import ArmExactChecker
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 from temp_gym.worlds.robots import forget_robot
-from arm_fixtures import random_configs, write_test_arm
 
 BOXES = (
     np.array([[0.25, -0.4, -0.1], [-0.5, 0.3, 0.2], [-0.1, -0.6, 0.45], [-0.3, -0.3, -0.2]]),

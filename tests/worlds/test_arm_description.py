@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import write_test_arm
 
 from temp_gym.worlds.arm.description import (
     DescriptionError,
@@ -13,7 +14,6 @@ from temp_gym.worlds.arm.description import (
 )
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm.urdf import PRISMATIC, REVOLUTE, UrdfError, axis_frame
-from arm_fixtures import write_test_arm
 
 
 @pytest.fixture(scope="module")
@@ -42,12 +42,21 @@ def test_defaults_come_from_the_name(test_arm_path):
         ("name: a\nurdf: x.urdf\nbase_link: a\ntip_link: b\ncolour: red\n", "colour"),
         ("name: 1abc\nurdf: x.urdf\nbase_link: a\ntip_link: b\n", "name"),
         ("name: a\nurdf: missing.urdf\nbase_link: a\ntip_link: b\n", "urdf"),
-        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
-         "joint_limits: {j: [1, 0]}\n", "joint_limits.j"),
-        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
-         "planning: {step: 1}\n", "planning.step"),
-        ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
-         "spheres: {tolerance: 0.5}\n", "spheres.tolerance"),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            "joint_limits: {j: [1, 0]}\n",
+            "joint_limits.j",
+        ),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            "planning: {step: 1}\n",
+            "planning.step",
+        ),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            "spheres: {tolerance: 0.5}\n",
+            "spheres.tolerance",
+        ),
         ("&a name: a\n", "anchors"),
     ],
 )
@@ -63,16 +72,20 @@ def test_a_bad_key_or_value_is_named_in_one_line(tmp_path, text, field):
     [
         ("base_link: nowhere\ntip_link: lbr_iiwa_link_7\n", "no link 'nowhere'"),
         ("base_link: lbr_iiwa_link_7\ntip_link: lbr_iiwa_link_0\n", "is not below"),
-        ("base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
-         "fixed_joints: {lbr_iiwa_joint_2: 0.1}\n", "joint of the chain"),
-        ("base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
-         "joint_limits: {no_such_joint: [0, 1]}\n", "no joint 'no_such_joint'"),
+        (
+            "base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+            "fixed_joints: {lbr_iiwa_joint_2: 0.1}\n",
+            "joint of the chain",
+        ),
+        (
+            "base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+            "joint_limits: {no_such_joint: [0, 1]}\n",
+            "no joint 'no_such_joint'",
+        ),
     ],
 )
 def test_a_chain_the_urdf_cannot_give_is_refused_in_one_line(tmp_path, extra, fragment):
-    path = _description(
-        tmp_path, "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\n" + extra
-    )
+    path = _description(tmp_path, "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\n" + extra)
     with pytest.raises(UrdfError, match=fragment):
         load_arm(path, require_derived=False)
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arm_fixtures import random_configs, write_test_arm
 
 from temp_gym.quiet import native_output_silenced
 from temp_gym.worlds.arm.bullet import load_bullet_arm, set_configuration
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.robots import robot_spec
-from arm_fixtures import random_configs, write_test_arm
 
 XARM = """name: xarm6_model_test
 urdf: pybullet_data://xarm/xarm6_robot.urdf

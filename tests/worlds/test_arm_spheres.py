@@ -62,6 +62,10 @@ def test_trees_hold_their_leaves_and_skip_whole_subtrees():
             reach = np.linalg.norm(trees.centers[leaves] - trees.node_centers[node], axis=1)
             assert np.all(reach + trees.radii[leaves] <= trees.node_radii[node] + 1e-12)
         # Walking the whole tree meets every leaf sphere of the body exactly once.
-        met = [k for m in range(start, end) if trees.node_count[m]
-               for k in range(trees.node_first[m], trees.node_first[m] + trees.node_count[m])]
+        met = [
+            k
+            for m in range(start, end)
+            if trees.node_count[m]
+            for k in range(trees.node_first[m], trees.node_first[m] + trees.node_count[m])
+        ]
         assert sorted(met) == np.flatnonzero(trees.sphere_body == body).tolist()

@@ -53,8 +53,11 @@ def srdf_disabled(path: Path) -> set[frozenset[str]]:
 
 def _distances(hulls, arm: ArmModel, configs: np.ndarray, pairs: np.ndarray,
                beyond: float) -> np.ndarray:  # fmt: skip
-    """``(N, P)`` padded piece distances; pairs whose bounding spheres are more than
-    ``beyond`` apart get that lower bound instead (no fcl call)."""
+    """``(N, P)`` padded piece distances of the pairs at each configuration.
+
+    Pairs whose bounding spheres are more than ``beyond`` apart get that lower bound instead
+    (no fcl call).
+    """
     poses = arm.forward_kinematics(configs)
     out = hulls.sphere_gaps(poses)
     for k, p in zip(*np.nonzero(out <= beyond)):

@@ -17,9 +17,12 @@ from temp_gym.worlds.arm.model import ArmModel
 
 @dataclass(frozen=True)
 class BulletArm:
-    """One loaded arm: its body id, the pybullet index of each chain joint, the base pose (of
-    the root's centre of mass, as pybullet takes it) that puts ``base_link`` at the world
-    origin, and the pybullet index of each URDF link."""
+    """One arm loaded into pybullet.
+
+    Its body id, the pybullet index of each chain joint, the base pose (of the root's centre of
+    mass, as pybullet takes it) that puts ``base_link`` at the world origin, and the pybullet
+    index of each URDF link.
+    """
 
     body: int
     joints: tuple[int, ...]

@@ -140,8 +140,10 @@ def _short(value: object, limit: int = 60) -> str:
 
 
 def resolve_file(path: Path, field_name: str, value: object) -> Path:
-    """``value`` of ``field_name`` as an existing file: relative to ``path``'s folder, or in
-    pybullet_data (``pybullet_data://...``)."""
+    """``value`` of ``field_name`` as an existing file.
+
+    Relative to ``path``'s folder, or in pybullet_data (``pybullet_data://...``).
+    """
     if not isinstance(value, str) or not value.strip():
         raise _fail(path, field_name, f"expected a file path, got {_short(value)}")
     if value.startswith(PYBULLET_DATA):
@@ -168,7 +170,9 @@ def _number(path: Path, field_name: str, value: object, positive: bool = False) 
 
 def _integer(path: Path, field_name: str, value: object, low: int, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise _fail(path, field_name, f"expected an integer in [{low}, {high}], got {_short(value)}")
+        raise _fail(
+            path, field_name, f"expected an integer in [{low}, {high}], got {_short(value)}"
+        )
     return int(value)
 
 
@@ -298,8 +302,12 @@ def parse_description(path: Path, data: object) -> RobotDescription:
     evaluation = _section(path, "evaluation", data.get("evaluation"), EVALUATION_KEYS)
     if "rows" in evaluation:
         rows = evaluation["rows"]
-        if not isinstance(rows, dict) or not rows or not all(
-            isinstance(k, str) and v in ("easy", "challenging", "any") for k, v in rows.items()
+        if (
+            not isinstance(rows, dict)
+            or not rows
+            or not all(
+                isinstance(k, str) and v in ("easy", "challenging", "any") for k, v in rows.items()
+            )
         ):
             raise _fail(path, "evaluation.rows", "expected a mapping row name -> easy, "
                         f"challenging or any, got {_short(rows)}")  # fmt: skip

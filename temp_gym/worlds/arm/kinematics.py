@@ -80,8 +80,11 @@ def sincos_into(x, sin_out, cos_out) -> None:
 
 
 def snap_permutations(rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(permutation (J, 3) int64, sign (J, 3))`` of rotations within `SNAP_TOLERANCE` of a
-    signed permutation; ``permutation[j] = -1`` where rotation ``j`` is not one."""
+    """Rotations that are signed permutations, as ``(permutation (J, 3) int64, sign (J, 3))``.
+
+    A rotation within `SNAP_TOLERANCE` of a signed permutation is one; ``permutation[j] = -1``
+    where rotation ``j`` is not.
+    """
     count = len(rotations)
     permutation = np.full((count, 3), -1, dtype=np.int64)
     sign = np.zeros((count, 3))

@@ -83,7 +83,9 @@ def _load_objects(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
 
     if path.stat().st_size > MAX_MESH_BYTES:
         raise UrdfError(f"mesh {path.name}: larger than {MAX_MESH_BYTES} bytes")
-    options = {"split_object": True, "group_material": False} if path.suffix.lower() == ".obj" else {}
+    options = (
+        {"split_object": True, "group_material": False} if path.suffix.lower() == ".obj" else {}
+    )
     try:
         loaded = trimesh.load(str(path), force="scene", process=False, **options)
     except Exception as error:  # trimesh raises many types for unreadable files
@@ -116,7 +118,9 @@ def cylinder_vertices(radius: float, length: float, sides: int = CYLINDER_SIDES)
     outer = radius / math.cos(math.pi / sides)
     angles = 2 * math.pi * np.arange(sides) / sides
     ring = np.column_stack([outer * np.cos(angles), outer * np.sin(angles)])
-    return np.vstack([np.column_stack([ring, np.full(sides, z)]) for z in (-length / 2, length / 2)])
+    return np.vstack(
+        [np.column_stack([ring, np.full(sides, z)]) for z in (-length / 2, length / 2)]
+    )
 
 
 def sphere_vertices(radius: float) -> np.ndarray:
@@ -124,9 +128,8 @@ def sphere_vertices(radius: float) -> np.ndarray:
     import trimesh
 
     sphere = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=1.0)
-    normals, offsets = sphere.face_normals, np.einsum("ij,ij->i", sphere.face_normals,
-                                                      sphere.vertices[sphere.faces[:, 0]])  # fmt: skip
-    del normals
+    first_vertices = sphere.vertices[sphere.faces[:, 0]]
+    offsets = np.einsum("ij,ij->i", sphere.face_normals, first_vertices)
     return np.asarray(sphere.vertices) * (radius / float(offsets.min()))
 
 

@@ -167,8 +167,9 @@ class ArmModel:
         return self._arrays["body_radii"]
 
     def motion_radii(self) -> np.ndarray:
-        """``(dim, bodies)`` bounds ``R[i, j]``: how far a point of body ``j`` moves per unit
-        of joint ``i`` (m/rad about a revolute joint, m/m along a prismatic one).
+        """``(dim, bodies)`` bounds ``R[i, j]``: how far a point of body ``j`` moves per unit.
+
+        Per unit of joint ``i``: m/rad about a revolute joint, m/m along a prismatic one.
 
         For a revolute joint, the distance from its axis, at most the distance from its
         origin: the offsets of the joint origins between the two bodies plus body ``j``'s
@@ -238,8 +239,10 @@ class ArmModel:
 
 
 def source_digest(description: RobotDescription, chain: ArmChain) -> str:
-    """SHA-256 of everything the derived data is computed from: the description's meaning,
-    the URDF, the SRDF and every mesh file, and the derived format."""
+    """SHA-256 of everything the derived data is computed from.
+
+    The description's meaning, the URDF, the SRDF and every mesh file, and the derived format.
+    """
     digest = hashlib.sha256()
     digest.update(f"format {DERIVED_FORMAT}\n".encode())
     digest.update(description.digest().encode())

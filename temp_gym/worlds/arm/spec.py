@@ -23,15 +23,16 @@ from temp_gym.worlds.arm.description import load_description
 from temp_gym.worlds.arm.urdf import read_chain
 from temp_gym.worlds.robots.spec import RobotSpec
 
-
 ARM_COMPILE_MINUTES = 2.0
 """Roughly how long an arm's planner kernels take to compile on first use."""
 
 
 @dataclass(frozen=True)
 class ArmPart:
-    """One factory of an arm's spec (a checker, a generator, the renderer, the limits),
-    bound to the arm's description file; picklable, and loads nothing until called."""
+    """One factory of an arm's spec (a checker, a generator, the renderer, the limits).
+
+    Bound to the arm's description file; picklable, and loads nothing until called.
+    """
 
     description: str
     part: str

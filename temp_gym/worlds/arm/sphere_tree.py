@@ -60,8 +60,10 @@ class SphereTrees:
     inner_start: np.ndarray | None = None
 
     def grown(self, margin: float) -> SphereTrees:
-        """A copy with every covering sphere, leaf and node, grown by ``margin`` (the inner
-        balls are not: they must stay inside the pieces)."""
+        """A copy with every covering sphere, leaf and node, grown by ``margin``.
+
+        The inner balls are not: they must stay inside the pieces.
+        """
         return dataclasses.replace(self, node_radii=self.node_radii + margin,
                                    radii=self.radii + margin)  # fmt: skip
 
@@ -77,8 +79,11 @@ class SphereTrees:
 
 
 def enclosing_sphere(centers: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, float]:
-    """A small sphere holding the given spheres: a few Badoiu-Clarkson steps, then the radius
-    that holds every sphere from that center (any center is valid; this one keeps it small)."""
+    """A small sphere holding the given spheres.
+
+    A few Badoiu-Clarkson steps, then the radius that holds every sphere from that center (any
+    center is valid; this one keeps it small).
+    """
     center = (np.min(centers - radii[:, None], axis=0) + np.max(centers + radii[:, None],
                                                                  axis=0)) / 2  # fmt: skip
     for step in range(1, 60):
@@ -157,8 +162,10 @@ def build_trees(body_spheres: list[tuple[np.ndarray, np.ndarray]]) -> SphereTree
 
 
 def _depths(nodes: list) -> list[int]:
-    """Each node's depth, from the depth-first order: a node with more than `BUCKET` spheres
-    is followed by its two subtrees."""
+    """Each node's depth, from the depth-first order.
+
+    A node with more than `BUCKET` spheres is followed by its two subtrees.
+    """
     depths = [0] * len(nodes)
     stack: list[list[int]] = []  # [depth, children still to come]
     for k, node in enumerate(nodes):

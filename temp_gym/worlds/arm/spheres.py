@@ -19,8 +19,8 @@ and proves that they cover the piece:
    cube and the supporting plane nearest the cube's center, a convex polytope) lies in one
    sphere: a ball holds a convex polytope when it holds its corners. A cube still unproven at
    the smallest size (half the tolerance) grows the sphere that needs the least growth to
-   hold it, up to a bulge of 1.5 tolerances, or else gets a small sphere of its own. So every point of
-   the piece, not just samples, is inside a sphere; `FittedSpheres.bulge` reports how far
+   hold it, up to a bulge of 1.5 tolerances, or else gets a small sphere of its own. So every
+   point of the piece, not just samples, is inside a sphere; `FittedSpheres.bulge` reports how far
    the farthest one reaches out of the piece.
 """
 
@@ -45,8 +45,11 @@ _CUBE_EDGES = np.array(
 
 @dataclass(frozen=True)
 class FittedSpheres:
-    """Spheres covering one convex piece: ``centers (K, 3)``, ``radii (K,)`` and the largest
-    distance (m) any sphere reaches past the piece, ``bulge``."""
+    """Spheres covering one convex piece.
+
+    ``centers (K, 3)``, ``radii (K,)`` and the largest distance (m) any sphere reaches past
+    the piece, ``bulge``.
+    """
 
     centers: np.ndarray
     radii: np.ndarray
@@ -54,8 +57,11 @@ class FittedSpheres:
 
 
 def hull_planes(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(hull vertices, faces, planes)`` of the convex hull; ``planes`` rows ``(n, d)`` with
-    ``n . x + d <= 0`` inside and ``|n| = 1``. A flat point set is thickened by 1e-5 m."""
+    """``(hull vertices, faces, planes)`` of the convex hull.
+
+    ``planes`` rows are ``(n, d)`` with ``n . x + d <= 0`` inside and ``|n| = 1``. A flat point
+    set is thickened by 1e-5 m.
+    """
     points = np.asarray(vertices, dtype=np.float64)
     try:
         hull = ConvexHull(points)
@@ -88,8 +94,11 @@ def _signed_depth(points, planes, out, which):
 
 
 def signed_depth(points: np.ndarray, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(depth, plane)``: each point's distance to the boundary (negative outside: then a
-    lower bound on the distance to the piece) and the plane nearest it. 1-Lipschitz."""
+    """``(depth, plane)``: each point's distance to the boundary and the plane nearest it.
+
+    The depth is negative outside (then a lower bound on the distance to the piece);
+    1-Lipschitz.
+    """
     points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     out = np.empty(len(points))
     which = np.empty(len(points), dtype=np.int64)
@@ -128,10 +137,12 @@ def subdivide(vertices: np.ndarray, faces: np.ndarray, max_edge: float) -> np.nd
 
 def _greedy(points: np.ndarray, centers: np.ndarray, radii: np.ndarray,
             held: np.ndarray, stride: int = 1) -> list[int]:  # fmt: skip
-    """A small cover of ``points`` by candidate spheres ``(centers, radii)``, candidate
-    ``i`` made for ``points[i]``: greedy set cover (the candidate holding the most points
-    not yet held first), over every ``stride``-th candidate, then over the candidates of the
-    points still unheld (each holds its own point). ``held`` is updated."""
+    """A small cover of ``points`` by candidate spheres ``(centers, radii)``.
+
+    Candidate ``i`` is made for ``points[i]``: greedy set cover (the candidate holding the most
+    points not yet held first), over every ``stride``-th candidate, then over the candidates of
+    the points still unheld (each holds its own point). ``held`` is updated.
+    """
     import heapq
 
     tree = cKDTree(points)
@@ -158,8 +169,11 @@ def _greedy(points: np.ndarray, centers: np.ndarray, radii: np.ndarray,
 
 def _deepest_centers(samples: np.ndarray, normals: np.ndarray, planes: np.ndarray,
                      tolerance: float, deepest: float) -> np.ndarray:  # fmt: skip
-    """Per sample, the deepest center along its inward normal whose bulge-rule sphere
-    (radius: its depth plus ``tolerance``) still holds the sample (bisection on the depth)."""
+    """Per sample, the deepest center along its inward normal that still holds it.
+
+    The bulge rule's sphere there (radius: its depth plus ``tolerance``) holds the sample;
+    bisection on the depth.
+    """
     low = np.zeros(len(samples))
     high = np.full(len(samples), deepest)
     for _ in range(12):
@@ -193,8 +207,11 @@ def _clipped_corners(centers: np.ndarray, half: float, planes: np.ndarray,
 def _best_spheres(points: np.ndarray, mask: np.ndarray, middle: np.ndarray, reach: float,
                   tree: cKDTree, centers: np.ndarray,
                   radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Per cell, the sphere that needs the least growth to hold its masked ``points`` and
-    that growth (<= 0: held). Only spheres that reach the cell's bounding ball can hold it."""
+    """Per cell, the sphere that needs the least growth to hold its masked ``points``.
+
+    Returns it and that growth (<= 0: held). Only spheres that reach the cell's bounding ball
+    can hold it.
+    """
     growth = np.full(len(middle), np.inf)
     best = np.zeros(len(middle), dtype=np.int64)
     largest = float(radii.max()) + reach
@@ -268,8 +285,10 @@ def prove_cover(planes: np.ndarray, lower: np.ndarray, upper: np.ndarray, center
 
 
 def fit_piece(vertices: np.ndarray, tolerance: float) -> FittedSpheres:
-    """Spheres covering the solid convex hull of ``vertices``, bulging at most about
-    ``tolerance`` (module docstring). Deterministic."""
+    """Spheres covering the solid convex hull of ``vertices``.
+
+    They bulge at most about ``tolerance`` (module docstring). Deterministic.
+    """
     corners, faces, planes = hull_planes(vertices)
     lower, upper = corners.min(axis=0), corners.max(axis=0)
     centroid = corners.mean(axis=0)

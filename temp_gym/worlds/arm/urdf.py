@@ -173,7 +173,9 @@ def _limits(joint: ElementTree.Element, kind: str, where: str) -> tuple[float, f
     limit = joint.find("limit")
     if limit is None or limit.get("lower") is None or limit.get("upper") is None:
         raise UrdfError(f"{where}: a {kind} joint needs <limit lower=.. upper=..>")
-    lower, upper = (_floats(limit.get(k), 1, f"{where} limit {k}", "0")[0] for k in ("lower", "upper"))
+    lower, upper = (
+        _floats(limit.get(k), 1, f"{where} limit {k}", "0")[0] for k in ("lower", "upper")
+    )
     if lower > upper:
         raise UrdfError(f"{where}: limit lower {lower} is above upper {upper}")
     return lower, upper
@@ -254,7 +256,7 @@ def read_chain(
         link = joint.find("parent").get("link")
     chain_joints.reverse()
     chain_names = {j.get("name") for j in chain_joints}
-    for name, override in overrides.items():
+    for name in overrides:
         if name not in joints:
             raise UrdfError(f"joint_limits: no joint {name!r} in {urdf.name}")
     for name in fixed_joints:
@@ -275,8 +277,10 @@ def read_chain(
         if name in fixed_joints:
             value = fixed_joints[name]
             if not lower - 1e-12 <= value <= upper + 1e-12:
-                raise UrdfError(f"fixed_joints.{name}: {value} is outside its limits "
-                                f"[{lower}, {upper}] (override them with joint_limits)")  # fmt: skip
+                raise UrdfError(
+                    f"fixed_joints.{name}: {value} is outside its limits [{lower}, {upper}] "
+                    "(override them with joint_limits)"
+                )
             return value
         mimic = joint.find("mimic")
         if mimic is not None and mimic.get("joint") in joints:

@@ -61,8 +61,10 @@ def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
 
 
 def element_models(arm: ArmModel) -> tuple:
-    """Per body, ``(fcl geometry, 4x4 pose in the body frame)`` of each collision element
-    (cached on the arm: `plan` builds an exact checker on every call to certify its path)."""
+    """Per body, ``(fcl geometry, 4x4 pose in the body frame)`` of each collision element.
+
+    Cached on the arm: `plan` builds an exact checker on every call to certify its path.
+    """
     key = "element_models"
     if key not in arm._arrays:
         bodies = []
@@ -228,10 +230,13 @@ class ArmExactChecker:
         return np.sqrt(np.einsum("jbk,jbk->jb", gap, gap))
 
     def _body_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
-        """A lower bound on body ``j``'s distance to the nearest box, given its world-AABB
-        ``gaps`` (M,): per box the cheapest informative bound of three nested shapes (the
-        body's bounding box, its convex pieces less fcl's tolerance, its elements), boxes
-        visited nearest first and the visit stopped once no box left can lower it."""
+        """A lower bound on body ``j``'s distance to the nearest box.
+
+        Given its world-AABB ``gaps`` (M,): per box the cheapest informative bound of three
+        nested shapes (the body's bounding box, its convex pieces less fcl's tolerance, its
+        elements), boxes visited nearest first and the visit stopped once no box left can
+        lower it.
+        """
         box_pose = poses[j].copy()
         box_pose[:3, 3] += box_pose[:3, :3] @ self._local_center[j]
         request = fcl.DistanceRequest()
@@ -269,9 +274,12 @@ class ArmExactChecker:
         return best
 
     def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep) -> tuple[float, float]:
-        """``(advance, closest)`` at one pose of a segment: the largest safe step in ``t`` and
-        the smallest clearance measured (bodies and pairs are measured only when their cheap
-        lower bound could still lower the step or reach `MIN_CLEARANCE`)."""
+        """``(advance, closest)`` at one pose of a segment.
+
+        The largest safe step in ``t`` and the smallest clearance measured (bodies and pairs
+        are measured only when their cheap lower bound could still lower the step or reach
+        `MIN_CLEARANCE`).
+        """
         bounds, rates, which = [], [], []
         gaps = None
         if len(moving):
@@ -329,9 +337,12 @@ class ArmExactChecker:
         return [self.arm.pair_name(a, b) for a, b in self._hulls.pairs[colliding]]
 
     def obstacle_report(self, state: np.ndarray) -> list[tuple[str, int, float]]:
-        """Per body near a box: ``(link, box index, distance)``, the distance in metres (0 or
-        less: touching, with fcl's penetration depth negated where fcl gives one), nearest
-        first. Bodies farther than `MESH_DISTANCE_BELOW` from every box are left out."""
+        """Per body near a box: ``(link, box index, distance)``, nearest first.
+
+        The distance is in metres (0 or less: touching, with fcl's penetration depth negated
+        where fcl gives one). Bodies farther than `MESH_DISTANCE_BELOW` from every box are
+        left out.
+        """
         poses = self.arm.forward_kinematics(as_state(state, "state", self.dim))[0]
         if not self._boxes:
             return []

@@ -69,9 +69,11 @@ INNER_BALLS = 8
 
 
 def _inner_balls(arm: ArmModel, body: int, centers: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Up to `INNER_BALLS` balls inside body ``body``'s pieces, centred on leaf centers: a box
-    that touches one touches the body, so a deep collision is found without a tree walk.
-    Each is shrunk by `FAST_FK_MARGIN`, so the fast kinematics keeps it inside."""
+    """Up to `INNER_BALLS` balls inside body ``body``'s pieces, centred on leaf centers.
+
+    A box that touches one touches the body, so a deep collision is found without a tree walk.
+    Each is shrunk by `FAST_FK_MARGIN`, so the fast kinematics keeps it inside.
+    """
     from temp_gym.worlds.arm.spheres import depth, hull_planes
 
     if len(centers) == 0:
@@ -89,8 +91,10 @@ def _inner_balls(arm: ArmModel, body: int, centers: np.ndarray) -> tuple[np.ndar
 
 
 def sphere_trees(arm: ArmModel) -> SphereTrees:
-    """The arm's sphere trees from its derived data, grown by `FAST_FK_MARGIN`, with each
-    body's inner balls (cached)."""
+    """The arm's sphere trees from its derived data, with each body's inner balls (cached).
+
+    The trees are grown by `FAST_FK_MARGIN`.
+    """
     key = "sphere_trees"
     if key not in arm._arrays:
         bodies = [(np.array(b["centers"], dtype=np.float64).reshape(-1, 3),
@@ -164,9 +168,7 @@ class ArmSphereChecker:
         self._motion_radii = arm.motion_radii()
         self_model = _self_model(arm)
         self._table_pairs = self_model[4]
-        self._self_model = tuple(
-            array if self_collision else array[:0] for array in self_model[:4]
-        )
+        self._self_model = tuple(array if self_collision else array[:0] for array in self_model[:4])
         self._scratch = scratch_for(trees)
         box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
         from temp_gym.worlds.collision.arm_exact import base_collides
@@ -182,8 +184,11 @@ class ArmSphereChecker:
 
     def _candidate_boxes(self, trees: SphereTrees, box_params: np.ndarray, lower: np.ndarray,
                          upper: np.ndarray) -> tuple[np.ndarray, ...]:  # fmt: skip
-        """Per body, the boxes it can reach: within its reach of the first joint's origin
-        (which never moves), plus half the resolution (the most an edge check grows it)."""
+        """Per body, the boxes it can reach.
+
+        Those within its reach of the first joint's origin (which never moves), plus half the
+        resolution (the most an edge check grows it).
+        """
         arm = self.arm
         bodies = arm.num_bodies
         anchor = arm.chain.joint_origins[0, :3, 3]

@@ -79,9 +79,11 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift, 
                radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
                body_box_count, body_lower, body_upper, inflation, poses,
                root_world) -> int:  # fmt: skip
-    """`FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every box,
-    `HIT` when one touches a box, `CERTAIN` when a body's inner ball (inside its pieces, not
-    grown) does: the state itself is in collision.
+    """Whether a pose is free of the boxes: `FREE`, `HIT` or `CERTAIN`.
+
+    `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every box, `HIT`
+    when one touches a box, `CERTAIN` when a body's inner ball (inside its pieces, not grown)
+    does: the state itself is in collision.
 
     ``sines[base + i]``, ``cosines[base + i]`` and ``values[value_base + i]`` are joint ``i``'s;
     ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
@@ -187,8 +189,11 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
                 inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
                 body_upper, sphere_pairs, table_grid, table_bounds, inflation, table_growth,
                 poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
-    """`_pose_free`'s answer for the one state ``q`` with spheres grown by ``inflation``, self
-    collision included (no bounds check: an edge's states lie between its checked ends)."""
+    """`_pose_free`'s answer for the one state ``q``, self-collision included.
+
+    Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
+    checked ends).
+    """
     if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
         return HIT
     sincos_into(q, sines, cosines)
@@ -210,7 +215,8 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
 @numba.njit(cache=True, nogil=True)
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-               inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+               inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count,
+               body_lower, body_upper, sphere_pairs,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -243,7 +249,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign
         width = stride >> level
         if width == 0:
             break
-        for k in range(width, steps - 1, 2 * width):
+        for _ in range(width, steps - 1, 2 * width):
             order_count += 1
     # Fill the stack bottom-up in reverse of the visiting order.
     visit = np.empty(order_count, dtype=np.int64)
@@ -386,7 +392,8 @@ def motion_free_kernel(context, start, end) -> bool:
         stack_high = np.empty(stack_low.shape[0])
     return _edge_free(starts, ends, 0, bounds, kind, rotation, shift, permutation, sign,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
-                      centers, radii, inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
+                      centers, radii, inner_centers, inner_radii, inner_start, box_params,
+                      body_boxes, body_box_count, body_lower,
                       body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
                       settings[1], poses, root_world, sweep, inflation, table_sweep,
                       table_growth, q, sines, cosines, stack_low, stack_high,

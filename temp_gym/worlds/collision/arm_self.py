@@ -92,8 +92,11 @@ class BodyHulls:
         self._request = fcl.DistanceRequest()
 
     def sphere_gaps(self, poses: np.ndarray) -> np.ndarray:
-        """``(..., P)`` distances between the pairs' bounding spheres, for poses
-        ``(..., bodies, 4, 4)``: lower bounds on the piece distances (negative: overlap)."""
+        """``(..., P)`` distances between the pairs' bounding spheres.
+
+        For poses ``(..., bodies, 4, 4)``: lower bounds on the piece distances (negative:
+        overlap).
+        """
         centers = np.einsum("...jik,jk->...ji", poses[..., :3, :3], self._sphere_centers)
         centers = centers + poses[..., :3, 3]
         a, b = self.pairs[:, 0], self.pairs[:, 1]
@@ -101,8 +104,10 @@ class BodyHulls:
         return between - self._sphere_radii[a] - self._sphere_radii[b]
 
     def distance(self, poses: np.ndarray, a: int, b: int) -> float:
-        """A lower bound on the distance between bodies ``a`` and ``b``'s pieces (0 if
-        touching); ``poses`` are the bodies' world poses in one configuration."""
+        """A lower bound on the distance between bodies ``a`` and ``b``'s pieces (0 if touching).
+
+        ``poses`` are the bodies' world poses in one configuration.
+        """
         for obj in self._objects[a]:
             obj.setTransform(transform(poses[a]))
         for obj in self._objects[b]:
@@ -127,8 +132,11 @@ class BodyHulls:
     def pair_clearance(
         self, poses: np.ndarray, p: int, sphere_clearance: float, exact_below: float
     ) -> float:
-        """Pair ``p``'s padded clearance (<= 0: collision): its bounding-sphere clearance when
-        that is at least ``exact_below``, else fcl's piece distance less the gap."""
+        """Pair ``p``'s padded clearance (<= 0: collision).
+
+        Its bounding-sphere clearance when that is at least ``exact_below``, else fcl's piece
+        distance less the gap.
+        """
         if sphere_clearance >= exact_below:
             return float(sphere_clearance)
         a, b = self.pairs[p]

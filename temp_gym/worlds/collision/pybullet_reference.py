@@ -99,8 +99,10 @@ class PybulletArm:
         return free
 
     def box_distances(self, state: np.ndarray) -> list[float]:
-        """pybullet's distance from the arm to each box in ``state``, less its margin (negative:
-        the URDF's shapes overlap the box); ``inf`` beyond 5 cm."""
+        """Pybullet's distance from the arm to each box in ``state``, less its margin.
+
+        Negative: the URDF's shapes overlap the box; ``inf`` beyond 5 cm.
+        """
         self._pose(state)
         out = []
         for box in self._boxes:

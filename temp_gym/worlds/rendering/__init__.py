@@ -21,8 +21,8 @@ Examples:
 
 from __future__ import annotations
 
-from temp_gym.worlds.rendering.common import plan_title
 from temp_gym.worlds.rendering.arm import ArmRenderer, arm_poses
+from temp_gym.worlds.rendering.common import plan_title
 from temp_gym.worlds.rendering.points import MAX_3D_EDGES, render_point_world
 
 __all__ = ["MAX_3D_EDGES", "ArmRenderer", "arm_poses", "plan_title", "render_point_world"]
