@@ -88,6 +88,12 @@ rewritten.
 
 Then the shipped 7D policy changed (the paper-scale one trained with self-collision): only the
 two 7D ``temp`` plans and the 7D evaluation record changed, and were rewritten the same way.
+Then the arm code became generic (one arm read from any URDF): the iiwa's fast checker is now
+spheres that bulge at most about 1 mm out of its links instead of 38 coarse ones, its edge
+checks refine near surfaces, and arm tasks lost their 1 cm clearance rule and gained goals near
+surfaces. So every 7D fingerprint changed (its problems, the plans on them, the env episode and
+the evaluation record) and was rewritten; every 2D and 3D fingerprint and the dataset were
+identical.
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
