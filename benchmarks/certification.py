@@ -3,7 +3,7 @@
     python benchmarks/certification.py [--tasks 60] [--paths paths.npz] [--repeats 3]
 
 `temp_gym.plan` certifies every path it returns with the exact checker (fcl on the iiwa's
-meshes and hulls, `temp_gym.worlds.collision.iiwa_exact`); on the arm that certification can
+meshes and hulls, `temp_gym.worlds.collision.arm_exact`); on the arm that certification can
 be most of a plan call. This plans ``--tasks`` validation tasks of ``configs/7d.yaml`` with
 TEMP (the shipped policy) and Informed RRT* up to their first solutions, then times
 `certify_path` on each returned path (a new exact checker per call, as `plan` makes one; best

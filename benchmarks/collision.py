@@ -6,7 +6,7 @@ For each world (2D, 3D, 7D) it draws generated workspaces, times ``states_free``
 configurations and ``edges_free`` on random edges (edge length ~ the planners' step size), for
 the fast checker and the exact one, and prints states/s, edges/s and the fast/exact ratio.
 Point robots have one checker that is both fast and exact (analytic), so their ratio is 1.
-For the iiwa it also times both checkers without self-collision (``self_collision=False``),
+For an arm it also times both checkers without self-collision (``self_collision=False``),
 alternating with the full checkers on the same states and edges, so the cost of
 self-collision is measured side by side. Single-threaded: numba kernels run on one core; set
 NUMBA_NUM_THREADS=1 to be sure.
@@ -49,16 +49,17 @@ def _random_edges(rng, bounds, step, count):
 
 
 def _variants(workspace) -> dict[str, tuple]:
-    """``{name: (fast, exact)}``: the checkers, and for the iiwa the same without self-collision."""
+    """``{name: (fast, exact)}``: the checkers, and for an arm the same without self-collision."""
     variants = {"": (make_checker(workspace), make_checker(workspace, exact=True))}
-    from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
-    from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
+    from temp_gym.worlds.collision.arm_exact import ArmExactChecker
+    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 
-    if isinstance(variants[""][0], IiwaSphereChecker):
-        args = (workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+    fast = variants[""][0]
+    if isinstance(fast, ArmSphereChecker):
+        args = (fast.arm, workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
         variants[", no self-collision"] = (
-            IiwaSphereChecker(*args, self_collision=False),
-            IiwaExactChecker(*args, self_collision=False),
+            ArmSphereChecker(*args, self_collision=False),
+            ArmExactChecker(*args, self_collision=False),
         )
     return variants
 

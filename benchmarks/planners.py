@@ -121,12 +121,6 @@ def main(argv: list[str] | None = None) -> None:
     args = parse_args(parser, argv)
     budgets = sorted(args.budgets)
     for world in args.worlds:
-        if world == "7d":
-            try:
-                import temp_gym.worlds.iiwa_world  # noqa: F401
-            except ImportError as error:
-                print(f"\n## 7d: skipped ({error})")
-                continue
         problems = make_problems(world, args.problems, args.seed)
         plan(problems[0], "rrt_star", max_nodes=50)  # compile and warm up outside the timings
         started = time.perf_counter()

@@ -4,14 +4,15 @@ r"""Reach-into tasks for the arm: the goal has the hand enclosed by boxes, in no
         --policy "shipped=temp_gym/checkpoints/7d.pt" [--family mixed] [--tasks 100] \\
         [--sides 3] [--budget 10000]
 
-The arm's task generator (`temp_gym.worlds.iiwa_world.generate_iiwa_task`) draws start and
+The arm's task generator (`temp_gym.worlds.arm_world.generate_arm_task`) draws start and
 goal as uniform random free configurations, which rarely put the hand inside a compartment, a
 bin or a window; the hand-made OOD scenes do (`examples/ood/7d`). This benchmark asks whether
 such tasks are a regime of their own: in the ``val`` workspaces of ``--family``, it draws
 tasks whose goal has the hand (link_7's origin) enclosed, a box (other than the floor) within
 30 cm along at least ``--sides`` of the six axis directions, and whose start is a uniform
 free configuration from which the straight motion to the goal is blocked. Start and goal keep
-the generator's clearance. RRT* and every policy plan each task with the same seed to a first
+half the edge resolution of clearance. RRT* and every policy plan each task with the same seed
+to a first
 solution at ``--budget`` nodes (a failure counts as the budget); the table gives mean / median
 nodes and the unsolved runs, over all tasks and over the tasks some run solved. A task no
 run solves is rarely unreachable: planned from the goal, Informed RRT* solves most of them in a
@@ -24,14 +25,14 @@ import dataclasses
 import statistics
 
 import numpy as np
-from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-from temp_gym.worlds.iiwa14.kinematics import NUM_JOINTS, forward_kinematics, joint_limits
 
 from temp_gym import training
 from temp_gym.config import labelled_entry, load_config, parse_args, script_parser
 from temp_gym.models.policy import TEMPPolicy
 from temp_gym.problem import Problem, Workspace
 from temp_gym.training import plan_episode
+from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import split_workspace
 
@@ -54,15 +55,16 @@ def reach_task(
     workspace: Workspace, rng: np.random.Generator, sides: int, goal_radius: float, tries: int = 200
 ) -> Problem | None:
     """A task whose goal has the hand enclosed on ``sides`` sides (None: none in ``tries``)."""
-    limits = joint_limits()
+    arm = load_arm(robot_spec(workspace.robot).description)
+    limits = arm.joint_limits()
     lower, upper = workspace.obstacle_lower[1:], workspace.obstacle_upper[1:]  # not the floor
-    checker = IiwaSphereChecker(
-        workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper
+    checker = ArmSphereChecker(
+        arm, workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper
     )
     for _ in range(tries):
-        states = rng.uniform(limits[0], limits[1], size=(256, NUM_JOINTS))
+        states = rng.uniform(limits[0], limits[1], size=(256, arm.dim))
         free = np.flatnonzero(checker.states_free(states, checker.resolution / 2))
-        hands = forward_kinematics(states[free])[:, -1, :3, 3]
+        hands = arm.forward_kinematics(states[free])[:, -1, :3, 3]
         goals = [states[i] for i, hand in zip(free, hands)
                  if enclosed_sides(hand, lower, upper) >= sides]  # fmt: skip
         for goal in goals:

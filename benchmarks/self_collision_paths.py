@@ -23,7 +23,8 @@ from temp_gym.config import parse_args, script_parser
 from temp_gym.distributed import map_units
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.planning import plan
-from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa, densify
+from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.collision.pybullet_reference import PybulletArm, densify
 from temp_gym.worlds.robots import KUKA_IIWA14
 
 PLANNERS = ["temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star"]
@@ -33,7 +34,7 @@ def referee_task(index: int, planners: list[str], args: argparse.Namespace) -> d
     """Plan task ``index`` with each planner; per planner ``(solved, states, colliding, pairs)``."""
     problem = evaluation_problem(KUKA_IIWA14.name, "any", index)
     out = {}
-    with PybulletIiwa() as bullet:
+    with PybulletArm(load_arm(KUKA_IIWA14.description)) as bullet:
         for name in planners:
             result = plan(problem, planner=name, seed=index, max_nodes=args.max_nodes,
                           time_limit=args.time_limit, stop_at_first=True)  # fmt: skip

@@ -9,7 +9,7 @@ The 2D and 3D pictures grow an RRT* tree of 1500 nodes with uniform samples on a
 challenging point problem and draw its solution; the 7D one plans a seeded challenging iiwa
 task with ``rrt_star`` and draws the arm along the path, from the camera the renderer chooses
 for the scene. The families picture shows one workspace of each of the arm's structured
-families (`temp_gym.worlds.iiwa_structured`) with the arm at a challenging task's start and
+families (`temp_gym.worlds.arm_structured`) with the arm at a challenging task's start and
 goal. The viewer picture is the 7D plan in the browser viewer (`temp_gym.viewer`), three
 quarters along the path, taken in headless Chromium (it needs ``temp-gym[test,view]`` and a
 Chromium). Everything is seeded, so reruns give the same pictures.
@@ -90,10 +90,10 @@ def make_7d(out: Path) -> None:
     """A challenging iiwa task planned with RRT*, the arm drawn along the path."""
     from matplotlib.image import imsave
 
-    from temp_gym.worlds.rendering import IiwaRenderer, plan_title
+    from temp_gym.worlds.rendering import ArmRenderer, plan_title
 
     problem, result = plan_7d()
-    with IiwaRenderer() as renderer:
+    with ArmRenderer() as renderer:
         title = plan_title(problem, result.nodes, result.path)
         image = renderer.render(problem, path=result.path, width=560, height=560, title=title)
     imsave(out, image)
@@ -102,13 +102,13 @@ def make_7d(out: Path) -> None:
 def make_families_7d(out: Path) -> None:
     """One workspace of each of the iiwa's structured families, the arm at start and goal."""
     from matplotlib.image import imsave
-    from temp_gym.worlds.iiwa_structured import FAMILY_STRUCTURES
 
+    from temp_gym.worlds.arm_structured import FAMILY_STRUCTURES
     from temp_gym.worlds.generators import generate_task, generate_workspace
-    from temp_gym.worlds.rendering import IiwaRenderer
+    from temp_gym.worlds.rendering import ArmRenderer
 
     tiles = []
-    with IiwaRenderer() as renderer:
+    with ArmRenderer() as renderer:
         for family in FAMILY_STRUCTURES:
             rng = np.random.default_rng([SEED_7D, FAMILY_SEEDS[family]])
             workspace = generate_workspace("kuka_iiwa14", rng, family)
