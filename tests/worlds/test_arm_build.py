@@ -67,3 +67,24 @@ def test_the_command_checks_and_refuses_in_one_line(built, tmp_path):
         refused = _run(command, str(bad))
         assert refused.returncode == 2
         assert refused.stderr.count("\n") == 1 and "urdf" in refused.stderr
+
+
+def test_the_data_stays_valid_where_the_folder_is_moved(built, tmp_path):
+    """The digest names files relative to the description (and pybullet_data's as
+    ``pybullet_data://``), so an installed copy of a robot's folder needs no rebuild."""
+    import shutil
+
+    moved = tmp_path / "elsewhere"
+    shutil.copytree(built.parent, moved)
+    arm = load_arm(moved / built.name)  # require_derived: refused if the digest moved with it
+    assert arm.derived is not None and arm.description.path.parent == moved.resolve()
+
+
+def test_a_built_in_arm_names_its_urdf_in_pybullet_data_portably():
+    from temp_gym.worlds.arm.description import load_description, portable_name
+    from temp_gym.worlds.robots import robot_spec
+
+    description = load_description(robot_spec("franka_panda").description)
+    assert portable_name(description.urdf, description.path.parent) == (
+        "pybullet_data://franka_panda/panda.urdf"
+    )

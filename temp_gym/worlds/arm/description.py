@@ -114,10 +114,10 @@ class RobotDescription:
         """SHA-256 of the description's meaning (its validated values, not its formatting)."""
         values = {
             "name": self.name,
-            "urdf": str(self.urdf),
+            "urdf": portable_name(self.urdf, self.path.parent),
             "base_link": self.base_link,
             "tip_link": self.tip_link,
-            "srdf": None if self.srdf is None else str(self.srdf),
+            "srdf": None if self.srdf is None else portable_name(self.srdf, self.path.parent),
             "fixed_joints": dict(sorted(self.fixed_joints.items())),
             "joint_limits": {k: list(v) for k, v in sorted(self.joint_limits.items())},
             "sphere_tolerance": self.sphere_tolerance,
@@ -128,6 +128,24 @@ class RobotDescription:
     def derived_path(self) -> Path:
         """Where the build step writes this robot's derived data."""
         return self.path.with_name(self.path.stem + ".derived.json")
+
+
+def portable_name(file: Path, folder: Path) -> str:
+    """``file`` named the same on every machine.
+
+    Inside pybullet_data as ``pybullet_data://...``, else relative to ``folder`` (the
+    description's) when it lies below it, else its path. The derived data's digest uses these
+    names, so that it stays valid wherever pybullet or the description's folder is installed.
+    """
+    import pybullet_data
+
+    for root, prefix in ((Path(pybullet_data.getDataPath()).resolve(), PYBULLET_DATA),
+                         (folder.resolve(), "")):  # fmt: skip
+        try:
+            return prefix + file.resolve().relative_to(root).as_posix()
+        except ValueError:
+            continue
+    return str(file)
 
 
 def _fail(path: Path, field_name: str, reason: str) -> DescriptionError:
