@@ -98,16 +98,20 @@ class PybulletArm:
             free[k] = not any(self._touch(a, b) for a, b in self.self_pairs)
         return free
 
-    def box_distances(self, state: np.ndarray) -> list[float]:
+    def box_distances(self, state: np.ndarray, moving_only: bool = False) -> list[float]:
         """Pybullet's distance from the arm to each box in ``state``, less its margin.
 
-        Negative: the URDF's shapes overlap the box; ``inf`` beyond 5 cm.
+        Negative: the URDF's shapes overlap the box; ``inf`` beyond 5 cm. With
+        ``moving_only``, the links of the base (which stands on the floor) are left out.
         """
         self._pose(state)
+        bodies = self.arm.chain.link_bodies
+        base = {index for name, index in self._loaded.links.items() if bodies.get(name) == 0}
         out = []
         for box in self._boxes:
             points = self._client.getClosestPoints(self._robot, box, 0.05)
-            out.append(min((p[8] + BULLET_MARGIN for p in points), default=np.inf))
+            out.append(min((p[8] + BULLET_MARGIN for p in points
+                            if not (moving_only and p[3] in base)), default=np.inf))  # fmt: skip
         return out
 
     def boxes_free(self, states: np.ndarray) -> np.ndarray:
