@@ -10,8 +10,10 @@ import pytest
 from temp_gym.evaluation.runner import evaluation_problem
 from temp_gym.planning import plan
 from temp_gym.problem import Problem
+from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.checkers import certify_path
-from temp_gym.worlds.collision.pybullet_reference import PybulletIiwa, densify
+from temp_gym.worlds.collision.pybullet_reference import PybulletArm, densify
+from temp_gym.worlds.robots import robot_spec
 
 PLANNERS = ["temp", "rrt_star", "informed_rrt_star"]
 if importlib.util.find_spec("ompl") is not None:
@@ -36,7 +38,7 @@ def problems():
 
 @pytest.mark.parametrize("planner", PLANNERS)
 def test_returned_paths_are_free_of_self_collision(problems, planner):
-    with PybulletIiwa() as bullet:
+    with PybulletArm(load_arm(robot_spec("kuka_iiwa14").description)) as bullet:
         straight = densify(np.stack([FOLDED.start, FOLDED.goal]), 0.01)
         assert not bullet.self_collision_free(straight).all()  # the premise
         for problem in problems:

@@ -62,31 +62,39 @@ def test_fast_free_edges_are_certified(arm, checkers):
         assert exact.edge_free(start, end)
 
 
-def _near_surface_state(arm, checkers, low=0.002, high=0.006):
-    """A state whose nearest box is ``low``-``high`` m away, by the exact checker."""
-    fast, exact = checkers
-    for state in random_configs(arm, 20_000, seed=7):
-        if not exact.states_free(state[None])[0]:
-            continue
-        report = exact.obstacle_report(state)
-        if report and low <= report[0][2] <= high:
-            return state, report[0]
-    pytest.fail("no state near a surface in the draws")
+@pytest.mark.parametrize("robot", ["kuka_iiwa14", "franka_panda"])
+def test_states_millimetres_from_a_box_are_accepted_and_can_be_left(robot):
+    """Free states 2-6 mm from a box (by the exact checker, and by pybullet on the URDF's
+    shapes) load, and short motions leave them, certified by both checkers."""
+    from temp_gym.worlds.collision.pybullet_reference import PybulletArm
+    from temp_gym.worlds.robots import robot_spec
+    from temp_gym.worlds.splits import split_workspace
 
-
-def test_a_state_millimetres_from_a_box_is_accepted_and_can_be_left(arm, checkers):
-    fast, exact = checkers
-    state, (link, box, distance) = _near_surface_state(arm, checkers)
-    workspace = Workspace(arm.name, arm.joint_limits(), (BOXES[0] + BOXES[1]) / 2,
-                          (BOXES[1] - BOXES[0]) / 2)  # fmt: skip
-    problem = Problem(workspace, state, np.zeros(arm.dim), 0.1)  # the loader accepts it
-    assert np.array_equal(problem.start, state)
-    # Some short motion leaves it, certified by both checkers.
-    rng = np.random.default_rng(8)
-    ends = np.clip(state + 0.05 * rng.normal(size=(64, arm.dim)), *arm.joint_limits())
-    leaving = fast.edges_free(np.repeat(state[None], 64, axis=0), ends)
-    assert leaving.any()
-    assert exact.edge_free(state, ends[np.flatnonzero(leaving)[0]])
+    spec = robot_spec(robot)
+    arm = load_arm(spec.description)
+    workspace = split_workspace(robot, "test", 0, "boxes")
+    fast, exact = spec.make_checker(workspace), spec.make_checker(workspace, exact=True)
+    rng = np.random.default_rng(7)
+    near = []
+    with PybulletArm(arm, workspace) as bullet:
+        for state in rng.uniform(*workspace.bounds, size=(6000, arm.dim)):
+            report = exact.obstacle_report(state) if exact.states_free(state[None])[0] else []
+            if report and 0.002 <= report[0][2] <= 0.006 and bullet.states_free(state[None])[0]:
+                near.append(state)
+            if len(near) == 8:
+                break
+    assert len(near) == 8
+    left = 0
+    for k, state in enumerate(near):
+        problem = Problem(workspace, state, near[k - 1], 0.1)  # the loader accepts both
+        assert np.array_equal(problem.start, state)
+        ends = np.clip(state + 0.05 * rng.normal(size=(64, arm.dim)), *arm.joint_limits())
+        leaving = fast.edges_free(np.repeat(state[None], 64, axis=0), ends)
+        if leaving.any():
+            left += 1
+            assert exact.edge_free(state, ends[np.flatnonzero(leaving)[0]])
+    # The fast model is conservative: it may refuse a rare one (its self-collision model).
+    assert left >= 7
 
 
 def test_a_refused_state_names_the_link_the_box_and_the_depth(arm, checkers):
