@@ -1,4 +1,5 @@
-"""temp_gym.worlds.iiwa_structured: the iiwa's workspace families, and the OOD scenes they avoid."""
+"""The built-in arms' structured workspace families (`temp_gym.worlds.arm_structured`), and
+the out-of-distribution scenes they stay away from."""
 
 from __future__ import annotations
 
@@ -10,97 +11,103 @@ import pytest
 from temp_gym.evaluation.ood import load_ood_family
 from temp_gym.planning.plan import plan
 from temp_gym.problem import Workspace
-from temp_gym.worlds.collision.iiwa_exact import IiwaExactChecker
-from temp_gym.worlds.collision.iiwa_fast import IiwaSphereChecker
-from temp_gym.worlds.generators import generate_task, generate_workspace
-from temp_gym.worlds.iiwa14.kinematics import joint_limits
-from temp_gym.worlds.iiwa_structured import (
+from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.arm_structured import (
     FAMILY_STRUCTURES,
     MIN_FREE_FRACTION,
     _wall_with_windows,
 )
-from temp_gym.worlds.iiwa_world import FLOOR_TOP, floor_slab
-from temp_gym.worlds.robots import KUKA_IIWA14
+from temp_gym.worlds.arm_world import FLOOR_TOP, arm_scale, floor_slab
+from temp_gym.worlds.checkers import make_checker
+from temp_gym.worlds.generators import generate_task, generate_workspace
+from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import split_workspace
 from temp_gym.worlds.structured import MIXED, WORKSPACE_FAMILIES
 
-ROBOT = KUKA_IIWA14.name
+ROBOTS = ["kuka_iiwa14", "franka_panda"]
 STRUCTURED = list(FAMILY_STRUCTURES)
 
 
+@pytest.fixture(scope="module")
+def arms():
+    return {robot: load_arm(robot_spec(robot).description) for robot in ROBOTS}
+
+
 @cache
-def sample(family: str, count: int, seed: int = 0) -> tuple[Workspace, ...]:
+def sample(robot: str, family: str, count: int, seed: int = 0) -> tuple[Workspace, ...]:
     """``count`` workspaces of a family, workspace i from generator ``[seed, i]``."""
     return tuple(
-        generate_workspace(ROBOT, np.random.default_rng([seed, i]), family) for i in range(count)
+        generate_workspace(robot, np.random.default_rng([seed, i]), family) for i in range(count)
     )
 
 
-def test_the_iiwa_has_every_structured_family_of_the_point_worlds():
+def test_the_arms_have_every_structured_family_of_the_point_worlds():
     assert set(STRUCTURED) == set(WORKSPACE_FAMILIES) - {"boxes"}
 
 
+@pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("family", [*STRUCTURED, MIXED])
-def test_same_seed_same_workspace_other_seed_other_workspace(family):
+def test_same_seed_same_workspace_other_seed_other_workspace(robot, family):
     def draw(seed: int) -> list[Workspace]:
         rng = np.random.default_rng(seed)
-        return [generate_workspace(ROBOT, rng, family) for _ in range(3)]
+        return [generate_workspace(robot, rng, family) for _ in range(3)]
 
     assert draw(3) == draw(3)
     assert draw(3) != draw(4)
 
 
-def test_every_family_has_pools_of_its_own():
-    pools = [split_workspace(ROBOT, "train", 0, family) for family in (*STRUCTURED, MIXED)]
-    pools.append(split_workspace(ROBOT, "train", 0))
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_every_family_has_pools_of_its_own(robot):
+    pools = [split_workspace(robot, "train", 0, family) for family in (*STRUCTURED, MIXED)]
+    pools.append(split_workspace(robot, "train", 0))
     assert all(a != b for k, a in enumerate(pools) for b in pools[k + 1 :])
 
 
+@pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("family", STRUCTURED)
-def test_workspaces_keep_the_base_and_enough_configurations_free(family):
-    states = np.random.default_rng(7).uniform(*joint_limits(), size=(2000, 7))
+def test_workspaces_keep_the_base_and_enough_configurations_free(arms, robot, family):
+    arm = arms[robot]
+    limits = arm.joint_limits()
+    states = np.random.default_rng(7).uniform(*limits, size=(1000, 7))
+    center, half = floor_slab()
+    scale = arm_scale(arm)
     fractions = []
-    for workspace in sample(family, 12):
-        np.testing.assert_array_equal(workspace.bounds, joint_limits())
-        center, half = floor_slab()
-        assert np.array_equal(workspace.obstacle_centers[0], center)
-        assert np.array_equal(workspace.obstacle_half_extents[0], half)
+    for workspace in sample(robot, family, 8):
+        np.testing.assert_array_equal(workspace.bounds, limits)
+        np.testing.assert_allclose(workspace.obstacle_centers[0], center * scale)
+        np.testing.assert_allclose(workspace.obstacle_half_extents[0], half * scale)
         assert np.all(workspace.obstacle_half_extents > 0)
         assert len(workspace.obstacle_centers) >= 3  # the floor, a structure and a template
-        lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
-        assert IiwaExactChecker(workspace.bounds, lower, upper).base_free
-        fast = IiwaSphereChecker(workspace.bounds, lower, upper)
-        fractions.append(float(fast.states_free(states).mean()))
-    print(family, "free share of random configurations:", np.round(fractions, 2))
+        assert make_checker(workspace, exact=True).base_free
+        fractions.append(float(make_checker(workspace).states_free(states).mean()))
+    print(robot, family, "free share of random configurations:", np.round(fractions, 2))
     assert min(fractions) >= MIN_FREE_FRACTION / 2  # probes differ from the generator's
     assert np.median(fractions) <= 0.8  # the structures are in the arm's way
 
 
+@pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("family", STRUCTURED)
-def test_tasks_of_both_difficulties_and_informed_rrt_star_solves_them(family):
+def test_tasks_of_both_difficulties_and_informed_rrt_star_solves_them(robot, family):
     """Start and goal are free for the exact checker too, and the expert's retries (other
     seeds, as `trainers/generate.py`'s ``data.attempts``) solve every task at 3000 nodes: one
     seed alone can miss an easy 7D task whose goal lies among boxes."""
     rng = np.random.default_rng(5)
-    exact_free, solved = 0, 0
-    for workspace in sample(family, 2, seed=11):
-        exact = IiwaExactChecker(workspace.bounds, workspace.obstacle_lower,
-                                 workspace.obstacle_upper)  # fmt: skip
+    exact_free, solved, unsolved = 0, 0, []
+    for workspace in sample(robot, family, 2, seed=11):
+        exact = make_checker(workspace, exact=True)
         for difficulty in ("easy", "challenging"):
             problem = generate_task(workspace, rng, difficulty)
             exact_free += int(exact.states_free(np.stack([problem.start, problem.goal])).all())
-            solved += any(
-                plan(
-                    problem,
-                    planner="informed_rrt_star",
-                    seed=seed,
-                    max_nodes=3000,
-                    stop_at_first=True,
-                ).success  # fmt: skip
+            success = any(
+                plan(problem, planner="informed_rrt_star", seed=seed, max_nodes=3000,
+                     stop_at_first=True).success
                 for seed in range(3)
-            )
+            )  # fmt: skip
+            solved += success
+            if not success:
+                unsolved.append(difficulty)
     assert exact_free == 4
-    assert solved == 4, f"{family}: Informed RRT* solved {solved} of 4 tasks at 3000 nodes"
+    assert solved == 4, f"{robot} {family}: Informed RRT* missed {unsolved} at 3000 nodes"
 
 
 def test_a_wall_with_windows_is_open_exactly_at_its_windows():
@@ -122,6 +129,8 @@ def test_a_wall_with_windows_is_open_exactly_at_its_windows():
 
 
 # ---- the out-of-distribution scenes stay held out ---------------------------------------------
+OOD_ROBOT = "kuka_iiwa14"
+"""The arm the out-of-distribution scenes (``examples/ood/7d``) are built for."""
 CELL = 0.04
 """Side of the cells of the occupancy grids compared (m): a few plate thicknesses."""
 REGION = np.array([[-1.4, -1.4, FLOOR_TOP], [1.4, 1.4, 1.6]])
@@ -155,17 +164,29 @@ def _turns(grid: np.ndarray) -> list[np.ndarray]:
     return turned + [np.flip(g, 0) for g in turned]
 
 
-def _closeness(scene: Workspace, workspaces: tuple[Workspace, ...]) -> np.ndarray:
-    """Per workspace: the F-score of the share of the scene's cells within a cell of the
-    workspace's and the share of the workspace's within a cell of the scene's, best over the
-    scene's turns and mirrors (see tests/worlds/test_structured.py)."""
+def _layouts(workspaces: tuple[Workspace, ...]) -> tuple:
+    """The workspaces' grids and grown grids as sparse rows, and their cell counts."""
+    from scipy.sparse import csr_matrix
+
     grids = np.array([_grid(w).ravel() for w in workspaces])
     grids_near = np.array([_grid(w, grown=True).ravel() for w in workspaces])
-    cells = grids.sum(axis=1)
-    best = np.zeros(len(workspaces))
+    return (csr_matrix(grids, dtype=np.float32), csr_matrix(grids_near, dtype=np.float32),
+            grids.sum(axis=1))  # fmt: skip
+
+
+def _closeness(scene: Workspace, workspaces: tuple[Workspace, ...] | tuple) -> np.ndarray:
+    """Per workspace: the F-score of the share of the scene's cells within a cell of the
+    workspace's and the share of the workspace's within a cell of the scene's, best over the
+    scene's turns and mirrors (see tests/worlds/test_structured.py). ``workspaces``: the
+    workspaces, or their `_layouts`."""
+    if isinstance(workspaces[0], Workspace):
+        workspaces = _layouts(workspaces)
+    grids, grids_near, cells = workspaces
+    best = np.zeros(len(cells))
     for turn, turn_near in zip(_turns(_grid(scene)), _turns(_grid(scene, grown=True))):
-        precision = (grids_near & turn.ravel()).sum(axis=1) / turn.sum()
-        recall = (grids & turn_near.ravel()).sum(axis=1) / np.maximum(cells, 1)
+        # Counts of shared cells: sparse rows times the turned grid (float32 counts are exact).
+        precision = (grids_near @ turn.ravel().astype(np.float32)) / turn.sum()
+        recall = (grids @ turn_near.ravel().astype(np.float32)) / np.maximum(cells, 1)
         best = np.maximum(best, 2 * precision * recall / np.maximum(precision + recall, 1e-12))
     return best
 
@@ -177,7 +198,7 @@ def _moved(workspace: Workspace, move: float) -> Workspace:
 
 
 def test_no_generated_workspace_is_near_an_ood_scene():
-    scenes = {name: problem.workspace for name, problem in load_ood_family(ROBOT).items()}
+    scenes = {name: problem.workspace for name, problem in load_ood_family(OOD_ROBOT).items()}
     others = {}
     for name, scene in scenes.items():  # the measure sees a near-identical layout
         assert _closeness(scene, (_moved(scene, CELL / 2),))[0] >= NEAR_IDENTICAL, name
@@ -187,9 +208,9 @@ def test_no_generated_workspace_is_near_an_ood_scene():
     closest = {}
     families = ["boxes", *STRUCTURED]  # the default generator too, for reference
     for family in families:
-        workspaces = sample(family, GENERATED_PER_FAMILY, seed=101)
+        layouts = _layouts(sample(OOD_ROBOT, family, GENERATED_PER_FAMILY, seed=101))
         for name, scene in scenes.items():
-            closest[family, name] = float(_closeness(scene, workspaces).max())
+            closest[family, name] = float(_closeness(scene, layouts).max())
     print(f"closeness of the closest of {GENERATED_PER_FAMILY} workspaces per family:")
     for name in scenes:
         print(f"  {name:>12}: " + "  ".join(f"{f} {closest[f, name]:.2f}" for f in families))
