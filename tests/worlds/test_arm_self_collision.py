@@ -195,7 +195,7 @@ def test_fast_never_frees_a_self_collision(arms, checkers, robot):
     wrongly_rejected = np.sum(~fast_free & exact_free) / exact_free.sum()
     print(f"\n{robot}: fast rejects {wrongly_rejected:.2%} of {exact_free.sum()} "
           f"self-collision-free states; {1 - exact_free.mean():.2%} self-collide")  # fmt: skip
-    assert 0.02 < 1 - exact_free.mean()  # the arm does fold into itself
+    assert 0.02 < 1 - exact_free.mean() < 0.2  # the arm does fold into itself
     assert wrongly_rejected < 0.05
 
 
