@@ -58,6 +58,8 @@ NEAR_SURFACE_SHARE = 0.25
 """Share of drawn goals placed near a surface (`near_surface`)."""
 NEAR_SURFACE = (0.002, 0.010)
 """How far (m, by the exact checker) from a box a state near a surface is."""
+NEAR_DRAW_BATCHES = 8
+"""Batches of 256 uniform states drawn per attempt at states near a surface."""
 SIDES = (
     # (radial axis, sign): a template "in front of" the robot along +x, -x, +y or -y.
     (0, 1.0),
@@ -256,22 +258,23 @@ def near_surface(checker, states: np.ndarray, hand_only: bool = True) -> np.ndar
 
 
 def _draw_near(fast, exact, rng: np.random.Generator, lower: np.ndarray, upper: np.ndarray,
-               count: int) -> np.ndarray:  # fmt: skip
-    """``(count, dim)`` states near a surface.
+               count: int, batches: int = NEAR_DRAW_BATCHES) -> np.ndarray:  # fmt: skip
+    """Up to ``count`` states near a surface, ``(<= count, dim)``.
 
     Free states whose grown spheres touch a box, kept when the exact checker puts the hand
-    within `NEAR_SURFACE` of one.
+    within `NEAR_SURFACE` of one; at most ``batches`` batches of 256 uniform states are drawn,
+    so a workspace with no such state gives fewer (or none) instead of drawing forever.
     """
     found: list[np.ndarray] = []
-    while len(found) < count:
+    for _ in range(batches):
         states = rng.uniform(lower, upper, size=(256, len(lower)))
         close = fast.states_free(states) & ~fast.states_free(states, fast.resolution / 2)
         for state in states[close]:
             if near_surface(exact, state[None])[0]:
                 found.append(state)
                 if len(found) == count:
-                    break
-    return np.array(found)
+                    return np.array(found)
+    return np.array(found).reshape(-1, len(lower))
 
 
 def generate_arm_task(
@@ -325,6 +328,8 @@ def generate_arm_task(
             goals = rng.uniform(lower, upper, size=(count, dim))
         else:
             goals = _draw_near(fast, exact, rng, lower, upper, count)
+        count = min(len(starts), len(goals))  # fewer near a surface, or none, in this attempt
+        starts, goals = starts[:count], goals[:count]
         ok = fast.states_free(starts) & fast.states_free(goals)
         ok &= np.linalg.norm(goals - starts, axis=1) > 2 * goal_radius
         if difficulty != "any":

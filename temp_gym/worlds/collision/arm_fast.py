@@ -107,8 +107,10 @@ def sphere_trees(arm: ArmModel) -> SphereTrees:
             inner_radii=np.concatenate([r for _, r in inner]),
             inner_start=np.cumsum([0] + [len(r) for _, r in inner]).astype(np.int64),
         )
-        for array in trees.arrays():
-            array.setflags(write=False)
+        for name in vars(trees):  # shared by every checker of the arm: nobody may write them
+            value = getattr(trees, name)
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)
         arm._arrays[key] = trees
     return arm._arrays[key]
 
