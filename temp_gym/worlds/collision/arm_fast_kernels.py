@@ -22,7 +22,6 @@ from temp_gym.worlds.collision.arm_fast_self import (
     pairs_free,
     place,
     roots_apart,
-    table_pairs_free,
     tables_free,
 )
 
@@ -162,12 +161,11 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
         last = min(first + _BLOCK, num)
         sincos_into(flat[first * dim : last * dim], sines, cosines)
         for i in range(first, last):
-            if not _in_bounds(states, i, bounds):
+            # The joint-space tables need no kinematics: they go first; the sphere pairs last.
+            if not (_in_bounds(states, i, bounds) and tables_free(
+                    flat, i * dim, table_grid, table_bounds, table_growth,
+                    FAST_SELF_GAP)):  # fmt: skip
                 continue
-            # The joint-space tables need no kinematics; where one is unsure, its pair's
-            # spheres decide, after the boxes.
-            tables_sure = tables_free(flat, i * dim, table_grid, table_bounds, table_growth,
-                                      FAST_SELF_GAP)  # fmt: skip
             boxes_free = _pose_free(
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
                 permutation, sign, node_centers, node_radii, node_skip, node_first, node_count,
@@ -181,10 +179,7 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
                 or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
                               node_first, node_count, body_start, centers, radii, inflation,
                               FAST_SELF_GAP, scratch)
-            ) and (tables_sure or table_pairs_free(
-                flat, i * dim, table_grid, table_bounds, table_growth, FAST_SELF_GAP, poses,
-                node_centers, node_radii, node_skip, node_first, node_count, body_start,
-                centers, radii, inflation, scratch))  # fmt: skip
+            )  # fmt: skip
     return out
 
 
@@ -199,7 +194,8 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
     Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
     checked ends).
     """
-    tables_sure = tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP)
+    if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
+        return HIT
     sincos_into(q, sines, cosines)
     answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift, permutation, sign,
                         node_centers, node_radii, node_skip, node_first, node_count, body_start,
@@ -208,11 +204,6 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
                         root_world)  # fmt: skip
     if answer != FREE:
         return answer
-    if not (tables_sure or table_pairs_free(
-            q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP, poses, node_centers,
-            node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-            inflation, scratch)):  # fmt: skip
-        return HIT
     if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
                    FAST_SELF_GAP) or pairs_free(
             poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
@@ -431,10 +422,8 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
                                        FAST_SELF_GAP, scratch)  # fmt: skip
     tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
     for p in range(table_grid.shape[0]):
-        tables_hit[p] = not table_pairs_free(
-            state, 0, table_grid[p : p + 1], table_bounds[p : p + 1], np.zeros(1),
-            FAST_SELF_GAP, poses, node_centers, node_radii, node_skip, node_first, node_count,
-            body_start, centers, radii, inflation, scratch)  # fmt: skip
+        tables_hit[p] = not tables_free(state, 0, table_grid[p : p + 1], table_bounds[p : p + 1],
+                                        np.zeros(1), FAST_SELF_GAP)  # fmt: skip
     return spheres_hit, tables_hit
 
 

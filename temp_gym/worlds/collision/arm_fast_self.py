@@ -6,8 +6,7 @@ edge kernels, on the joint values and body poses those kernels already have. Two
 * **Joint-space tables** for close pairs two joints apart: a lookup of a certified lower bound
   on the pair's padded distance in the cell of the first joint's value
   (`temp_gym.worlds.arm.pair_tables`). The pair is free when the bound exceeds the two bodies'
-  growth plus ``2 * DISTANCE_TOLERANCE``; where it does not (the bound is the worst over the
-  second joint), the pair is tested sphere against sphere like the others.
+  growth plus ``2 * DISTANCE_TOLERANCE``.
 * **Sphere trees against each other** for the other pairs: the leaves of body ``b`` that reach
   body ``a``'s root sphere are placed in the world once, and each walks ``a``'s tree.
 
@@ -163,29 +162,6 @@ def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
     return True
 
 
-@numba.njit(cache=True, nogil=True)
-def table_pairs_free(values, base, table_grid, table_bounds, growth, gap, poses, node_centers,
-                     node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-                     inflation, scratch) -> bool:  # fmt: skip
-    """Whether every tabulated pair is free: by its table, or else by its sphere trees.
-
-    A table bound is the worst over the second joint, so it is unsure in poses where the pair
-    is close for some value of that joint only; there the pair's bodies ``(joint, joint + 2)``
-    are tested sphere against sphere (`pair_free`) on ``poses``, as the other pairs are.
-    """
-    for p in range(table_grid.shape[0]):
-        joint = int(table_grid[p, 0])
-        cell = int((values[base + joint] - table_grid[p, 1]) / table_grid[p, 2])
-        cell = min(max(cell, 0), int(table_grid[p, 3]) - 1)
-        if table_bounds[p, cell] > gap + growth[p]:
-            continue
-        if not pair_free(poses, joint, joint + 2, node_centers, node_radii, node_skip,
-                         node_first, node_count, body_start, centers, radii, inflation, gap,
-                         scratch):  # fmt: skip
-            return False
-    return True
-
-
 def scratch_for(trees) -> np.ndarray:
     """The ``scratch`` array `pair_free` needs for these sphere trees."""
     leaves = np.bincount(trees.sphere_body, minlength=len(trees.body_start) - 1)
@@ -199,7 +175,6 @@ __all__ = [
     "place",
     "roots_apart",
     "scratch_for",
-    "table_pairs_free",
     "tables_free",
     "tree_hits_sphere",
 ]
