@@ -6,15 +6,11 @@ pose is ``body j's pose @ origin[j] @ motion(q[j])``, where the motion turns abo
 always ``0 0 0 1``) and take the arm as arrays, so one compiled kernel serves every arm:
 
 * ``joint_kind[j]``: 0 revolute, 1 prismatic;
-* ``origin_rotation[j]`` (3x3) and ``origin_shift[j]`` (3,);
-* ``permutation[j]``, ``sign[j]``: for origins whose rotation is a signed permutation (as
-  right-angle URDF origins are), ``R[permutation[j, k], k] = sign[j, k]`` and the product with
-  the parent's rotation is a copy, not a matrix product (``permutation[j, 0] < 0``: general).
+* ``origin_rotation[j]`` (3x3) and ``origin_shift[j]`` (3,).
 
-Sines and cosines come from `sincos_into`, a branch-free polynomial that LLVM vectorizes over
-a block of states; snapping nearly-permutation rotations and the polynomial move points by far
-less than `FAST_FK_MARGIN`, which the checkers add to their sphere radii so that conservative
-tests stay conservative.
+In the fast checker, sines and cosines come from `sincos_into`, a branch-free polynomial that
+LLVM vectorizes over a block of states; it moves points by far less than `FAST_FK_MARGIN`,
+which the checker adds to its sphere radii so that conservative tests stay conservative.
 """
 
 from __future__ import annotations
@@ -22,11 +18,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from temp_gym.worlds.hot_path import hot_inline, hot_path
+
 FAST_FK_MARGIN = 1e-8
-"""Bound (m) on how far the fast-path kinematics (snapped rotations, `sincos_into`) moves any
-point within a few metres of the base; `snap_permutations` checks the snapping's share."""
-SNAP_TOLERANCE = 2e-10
-"""Largest rotation error (Frobenius) snapped to a signed permutation."""
+"""Bound (m) on how far the fast-path kinematics (`sincos_into`'s sines) moves any point
+within a few metres of the base."""
 
 _PIO2_HI = 1.5707963267341256  # pi/2 to 33 bits: k * _PIO2_HI is exact for small integers k
 _PIO2_LO = 6.077100506506192e-11  # pi/2 - _PIO2_HI
@@ -72,72 +68,58 @@ def _sincos(x):
     return sin_x, cos_x
 
 
-@numba.njit(cache=True, nogil=True)
-def sincos_into(x, sin_out, cos_out) -> None:
-    """Elementwise `_sincos` of the flat array ``x`` (vectorized by LLVM)."""
-    for k in range(x.shape[0]):
-        sin_out[k], cos_out[k] = _sincos(x[k])
+@hot_path
+def sincos_into(x, start, stop, sin_out, cos_out) -> None:
+    """``sin_out[k - start], cos_out[k - start] = _sincos(x[k])`` for ``start <= k < stop``.
 
-
-def snap_permutations(rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotations that are signed permutations, as ``(permutation (J, 3) int64, sign (J, 3))``.
-
-    A rotation within `SNAP_TOLERANCE` of a signed permutation is one; ``permutation[j] = -1``
-    where rotation ``j`` is not.
+    Vectorized by LLVM. Takes a range rather than a slice: a slice is a new array, which a
+    `hot_path` helper cannot make.
     """
-    count = len(rotations)
-    permutation = np.full((count, 3), -1, dtype=np.int64)
-    sign = np.zeros((count, 3))
-    for j, rotation in enumerate(rotations):
-        rows = np.argmax(np.abs(rotation), axis=0)
-        if sorted(rows.tolist()) != [0, 1, 2]:
-            continue
-        signs = np.sign(rotation[rows, np.arange(3)])
-        snapped = np.zeros((3, 3))
-        snapped[rows, np.arange(3)] = signs
-        if np.linalg.norm(rotation - snapped) <= SNAP_TOLERANCE:
-            permutation[j], sign[j] = rows, signs
-    return permutation, sign
+    for k in range(start, stop):
+        sin_out[k - start], cos_out[k - start] = _sincos(x[k])
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def joint_step_into(poses, j, kind, rotation, shift, permutation, sign, c, s, q) -> None:
-    """``poses[j + 1] = poses[j] @ origin[j] @ motion``, 3x4 poses (module docstring).
+@hot_inline
+def chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value_base) -> None:
+    """``poses[j + 1] = poses[j] @ origin[j] @ motion(q[j])`` for every joint, 3x4 poses.
 
-    ``c``, ``s`` are the joint's cosine and sine (revolute), ``q`` its value (prismatic).
-    Every parameter of the joint is read into a local first: the compiler cannot tell that
-    writing ``poses`` leaves the parameter arrays alone, and would read them again per row.
-    Indexes whole arrays rather than taking row views: views cost reference counting.
+    Joint ``j``'s cosine, sine and value are ``cosines[base + j]``, ``sines[base + j]`` and
+    ``values[value_base + j]`` (the value is only read for a prismatic joint). The running
+    pose is kept in twelve locals and only written out: read back from ``poses``, the
+    compiler would have to assume that each write may change the arrays it reads (they are
+    all float64), and reload everything per row, several times slower.
     """
-    t0, t1, t2 = shift[j, 0], shift[j, 1], shift[j, 2]
-    if kind[j] != 0:  # prismatic: no turn, a slide along the joint's z
-        c, s = 1.0, 0.0
-    slide = q if kind[j] != 0 else 0.0
-    if permutation[j, 0] >= 0:
-        p0, p1, p2 = permutation[j, 0], permutation[j, 1], permutation[j, 2]
-        a0, a1, a2 = sign[j, 0], sign[j, 1], sign[j, 2]
-        for r in range(3):
-            m0 = a0 * poses[j, r, p0]
-            m1 = a1 * poses[j, r, p1]
-            m2 = a2 * poses[j, r, p2]
-            poses[j + 1, r, 3] = (poses[j, r, 0] * t0 + poses[j, r, 1] * t1
-                                  + poses[j, r, 2] * t2 + poses[j, r, 3] + slide * m2)  # fmt: skip
-            poses[j + 1, r, 2] = m2
-            poses[j + 1, r, 0] = c * m0 + s * m1
-            poses[j + 1, r, 1] = c * m1 - s * m0
-        return
-    r00, r01, r02 = rotation[j, 0, 0], rotation[j, 0, 1], rotation[j, 0, 2]
-    r10, r11, r12 = rotation[j, 1, 0], rotation[j, 1, 1], rotation[j, 1, 2]
-    r20, r21, r22 = rotation[j, 2, 0], rotation[j, 2, 1], rotation[j, 2, 2]
-    for r in range(3):
-        x, y, z = poses[j, r, 0], poses[j, r, 1], poses[j, r, 2]
-        m0 = x * r00 + y * r10 + z * r20
-        m1 = x * r01 + y * r11 + z * r21
-        m2 = x * r02 + y * r12 + z * r22
-        poses[j + 1, r, 3] = x * t0 + y * t1 + z * t2 + poses[j, r, 3] + slide * m2
-        poses[j + 1, r, 2] = m2
-        poses[j + 1, r, 0] = c * m0 + s * m1
-        poses[j + 1, r, 1] = c * m1 - s * m0
+    a00, a01, a02, a03 = poses[0, 0, 0], poses[0, 0, 1], poses[0, 0, 2], poses[0, 0, 3]
+    a10, a11, a12, a13 = poses[0, 1, 0], poses[0, 1, 1], poses[0, 1, 2], poses[0, 1, 3]
+    a20, a21, a22, a23 = poses[0, 2, 0], poses[0, 2, 1], poses[0, 2, 2], poses[0, 2, 3]
+    for j in range(kind.shape[0]):
+        c, s, slide = cosines[base + j], sines[base + j], 0.0
+        if kind[j] != 0:  # prismatic: no turn, a slide along the joint's z
+            c, s, slide = 1.0, 0.0, values[value_base + j]
+        t0, t1, t2 = shift[j, 0], shift[j, 1], shift[j, 2]
+        r00, r01, r02 = rotation[j, 0, 0], rotation[j, 0, 1], rotation[j, 0, 2]
+        r10, r11, r12 = rotation[j, 1, 0], rotation[j, 1, 1], rotation[j, 1, 2]
+        r20, r21, r22 = rotation[j, 2, 0], rotation[j, 2, 1], rotation[j, 2, 2]
+        # Row by row: m = row @ origin rotation; then the turn about z and the slide.
+        m0 = a00 * r00 + a01 * r10 + a02 * r20
+        m1 = a00 * r01 + a01 * r11 + a02 * r21
+        m2 = a00 * r02 + a01 * r12 + a02 * r22
+        a03 = a00 * t0 + a01 * t1 + a02 * t2 + a03 + slide * m2
+        a00, a01, a02 = c * m0 + s * m1, c * m1 - s * m0, m2
+        m0 = a10 * r00 + a11 * r10 + a12 * r20
+        m1 = a10 * r01 + a11 * r11 + a12 * r21
+        m2 = a10 * r02 + a11 * r12 + a12 * r22
+        a13 = a10 * t0 + a11 * t1 + a12 * t2 + a13 + slide * m2
+        a10, a11, a12 = c * m0 + s * m1, c * m1 - s * m0, m2
+        m0 = a20 * r00 + a21 * r10 + a22 * r20
+        m1 = a20 * r01 + a21 * r11 + a22 * r21
+        m2 = a20 * r02 + a21 * r12 + a22 * r22
+        a23 = a20 * t0 + a21 * t1 + a22 * t2 + a23 + slide * m2
+        a20, a21, a22 = c * m0 + s * m1, c * m1 - s * m0, m2
+        poses[j + 1, 0, 0], poses[j + 1, 0, 1], poses[j + 1, 0, 2] = a00, a01, a02
+        poses[j + 1, 1, 0], poses[j + 1, 1, 1], poses[j + 1, 1, 2] = a10, a11, a12
+        poses[j + 1, 2, 0], poses[j + 1, 2, 1], poses[j + 1, 2, 2] = a20, a21, a22
+        poses[j + 1, 0, 3], poses[j + 1, 1, 3], poses[j + 1, 2, 3] = a03, a13, a23
 
 
 @numba.njit(cache=True, nogil=True)
@@ -150,26 +132,23 @@ def identity_poses(count):
 
 
 @numba.njit(cache=True, nogil=True)
-def fk_batch(configs, kind, rotation, shift, permutation, sign):
+def fk_batch(configs, kind, rotation, shift):
     """``(N, J + 1, 3, 4)`` body poses of configurations ``(N, J)`` (exact sines)."""
     count, joints = configs.shape
     out = np.zeros((count, joints + 1, 3, 4))
     poses = identity_poses(joints + 1)
+    flat = configs.reshape(-1)
+    sines, cosines = np.sin(flat), np.cos(flat)
     for i in range(count):
-        for j in range(joints):
-            q = configs[i, j]
-            joint_step_into(poses, j, kind, rotation, shift, permutation, sign, np.cos(q),
-                            np.sin(q), q)  # fmt: skip
+        chain_into(poses, kind, rotation, shift, cosines, sines, i * joints, flat, i * joints)
         out[i] = poses
     return out
 
 
 __all__ = [
     "FAST_FK_MARGIN",
-    "SNAP_TOLERANCE",
     "fk_batch",
     "identity_poses",
-    "joint_step_into",
+    "chain_into",
     "sincos_into",
-    "snap_permutations",
 ]

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from temp_gym.worlds.arm.description import RobotDescription, load_description
-from temp_gym.worlds.arm.kinematics import fk_batch, snap_permutations
+from temp_gym.worlds.arm.kinematics import fk_batch
 from temp_gym.worlds.arm.meshes import BodyGeometry, body_geometry, resolve_mesh
 from temp_gym.worlds.arm.urdf import PRISMATIC, ArmChain, read_chain
 
@@ -99,24 +99,14 @@ class ArmModel:
         return self.chain.joint_limits.copy()
 
     # ---------------------------------------------------------------- kinematics
-    def kinematic_arrays(self, snapped: bool = False) -> tuple[np.ndarray, ...]:
-        """``(kind, rotation, shift, permutation, sign)`` for the compiled kernels.
-
-        ``snapped``: rotations within `snap_permutations`'s tolerance of a signed permutation
-        are marked as such (the fast checker's kinematics); else none is (exact products).
-        """
-        key = ("kinematics", snapped)
+    def kinematic_arrays(self) -> tuple[np.ndarray, ...]:
+        """``(kind, rotation, shift)`` for the compiled kernels (read-only, cached)."""
+        key = "kinematics"
         if key not in self._arrays:
             origins = self.chain.joint_origins
-            rotation = np.ascontiguousarray(origins[:, :3, :3])
-            shift = np.ascontiguousarray(origins[:, :3, 3])
-            if snapped:
-                permutation, sign = snap_permutations(rotation)
-            else:
-                permutation = np.full((self.dim, 3), -1, dtype=np.int64)
-                sign = np.zeros((self.dim, 3))
-            kind = np.ascontiguousarray(self.chain.joint_types, dtype=np.int64)
-            arrays = (kind, rotation, shift, permutation, sign)
+            arrays = (np.ascontiguousarray(self.chain.joint_types, dtype=np.int64),
+                      np.ascontiguousarray(origins[:, :3, :3]),
+                      np.ascontiguousarray(origins[:, :3, 3]))  # fmt: skip
             for array in arrays:
                 array.setflags(write=False)
             self._arrays[key] = arrays

@@ -166,7 +166,7 @@ class ArmSphereChecker:
         lower, upper = as_boxes(box_lower, box_upper)
         trees = sphere_trees(arm)
         self._trees = trees.arrays()
-        self._kinematics = arm.kinematic_arrays(snapped=True)
+        self._kinematics = arm.kinematic_arrays()
         self._motion_radii = arm.motion_radii()
         self_model = _self_model(arm)
         self._table_pairs = self_model[4]

@@ -2,10 +2,11 @@
 
 `temp_gym.worlds.collision.arm_fast` prepares the arrays and explains why the tests are
 conservative and certify whole motions; `temp_gym.worlds.collision.arm_fast_self` holds the
-self-collision tests. Arrays come unpacked and are indexed whole, never sliced: tuple
-unpacking and row views cost atomic reference counts in the hot loop, and so do calls to
-non-inlined functions, which is why the self-collision pairs are first screened here, on the
-root-sphere centers the box broad phase has just computed.
+self-collision tests. The kernels that return arrays allocate them and their scratch space,
+then hand everything to loops compiled without reference counting
+(`temp_gym.worlds.hot_path`), whose helpers numba inlines: counting the references of some
+thirty arrays per state used to cost more than the forward kinematics. The self-collision
+pairs are first screened on the root-sphere centers the box broad phase has just computed.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from temp_gym.worlds.arm.kinematics import identity_poses, joint_step_into, sincos_into
+from temp_gym.worlds.arm.kinematics import chain_into, identity_poses, sincos_into
 from temp_gym.worlds.collision.arm_fast_self import (
     FAST_SELF_GAP,
     pair_free,
@@ -24,6 +25,7 @@ from temp_gym.worlds.collision.arm_fast_self import (
     roots_apart,
     tables_free,
 )
+from temp_gym.worlds.hot_path import hot_inline, hot_path
 
 GROWTH_FLOOR = 1e-4
 """An edge interval whose spheres would grow by at most this (m) and still touch is blocked."""
@@ -31,7 +33,7 @@ FREE, HIT, CERTAIN = 0, 1, 2
 """`_pose_free`'s answers: free; a grown sphere touches a box; the state itself collides."""
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@hot_inline
 def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
     """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
     gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
@@ -40,7 +42,7 @@ def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
     return gx * gx + gy * gy + gz * gz <= radius * radius
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@hot_inline
 def _in_bounds(states, i, bounds) -> bool:
     """Whether ``states[i]`` is within ``bounds`` (indexed whole: row views cost refcounts)."""
     for k in range(states.shape[1]):
@@ -50,7 +52,7 @@ def _in_bounds(states, i, bounds) -> bool:
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@hot_inline
 def tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
                   body_start, centers, radii, grow, box_params, b) -> bool:  # fmt: skip
     """Whether a leaf sphere of body ``j``, grown by ``grow``, touches box ``b`` (a tree walk)."""
@@ -73,8 +75,8 @@ def tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first, nod
     return False
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift, permutation, sign,
+@hot_inline
+def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
                node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
                radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
                body_box_count, body_lower, body_upper, inflation, poses,
@@ -90,9 +92,7 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift, 
     ``poses`` holds the body frames and ``root_world`` (B, 3) the world centers of the bodies'
     root spheres (row 0, the base's, never changes): the self-collision test reads them.
     """
-    for j in range(kind.shape[0]):
-        joint_step_into(poses, j, kind, rotation, shift, permutation, sign,
-                        cosines[base + j], sines[base + j], values[value_base + j])  # fmt: skip
+    chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value_base)
     # Distal bodies first: they sweep the most space, so collisions are found sooner.
     for j in range(poses.shape[0] - 1, 0, -1):
         root = body_start[j]
@@ -135,31 +135,40 @@ _BLOCK = 256
 def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, clearance, scratch):
     """``bool[N]``: each state in ``bounds`` and free, every sphere grown by ``clearance``.
 
-    The tuples are `ArmSphereChecker`'s arrays; ``scratch`` is `pair_free`'s.
+    The tuples are `ArmSphereChecker`'s arrays; ``scratch`` is `pair_free`'s. Allocates the
+    output and scratch space; `_states_loop` does the work.
     """
-    kind, rotation, shift, permutation, sign = kinematics
+    node_centers, body_start = trees[0], trees[5]
+    num, dim = states.shape
+    bodies = dim + 1
+    out = np.zeros(num, dtype=np.bool_)
+    root_world = np.zeros((bodies, 3))
+    if body_start[0] < body_start[1]:
+        for k in range(3):
+            root_world[0, k] = node_centers[body_start[0], k]
+    inflation = np.full(bodies, clearance)
+    inflation[0] = 0.0
+    work = (identity_poses(bodies), root_world, inflation,
+            np.full(self_model[1].shape[0], clearance), np.empty(_BLOCK * dim),
+            np.empty(_BLOCK * dim), scratch)  # fmt: skip
+    _states_loop(states, states.reshape(-1), bounds, kinematics, trees, boxes, self_model,
+                 work, out)  # fmt: skip
+    return out
+
+
+@hot_path
+def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, work, out) -> None:
+    """`states_free_kernel`'s loop; ``flat`` is ``states`` flattened, ``work`` its scratch."""
+    kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    poses, root_world, inflation, table_growth, sines, cosines, scratch = work
     num, dim = states.shape
-    bodies = dim + 1
-    out = np.zeros(num, dtype=np.bool_)
-    table_growth = np.full(table_grid.shape[0], clearance)
-    poses = identity_poses(bodies)
-    root_world = np.zeros((bodies, 3))
-    if body_start[0] < body_start[1]:
-        root_world[0, 0] = node_centers[body_start[0], 0]
-        root_world[0, 1] = node_centers[body_start[0], 1]
-        root_world[0, 2] = node_centers[body_start[0], 2]
-    inflation = np.full(bodies, clearance)
-    inflation[0] = 0.0
-    flat = states.reshape(-1)
-    sines = np.empty(_BLOCK * dim)
-    cosines = np.empty(_BLOCK * dim)
     for first in range(0, num, _BLOCK):
         last = min(first + _BLOCK, num)
-        sincos_into(flat[first * dim : last * dim], sines, cosines)
+        sincos_into(flat, first * dim, last * dim, sines, cosines)
         for i in range(first, last):
             # The joint-space tables need no kinematics: they go first; the sphere pairs last.
             if not (_in_bounds(states, i, bounds) and tables_free(
@@ -168,7 +177,7 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
                 continue
             boxes_free = _pose_free(
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
-                permutation, sign, node_centers, node_radii, node_skip, node_first, node_count,
+                node_centers, node_radii, node_skip, node_first, node_count,
                 body_start, centers, radii, inner_centers, inner_radii, inner_start, box_params,
                 body_boxes, body_box_count, body_lower, body_upper, inflation, poses, root_world,
             ) == FREE  # fmt: skip
@@ -180,11 +189,10 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
                               node_first, node_count, body_start, centers, radii, inflation,
                               FAST_SELF_GAP, scratch)
             )  # fmt: skip
-    return out
 
 
-@numba.njit(cache=True, nogil=True)
-def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
+@hot_path
+def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
                 body_upper, sphere_pairs, table_grid, table_bounds, inflation, table_growth,
@@ -196,8 +204,8 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
     """
     if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
         return HIT
-    sincos_into(q, sines, cosines)
-    answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift, permutation, sign,
+    sincos_into(q, 0, q.shape[0], sines, cosines)
+    answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift,
                         node_centers, node_radii, node_skip, node_first, node_count, body_start,
                         centers, radii, inner_centers, inner_radii, inner_start, box_params,
                         body_boxes, body_box_count, body_lower, body_upper, inflation, poses,
@@ -212,8 +220,8 @@ def _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_
     return HIT
 
 
-@numba.njit(cache=True, nogil=True)
-def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign, node_centers,
+@hot_path
+def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
                inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count,
                body_lower, body_upper, sphere_pairs,
@@ -239,32 +247,22 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign
         table_sweep[p] = total
     steps = max(1, int(math.ceil(worst / resolution)))
     # The intervals [k / steps, (k + 1) / steps], pushed so that the one at the end comes out
-    # first, then the one at the start, then the middle ones in bisection order.
+    # first, then the one at the start, then the middle ones in bisection order (coarsest
+    # level first, left to right): pushed in the reverse of that order.
     top = 0
-    stride = 1
-    while stride < steps:
-        stride *= 2
-    order_count = 0
-    for level in range(64):
-        width = stride >> level
-        if width == 0:
-            break
-        for _ in range(width, steps - 1, 2 * width):
-            order_count += 1
-    # Fill the stack bottom-up in reverse of the visiting order.
-    visit = np.empty(order_count, dtype=np.int64)
-    count = 0
-    for level in range(64):
-        width = stride >> level
-        if width == 0:
-            break
-        for k in range(width, steps - 1, 2 * width):
-            visit[count] = k
-            count += 1
-    for m in range(order_count - 1, -1, -1):
-        stack_low[top] = visit[m] / steps
-        stack_high[top] = (visit[m] + 1) / steps
-        top += 1
+    levels = 0
+    while (1 << levels) < steps:
+        levels += 1
+    for level in range(levels, -1, -1):
+        width = (1 << levels) >> level
+        first = width
+        if first >= steps - 1:
+            continue
+        last = first + ((steps - 2 - first) // (2 * width)) * (2 * width)
+        for k in range(last, first - 1, -2 * width):
+            stack_low[top] = k / steps
+            stack_high[top] = (k + 1) / steps
+            top += 1
     if steps > 1:
         stack_low[top], stack_high[top] = 0.0, 1.0 / steps
         top += 1
@@ -281,7 +279,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign
             inflation[j] = sweep[j] * half
         for p in range(table_sweep.shape[0]):
             table_growth[p] = table_sweep[p] * half
-        answer = _state_free(q, kind, rotation, shift, permutation, sign, node_centers,
+        answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, box_params,
                              body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
@@ -296,7 +294,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign
             inflation[j] = 0.0
         for p in range(table_sweep.shape[0]):
             table_growth[p] = 0.0
-        if _state_free(q, kind, rotation, shift, permutation, sign, node_centers, node_radii,
+        if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, box_params, body_boxes,
                        body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
@@ -326,7 +324,7 @@ def _edge_work(dim, bodies, tables, steps_hint):
 def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model, motion,
                       resolution, scratch):  # fmt: skip
     """``bool[N]``: each motion ``starts[e] -> ends[e]`` certified free (`_edge_free`)."""
-    kind, rotation, shift, permutation, sign = kinematics
+    kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
@@ -350,7 +348,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
         for k in range(3):
             root_world[0, k] = node_centers[body_start[0], k]
     for e in range(starts.shape[0]):
-        out[e] = _edge_free(starts, ends, e, bounds, kind, rotation, shift, permutation, sign,
+        out[e] = _edge_free(starts, ends, e, bounds, kind, rotation, shift,
                             node_centers, node_radii, node_skip, node_first, node_count,
                             body_start, centers, radii, inner_centers, inner_radii, inner_start,
                             box_params, body_boxes, body_box_count,
@@ -371,7 +369,7 @@ def motion_free_kernel(context, start, end) -> bool:
     settings, bounds, kinematics, trees, boxes, self_model, motion, scratch, work = context
     if settings[0] == 0.0:  # the base collides: nothing is free
         return False
-    kind, rotation, shift, permutation, sign = kinematics
+    kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
@@ -390,7 +388,7 @@ def motion_free_kernel(context, start, end) -> bool:
     if worst < 1e9 and int(math.ceil(worst / settings[1])) + _STACK_DEPTH > stack_low.shape[0]:
         stack_low = np.empty(int(math.ceil(worst / settings[1])) + _STACK_DEPTH)
         stack_high = np.empty(stack_low.shape[0])
-    return _edge_free(starts, ends, 0, bounds, kind, rotation, shift, permutation, sign,
+    return _edge_free(starts, ends, 0, bounds, kind, rotation, shift,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
                       centers, radii, inner_centers, inner_radii, inner_start, box_params,
                       body_boxes, body_box_count, body_lower,
@@ -403,17 +401,14 @@ def motion_free_kernel(context, start, end) -> bool:
 @numba.njit(cache=True, nogil=True)
 def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     """``(sphere pairs hit, table pairs hit)``: which pairs of one state collide."""
-    kind, rotation, shift, permutation, sign = kinematics
+    kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start) = trees  # fmt: skip
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = state.shape[0]
     poses = identity_poses(dim + 1)
     inflation = np.zeros(dim + 1)
-    for j in range(dim):
-        q = state[j]
-        joint_step_into(poses, j, kind, rotation, shift, permutation, sign, np.cos(q),
-                        np.sin(q), q)  # fmt: skip
+    chain_into(poses, kind, rotation, shift, np.cos(state), np.sin(state), 0, state, 0)
     spheres_hit = np.zeros(sphere_pairs.shape[0], dtype=np.bool_)
     for p in range(sphere_pairs.shape[0]):
         spheres_hit[p] = not pair_free(poses, sphere_pairs[p, 0], sphere_pairs[p, 1],

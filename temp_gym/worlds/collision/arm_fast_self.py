@@ -7,8 +7,8 @@ edge kernels, on the joint values and body poses those kernels already have. Two
   on the pair's padded distance in the cell of the first joint's value
   (`temp_gym.worlds.arm.pair_tables`). The pair is free when the bound exceeds the two bodies'
   growth plus ``2 * DISTANCE_TOLERANCE``.
-* **Sphere trees against each other** for the other pairs: the leaves of body ``b`` that reach
-  body ``a``'s root sphere are placed in the world once, and each walks ``a``'s tree.
+* **Sphere trees against each other** for the other pairs: both trees walked at once, from
+  their roots down to the pairs of leaf nodes whose spheres meet.
 
 **Conservative.** The leaves of body ``j`` cover its convex pieces
 (`temp_gym.worlds.arm.spheres`). The exact checker calls bodies ``a`` and ``b`` colliding when
@@ -32,12 +32,13 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.collision.arm_self import DISTANCE_TOLERANCE, SELF_COLLISION_GAP
+from temp_gym.worlds.hot_path import hot_inline
 
 FAST_SELF_GAP = SELF_COLLISION_GAP + 2 * DISTANCE_TOLERANCE
 """Two spheres of an enabled pair this close (m) or closer count as a self-collision."""
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@hot_inline
 def place(poses, j, centers, k):
     """World position of row ``k`` of ``centers``, a point of body ``j`` (poses (B, 3, 4))."""
     c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
@@ -53,72 +54,52 @@ def _near(x0, y0, z0, x1, y1, z1, reach) -> bool:
     return dx * dx + dy * dy + dz * dz <= reach * reach
 
 
-@numba.njit(cache=True, nogil=True)
-def tree_hits_sphere(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-                     body_start, centers, radii, grow, x, y, z, reach) -> bool:  # fmt: skip
-    """Whether a leaf of body ``j``, grown by ``grow``, comes within ``reach`` of ``(x, y, z)``."""
-    n = body_start[j]
-    end = body_start[j + 1]
-    while n < end:
-        nx, ny, nz = place(poses, j, node_centers, n)
-        if _near(nx, ny, nz, x, y, z, node_radii[n] + grow + reach):
-            count = node_count[n]
-            if count > 0:
-                for k in range(node_first[n], node_first[n] + count):
-                    kx, ky, kz = place(poses, j, centers, k)
-                    if _near(kx, ky, kz, x, y, z, radii[k] + grow + reach):
-                        return True
-                n = node_skip[n]
-            else:
-                n += 1
-        else:
-            n = node_skip[n]
-    return False
-
-
-@numba.njit(cache=True, nogil=True)
+@hot_inline
 def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node_count,
-              body_start, centers, radii, inflation, gap, scratch) -> bool:  # fmt: skip
+              body_start, centers, radii, inflation, gap, stack) -> bool:  # fmt: skip
     """Whether the grown leaves of bodies ``a`` and ``b`` stay more than ``gap`` apart.
 
-    ``scratch`` is ``(>= leaves per body, 4)``.
+    A walk of both trees at once: a pair of nodes whose spheres are apart is dropped, else the
+    larger inner node of the two is split, and two leaf nodes compare their leaf spheres. Two
+    bodies whose root spheres overlap but whose pieces are apart are told apart a few levels
+    down. ``stack`` is ``(>= 2 * (depth of a + depth of b) + 2, 2)`` scratch
+    (`scratch_for`).
     """
     root_a, root_b = body_start[a], body_start[b]
     if root_a == body_start[a + 1] or root_b == body_start[b + 1]:
         return True
-    ax, ay, az = place(poses, a, node_centers, root_a)
-    reach_a = node_radii[root_a] + inflation[a]
-    grow_b = inflation[b]
-    # The leaves of b near a's root sphere, placed once.
-    count = 0
-    n = root_b
-    end = body_start[b + 1]
-    while n < end:
-        nx, ny, nz = place(poses, b, node_centers, n)
-        if _near(nx, ny, nz, ax, ay, az, node_radii[n] + grow_b + reach_a + gap):
-            leaves = node_count[n]
-            if leaves > 0:
-                for k in range(node_first[n], node_first[n] + leaves):
+    grow_a, grow_b = inflation[a], inflation[b]
+    stack[0, 0], stack[0, 1] = root_a, root_b
+    top = 1
+    while top > 0:
+        top -= 1
+        na, nb = int(stack[top, 0]), int(stack[top, 1])
+        ax, ay, az = place(poses, a, node_centers, na)
+        bx, by, bz = place(poses, b, node_centers, nb)
+        if not _near(ax, ay, az, bx, by, bz,
+                     node_radii[na] + grow_a + node_radii[nb] + grow_b + gap):  # fmt: skip
+            continue
+        leaf_a, leaf_b = node_count[na] > 0, node_count[nb] > 0
+        if leaf_a and leaf_b:
+            for i in range(node_first[na], node_first[na] + node_count[na]):
+                ix, iy, iz = place(poses, a, centers, i)
+                for k in range(node_first[nb], node_first[nb] + node_count[nb]):
                     kx, ky, kz = place(poses, b, centers, k)
-                    r = radii[k] + grow_b
-                    if _near(kx, ky, kz, ax, ay, az, r + reach_a + gap):
-                        scratch[count, 0], scratch[count, 1] = kx, ky
-                        scratch[count, 2], scratch[count, 3] = kz, r
-                        count += 1
-                n = node_skip[n]
-            else:
-                n += 1
+                    if _near(ix, iy, iz, kx, ky, kz, radii[i] + grow_a + radii[k] + grow_b + gap):
+                        return False
+        elif leaf_b or (not leaf_a and node_radii[na] >= node_radii[nb]):
+            # An inner node's children: the next node and the one after its subtree.
+            stack[top, 0], stack[top, 1] = na + 1, nb
+            stack[top + 1, 0], stack[top + 1, 1] = node_skip[na + 1], nb
+            top += 2
         else:
-            n = node_skip[n]
-    for m in range(count):
-        if tree_hits_sphere(poses, a, node_centers, node_radii, node_skip, node_first,
-                            node_count, body_start, centers, radii, inflation[a], scratch[m, 0],
-                            scratch[m, 1], scratch[m, 2], scratch[m, 3] + gap):  # fmt: skip
-            return False
+            stack[top, 0], stack[top, 1] = na, nb + 1
+            stack[top + 1, 0], stack[top + 1, 1] = na, node_skip[nb + 1]
+            top += 2
     return True
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@hot_inline
 def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bool:
     """Whether every pair's grown root spheres are more than ``gap`` apart (broad phase).
 
@@ -134,7 +115,7 @@ def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bo
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@hot_inline
 def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, node_count,
                body_start, centers, radii, inflation, gap, scratch) -> bool:  # fmt: skip
     """Whether every enabled pair is free (`pair_free`), stopping at the first collision."""
@@ -146,7 +127,7 @@ def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, no
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@hot_inline
 def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
     """Whether each tabulated pair's bound at ``values[base:]`` exceeds ``gap + growth[p]``.
 
@@ -163,9 +144,12 @@ def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
 
 
 def scratch_for(trees) -> np.ndarray:
-    """The ``scratch`` array `pair_free` needs for these sphere trees."""
-    leaves = np.bincount(trees.sphere_body, minlength=len(trees.body_start) - 1)
-    return np.empty((max(int(leaves.max(initial=1)), 1), 4))
+    """The ``stack`` array `pair_free` needs for these sphere trees (two rows per level)."""
+    deepest = 1
+    for j in range(len(trees.body_start) - 1):
+        nodes = int(trees.body_start[j + 1] - trees.body_start[j])
+        deepest = max(deepest, int(np.ceil(np.log2(nodes + 1))) + 1 if nodes else 1)
+    return np.empty((4 * deepest + 2, 2))
 
 
 __all__ = [
@@ -176,5 +160,4 @@ __all__ = [
     "roots_apart",
     "scratch_for",
     "tables_free",
-    "tree_hits_sphere",
 ]
