@@ -10,7 +10,13 @@ import pytest
 from temp_gym.worlds.arm import acm
 from temp_gym.worlds.arm.bullet import load_bullet_arm, set_configuration
 from temp_gym.worlds.arm.model import COLLISION_PADDING, load_arm
-from temp_gym.worlds.arm.pair_tables import table_arrays, tabulated_pairs
+from temp_gym.worlds.arm.pair_tables import (
+    UNIT,
+    decode_bounds,
+    encode_bounds,
+    table_arrays,
+    tabulated_pairs,
+)
 from temp_gym.worlds.collision.arm_exact import ArmExactChecker
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 from temp_gym.worlds.collision.arm_self import SELF_COLLISION_GAP, BodyHulls
@@ -120,10 +126,21 @@ def test_the_acm_is_reproducible_from_its_seed(arms, robot, monkeypatch):
     assert compared > 10
 
 
+def _entry(grid_row, bounds_row, state) -> float:
+    """A table's bound for ``state``, located as the kernels do (independently written)."""
+    joint, lower, width, cells, second_lower, second_width, second_cells = grid_row
+    joint = int(joint)
+    first = min(max(int((state[joint] - lower) / width), 0), int(cells) - 1)
+    second = min(max(int((state[joint + 1] - second_lower) / second_width), 0),
+                 int(second_cells) - 1)  # fmt: skip
+    return float(bounds_row[first * int(second_cells) + second])
+
+
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_pair_tables_bound_the_piece_distance_from_below_and_tightly(arms, robot):
-    """A table entry is a lower bound on the padded piece distance over its whole cell and
-    every value of the next joint, and within the table's own slack of the worst of them."""
+    """A table entry is a lower bound on the padded piece distance over its whole cell of the
+    two joints, and at the cell's center it is below the distance by the table's own slack
+    (the pair's relative motion over half a cell of each joint), up to its rounding."""
     arm = arms[robot]
     limits = arm.joint_limits()
     shipped = arm.derived_data()["pair_tables"]
@@ -131,48 +148,58 @@ def test_pair_tables_bound_the_piece_distance_from_below_and_tightly(arms, robot
     assert len(pairs) > 0
     hulls = BodyHulls(arm, pairs)
     radii = arm.motion_radii()
-    for p, ((a, b), (joint, lower, width, cells), table) in enumerate(zip(pairs, grid, shipped)):
-        joint, cells = int(joint), int(cells)
-
-        def cell_of(value):
-            return min(int((value - lower) / width), cells - 1)  # noqa: B023
-
+    for p, ((a, b), table) in enumerate(zip(pairs, shipped)):
+        joint = int(grid[p, 0])
+        assert (joint, joint + 2) == (a, b) and table["joints"] == [a, a + 1]
         states = _uniform(arm, 600, seed=6)
         states[:300, joint] = np.linspace(limits[0, joint], limits[1, joint], 300)  # densely
+        states[300:, joint + 1] = np.linspace(limits[0, joint + 1], limits[1, joint + 1], 300)
         margins = []
         for state, poses in zip(states, arm.forward_kinematics(states)):
             distance = hulls.distance(poses, a, b) - SELF_COLLISION_GAP
-            assert bounds[p, cell_of(state[joint])] <= distance
-            margins.append(distance - bounds[p, cell_of(state[joint])])
-        print(f"\n{robot} {a}-{b}: median margin on random poses {np.median(margins):.4f} m")
-        # Against the worst value of the next joint (a fine sweep), the bound is off by the
-        # cells' slack (the pair's relative motion over half a cell of each joint) and little
-        # more.
-        slack = radii[a, b] * table["cell"] / 2 + radii[a + 1, b] * table["sweep_cell"] / 2
-        sweep = np.linspace(limits[0, joint + 1], limits[1, joint + 1], 200)
-        worst_margins = []
-        for value in np.linspace(limits[0, joint], limits[1, joint], 25):
-            configs = np.tile(np.clip(0.0, limits[0], limits[1]), (len(sweep), 1))
-            configs[:, joint], configs[:, joint + 1] = value, sweep
-            worst = min(hulls.distance(poses, a, b) for poses in arm.forward_kinematics(configs))
-            worst_margins.append(worst - SELF_COLLISION_GAP - bounds[p, cell_of(value)])
-        assert np.median(worst_margins) <= slack + 0.0005, (np.median(worst_margins), slack)
+            assert _entry(grid[p], bounds[p], state) <= distance
+            margins.append(distance - _entry(grid[p], bounds[p], state))
+        slack = radii[a, b] * table["cell"][0] / 2 + radii[a + 1, b] * table["cell"][1] / 2
+        print(f"\n{robot} {a}-{b}: cells {table['shape']}, slack {slack * 1000:.2f} mm, median "
+              f"margin on random poses {np.median(margins) * 1000:.2f} mm")  # fmt: skip
+        # At cell centers the bound is the distance less the slack, rounded down.
+        rng = np.random.default_rng(8)
+        centers = _uniform(arm, 40, seed=9)
+        for state in centers:
+            i, k = rng.integers(table["shape"][0]), rng.integers(table["shape"][1])
+            state[joint] = grid[p, 1] + (i + 0.5) * grid[p, 2]
+            state[joint + 1] = grid[p, 4] + (k + 0.5) * grid[p, 5]
+        for state, poses in zip(centers, arm.forward_kinematics(centers)):
+            distance = hulls.distance(poses, a, b) - SELF_COLLISION_GAP
+            margin = distance - _entry(grid[p], bounds[p], state)
+            assert slack - 1e-6 <= margin <= slack + UNIT + 1e-6, (margin, slack)
 
 
 def test_the_iiwa_flange_table_is_tight_on_the_typical_pose(arms):
-    """The iiwa's link 7 is nearly round about joint 7, so the worst value of that joint is
-    about any: its table is within 2 mm of the distance on the typical pose."""
+    """On random poses the iiwa's wrist table is below the true distance by about its slack
+    (under 2.5 mm) and its rounding at the median, and never above it."""
     arm = arms["kuka_iiwa14"]
-    pairs, grid, bounds = table_arrays(arm.derived_data()["pair_tables"])
+    shipped = arm.derived_data()["pair_tables"]
+    pairs, grid, bounds = table_arrays(shipped)
     np.testing.assert_array_equal(pairs, [[5, 7]])
-    joint, lower, width, cells = grid[0]
+    radii = arm.motion_radii()
+    slack = radii[5, 7] * shipped[0]["cell"][0] / 2 + radii[6, 7] * shipped[0]["cell"][1] / 2
+    assert slack < 0.0025
     hulls = BodyHulls(arm, pairs)
     states = _uniform(arm, 300, seed=7)
-    margins = []
-    for state, poses in zip(states, arm.forward_kinematics(states)):
-        cell = min(int((state[int(joint)] - lower) / width), int(cells) - 1)
-        margins.append(hulls.distance(poses, 5, 7) - SELF_COLLISION_GAP - bounds[0, cell])
-    assert min(margins) >= 0 and np.median(margins) < 0.002
+    margins = [hulls.distance(poses, 5, 7) - SELF_COLLISION_GAP - _entry(grid[0], bounds[0], state)
+               for state, poses in zip(states, arm.forward_kinematics(states))]  # fmt: skip
+    assert min(margins) >= 0 and np.median(margins) < slack + UNIT + 0.0005
+
+
+def test_table_bounds_round_down_and_refuse_bad_data():
+    values = np.array([[0.01234, -0.5], [5.0, -7.0]])
+    decoded = decode_bounds(encode_bounds(values), (2, 2))
+    assert np.all(decoded[0] <= values[0]) and np.all(decoded[0] > values[0] - UNIT - 1e-12)
+    assert decoded[1, 0] == pytest.approx(32767 * UNIT)  # clipped down: still a lower bound
+    assert decoded[1, 1] < 0  # clipped up, but a negative bound refuses the pose anyway
+    with pytest.raises(ValueError, match="bytes of bounds"):
+        decode_bounds(encode_bounds(values), (3, 2))
 
 
 # ---- the checkers -------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from temp_gym.worlds.arm.kinematics import fk_batch
 from temp_gym.worlds.arm.meshes import BodyGeometry, body_geometry, resolve_mesh
 from temp_gym.worlds.arm.urdf import PRISMATIC, ArmChain, read_chain
 
-DERIVED_FORMAT = 1
+DERIVED_FORMAT = 2
 """Version of the derived-data file; a file of another version must be rebuilt."""
 COLLISION_PADDING = 0.001
 """Every link is grown by this much (m) in both checkers: pybullet's collision margin for

@@ -44,6 +44,10 @@ class SphereTrees:
             in the body), body by body.
         inner_radii: ``(I,)`` their radii.
         inner_start: ``(B + 1,)`` each body's first inner ball.
+        capsules: ``(B, 7)`` per body a capsule holding all its leaf spheres: segment ends
+            ``[0:3]``, ``[3:6]`` in the body's frame, radius ``[6]`` (a body without spheres:
+            radius -1). Links are long and thin, so two close bodies' capsules are often apart
+            where their root spheres are not.
     """
 
     node_centers: np.ndarray
@@ -58,14 +62,17 @@ class SphereTrees:
     inner_centers: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     inner_radii: np.ndarray = field(default_factory=lambda: np.zeros(0))
     inner_start: np.ndarray | None = None
+    capsules: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
 
     def grown(self, margin: float) -> SphereTrees:
         """A copy with every covering sphere, leaf and node, grown by ``margin``.
 
         The inner balls are not: they must stay inside the pieces.
         """
+        capsules = self.capsules.copy()
+        capsules[capsules[:, 6] >= 0, 6] += margin
         return dataclasses.replace(self, node_radii=self.node_radii + margin,
-                                   radii=self.radii + margin)  # fmt: skip
+                                   radii=self.radii + margin, capsules=capsules)  # fmt: skip
 
     def arrays(self) -> tuple[np.ndarray, ...]:
         """The arrays in the order the kernels take them."""
@@ -75,7 +82,25 @@ class SphereTrees:
                 self.node_count, self.body_start, self.centers, self.radii,
                 np.ascontiguousarray(self.inner_centers, dtype=np.float64).reshape(-1, 3),
                 np.ascontiguousarray(self.inner_radii, dtype=np.float64),
-                np.ascontiguousarray(inner_start, dtype=np.int64))  # fmt: skip
+                np.ascontiguousarray(inner_start, dtype=np.int64),
+                np.ascontiguousarray(self.capsules, dtype=np.float64).reshape(-1, 7))  # fmt: skip
+
+
+def enclosing_capsule(centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """``(7,)``: a capsule holding the given spheres, along their centers' principal axis.
+
+    The segment spans the centers' projections on that axis; the radius is the farthest
+    sphere's reach from the segment, so every sphere is inside.
+    """
+    mean = centers.mean(axis=0)
+    axis = np.linalg.svd(centers - mean, full_matrices=False)[2][0] if len(centers) > 1 else (
+        np.array([0.0, 0.0, 1.0]))  # fmt: skip
+    along = (centers - mean) @ axis
+    ends = mean + np.outer([along.min(), along.max()], axis)
+    t = np.clip(along - along.min(), 0.0, along.max() - along.min())
+    nearest = ends[0] + np.outer(t, axis)
+    radius = float(np.max(np.linalg.norm(centers - nearest, axis=1) + radii))
+    return np.concatenate([ends[0], ends[1], [radius]])
 
 
 def enclosing_sphere(centers: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, float]:
@@ -115,11 +140,13 @@ def build_trees(body_spheres: list[tuple[np.ndarray, np.ndarray]]) -> SphereTree
     """The trees of each body's ``(centers, radii)`` (an empty body gets an empty tree)."""
     node_centers, node_radii, node_skip, node_first, node_count = [], [], [], [], []
     body_start, centers, radii, sphere_body = [0], [], [], []
+    capsules = np.tile([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0], (len(body_spheres), 1))
     for body, (body_centers, body_radii) in enumerate(body_spheres):
         body_centers = np.asarray(body_centers, dtype=np.float64).reshape(-1, 3)
         body_radii = np.asarray(body_radii, dtype=np.float64).reshape(-1)
         offset = len(node_centers)
         if len(body_radii):
+            capsules[body] = enclosing_capsule(body_centers, body_radii)
             nodes: list = []
             _build(body_centers, body_radii, np.arange(len(body_radii)), nodes)
             # Skip pointers: a subtree ends where the next node at its depth or above begins.
@@ -158,6 +185,7 @@ def build_trees(body_spheres: list[tuple[np.ndarray, np.ndarray]]) -> SphereTree
         np.array(centers, dtype=np.float64).reshape(-1, 3),
         np.array(radii, dtype=np.float64),
         np.array(sphere_body, dtype=np.int64),
+        capsules=capsules,
     )
 
 
@@ -180,4 +208,4 @@ def _depths(nodes: list) -> list[int]:
     return depths
 
 
-__all__ = ["BUCKET", "SphereTrees", "build_trees", "enclosing_sphere"]
+__all__ = ["BUCKET", "SphereTrees", "build_trees", "enclosing_capsule", "enclosing_sphere"]

@@ -161,7 +161,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     """`states_free_kernel`'s loop; ``flat`` is ``states`` flattened, ``work`` its scratch."""
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
+     inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     poses, root_world, inflation, table_growth, sines, cosines, scratch = work
@@ -186,17 +186,18 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
                 roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
                             FAST_SELF_GAP)
                 or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
-                              node_first, node_count, body_start, centers, radii, inflation,
-                              FAST_SELF_GAP, scratch)
+                              node_first, node_count, body_start, centers, radii,
+                              inner_centers, inner_radii, inner_start, capsules,
+                              inflation, FAST_SELF_GAP, scratch)
             )  # fmt: skip
 
 
 @hot_path
 def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
-                inner_radii, inner_start, box_params, body_boxes, body_box_count, body_lower,
-                body_upper, sphere_pairs, table_grid, table_bounds, inflation, table_growth,
-                poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
+                inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
+                body_lower, body_upper, sphere_pairs, table_grid, table_bounds, inflation,
+                table_growth, poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
     Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
@@ -215,7 +216,8 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
                    FAST_SELF_GAP) or pairs_free(
             poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
-            body_start, centers, radii, inflation, FAST_SELF_GAP, scratch):  # fmt: skip
+            body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
+            inflation, FAST_SELF_GAP, scratch):  # fmt: skip
         return FREE
     return HIT
 
@@ -223,8 +225,8 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
 @hot_path
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-               inner_centers, inner_radii, inner_start, box_params, body_boxes, body_box_count,
-               body_lower, body_upper, sphere_pairs,
+               inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
+               body_box_count, body_lower, body_upper, sphere_pairs,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -281,7 +283,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
             table_growth[p] = table_sweep[p] * half
         answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
-                             radii, inner_centers, inner_radii, inner_start, box_params,
+                             radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                              body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
                              table_grid, table_bounds, inflation, table_growth, poses,
                              root_world, sines, cosines, scratch)  # fmt: skip
@@ -296,7 +298,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
             table_growth[p] = 0.0
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
-                       inner_centers, inner_radii, inner_start, box_params, body_boxes,
+                       inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
                        body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
                        table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
                        scratch) != FREE:  # fmt: skip
@@ -326,7 +328,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     """``bool[N]``: each motion ``starts[e] -> ends[e]`` certified free (`_edge_free`)."""
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
+     inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = starts.shape[1]
@@ -350,8 +352,8 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     for e in range(starts.shape[0]):
         out[e] = _edge_free(starts, ends, e, bounds, kind, rotation, shift,
                             node_centers, node_radii, node_skip, node_first, node_count,
-                            body_start, centers, radii, inner_centers, inner_radii, inner_start,
-                            box_params, body_boxes, body_box_count,
+                            body_start, centers, radii, inner_centers, inner_radii,
+                            inner_start, capsules, box_params, body_boxes, body_box_count,
                             body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
                             table_motion, motion, resolution, poses, root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
@@ -371,7 +373,7 @@ def motion_free_kernel(context, start, end) -> bool:
         return False
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
+     inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
@@ -390,7 +392,7 @@ def motion_free_kernel(context, start, end) -> bool:
         stack_high = np.empty(stack_low.shape[0])
     return _edge_free(starts, ends, 0, bounds, kind, rotation, shift,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
-                      centers, radii, inner_centers, inner_radii, inner_start, box_params,
+                      centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                       body_boxes, body_box_count, body_lower,
                       body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
                       settings[1], poses, root_world, sweep, inflation, table_sweep,
@@ -403,7 +405,7 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     """``(sphere pairs hit, table pairs hit)``: which pairs of one state collide."""
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
-     inner_centers, inner_radii, inner_start) = trees  # fmt: skip
+     inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = state.shape[0]
     poses = identity_poses(dim + 1)
@@ -413,7 +415,8 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     for p in range(sphere_pairs.shape[0]):
         spheres_hit[p] = not pair_free(poses, sphere_pairs[p, 0], sphere_pairs[p, 1],
                                        node_centers, node_radii, node_skip, node_first,
-                                       node_count, body_start, centers, radii, inflation,
+                                       node_count, body_start, centers, radii, inner_centers,
+                                       inner_radii, inner_start, capsules, inflation,
                                        FAST_SELF_GAP, scratch)  # fmt: skip
     tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
     for p in range(table_grid.shape[0]):

@@ -4,7 +4,7 @@ Compiled helpers that `temp_gym.worlds.collision.arm_fast_kernels` calls inside 
 edge kernels, on the joint values and body poses those kernels already have. Two tests:
 
 * **Joint-space tables** for close pairs two joints apart: a lookup of a certified lower bound
-  on the pair's padded distance in the cell of the first joint's value
+  on the pair's padded distance in the cell of the two joints' values
   (`temp_gym.worlds.arm.pair_tables`). The pair is free when the bound exceeds the two bodies'
   growth plus ``2 * DISTANCE_TOLERANCE``.
 * **Sphere trees against each other** for the other pairs: both trees walked at once, from
@@ -55,20 +55,88 @@ def _near(x0, y0, z0, x1, y1, z1, reach) -> bool:
 
 
 @hot_inline
+def _segments_apart(poses, a, b, capsules, reach) -> bool:
+    """Whether the axes of bodies ``a`` and ``b``'s capsules are more than ``reach`` apart.
+
+    The closest points of two segments (Ericson, Real-Time Collision Detection, 5.1.9), with
+    an allowance for rounding: a "yes" is certain.
+    """
+    px, py, pz = _place_point(poses, a, capsules[a, 0], capsules[a, 1], capsules[a, 2])
+    qx, qy, qz = _place_point(poses, a, capsules[a, 3], capsules[a, 4], capsules[a, 5])
+    rx, ry, rz = _place_point(poses, b, capsules[b, 0], capsules[b, 1], capsules[b, 2])
+    sx, sy, sz = _place_point(poses, b, capsules[b, 3], capsules[b, 4], capsules[b, 5])
+    d1x, d1y, d1z = qx - px, qy - py, qz - pz
+    d2x, d2y, d2z = sx - rx, sy - ry, sz - rz
+    wx, wy, wz = px - rx, py - ry, pz - rz
+    a11 = d1x * d1x + d1y * d1y + d1z * d1z
+    a22 = d2x * d2x + d2y * d2y + d2z * d2z
+    b12 = d1x * d2x + d1y * d2y + d1z * d2z
+    c1 = d1x * wx + d1y * wy + d1z * wz
+    c2 = d2x * wx + d2y * wy + d2z * wz
+    tiny = 1e-18
+    if a11 <= tiny and a22 <= tiny:
+        s, t = 0.0, 0.0
+    elif a11 <= tiny:
+        s, t = 0.0, min(max(c2 / a22, 0.0), 1.0)
+    elif a22 <= tiny:
+        s, t = min(max(-c1 / a11, 0.0), 1.0), 0.0
+    else:
+        denominator = a11 * a22 - b12 * b12
+        s = min(max((b12 * c2 - c1 * a22) / denominator, 0.0), 1.0) if denominator > tiny else 0.0
+        t = (b12 * s + c2) / a22
+        if t < 0.0:
+            s, t = min(max(-c1 / a11, 0.0), 1.0), 0.0
+        elif t > 1.0:
+            s, t = min(max((b12 - c1) / a11, 0.0), 1.0), 1.0
+    dx = wx + s * d1x - t * d2x
+    dy = wy + s * d1y - t * d2y
+    dz = wz + s * d1z - t * d2z
+    # Any s, t in [0, 1] give an upper bound on the distance; these give the least, up to
+    # rounding: allow a micrometre.
+    allowed = reach + 1e-6
+    return dx * dx + dy * dy + dz * dz > allowed * allowed
+
+
+@hot_inline
+def _place_point(poses, j, c0, c1, c2):
+    """World position of the point ``(c0, c1, c2)`` of body ``j``."""
+    x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
+    y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
+    z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
+    return x, y, z
+
+
+@hot_inline
 def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node_count,
-              body_start, centers, radii, inflation, gap, stack) -> bool:  # fmt: skip
+              body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
+              inflation, gap, stack) -> bool:  # fmt: skip
     """Whether the grown leaves of bodies ``a`` and ``b`` stay more than ``gap`` apart.
 
     A walk of both trees at once: a pair of nodes whose spheres are apart is dropped, else the
     larger inner node of the two is split, and two leaf nodes compare their leaf spheres. Two
     bodies whose root spheres overlap but whose pieces are apart are told apart a few levels
-    down. ``stack`` is ``(>= 2 * (depth of a + depth of b) + 2, 2)`` scratch
-    (`scratch_for`).
+    down. First, capsules that hold each body's leaves and are apart end the test (free), and
+    so do two inner balls (inside the bodies' pieces) that overlap (in collision). ``stack``
+    is ``(>= 2 * (depth of a + depth of b) + 2, 2)`` scratch (`scratch_for`).
     """
     root_a, root_b = body_start[a], body_start[b]
     if root_a == body_start[a + 1] or root_b == body_start[b + 1]:
         return True
     grow_a, grow_b = inflation[a], inflation[b]
+    ax, ay, az = place(poses, a, node_centers, root_a)
+    bx, by, bz = place(poses, b, node_centers, root_b)
+    if not _near(ax, ay, az, bx, by, bz,
+                 node_radii[root_a] + grow_a + node_radii[root_b] + grow_b + gap):  # fmt: skip
+        return True
+    if _segments_apart(poses, a, b, capsules,
+                       capsules[a, 6] + grow_a + capsules[b, 6] + grow_b + gap):  # fmt: skip
+        return True
+    for i in range(inner_start[a], inner_start[a + 1]):
+        ix, iy, iz = place(poses, a, inner_centers, i)
+        for k in range(inner_start[b], inner_start[b + 1]):
+            kx, ky, kz = place(poses, b, inner_centers, k)
+            if _near(ix, iy, iz, kx, ky, kz, inner_radii[i] + inner_radii[k]):
+                return False
     stack[0, 0], stack[0, 1] = root_a, root_b
     top = 1
     while top > 0:
@@ -117,12 +185,14 @@ def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bo
 
 @hot_inline
 def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, node_count,
-               body_start, centers, radii, inflation, gap, scratch) -> bool:  # fmt: skip
+               body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
+               inflation, gap, stack) -> bool:  # fmt: skip
     """Whether every enabled pair is free (`pair_free`), stopping at the first collision."""
     for p in range(pairs.shape[0]):
         if not pair_free(poses, pairs[p, 0], pairs[p, 1], node_centers, node_radii, node_skip,
-                         node_first, node_count, body_start, centers, radii, inflation, gap,
-                         scratch):  # fmt: skip
+                         node_first, node_count, body_start, centers, radii, inner_centers,
+                         inner_radii, inner_start, capsules, inflation, gap,
+                         stack):  # fmt: skip
             return False
     return True
 
@@ -131,14 +201,18 @@ def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, no
 def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
     """Whether each tabulated pair's bound at ``values[base:]`` exceeds ``gap + growth[p]``.
 
-    ``table_grid[p] = (joint, lower, cell width, cells)`` locates the value's cell in
-    ``table_bounds[p]``. The values must be within the joint limits (checked before).
+    ``table_grid[p]`` locates the cell of the two joints' values in ``table_bounds[p]``
+    (`temp_gym.worlds.arm.pair_tables.table_arrays`). The values must be within the joint
+    limits (checked before).
     """
     for p in range(table_grid.shape[0]):
         joint = int(table_grid[p, 0])
-        cell = int((values[base + joint] - table_grid[p, 1]) / table_grid[p, 2])
-        cell = min(max(cell, 0), int(table_grid[p, 3]) - 1)
-        if not table_bounds[p, cell] > gap + growth[p]:
+        cells = int(table_grid[p, 6])
+        first = int((values[base + joint] - table_grid[p, 1]) / table_grid[p, 2])
+        first = min(max(first, 0), int(table_grid[p, 3]) - 1)
+        second = int((values[base + joint + 1] - table_grid[p, 4]) / table_grid[p, 5])
+        second = min(max(second, 0), cells - 1)
+        if not table_bounds[p, first * cells + second] > gap + growth[p]:
             return False
     return True
 
