@@ -11,6 +11,7 @@ from temp_gym.worlds.arm import acm
 from temp_gym.worlds.arm.bullet import load_bullet_arm, set_configuration
 from temp_gym.worlds.arm.model import COLLISION_PADDING, load_arm
 from temp_gym.worlds.arm.pair_tables import (
+    REFINE,
     UNIT,
     decode_bounds,
     encode_bounds,
@@ -139,8 +140,9 @@ def _entry(grid_row, bounds_row, state) -> float:
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_pair_tables_bound_the_piece_distance_from_below_and_tightly(arms, robot):
     """A table entry is a lower bound on the padded piece distance over its whole cell of the
-    two joints, and at the cell's center it is below the distance by the table's own slack
-    (the pair's relative motion over half a cell of each joint), up to its rounding."""
+    two joints, and at the cell's center it is below the distance by at least the table's own
+    slack (the pair's relative motion over half a sub-cell of each joint) and at most three
+    times it (the worst sub-cell's center is within two slacks of the cell's), up to rounding."""
     arm = arms[robot]
     limits = arm.joint_limits()
     shipped = arm.derived_data()["pair_tables"]
@@ -159,7 +161,7 @@ def test_pair_tables_bound_the_piece_distance_from_below_and_tightly(arms, robot
             distance = hulls.distance(poses, a, b) - SELF_COLLISION_GAP
             assert _entry(grid[p], bounds[p], state) <= distance
             margins.append(distance - _entry(grid[p], bounds[p], state))
-        slack = radii[a, b] * table["cell"][0] / 2 + radii[a + 1, b] * table["cell"][1] / 2
+        slack = (radii[a, b] * table["cell"][0] + radii[a + 1, b] * table["cell"][1]) / (2 * REFINE)
         print(f"\n{robot} {a}-{b}: cells {table['shape']}, slack {slack * 1000:.2f} mm, median "
               f"margin on random poses {np.median(margins) * 1000:.2f} mm")  # fmt: skip
         # At cell centers the bound is the distance less the slack, rounded down.
@@ -172,24 +174,26 @@ def test_pair_tables_bound_the_piece_distance_from_below_and_tightly(arms, robot
         for state, poses in zip(centers, arm.forward_kinematics(centers)):
             distance = hulls.distance(poses, a, b) - SELF_COLLISION_GAP
             margin = distance - _entry(grid[p], bounds[p], state)
-            assert slack - 1e-6 <= margin <= slack + UNIT + 1e-6, (margin, slack)
+            assert slack - 1e-6 <= margin <= 3 * slack + UNIT + 1e-6, (margin, slack)
 
 
 def test_the_iiwa_flange_table_is_tight_on_the_typical_pose(arms):
-    """On random poses the iiwa's wrist table is below the true distance by about its slack
-    (under 2.5 mm) and its rounding at the median, and never above it."""
+    """On random poses the iiwa's wrist table is below the true distance by at most about two
+    of its slacks (under a millimetre each) at the median, and never above it."""
     arm = arms["kuka_iiwa14"]
     shipped = arm.derived_data()["pair_tables"]
     pairs, grid, bounds = table_arrays(shipped)
     np.testing.assert_array_equal(pairs, [[5, 7]])
     radii = arm.motion_radii()
-    slack = radii[5, 7] * shipped[0]["cell"][0] / 2 + radii[6, 7] * shipped[0]["cell"][1] / 2
-    assert slack < 0.0025
+    slack = (radii[5, 7] * shipped[0]["cell"][0] + radii[6, 7] * shipped[0]["cell"][1]) / (
+        2 * REFINE
+    )
+    assert slack < 0.001
     hulls = BodyHulls(arm, pairs)
     states = _uniform(arm, 300, seed=7)
     margins = [hulls.distance(poses, 5, 7) - SELF_COLLISION_GAP - _entry(grid[0], bounds[0], state)
                for state, poses in zip(states, arm.forward_kinematics(states))]  # fmt: skip
-    assert min(margins) >= 0 and np.median(margins) < slack + UNIT + 0.0005
+    assert min(margins) >= 0 and np.median(margins) < 2 * slack + UNIT
 
 
 def test_table_bounds_round_down_and_refuse_bad_data():

@@ -11,14 +11,16 @@ about `CELLS` of them, shaped so that both joints contribute the same slack (bel
 ``(i, k)`` is a certified lower bound, over every pose of that cell, of the padded piece
 distance (the exact checker's geometry, `temp_gym.worlds.collision.arm_self`) less the gap:
 
-    bound[i, k] = d(c_i, s_k) - R1 * h1 / 2 - R2 * h2 / 2
+    bound[i, k] = min over the cell's sub-cells of d(sub-cell center)
+                  - R1 * h1 / (2 r) - R2 * h2 / (2 r)
 
-where ``(c_i, s_k)`` is the cell's center, ``d`` fcl's distance less its tolerance and the gap,
-and ``R1``, ``R2`` bounds on how fast body ``a + 2`` moves relative to body ``a`` per unit of
-each joint (`ArmModel.motion_radii`): every pose of the cell is within that of the center. A
+where each cell is cut into ``r x r`` sub-cells (`REFINE`), ``d`` is fcl's distance less its
+tolerance and the gap, and ``R1``, ``R2`` bound how fast body ``a + 2`` moves relative to body
+``a`` per unit of each joint (`ArmModel.motion_radii`): every pose of a sub-cell is within
+that of its center. Sub-cells make the slack ``r`` times smaller at the same table size. A
 pose is free for the pair when its entry exceeds the growth of the two bodies' spheres
 (`temp_gym.worlds.collision.arm_fast_self`). So the fast checker refuses a pose for the pair
-only within about ``R1 * h1 / 2 + R2 * h2 / 2`` (a few millimetres) of the gap.
+only within about ``(R1 * h1 + R2 * h2) / r`` (a millimetre or two) of the gap.
 
 The bounds are stored rounded down to `UNIT` as little-endian int16, base64-encoded, so that a
 table of tens of thousands of cells stays small in the JSON file.
@@ -36,7 +38,9 @@ import numpy as np
 from temp_gym.worlds.arm.model import ArmModel
 
 CELLS = 65_536
-"""Cells per table (about): a slack of about 2-3 mm for a wrist."""
+"""Cells per table (about)."""
+REFINE = 3
+"""Sub-cells per cell along each joint, whose worst distance the cell keeps."""
 TABLE_BELOW = 0.05
 """A pair two joints apart whose bodies come this close (m) in the samples gets a table."""
 UNIT = 1e-4
@@ -86,25 +90,27 @@ def compute_table(arm: ArmModel, pair: tuple[int, int], cells: int = CELLS) -> d
                        1e-9)  # fmt: skip
     first_count = max(1, round(float(np.sqrt(cells * reach[0] / reach[1]))))
     second_count = max(1, cells // first_count)
-    first, step = _cells(limits[0, a], limits[1, a], first_count)
-    second, second_step = _cells(limits[0, a + 1], limits[1, a + 1], second_count)
+    first, step = _cells(limits[0, a], limits[1, a], first_count * REFINE)
+    second, second_step = _cells(limits[0, a + 1], limits[1, a + 1], second_count * REFINE)
     slack = radii[a, b] * step / 2 + radii[a + 1, b] * second_step / 2
     hulls = BodyHulls(arm, np.array([pair]))
     configs = np.zeros((len(second), arm.dim))
     configs[:, :] = np.clip(0.0, limits[0], limits[1])
     configs[:, a + 1] = second
-    bounds = np.empty((len(first), len(second)))
+    fine = np.empty((len(first), len(second)))
     for i, value in enumerate(first):
         configs[:, a] = value
         poses = arm.forward_kinematics(configs)
-        bounds[i] = [hulls.distance(pose, a, b) for pose in poses]
+        fine[i] = [hulls.distance(pose, a, b) for pose in poses]
+    # Each cell keeps the worst of its REFINE x REFINE sub-cells.
+    bounds = fine.reshape(first_count, REFINE, second_count, REFINE).min(axis=(1, 3))
     bounds -= SELF_COLLISION_GAP + slack
     return {
         "bodies": [a, b],
         "joints": [a, a + 1],
         "lower": [float(limits[0, a]), float(limits[0, a + 1])],
-        "cell": [float(step), float(second_step)],
-        "shape": [len(first), len(second)],
+        "cell": [float(step * REFINE), float(second_step * REFINE)],
+        "shape": [first_count, second_count],
         "bounds": encode_bounds(bounds),
     }
 
@@ -137,5 +143,5 @@ def table_arrays(tables: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return pairs, grid, bounds
 
 
-__all__ = ["CELLS", "TABLE_BELOW", "UNIT", "compute_table", "decode_bounds", "encode_bounds",
-           "table_arrays", "tabulated_pairs"]  # fmt: skip
+__all__ = ["CELLS", "REFINE", "TABLE_BELOW", "UNIT", "compute_table", "decode_bounds",
+           "encode_bounds", "table_arrays", "tabulated_pairs"]  # fmt: skip

@@ -19,6 +19,7 @@ import numpy as np
 from temp_gym.worlds.arm.kinematics import chain_into, identity_poses, sincos_into
 from temp_gym.worlds.collision.arm_fast_self import (
     FAST_SELF_GAP,
+    TABLE_MARGIN,
     pair_free,
     pairs_free,
     place,
@@ -173,7 +174,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
             # The joint-space tables need no kinematics: they go first; the sphere pairs last.
             if not (_in_bounds(states, i, bounds) and tables_free(
                     flat, i * dim, table_grid, table_bounds, table_growth,
-                    FAST_SELF_GAP)):  # fmt: skip
+                    TABLE_MARGIN)):  # fmt: skip
                 continue
             boxes_free = _pose_free(
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
@@ -203,7 +204,7 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
     checked ends).
     """
-    if not tables_free(q, 0, table_grid, table_bounds, table_growth, FAST_SELF_GAP):
+    if not tables_free(q, 0, table_grid, table_bounds, table_growth, TABLE_MARGIN):
         return HIT
     sincos_into(q, 0, q.shape[0], sines, cosines)
     answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift,
@@ -421,7 +422,7 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
     for p in range(table_grid.shape[0]):
         tables_hit[p] = not tables_free(state, 0, table_grid[p : p + 1], table_bounds[p : p + 1],
-                                        np.zeros(1), FAST_SELF_GAP)  # fmt: skip
+                                        np.zeros(1), TABLE_MARGIN)  # fmt: skip
     return spheres_hit, tables_hit
 
 

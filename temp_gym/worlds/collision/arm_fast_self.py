@@ -36,6 +36,9 @@ from temp_gym.worlds.hot_path import hot_inline
 
 FAST_SELF_GAP = SELF_COLLISION_GAP + 2 * DISTANCE_TOLERANCE
 """Two spheres of an enabled pair this close (m) or closer count as a self-collision."""
+TABLE_MARGIN = 2 * DISTANCE_TOLERANCE
+"""A tabulated pair is free when its bound (which already has the gap taken off) exceeds the
+growth by more than this: fcl's tolerance at the cell's center and at the pose."""
 
 
 @hot_inline
@@ -198,8 +201,10 @@ def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, no
 
 
 @hot_inline
-def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
-    """Whether each tabulated pair's bound at ``values[base:]`` exceeds ``gap + growth[p]``.
+def tables_free(values, base, table_grid, table_bounds, growth, margin) -> bool:
+    """Whether each tabulated pair's bound at ``values[base:]`` exceeds ``margin + growth[p]``.
+
+    The bounds have the collision gap taken off already (`TABLE_MARGIN` is the margin to use).
 
     ``table_grid[p]`` locates the cell of the two joints' values in ``table_bounds[p]``
     (`temp_gym.worlds.arm.pair_tables.table_arrays`). The values must be within the joint
@@ -212,7 +217,7 @@ def tables_free(values, base, table_grid, table_bounds, growth, gap) -> bool:
         first = min(max(first, 0), int(table_grid[p, 3]) - 1)
         second = int((values[base + joint + 1] - table_grid[p, 4]) / table_grid[p, 5])
         second = min(max(second, 0), cells - 1)
-        if not table_bounds[p, first * cells + second] > gap + growth[p]:
+        if not table_bounds[p, first * cells + second] > margin + growth[p]:
             return False
     return True
 
@@ -228,6 +233,7 @@ def scratch_for(trees) -> np.ndarray:
 
 __all__ = [
     "FAST_SELF_GAP",
+    "TABLE_MARGIN",
     "pair_free",
     "pairs_free",
     "place",
