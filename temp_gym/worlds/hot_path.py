@@ -22,7 +22,8 @@ hot_path = numba.njit(cache=True, nogil=True, _nrt=False)
 hot_inline = numba.njit(cache=True, nogil=True, _nrt=False, inline="always")
 """`hot_path`, inlined into its callers by numba: for helpers that take many arrays (LLVM
 does not inline large functions, and passing a dozen arrays costs more than a short test).
-Call these only from `hot_path` functions: inlined into a reference-counting caller, their
-arrays are counted again."""
+On a hot path, call these only from `hot_path` functions: inlined into a reference-counting
+caller, their arrays are counted again (acceptable in a one-off call, such as naming the
+colliding pairs of one state)."""
 
 __all__ = ["hot_inline", "hot_path"]

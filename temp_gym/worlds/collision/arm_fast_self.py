@@ -42,13 +42,18 @@ growth by more than this: fcl's tolerance at the cell's center and at the pose."
 
 
 @hot_inline
-def place(poses, j, centers, k):
-    """World position of row ``k`` of ``centers``, a point of body ``j`` (poses (B, 3, 4))."""
-    c0, c1, c2 = centers[k, 0], centers[k, 1], centers[k, 2]
+def place_point(poses, j, c0, c1, c2):
+    """World position of the point ``(c0, c1, c2)`` of body ``j`` (poses (B, 3, 4))."""
     x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
     y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
     z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
     return x, y, z
+
+
+@hot_inline
+def place(poses, j, centers, k):
+    """World position of row ``k`` of ``centers``, a point of body ``j`` (`place_point`)."""
+    return place_point(poses, j, centers[k, 0], centers[k, 1], centers[k, 2])
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -64,10 +69,10 @@ def _segments_apart(poses, a, b, capsules, reach) -> bool:
     The closest points of two segments (Ericson, Real-Time Collision Detection, 5.1.9), with
     an allowance for rounding: a "yes" is certain.
     """
-    px, py, pz = _place_point(poses, a, capsules[a, 0], capsules[a, 1], capsules[a, 2])
-    qx, qy, qz = _place_point(poses, a, capsules[a, 3], capsules[a, 4], capsules[a, 5])
-    rx, ry, rz = _place_point(poses, b, capsules[b, 0], capsules[b, 1], capsules[b, 2])
-    sx, sy, sz = _place_point(poses, b, capsules[b, 3], capsules[b, 4], capsules[b, 5])
+    px, py, pz = place_point(poses, a, capsules[a, 0], capsules[a, 1], capsules[a, 2])
+    qx, qy, qz = place_point(poses, a, capsules[a, 3], capsules[a, 4], capsules[a, 5])
+    rx, ry, rz = place_point(poses, b, capsules[b, 0], capsules[b, 1], capsules[b, 2])
+    sx, sy, sz = place_point(poses, b, capsules[b, 3], capsules[b, 4], capsules[b, 5])
     d1x, d1y, d1z = qx - px, qy - py, qz - pz
     d2x, d2y, d2z = sx - rx, sy - ry, sz - rz
     wx, wy, wz = px - rx, py - ry, pz - rz
@@ -98,15 +103,6 @@ def _segments_apart(poses, a, b, capsules, reach) -> bool:
     # rounding: allow a micrometre.
     allowed = reach + 1e-6
     return dx * dx + dy * dy + dz * dz > allowed * allowed
-
-
-@hot_inline
-def _place_point(poses, j, c0, c1, c2):
-    """World position of the point ``(c0, c1, c2)`` of body ``j``."""
-    x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
-    y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
-    z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
-    return x, y, z
 
 
 @hot_inline
@@ -237,6 +233,7 @@ __all__ = [
     "pair_free",
     "pairs_free",
     "place",
+    "place_point",
     "roots_apart",
     "scratch_for",
     "tables_free",
