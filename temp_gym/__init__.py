@@ -10,7 +10,7 @@ without the planners.
 from temp_gym.worlds import robots  # registers the built-in robots  # noqa: I001
 from temp_gym import hooks
 from temp_gym.envs import ENV_IDS, register_envs
-from temp_gym.problem import Problem
+from temp_gym.problem import Box, Cylinder, Problem, Sphere, Workspace
 
 register_envs()
 
@@ -51,18 +51,22 @@ hooks.robot_file_loader = register_robot_file
 __all__ = [
     "ENV_IDS",
     "PLANNERS",
+    "Box",
+    "Cylinder",
     "InformedRRTStarSettings",
     "OMPLSettings",
     "PlanResult",
     "PlanSettings",
     "Problem",
     "RRTStarSettings",
+    "Sphere",
     "TEMPSettings",
     "load_policy",
     "plan",
     "register_planner",
     "register_robot_file",
     "robots",
+    "Workspace",
 ]
 
 

@@ -97,7 +97,11 @@ def test_point3d_and_arrays_are_read_only():
             "obstacles[0].color",
             "unknown key",
         ),
-        ({"obstacles": [{"center": [1, 1]}]}, "obstacles[0]", "needs both"),
+        (
+            {"obstacles": [{"center": [1, 1]}]},
+            "obstacles[0]",
+            "a box needs center and half_extents",
+        ),
         ({"obstacles": {"center": [1, 1]}}, "obstacles", "expected a list"),
         ({"speed": 3}, "speed", "unknown key"),
     ],

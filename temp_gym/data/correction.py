@@ -40,7 +40,7 @@ from temp_gym.config import Config
 from temp_gym.data.demonstrations import resample_path
 from temp_gym.planning.attention import AttentionLimits, run_attention_phase
 from temp_gym.planning.tree import Tree, default_step_size
-from temp_gym.problem import Problem, Workspace
+from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import denormalize, goal_radius_ratio, normalize
 from temp_gym.worlds.reference import GoalField
 
@@ -59,8 +59,7 @@ class ClearField:
 
         self.fields = [GoalField(ReferencePlanner(workspace), goal)]
         if clearance > 0:
-            grown = Workspace(workspace.robot, workspace.bounds, workspace.obstacle_centers,
-                              workspace.obstacle_half_extents + clearance)  # fmt: skip
+            grown = workspace.grown(clearance)
             self.fields.insert(0, GoalField(ReferencePlanner(grown), goal))
 
     def path(self, state: np.ndarray, length: float = np.inf) -> np.ndarray | None:

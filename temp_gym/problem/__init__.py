@@ -5,6 +5,7 @@ and through the `Robot` protocol (`temp_gym.problem.robots`); its spec lives in
 `temp_gym.worlds.robots`, which registers it.
 """
 
+from temp_gym.problem.obstacles import Box, Cylinder, Obstacle, Sphere
 from temp_gym.problem.parsing import MAX_MAGNITUDE, MIN_LENGTH, parse_problem_json
 from temp_gym.problem.query import Problem
 from temp_gym.problem.robots import (
@@ -27,6 +28,10 @@ def __getattr__(name: str) -> object:
 
 __all__ = [
     "MAX_MAGNITUDE",
+    "Box",
+    "Cylinder",
+    "Obstacle",
+    "Sphere",
     "MIN_LENGTH",
     "Problem",
     "Robot",

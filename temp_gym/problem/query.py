@@ -1,22 +1,36 @@
 """`Problem`: one motion-planning query (a workspace, start, goal, goal region) and its JSON format.
 
-The JSON format is fixed, because users and our own test sets are written against it::
+The JSON format is versioned, because users and our own test sets are written against it::
 
     {"robot": "point2d",
      "bounds": [[0, 0], [20, 20]],
      "obstacles": [{"center": [10, 10], "half_extents": [1, 3]}],
      "start": [2, 2], "goal": [18, 18], "goal_radius": 0.5}
 
+is version 1 (axis-aligned boxes), and still reads unchanged. Version 2 (``"version": 2``,
+optional when reading) adds obstacle kinds, each named by ``"type"`` (a missing ``"type"``
+is ``"box"``)::
+
+    {"type": "box", "center": [0.6, 0, 0.4], "half_extents": [0.3, 0.2, 0.02],
+     "orientation": [0, 0, 0.3826834, 0.9238795]}
+    {"type": "cylinder", "center": [0.5, 0.3, 0.5], "radius": 0.04, "length": 0.2}
+    {"type": "sphere", "center": [0.4, -0.3, 0.6], "radius": 0.05}
+
+``orientation`` is optional: a unit quaternion ``[x, y, z, w]`` in 3D, an angle in radians
+in 2D; a cylinder's axis is its local z (3D workspaces only); a sphere is a disc in 2D.
+`Problem.to_dict` writes version 1 when every obstacle is an axis-aligned box, version 2
+otherwise.
+
 * ``robot`` names a registered robot (`temp_gym.worlds.robots`): ``point2d``, ``point3d`` or
   ``kuka_iiwa14`` as shipped.
 * ``bounds`` is the configuration space as ``[lower, upper]``. A robot with joint limits (the
   iiwa) may leave it out: it then defaults to the limits; it may be narrower, never wider.
-* ``obstacles`` are axis-aligned boxes in workspace coordinates (as many numbers each as the
-  workspace has dimensions). The iiwa's base sits at the origin with z up.
+* ``obstacles`` are in workspace coordinates (as many numbers per center and half extents as
+  the workspace has dimensions). An arm's base sits at the origin with z up.
 * ``goal_radius`` is the radius of the goal region, a ball around ``goal`` in configuration
   space (radians for the iiwa).
 
-Start and goal must be free: inside the bounds, clear of the boxes and, for the arm, of
+Start and goal must be free: inside the bounds, clear of the obstacles and, for an arm, of
 itself (a self-collision error names the link pair). Every violation raises a `ValueError`
 that names the field and the reason.
 """
@@ -32,6 +46,14 @@ from typing import Any
 import numpy as np
 
 from temp_gym import limits
+from temp_gym.problem.obstacles import (
+    BOX,
+    CYLINDER,
+    KIND_NAMES,
+    SPHERE,
+    identity_orientations,
+    orientation_width,
+)
 from temp_gym.problem.parsing import (
     MIN_LENGTH,
     as_float,
@@ -41,8 +63,16 @@ from temp_gym.problem.parsing import (
 from temp_gym.problem.robots import robot_named
 from temp_gym.problem.workspace import Workspace
 
-_KEYS = {"robot", "bounds", "obstacles", "start", "goal", "goal_radius"}
-_BOX_KEYS = {"center", "half_extents"}
+_KEYS = {"robot", "bounds", "obstacles", "start", "goal", "goal_radius", "version"}
+_OPTIONAL = {"bounds", "version"}
+VERSIONS = (1, 2)
+"""The problem-format versions this library reads; it writes the lowest that holds a problem."""
+_OBSTACLE_KEYS = {
+    "box": ({"center", "half_extents"}, {"type", "orientation"}),
+    "cylinder": ({"type", "center", "radius", "length"}, {"orientation"}),
+    "sphere": ({"type", "center", "radius"}, set()),
+}
+"""Per ``"type"``: the keys an obstacle must have, and those it may have."""
 
 
 @dataclass(frozen=True)
@@ -160,9 +190,15 @@ class Problem:
                 f"{_cut(sorted(map(str, unknown))[0])}: unknown key; allowed keys are "
                 f"{sorted(_KEYS)}"
             )
-        missing = (_KEYS - {"bounds"}) - set(data)
+        missing = (_KEYS - _OPTIONAL) - set(data)
         if missing:
             raise ValueError(f"{sorted(missing)[0]}: missing required key")
+        version = data.get("version", 1)
+        if isinstance(version, bool) or version not in VERSIONS:
+            raise ValueError(
+                f"version: {_cut(repr(version))} is not a problem-format version this temp-gym "
+                f"reads ({', '.join(map(str, VERSIONS))})"
+            )
         robot = robot_named(data["robot"])
         dim, wdim = robot.dim, robot.workspace_dim
         if "bounds" in data:
@@ -179,26 +215,28 @@ class Problem:
                 f"bounds: missing required key (only a robot with joint limits may leave it "
                 f"out, not {robot.name})"
             )
-        centers, halves = _boxes(data["obstacles"], wdim)
+        centers, halves, kinds, orientations = _obstacles(data["obstacles"], wdim)
         start = float_vector(data["start"], "start", dim)
         goal = float_vector(data["goal"], "goal", dim)
-        workspace = Workspace(robot.name, bounds, centers, halves)
+        workspace = Workspace(robot.name, bounds, centers, halves, kinds, orientations)
         return cls(workspace, start, goal, data["goal_radius"])
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON-format dictionary; ``Problem.from_dict(p.to_dict()) == p`` exactly."""
         workspace = self.workspace
-        return {
-            "robot": self.robot,
-            "bounds": self.bounds.tolist(),
-            "obstacles": [
-                {"center": c.tolist(), "half_extents": h.tolist()}
-                for c, h in zip(workspace.obstacle_centers, workspace.obstacle_half_extents)
-            ],
-            "start": self.start.tolist(),
-            "goal": self.goal.tolist(),
-            "goal_radius": self.goal_radius,
-        }
+        version = 1 if workspace.axis_aligned else 2
+        data: dict[str, Any] = {} if version == 1 else {"version": 2}
+        data.update(
+            {
+                "robot": self.robot,
+                "bounds": self.bounds.tolist(),
+                "obstacles": obstacle_dicts(workspace),
+                "start": self.start.tolist(),
+                "goal": self.goal.tolist(),
+                "goal_radius": self.goal_radius,
+            }
+        )
+        return data
 
     @classmethod
     def load(cls, path: str | Path) -> Problem:
@@ -251,33 +289,118 @@ MAX_PROBLEM_BYTES = limits.MAX_PROBLEM_BYTES
 """`Problem.load` refuses larger files (`temp_gym.limits`)."""
 
 
-def _boxes(obstacles: Any, wdim: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``obstacles`` entry as ``(centers, half_extents)``, each ``(M, wdim)``."""
+def obstacle_dicts(workspace: Workspace) -> list[dict[str, Any]]:
+    """The workspace's obstacles as problem-format entries.
+
+    Version 1's boxes when every obstacle is an axis-aligned box, else version 2's typed
+    entries (an orientation only where it is not the identity).
+    """
+    if workspace.axis_aligned:
+        return [
+            {"center": c.tolist(), "half_extents": h.tolist()}
+            for c, h in zip(workspace.obstacle_centers, workspace.obstacle_half_extents)
+        ]
+    entries = []
+    unrotated = workspace.unrotated
+    for b, kind in enumerate(workspace.obstacle_kinds):
+        center = workspace.obstacle_centers[b].tolist()
+        half = workspace.obstacle_half_extents[b]
+        entry: dict[str, Any] = {"type": KIND_NAMES[kind], "center": center}
+        if kind == BOX:
+            entry["half_extents"] = half.tolist()
+        elif kind == CYLINDER:
+            entry["radius"] = float(half[0])
+            entry["length"] = float(2.0 * half[2])
+        else:
+            entry["radius"] = float(half[0])
+        if kind != SPHERE and not unrotated[b]:
+            orientation = workspace.obstacle_orientations[b]
+            entry["orientation"] = (
+                float(orientation[0]) if len(orientation) == 1 else orientation.tolist()
+            )
+        entries.append(entry)
+    return entries
+
+
+def _obstacles(obstacles: Any, wdim: int) -> tuple[np.ndarray, ...]:
+    """The ``obstacles`` entry as ``(centers, half_extents, kinds, orientations)`` arrays."""
     if not isinstance(obstacles, (list, tuple)):
-        raise ValueError("obstacles: expected a list of boxes")
+        raise ValueError("obstacles: expected a list of obstacles")
     if len(obstacles) > limits.MAX_OBSTACLES:
         raise ValueError(
-            f"obstacles: {len(obstacles)} boxes, at most {limits.MAX_OBSTACLES} are supported "
-            "(docs/security.md)"
+            f"obstacles: {len(obstacles)} obstacles, at most {limits.MAX_OBSTACLES} are "
+            "supported (docs/security.md)"
         )
-    centers, halves = [], []
-    for i, box in enumerate(obstacles):
-        if not isinstance(box, dict):
-            raise ValueError(f"obstacles[{i}]: expected an object with center and half_extents")
-        extra = set(box) - _BOX_KEYS
-        if extra:
+    count = len(obstacles)
+    centers = np.empty((count, wdim))
+    halves = np.empty((count, wdim))
+    kinds = np.zeros(count, dtype=np.int8)
+    orientations = identity_orientations(count, wdim)
+    for i, entry in enumerate(obstacles):
+        where = f"obstacles[{i}]"
+        if not isinstance(entry, dict):
+            raise ValueError(f"{where}: expected an object (a box, cylinder or sphere)")
+        kind_name = entry.get("type", "box")
+        if not isinstance(kind_name, str) or kind_name not in _OBSTACLE_KEYS:
             raise ValueError(
-                f"obstacles[{i}].{_cut(sorted(map(str, extra))[0])}: unknown key; a box "
-                f"has {' and '.join(sorted(_BOX_KEYS))}"
+                f"{where}.type: {_cut(repr(kind_name))} is not an obstacle type; expected one "
+                f"of {list(_OBSTACLE_KEYS)}"
             )
-        if _BOX_KEYS - set(box):
-            raise ValueError(f"obstacles[{i}]: needs both center and half_extents")
-        centers.append(float_vector(box["center"], f"obstacles[{i}].center", wdim))
-        half = float_vector(box["half_extents"], f"obstacles[{i}].half_extents", wdim)
-        if np.any(half <= 0):
-            raise ValueError(f"obstacles[{i}].half_extents: must be positive, got {half.tolist()}")
-        halves.append(half)
-    return (
-        np.array(centers, dtype=np.float64).reshape(-1, wdim),
-        np.array(halves, dtype=np.float64).reshape(-1, wdim),
-    )
+        required, optional = _OBSTACLE_KEYS[kind_name]
+        extra = set(entry) - required - optional
+        if extra:
+            named = " and ".join(sorted(required - {"type"}))
+            others = sorted(optional | {"type"}) if kind_name == "box" else sorted(optional)
+            also = f" (optional: {', '.join(others)})" if others else ""
+            raise ValueError(
+                f"{where}.{_cut(sorted(map(str, extra))[0])}: unknown key; a {kind_name} has "
+                f"{named}{also}"
+            )
+        absent = required - set(entry)
+        if absent:
+            raise ValueError(
+                f"{where}: a {kind_name} needs {' and '.join(sorted(required - {'type'}))}; "
+                f"{sorted(absent)[0]} is missing"
+            )
+        kind = KIND_NAMES.index(kind_name)
+        if kind == CYLINDER and wdim != 3:
+            raise ValueError(
+                f"{where}.type: a cylinder needs a 3D workspace (this robot's is {wdim}D; a "
+                "disc is a 'sphere')"
+            )
+        kinds[i] = kind
+        centers[i] = float_vector(entry["center"], f"{where}.center", wdim)
+        if kind == BOX:
+            half = float_vector(entry["half_extents"], f"{where}.half_extents", wdim)
+            if np.any(half <= 0):
+                raise ValueError(f"{where}.half_extents: must be positive, got {half.tolist()}")
+            halves[i] = half
+        else:
+            radius = _positive(entry["radius"], f"{where}.radius")
+            halves[i] = radius
+            if kind == CYLINDER:
+                halves[i, 2] = 0.5 * _positive(entry["length"], f"{where}.length")
+        if "orientation" in entry:
+            orientations[i] = _orientation(entry["orientation"], f"{where}.orientation", wdim)
+    return centers, halves, kinds, orientations
+
+
+def _positive(value: Any, name: str) -> float:
+    """A positive finite length, or a `ValueError` naming ``name``."""
+    number = as_float(value, name)
+    if not math.isfinite(number) or number <= 0:
+        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
+    if number < MIN_LENGTH:
+        raise ValueError(f"{name}: {number:g} is below {MIN_LENGTH:g}")
+    return number
+
+
+def _orientation(value: Any, name: str, wdim: int) -> np.ndarray:
+    """An orientation entry: an angle in 2D, a quaternion ``[x, y, z, w]`` in 3D."""
+    if orientation_width(wdim) == 1:
+        if isinstance(value, (list, tuple)):
+            raise ValueError(f"{name}: in 2D an orientation is one angle (radians), got {value!r}")
+        return np.array([as_float(value, name)])
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{name}: expected a quaternion [x, y, z, w], got {_cut(repr(value))}")
+    return float_vector(value, name, 4)

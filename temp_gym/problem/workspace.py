@@ -1,4 +1,4 @@
-"""`Workspace`: a robot's bounds and box obstacles, shared by the many tasks planned in them."""
+"""`Workspace`: a robot's bounds and obstacles, shared by the many tasks planned in them."""
 
 from __future__ import annotations
 
@@ -7,13 +7,33 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from temp_gym.limits import MAX_OBSTACLES
+from temp_gym.problem.obstacles import (
+    BOX,
+    CYLINDER,
+    KIND_NAMES,
+    SPHERE,
+    UNIT_TOLERANCE,
+    Obstacle,
+    as_obstacle,
+    identity_orientations,
+    is_identity,
+    kind_volumes,
+    obstacle_row,
+    orientation_width,
+    rotation_matrices,
+    world_half_extents,
+)
 from temp_gym.problem.parsing import MIN_LENGTH, float_array
 from temp_gym.problem.robots import robot_named
 
 
 @dataclass(frozen=True, eq=False)
 class Workspace:
-    """A robot's configuration bounds and axis-aligned boxes, without a task.
+    """A robot's configuration bounds and obstacles, without a task.
+
+    Obstacles are boxes (optionally oriented), cylinders and spheres, stored as arrays with a
+    row per obstacle (`temp_gym.problem.obstacles` explains the layout). The four positional
+    fields alone make axis-aligned boxes, as before there were other kinds.
 
     Generators draw one workspace and then many tasks in it, as the paper does (200
     start-goal pairs per workspace); the occupancy encoding and other per-workspace work are
@@ -33,8 +53,14 @@ class Workspace:
     obstacle_centers: np.ndarray
     """Box centers, shape ``(M, workspace_dim)``."""
     obstacle_half_extents: np.ndarray
-    """Box half sides, shape ``(M, workspace_dim)``, positive."""
+    """Half sides of each obstacle's box in its own frame, ``(M, workspace_dim)``, positive
+    (a cylinder's ``(r, r, length / 2)``, a sphere's ``(r, r, r)``)."""
+    obstacle_kinds: np.ndarray | None = None
+    """`BOX`, `CYLINDER` or `SPHERE` per obstacle, ``int8 (M,)``; None means all boxes."""
+    obstacle_orientations: np.ndarray | None = None
+    """Quaternions ``[x, y, z, w]`` ``(M, 4)`` in 3D, angles ``(M, 1)`` in 2D; None: identity."""
     _key: tuple = field(init=False, repr=False)
+    _rotations: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         robot = robot_named(self.robot)
@@ -65,7 +91,7 @@ class Workspace:
             raise ValueError("obstacles: centers and half_extents differ in count")
         if len(centers) > MAX_OBSTACLES:
             raise ValueError(
-                f"obstacles: {len(centers)} boxes, at most {MAX_OBSTACLES} are supported "
+                f"obstacles: {len(centers)} obstacles, at most {MAX_OBSTACLES} are supported "
                 "(temp_gym.limits)"
             )
         if np.any(halves <= 0):
@@ -73,15 +99,99 @@ class Workspace:
             raise ValueError(
                 f"obstacles[{bad}].half_extents: must be positive, got {halves[bad].tolist()}"
             )
+        kinds = self._kinds(len(centers))
+        orientations = self._orientations(len(centers), wdim)
+        for b in np.flatnonzero(kinds == CYLINDER):
+            if halves[b, 0] != halves[b, 1]:
+                raise ValueError(
+                    f"obstacles[{b}].half_extents: a cylinder's first two are its radius and "
+                    f"must be equal, got {halves[b].tolist()}"
+                )
+        for b in np.flatnonzero(kinds == SPHERE):
+            if np.any(halves[b] != halves[b, 0]):
+                raise ValueError(
+                    f"obstacles[{b}].half_extents: a sphere's are all its radius, got "
+                    f"{halves[b].tolist()}"
+                )
+            if not is_identity(orientations[b : b + 1])[0]:
+                raise ValueError(f"obstacles[{b}].orientation: a sphere has no orientation")
         # -0.0 becomes 0.0: equal workspaces must have equal bytes, which equality and hash read
         bounds, centers, halves = bounds + 0.0, centers + 0.0, halves + 0.0
-        for array in (bounds, centers, halves):
+        orientations = orientations + 0.0
+        rotations = rotation_matrices(orientations)
+        for array in (bounds, centers, halves, kinds, orientations, rotations):
             array.setflags(write=False)
         object.__setattr__(self, "bounds", bounds)
         object.__setattr__(self, "obstacle_centers", centers)
         object.__setattr__(self, "obstacle_half_extents", halves)
-        key = (self.robot, bounds.tobytes(), centers.shape, centers.tobytes(), halves.tobytes())
+        object.__setattr__(self, "obstacle_kinds", kinds)
+        object.__setattr__(self, "obstacle_orientations", orientations)
+        object.__setattr__(self, "_rotations", rotations)
+        key = (self.robot, bounds.tobytes(), centers.shape, centers.tobytes(), halves.tobytes(),
+               kinds.tobytes(), orientations.tobytes())  # fmt: skip
         object.__setattr__(self, "_key", key)
+
+    def _kinds(self, count: int) -> np.ndarray:
+        """The validated ``obstacle_kinds`` (all boxes when None)."""
+        if self.obstacle_kinds is None:
+            return np.zeros(count, dtype=np.int8)
+        raw = np.asarray(self.obstacle_kinds)
+        if raw.shape != (count,) or raw.dtype.kind not in "iu":
+            raise ValueError(
+                f"obstacle_kinds: expected {count} integers (0 box, 1 cylinder, 2 sphere), got "
+                f"shape {raw.shape} of {raw.dtype}"
+            )
+        if np.any((raw < 0) | (raw >= len(KIND_NAMES))):
+            bad = int(np.argmax((raw < 0) | (raw >= len(KIND_NAMES))))
+            raise ValueError(
+                f"obstacles[{bad}].type: unknown kind {int(raw[bad])} (0 box, 1 cylinder, 2 sphere)"
+            )
+        kinds = raw.astype(np.int8)
+        if self.workspace_dim == 2 and np.any(kinds == CYLINDER):
+            bad = int(np.argmax(kinds == CYLINDER))
+            raise ValueError(
+                f"obstacles[{bad}].type: a cylinder needs a 3D workspace ({self.robot}'s is 2D; "
+                "a disc is a 'sphere')"
+            )
+        return kinds
+
+    def _orientations(self, count: int, wdim: int) -> np.ndarray:
+        """The validated ``obstacle_orientations`` (identity when None)."""
+        width = orientation_width(wdim)
+        if self.obstacle_orientations is None:
+            return identity_orientations(count, wdim)
+        orientations = float_array(self.obstacle_orientations, "obstacles: orientation")
+        if orientations.shape != (count, width):
+            what = "an angle" if width == 1 else "a quaternion [x, y, z, w]"
+            raise ValueError(
+                f"obstacles: orientation: expected {what} per obstacle, shape ({count}, {width}), "
+                f"got {orientations.shape}"
+            )
+        if width == 4:
+            norms = np.linalg.norm(orientations, axis=1)
+            bad = np.abs(norms - 1.0) > UNIT_TOLERANCE
+            if np.any(bad):
+                b = int(np.argmax(bad))
+                raise ValueError(
+                    f"obstacles[{b}].orientation: a quaternion [x, y, z, w] of unit length is "
+                    f"expected, got {orientations[b].tolist()} (length {norms[b]:.6g})"
+                )
+        return orientations
+
+    @classmethod
+    def from_obstacles(cls, robot: str, bounds: np.ndarray, obstacles: list[Obstacle]) -> Workspace:
+        """A workspace of `Box`, `Cylinder` and `Sphere` objects (`Workspace.obstacles`)."""
+        wdim = robot_named(robot).workspace_dim
+        rows = [obstacle_row(obstacle, wdim) for obstacle in obstacles]
+        width = orientation_width(wdim)
+        return cls(
+            robot,
+            bounds,
+            np.array([row[1] for row in rows], dtype=np.float64).reshape(-1, wdim),
+            np.array([row[2] for row in rows], dtype=np.float64).reshape(-1, wdim),
+            np.array([row[0] for row in rows], dtype=np.int8),
+            np.array([row[3] for row in rows], dtype=np.float64).reshape(-1, width),
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Workspace):
@@ -103,15 +213,82 @@ class Workspace:
 
     @property
     def num_obstacles(self) -> int:
-        """Number of boxes."""
+        """Number of obstacles."""
         return len(self.obstacle_centers)
 
     @property
+    def axis_aligned(self) -> bool:
+        """Whether every obstacle is a box with the identity orientation (version-1 worlds)."""
+        return bool(np.all(self.obstacle_kinds == BOX) and np.all(self.unrotated))
+
+    @property
+    def unrotated(self) -> np.ndarray:
+        """``bool[M]``: which obstacles have exactly the identity orientation."""
+        return is_identity(self.obstacle_orientations)
+
+    @property
+    def obstacle_rotations(self) -> np.ndarray:
+        """Each obstacle's rotation matrix, ``(M, w, w)``: its frame's axes as columns."""
+        return self._rotations
+
+    @property
+    def obstacle_world_half_extents(self) -> np.ndarray:
+        """Half sides of each obstacle's axis-aligned bounding box, ``(M, workspace_dim)``."""
+        return world_half_extents(self.obstacle_kinds, self.obstacle_half_extents, self._rotations)
+
+    @property
     def obstacle_lower(self) -> np.ndarray:
-        """Lower box corners, (M, workspace_dim)."""
-        return self.obstacle_centers - self.obstacle_half_extents
+        """Lower corners of the obstacles' axis-aligned bounding boxes, (M, workspace_dim).
+
+        For an axis-aligned box, the box itself.
+        """
+        return self.obstacle_centers - self.obstacle_world_half_extents
 
     @property
     def obstacle_upper(self) -> np.ndarray:
-        """Upper box corners, (M, workspace_dim)."""
-        return self.obstacle_centers + self.obstacle_half_extents
+        """Upper corners of the obstacles' axis-aligned bounding boxes, (M, workspace_dim)."""
+        return self.obstacle_centers + self.obstacle_world_half_extents
+
+    @property
+    def obstacle_volumes(self) -> np.ndarray:
+        """Each obstacle's volume (area in 2D), ``(M,)``."""
+        return kind_volumes(self.obstacle_kinds, self.obstacle_half_extents)
+
+    @property
+    def obstacles(self) -> list[Obstacle]:
+        """The obstacles as `Box`, `Cylinder` and `Sphere` objects."""
+        return [
+            as_obstacle(int(k), c, h, o)
+            for k, c, h, o in zip(
+                self.obstacle_kinds,
+                self.obstacle_centers,
+                self.obstacle_half_extents,
+                self.obstacle_orientations,
+            )
+        ]
+
+    def grown(self, margin: float) -> Workspace:
+        """This workspace with every obstacle grown by ``margin`` on every side.
+
+        Every half extent grows: a box's sides, a cylinder's radius and half length, a
+        sphere's radius.
+        """
+        return Workspace(
+            self.robot,
+            self.bounds,
+            self.obstacle_centers,
+            self.obstacle_half_extents + margin,
+            self.obstacle_kinds,
+            self.obstacle_orientations,
+        )
+
+    def with_obstacles(self, keep: np.ndarray) -> Workspace:
+        """This workspace with only the obstacles ``keep`` selects (a mask or indices)."""
+        return Workspace(
+            self.robot,
+            self.bounds,
+            self.obstacle_centers[keep],
+            self.obstacle_half_extents[keep],
+            self.obstacle_kinds[keep],
+            self.obstacle_orientations[keep],
+        )
