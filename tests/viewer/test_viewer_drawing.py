@@ -36,13 +36,12 @@ def test_the_arm_is_seen_from_where_the_goal_hand_is_in_sight():
     content = plan_content(shelved)
     hand = content.arm.goal_poses[-3:, :3, 3]
     position, look_at = camera_pose(content)
-    boxes = content.box_lower, content.box_upper
-    assert visible_points(position, hand, *boxes).all()
+    assert visible_points(position, hand, content.obstacles).all()
     hidden = [
         view
         for view in ARM_VIEWS
         if not visible_points(
-            orbit_position(look_at, *view, ARM_CAMERA_DISTANCE), hand, *boxes
+            orbit_position(look_at, *view, ARM_CAMERA_DISTANCE), hand, content.obstacles
         ).all()
     ]
     assert hidden  # the shelf does hide the hand from some views

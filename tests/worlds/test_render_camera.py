@@ -9,9 +9,11 @@ from temp_gym.worlds.rendering.camera import (
     views_seeing,
     visible_points,
 )
+from temp_gym.worlds.rendering.solids import Solids
 
 LOWER = np.array([[0.9, -0.5, 0.0]])
 UPPER = np.array([[1.1, 0.5, 1.0]])
+BOX = Solids.boxes(LOWER, UPPER)
 
 
 @pytest.mark.parametrize(
@@ -43,10 +45,10 @@ def test_segments_hit_boxes_by_the_slab_test():
 def test_views_behind_a_box_do_not_see_the_point():
     point = np.array([[0.5, 0.0, 0.5]])
     views = [(90.0, -10.0), (270.0, -10.0)]  # from +x (behind the box) and from -x
-    assert views_seeing(point, LOWER, UPPER, views, (0, 0, 0.4), 3.0) == [0, 1]
-    assert clearest_views(point, LOWER, UPPER, views, (0, 0, 0.4), 3.0) == [(270.0, -10.0)]
+    assert views_seeing(point, BOX, views, (0, 0, 0.4), 3.0) == [0, 1]
+    assert clearest_views(point, BOX, views, (0, 0, 0.4), 3.0) == [(270.0, -10.0)]
     eye = orbit_position((0, 0, 0.4), 90.0, -10.0, 3.0)
-    assert visible_points(eye, np.array([[0.5, 0, 0.5], [0.5, 0, 2.5]]), LOWER, UPPER).tolist() == [
+    assert visible_points(eye, np.array([[0.5, 0, 0.5], [0.5, 0, 2.5]]), BOX).tolist() == [
         False,
         True,
     ]
