@@ -2,7 +2,10 @@
 
 A plan is shown in the robot's workspace (3D; a 2D world lies in the plane z = 0):
 
-* the region (a point robot's bounds; an arm's encoded workspace region) and the boxes;
+* the region (a point robot's bounds; an arm's encoded workspace region) and the obstacles,
+  each of its kind with its parameters (`temp_gym.worlds.rendering.solids.Solids`: boxes,
+  turned or not, cylinders and spheres; a 2D world's rectangles and discs stand in the plane
+  as low boxes and cylinders);
 * the start and the goal: a point robot's positions and goal ball; an arm's hand positions
   (the last link's origin) and its arm at start and goal (`ArmContent`);
 * the tree's edges: between positions for a point robot, between hand positions for an arm;
@@ -25,6 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from temp_gym.problem.obstacles import CYLINDER, SPHERE
 from temp_gym.viewer.arm_geometry import (
     LinkMesh,
     arm_link_meshes,
@@ -33,6 +37,7 @@ from temp_gym.viewer.arm_geometry import (
     is_point_robot,
 )
 from temp_gym.worlds.rendering.common import floor_slabs
+from temp_gym.worlds.rendering.solids import Solids
 
 if TYPE_CHECKING:
     from temp_gym.planning.result import PlanTree
@@ -41,7 +46,7 @@ if TYPE_CHECKING:
 PLAYBACK_FRAMES = 120
 """States the playback steps through along a path (evenly spaced by path length)."""
 FLAT_HEIGHT_SHARE = 0.02
-"""A 2D world's boxes are drawn this share of the region's largest side high."""
+"""A 2D world's obstacles are drawn this share of the region's largest side high."""
 
 
 @dataclass(frozen=True)
@@ -68,12 +73,10 @@ class PlanContent:
     """Whether the world is 2D (drawn in the plane z = 0, seen from above)."""
     region: np.ndarray
     """``(2, 3)`` lower and upper corners of the region shown."""
-    box_lower: np.ndarray
-    """``(B, 3)`` lower corners of the boxes."""
-    box_upper: np.ndarray
-    """``(B, 3)`` upper corners of the boxes."""
+    obstacles: Solids
+    """The obstacles in 3D: kind, center, half extents, rotation and bounding box of each."""
     box_is_floor: np.ndarray
-    """``(B,)`` which boxes are an arm's floor slab (drawn grey)."""
+    """``(B,)`` which obstacles are an arm's floor slab (drawn grey)."""
     start: np.ndarray
     """``(3,)`` the start position (an arm: its hand)."""
     goal: np.ndarray
@@ -90,6 +93,16 @@ class PlanContent:
     frame, the start, without a path."""
     arm: ArmContent | None = None
     """The arm's links, or None for a point robot."""
+
+    @property
+    def box_lower(self) -> np.ndarray:
+        """``(B, 3)`` lower corners of the obstacles' bounding boxes (an axis-aligned box's own)."""
+        return self.obstacles.lower
+
+    @property
+    def box_upper(self) -> np.ndarray:
+        """``(B, 3)`` upper corners of the obstacles' bounding boxes (an axis-aligned box's own)."""
+        return self.obstacles.upper
 
     @property
     def size(self) -> float:
@@ -187,20 +200,37 @@ def plan_content(
     return _arm_content(problem, spec, path, nodes, children, parents, played)
 
 
+def _flat_solids(workspace, height: float) -> Solids:
+    """A 2D workspace's obstacles standing ``height`` high on the plane z = 0.
+
+    A rectangle becomes a low box turned about z, a disc a low cylinder.
+    """
+    lower, upper = _in_3d(workspace.obstacle_lower), _in_3d(workspace.obstacle_upper)
+    upper[:, 2] = height
+    count = workspace.num_obstacles
+    centers = _in_3d(workspace.obstacle_centers)
+    centers[:, 2] = height / 2
+    halves = np.concatenate([workspace.obstacle_half_extents, np.full((count, 1), height / 2)], 1)
+    rotations = np.broadcast_to(np.eye(3), (count, 3, 3)).copy()
+    rotations[:, :2, :2] = workspace.obstacle_rotations
+    kinds = np.where(workspace.obstacle_kinds == SPHERE, CYLINDER, workspace.obstacle_kinds)
+    return Solids(lower, upper, kinds.astype(np.int8), centers, halves, rotations)
+
+
 def _point_content(problem, spec, path, nodes, children, parents, played) -> PlanContent:
     flat = spec.workspace_dim == 2
     region = _in_3d(spec.region(problem.bounds))
-    box_lower = _in_3d(problem.workspace.obstacle_lower)
-    box_upper = _in_3d(problem.workspace.obstacle_upper)
+    height = FLAT_HEIGHT_SHARE * float(np.max(region[1] - region[0]))
     if flat:
-        box_upper[:, 2] = FLAT_HEIGHT_SHARE * float(np.max(region[1] - region[0]))
+        obstacles = _flat_solids(problem.workspace, height)
+    else:
+        obstacles = Solids.of_workspace(problem.workspace)
     return PlanContent(
         robot=problem.robot,
         flat=flat,
         region=region,
-        box_lower=box_lower,
-        box_upper=box_upper,
-        box_is_floor=np.zeros(len(box_lower), dtype=bool),
+        obstacles=obstacles,
+        box_is_floor=np.zeros(len(obstacles), dtype=bool),
         start=_in_3d(problem.start)[0],
         goal=_in_3d(problem.goal)[0],
         goal_radius=problem.goal_radius,
@@ -219,8 +249,7 @@ def _arm_content(problem, spec, path, nodes, children, parents, played) -> PlanC
         robot=problem.robot,
         flat=False,
         region=spec.region(problem.bounds),
-        box_lower=np.array(lower, dtype=np.float64),
-        box_upper=np.array(upper, dtype=np.float64),
+        obstacles=Solids.of_workspace(problem.workspace),
         box_is_floor=floor_slabs(lower, upper),
         start=ends[0, -1, :3, 3].copy(),
         goal=ends[1, -1, :3, 3].copy(),

@@ -1,7 +1,8 @@
 """`draw_content`: a `PlanContent` added to a viser scene, and the robot that moves along it.
 
 Colours are the static pictures' (`temp_gym.worlds.rendering.common`): start green, goal
-blue, path red, tree blue-grey, boxes tan, and the robot along the path purple. The arm at
+blue, path red, tree blue-grey, obstacles tan, and the robot along the path purple. Every
+obstacle is drawn by its shape: a box (turned or not), a cylinder or a sphere. The arm at
 start and goal is drawn translucent in the start and goal colours.
 
 The scene is lit by plain lights, without an environment map: a software renderer (a
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from temp_gym.problem.obstacles import BOX, CYLINDER, KIND_NAMES
 from temp_gym.viewer.content import PlanContent
 from temp_gym.worlds.rendering.camera import clearest_views, orbit_position
 from temp_gym.worlds.rendering.common import (
@@ -27,6 +29,7 @@ from temp_gym.worlds.rendering.common import (
     TREE_COLOR,
     rgb255,
 )
+from temp_gym.worlds.rendering.solids import surface, triangle_mesh
 
 if TYPE_CHECKING:
     import viser
@@ -77,6 +80,35 @@ def _add_arm(scene, name: str, content: PlanContent, poses: np.ndarray, color, o
     return frames
 
 
+def _add_obstacle(scene, content: PlanContent, index: int, color, opacity: float | None):
+    """Obstacle ``index`` of ``content`` by its shape, under ``/obstacles``.
+
+    An axis-aligned box is added from its corners, as it always was; a turned box and a sphere
+    are viser's own shapes, a cylinder a mesh of its facets (`triangle_mesh`).
+    """
+    solids = content.obstacles
+    kind = int(solids.kinds[index])
+    name = f"/obstacles/{KIND_NAMES[kind]}_{index}"
+    if solids.aligned_boxes[index]:
+        lower, upper = solids.lower[index], solids.upper[index]
+        center = (lower + upper) / 2
+        scene.add_box(name, color=color, dimensions=upper - lower, position=center, opacity=opacity)
+        return
+    center, half = solids.centers[index], solids.half_extents[index]
+    wxyz = _wxyz(solids.rotations[index])
+    if kind == BOX:
+        scene.add_box(
+            name, color=color, dimensions=2 * half, position=center, wxyz=wxyz, opacity=opacity
+        )
+    elif kind == CYLINDER:
+        vertices, faces = triangle_mesh(surface(CYLINDER, np.zeros(3), half, np.eye(3)))
+        scene.add_mesh_simple(
+            name, vertices, faces, color=color, opacity=opacity, position=center, wxyz=wxyz
+        )
+    else:
+        scene.add_icosphere(name, radius=half[0], color=color, position=center, opacity=opacity)
+
+
 class RobotMarker:
     """The robot at one playback frame: a purple ball (point robot) or the arm's links.
 
@@ -113,7 +145,7 @@ def camera_pose(content: PlanContent) -> tuple[np.ndarray, np.ndarray]:
     """``(position, look_at)`` of the first view.
 
     A 2D world is seen from above; a point robot's 3D world from a corner; an arm from the
-    view on an orbit around its start and goal that sees the goal hand past the boxes
+    view on an orbit around its start and goal that sees the goal hand past the obstacles
     (`temp_gym.worlds.rendering.camera.clearest_views`), on the hand's side of the arm
     among those.
     """
@@ -128,9 +160,7 @@ def camera_pose(content: PlanContent) -> tuple[np.ndarray, np.ndarray]:
     joints = np.concatenate([arm.start_poses[:, :3, 3], arm.goal_poses[:, :3, 3]])
     centre = (joints.min(axis=0) + joints.max(axis=0)) / 2
     hand = arm.goal_poses[-3:, :3, 3]  # wrist to flange
-    views = clearest_views(
-        hand, content.box_lower, content.box_upper, ARM_VIEWS, centre, ARM_CAMERA_DISTANCE
-    )
+    views = clearest_views(hand, content.obstacles, ARM_VIEWS, centre, ARM_CAMERA_DISTANCE)
     facing = [
         float(np.dot(orbit_position(centre, yaw, pitch, 1.0)[:2] - centre[:2], hand[-1, :2]))
         for yaw, pitch in views
@@ -167,14 +197,9 @@ def draw_content(
             position=((low[0] + high[0]) / 2, (low[1] + high[1]) / 2, -0.001 * size),
         )
     opacity = None if content.flat or content.arm is not None else 0.45
-    boxes = zip(content.box_lower, content.box_upper, content.box_is_floor)
-    for index, (lower, upper, floor) in enumerate(boxes):
-        scene.add_box(
-            f"/obstacles/box_{index}",
-            color=rgb255(FLOOR_COLOR if floor else OBSTACLE_COLOR),
-            dimensions=upper - lower,
-            position=(lower + upper) / 2,
-            opacity=opacity,
+    for index, floor in enumerate(content.box_is_floor):
+        _add_obstacle(
+            scene, content, index, rgb255(FLOOR_COLOR if floor else OBSTACLE_COLOR), opacity
         )
     lift = np.array([0.0, 0.0, 0.03 * size if content.flat else 0.0])
     if len(content.tree_segments):

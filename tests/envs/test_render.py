@@ -382,6 +382,7 @@ def test_iiwa_draws_start_end_and_two_ghosts_along_a_path(iiwa_problems):
 def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, monkeypatch):
     from temp_gym.worlds.rendering.arm import CANDIDATE_PITCHES, CANDIDATE_YAWS
     from temp_gym.worlds.rendering.camera import orbit_position, visible_points
+    from temp_gym.worlds.rendering.solids import Solids
 
     # A tall shelf back right behind the goal hand, between it and the +y half of the ring.
     shelved = Problem.from_dict(
@@ -393,14 +394,14 @@ def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, mon
             ],
         }
     )
-    lower, upper = shelved.workspace.obstacle_lower, shelved.workspace.obstacle_upper
+    solids = Solids.of_workspace(shelved.workspace)
     views = [(float(yaw), pitch) for pitch in CANDIDATE_PITCHES for yaw in CANDIDATE_YAWS]
     with ArmRenderer() as renderer:
         renderer.render(shelved, width=64, height=64)
         hand, target = renderer._goal_hand, renderer.view_target
         sees = {
             view: visible_points(
-                orbit_position(target, *view, renderer.distance), hand, lower, upper
+                orbit_position(target, *view, renderer.distance), hand, solids
             ).all()
             for view in views
         }

@@ -1,10 +1,13 @@
 """Pictures of problems, trees and paths as ``uint8`` RGB arrays of shape ``(height, width, 3)``.
 
 * `render_point_world` (`temp_gym.worlds.rendering.points`) draws a ``point2d`` or ``point3d``
-  problem with matplotlib: boxes, the planner's tree, a path, the start and the goal region.
+  problem with matplotlib: obstacles, the planner's tree, a path, the start and the goal region.
 * `ArmRenderer` (`temp_gym.worlds.rendering.arm`) draws an arm's problem with pybullet's
-  software renderer: the boxes and the arm at a few configurations, from a camera chosen per
+  software renderer: the obstacles and the arm at a few configurations, from a camera chosen per
   scene so that the arm is in view.
+
+Obstacles of every kind (boxes, turned or not, cylinders, spheres; discs in 2D) are drawn by
+their shape (`temp_gym.worlds.rendering.solids`).
 
 Both tell a solution (bold red in 2D/3D, start-to-goal arms in 7D) from the path so far
 before one exists (dashed orange; an orange arm at the newest node), their titles say

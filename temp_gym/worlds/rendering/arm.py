@@ -1,6 +1,7 @@
 """`ArmRenderer`: an arm's problem drawn with pybullet's software renderer.
 
-The arm is drawn at a few configurations in its own ``DIRECT`` client, with the boxes:
+The arm is drawn at a few configurations in its own ``DIRECT`` client, with the obstacles
+(boxes, turned or not, cylinders and spheres, each as pybullet's shape of its kind):
 
 * a solution: the start (green), two pale ghosts along the path, the end (blue);
 * before a solution: the start (green), the goal (blue) and the newest node of the path so
@@ -12,8 +13,8 @@ same pose would fight over every pixel (a speckled picture), so repeated poses a
 
 The camera is chosen per scene (unless fixed by the arguments). It looks at the middle of
 the start and goal arms, from a ring of views around them: first those from which the goal
-hand (wrist to flange) is not hidden behind a box (straight rays to it miss every box,
-`temp_gym.worlds.rendering.camera`), then, among them, the one that shows the most of the
+hand (wrist to flange) is not hidden behind an obstacle (straight rays to it miss every
+obstacle, `temp_gym.worlds.rendering.camera`), then, among them, the one that shows the most of the
 start and goal arms, measured on small segmentation renders. The choice is made once per
 problem, so the frames of an episode share one view.
 """
@@ -25,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from temp_gym.problem.obstacles import BOX, CYLINDER
 from temp_gym.quiet import import_pybullet, native_output_silenced
 from temp_gym.worlds.arm.bullet import set_configuration
 from temp_gym.worlds.rendering.camera import clearest_views
@@ -37,6 +39,7 @@ from temp_gym.worlds.rendering.common import (
     legend_band,
     plan_title,
 )
+from temp_gym.worlds.rendering.solids import Solids
 
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
@@ -111,6 +114,23 @@ def arm_poses(
             if not any(np.array_equal(config, seen) for seen, _ in poses):
                 poses.append((config, _pale(tint)))
     return poses
+
+
+def _bullet_shape(pybullet, kind: int, half: np.ndarray) -> dict:
+    """The keywords of ``createCollisionShape`` for one obstacle of ``kind`` (its own frame)."""
+    if kind == BOX:
+        return {"shapeType": pybullet.GEOM_BOX, "halfExtents": half}
+    if kind == CYLINDER:  # pybullet's cylinders, like ours, stand along their local z
+        return {"shapeType": pybullet.GEOM_CYLINDER, "radius": half[0], "height": 2.0 * half[2]}
+    return {"shapeType": pybullet.GEOM_SPHERE, "radius": half[0]}
+
+
+def _visual(shape: dict) -> dict:
+    """``createVisualShape``'s keywords for a collision ``shape``: a cylinder's ``length``."""
+    if "height" in shape:
+        shape = {**shape, "length": shape["height"]}
+        del shape["height"]
+    return shape
 
 
 def _hex(rgba: np.ndarray) -> str:
@@ -258,27 +278,42 @@ class ArmRenderer:
         for body in self._boxes:
             client.removeBody(body)
         self._boxes = []
-        lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
+        workspace = problem.workspace
+        lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
         floors = floor_slabs(lower, upper)
         ground_z = min(0.0, float(lower[:, 2].min())) if len(lower) else 0.0
-        boxes = list(
-            zip(problem.workspace.obstacle_centers, problem.workspace.obstacle_half_extents)
-        )
         # A pale visual-only ground under everything, so the scene does not float.
-        ground = (np.array([0.0, 0.0, ground_z - 0.006]), np.array([1.6, 1.6, 0.005]))
-        for index, (center, half) in enumerate([ground, *boxes]):
-            if index == 0:
-                rgba, collision = _GROUND_RGBA, -1
-            else:
-                # Thin slabs below the base (the generators' floor) get a neutral colour.
-                rgba = _FLOOR_RGBA if floors[index - 1] else _OBSTACLE_RGBA
-                collision = client.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
-            visual = client.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=rgba)
+        ground_half = np.array([1.6, 1.6, 0.005])
+        visual = client.createVisualShape(
+            pybullet.GEOM_BOX, halfExtents=ground_half, rgbaColor=_GROUND_RGBA
+        )
+        self._boxes.append(
+            client.createMultiBody(
+                baseMass=0.0,
+                baseCollisionShapeIndex=-1,
+                baseVisualShapeIndex=visual,
+                basePosition=[0.0, 0.0, ground_z - 0.006],
+            )
+        )
+        unrotated = workspace.unrotated
+        for index, (center, half) in enumerate(
+            zip(workspace.obstacle_centers, workspace.obstacle_half_extents)
+        ):
+            # Thin slabs below the base (the generators' floor) get a neutral colour.
+            rgba = _FLOOR_RGBA if floors[index] else _OBSTACLE_RGBA
+            kind = workspace.obstacle_kinds[index]
+            shape = _bullet_shape(pybullet, kind, half)
+            collision = client.createCollisionShape(**shape)
+            visual = client.createVisualShape(**_visual(shape), rgbaColor=rgba)
+            placed = {"basePosition": center.tolist()}
+            if kind != BOX or not unrotated[index]:
+                quaternion = workspace.obstacle_orientations[index]
+                placed["baseOrientation"] = (quaternion / np.linalg.norm(quaternion)).tolist()
             body = client.createMultiBody(
                 baseMass=0.0,
                 baseCollisionShapeIndex=collision,
                 baseVisualShapeIndex=visual,
-                basePosition=center.tolist(),
+                **placed,
             )
             self._boxes.append(body)
         self._problem = problem
@@ -356,10 +391,8 @@ class ArmRenderer:
         views = [(float(yaw), float(pitch)) for pitch in pitches for yaw in yaws]
         if len(views) == 1:
             return views[0]
-        lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
-        views = clearest_views(
-            self._goal_hand, lower, upper, views, self.view_target, self.distance
-        )
+        solids = Solids.of_workspace(problem.workspace)
+        views = clearest_views(self._goal_hand, solids, views, self.view_target, self.distance)
         self._pose_arms(client, arm_poses(problem, ghosts=0))
         scores = {view: self._count_arm_pixels(client, view, 2) for view in views}
         return max(scores, key=scores.get)  # first of the best: the order above breaks ties

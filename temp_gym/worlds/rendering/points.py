@@ -3,7 +3,10 @@
 It builds its own `Figure` on an Agg canvas (never pyplot's global state), so it is headless
 and safe in threads and subprocesses.
 
-3D pictures are kept readable: the boxes are pale and drawn first, at most
+Obstacles of every kind are drawn by their shape: rectangles (turned or not) and discs in 2D,
+boxes, cylinders and spheres in 3D (`temp_gym.worlds.rendering.solids`).
+
+3D pictures are kept readable: the obstacles are pale and drawn first, at most
 `MAX_3D_EDGES` tree edges are drawn (the oldest ones: the tree's early skeleton, which shows
 how it spread), and the path, start and goal are drawn last, on top of everything, with the
 start and goal labelled.
@@ -19,6 +22,7 @@ from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from temp_gym.problem.obstacles import BOX
 from temp_gym.worlds.rendering.common import (
     DPI,
     GOAL_COLOR,
@@ -33,6 +37,7 @@ from temp_gym.worlds.rendering.common import (
     legend_handles,
     plan_title,
 )
+from temp_gym.worlds.rendering.solids import Solids, box_faces, outline, surface
 
 if TYPE_CHECKING:
     from temp_gym.problem import Problem
@@ -86,25 +91,70 @@ def _path_style(solution: bool) -> dict:
     return {"color": PATH_SO_FAR_COLOR, "linewidth": 1.6, "linestyle": (0, (4, 2))}
 
 
-def _box_faces(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """The six quadrilateral faces ``(6, 4, 3)`` of the box ``[lower, upper]``."""
-    corners = np.array(
-        [[(upper if (k >> axis) & 1 else lower)[axis] for axis in range(3)] for k in range(8)]
-    )
-    # Corner k has bit `axis` set when it sits on the upper side of that axis.
-    quads = [(0, 2, 6, 4), (1, 3, 7, 5), (0, 1, 5, 4), (2, 3, 7, 6), (0, 1, 3, 2), (4, 5, 7, 6)]
-    return corners[np.array(quads)]
+def _outlines(workspace) -> list:
+    """Every 2D obstacle's boundary: a rectangle (turned or not) or a disc (`outline`).
+
+    An axis-aligned box is the rectangle of its corners, as it always was.
+    """
+    lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
+    aligned = workspace.unrotated & (workspace.obstacle_kinds == BOX)
+    return [
+        [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
+        if aligned[index]
+        else outline(kind, center, half, rotation)
+        for index, (lo, hi, kind, center, half, rotation) in enumerate(
+            zip(
+                lower,
+                upper,
+                workspace.obstacle_kinds,
+                workspace.obstacle_centers,
+                workspace.obstacle_half_extents,
+                workspace.obstacle_rotations,
+            )
+        )
+    ]
+
+
+def _surfaces(workspace) -> np.ndarray | list:
+    """Every 3D obstacle's faces, as polygons (`surface`).
+
+    When every obstacle is an axis-aligned box, the array ``(6M, 4, 3)`` of their faces, as it
+    always was.
+    """
+    if workspace.axis_aligned:
+        return np.concatenate(
+            [
+                box_faces(lo, hi)
+                for lo, hi in zip(workspace.obstacle_lower, workspace.obstacle_upper)
+            ]
+        )
+    solids = Solids.of_workspace(workspace)
+    aligned = solids.aligned_boxes
+    faces: list = []
+    for index in range(len(solids)):
+        if aligned[index]:
+            faces.extend(box_faces(solids.lower[index], solids.upper[index]))
+        else:
+            faces.extend(
+                surface(
+                    solids.kinds[index],
+                    solids.centers[index],
+                    solids.half_extents[index],
+                    solids.rotations[index],
+                )
+            )
+    return faces
 
 
 def _draw_2d(figure, problem, positions, parents, path, solution):
     axes = figure.add_subplot()
-    lower, upper = problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
-    rectangles = [
-        [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
-        for lo, hi in zip(lower, upper)
-    ]
     axes.add_collection(
-        PolyCollection(rectangles, facecolors=_BOX_COLOR, edgecolors="#555555", linewidths=0.6)
+        PolyCollection(
+            _outlines(problem.workspace),
+            facecolors=_BOX_COLOR,
+            edgecolors="#555555",
+            linewidths=0.6,
+        )
     )
     segments = _tree_segments(positions, parents)
     if len(segments):
@@ -131,14 +181,7 @@ def _draw_3d(figure, problem, positions, parents, path, solution):
     # Drawn in zorder, not by depth: the path, start and goal stay in front of the boxes.
     axes = figure.add_subplot(projection="3d", computed_zorder=False)
     if problem.workspace.num_obstacles:
-        faces = np.concatenate(
-            [
-                _box_faces(lo, hi)
-                for lo, hi in zip(
-                    problem.workspace.obstacle_lower, problem.workspace.obstacle_upper
-                )
-            ]
-        )
+        faces = _surfaces(problem.workspace)
         boxes = Poly3DCollection(
             faces, facecolors=_BOX_COLOR, edgecolors="#9a9a9a", linewidths=0.25, alpha=0.1
         )
@@ -208,7 +251,7 @@ def render_point_world(
 ) -> np.ndarray:
     """Draw a point-robot problem, optionally with a tree and a path.
 
-    Boxes are grey, tree edges thin blue lines (in 3D at most `MAX_3D_EDGES`, the oldest),
+    Obstacles are grey, tree edges thin blue lines (in 3D at most `MAX_3D_EDGES`, the oldest),
     tree nodes small dots (2D), the start a green dot and the goal region a blue disc (2D) or
     wire sphere (3D). A solution ``path`` is a thick red polyline, titled with its cost; a
     ``path_so_far`` (before any solution: the root path of the newest node) a dashed orange
