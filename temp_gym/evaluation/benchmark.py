@@ -167,11 +167,16 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
     return record
 
 
-def _check_manifest(out: Path, settings: BenchmarkSettings) -> None:
-    path = out / MANIFEST
+def check_manifest(out: str | Path, settings: BenchmarkSettings, write: bool = False) -> None:
+    """Refuse an ``out`` whose stored runs had other shared settings (`JobError`).
+
+    With ``write``, a folder without a manifest gets one.
+    """
+    path = Path(out) / MANIFEST
     manifest = settings.manifest()
     if not path.exists():
-        write_json_atomic(path, manifest)
+        if write:
+            write_json_atomic(path, manifest)
         return
     differ = differing_keys(read_json(path, REMEDY), manifest)
     if differ:
@@ -244,7 +249,7 @@ def run_benchmark(
     lock = DirectoryLock(out, "benchmarking")
     lock.acquire()
     try:
-        _check_manifest(out, settings)
+        check_manifest(out, settings, write=True)
         stored: dict[tuple[str, str, int], dict[str, Any]] = {}
         for record in read_records(out / RECORDS, repair=True):
             if record.get("status") != "crash":
@@ -283,6 +288,7 @@ def run_benchmark(
 __all__ = [
     "DEFAULT_MAX_NODES",
     "BenchmarkSettings",
+    "check_manifest",
     "read_records",
     "reaches_goal",
     "run_benchmark",

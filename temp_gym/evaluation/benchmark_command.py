@@ -128,7 +128,9 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     settings = _settings(args)
     out = Path(args.out)
     _check_out(out, [args.source] if source is not None else [args.problems or ""])
-    from temp_gym.evaluation.benchmark import run_benchmark
+    from temp_gym.evaluation.benchmark import check_manifest, run_benchmark
+
+    check_manifest(out, settings)  # before the problems load: a wrong folder is found at once
     from temp_gym.evaluation.benchmark_problems import group_experiments, select_problems
     from temp_gym.evaluation.benchmark_report import write_outputs
 
