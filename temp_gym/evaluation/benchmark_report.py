@@ -18,8 +18,8 @@ From the run records of `temp_gym.evaluation.benchmark`, per experiment:
   first solution and the median first-solution cost (over the solved runs), and the problems
   skipped.
 * ``plots/{experiment}.png``: the share of runs solved against time, and the median best cost
-  against time (drawn once more than half the runs have a solution, where the median is a
-  cost).
+  over the experiment's runs against time (drawn once more than half the runs have a
+  solution, where the median is a cost), on a logarithmic time axis.
 """
 
 from __future__ import annotations
@@ -52,6 +52,8 @@ from temp_gym.files import atomic_write
 
 SOLVED_WITHIN = 1.0
 """Seconds of the summary's first success column."""
+TIME_AXIS_SPAN = 1e-3
+"""The plots' time axis is logarithmic, from this share of the time limit to the limit."""
 SUMMARY_COLUMNS = (
     "experiment",
     "planner",
@@ -258,7 +260,8 @@ def plot_experiment(
     """Share of runs solved against time, and median best cost against time, per planner."""
     from matplotlib.figure import Figure
 
-    grid = np.linspace(0.0, settings.time_limit, 400)
+    limit = settings.time_limit
+    grid = np.geomspace(limit * TIME_AXIS_SPAN, limit, 400)  # first solutions come early
     figure = Figure(figsize=(9.0, 3.6))
     solved_axes = figure.add_subplot(1, 2, 1)
     cost_axes = figure.add_subplot(1, 2, 2)
@@ -279,9 +282,11 @@ def plot_experiment(
         median = np.median(best, axis=1)
         cost_axes.plot(grid[np.isfinite(median)], median[np.isfinite(median)], label=planner)
     solved_axes.set(title=f"{name}: runs solved", xlabel="time (s)", ylabel="share of runs",
-                    ylim=(0, 1.02), xlim=(0, settings.time_limit))  # fmt: skip
-    cost_axes.set(title=f"{name}: median best cost", xlabel="time (s)", ylabel="path length",
-                  xlim=(0, settings.time_limit))  # fmt: skip
+                    ylim=(0, 1.02))  # fmt: skip
+    cost_axes.set(title=f"{name}: median best cost", xlabel="time (s)", ylabel="path length")
+    for axes in (solved_axes, cost_axes):
+        axes.set_xscale("log")
+        axes.set_xlim(grid[0], grid[-1])
     for axes in (solved_axes, cost_axes):
         if axes.get_legend_handles_labels()[0]:
             axes.legend(fontsize=8)
