@@ -1,8 +1,11 @@
-"""Make the pictures ``docs/images/render_{2d,3d,7d}.png``, ``families_7d.png``, ``viewer_7d.png``.
+"""Make the pictures of the docs: the renders, the arm's families, the viewer, a benchmark.
+
+Pictures: ``docs/images/render_{2d,3d,7d}.png``, ``families_7d.png``, ``viewer_7d.png`` and
+``benchmark_2d.png``.
 
 Run from the repository root::
 
-    python docs/make_images.py            # all five pictures
+    python docs/make_images.py            # all six pictures
     python docs/make_images.py --only 2d  # one of them
 
 The 2D and 3D pictures grow an RRT* tree of 1500 nodes with uniform samples on a seeded
@@ -12,7 +15,10 @@ for the scene. The families picture shows one workspace of each of the arm's str
 families (`temp_gym.worlds.arm_structured`) with the arm at a challenging task's start and
 goal. The viewer picture is the 7D plan in the browser viewer (`temp_gym.viewer`), three
 quarters along the path, taken in headless Chromium (it needs ``temp-gym[test,view]`` and a
-Chromium). Everything is seeded, so reruns give the same pictures.
+Chromium). The benchmark picture is ``temp-benchmark``'s plot of RRT* and Informed RRT* on
+the 2D out-of-distribution scenes (`BENCHMARK_SCENES`, 5 runs of 1 s each). Everything else is
+seeded, so reruns give the same pictures; the benchmark's curves are timed, so they move a
+little from run to run.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ SEED_2D = 1
 SEED_3D = 3
 SEED_7D = 0
 NODES = 1500
+BENCHMARK_SCENES = ("narrow_gap", "bug_trap", "forest", "zigzag_3")
+"""The 2D out-of-distribution scenes of the benchmark picture (``examples/ood/2d``)."""
 FAMILY_SEEDS = {"corridors": 102, "maze": 102, "traps": 2, "narrow": 3, "clutter": 4}
 """Per arm family, the workspace shown: picked by eye among the first few, so that the
 renderer's camera (chosen to show the arm) sees the structure's openings."""
@@ -128,12 +136,34 @@ def make_viewer_7d(out: Path) -> None:
         screenshot(viewer.url, out, width=1100, height=640, settle=4.0)
 
 
+def make_benchmark_2d(out: Path) -> None:
+    """``temp-benchmark``'s plot: RRT* and Informed RRT* on four 2D scenes, 5 runs of 1 s."""
+    import shutil
+    import tempfile
+
+    from temp_gym.evaluation.benchmark_command import main as benchmark
+
+    scenes = Path(__file__).resolve().parents[1] / "examples" / "ood" / "2d"
+    with tempfile.TemporaryDirectory() as folder:
+        problems = Path(folder) / "ood-2d"
+        problems.mkdir()
+        for scene in BENCHMARK_SCENES:
+            shutil.copy(scenes / f"{scene}.json", problems)
+        argv = ["--problems", str(problems), "--planners", "rrt_star", "informed_rrt_star",
+                "--runs", "5", "--time-limit", "1", "--group", "one", "--no-progress",
+                "--out", str(Path(folder) / "out")]  # fmt: skip
+        if benchmark(argv) != 0:
+            raise RuntimeError("temp-benchmark failed")
+        shutil.copy(Path(folder) / "out" / "plots" / "ood-2d.png", out)
+
+
 PICTURES = {
     "2d": ("render_2d", make_2d),
     "3d": ("render_3d", make_3d),
     "7d": ("render_7d", make_7d),
     "families_7d": ("families_7d", make_families_7d),
     "viewer_7d": ("viewer_7d", make_viewer_7d),
+    "benchmark_2d": ("benchmark_2d", make_benchmark_2d),
 }
 """Picture name (``--only``) -> (file stem under `IMAGES`, its maker)."""
 

@@ -1,0 +1,34 @@
+"""MotionBenchMaker problems through ``temp-benchmark``: OMPL logs, database, summary, plots.
+
+    python benchmarks/mbm.py path/to/mbm --planners temp rrt_star informed_rrt_star \
+        --time-limit 10 --runs 10 --out results/mbm
+
+The archive or folder is read by `temp_gym.benchmarks.motionbenchmaker.load`, which names
+each problem ``<scene>/<NNNN>``: ``--group scene`` (the default) makes one experiment per
+scene. Everything else (flags, outputs, resuming) is `temp_gym.evaluation.benchmark_command`'s.
+"""
+
+import sys
+
+from temp_gym.config import parse_args
+from temp_gym.evaluation.benchmark_command import ProblemSource, build_parser, run_checked
+
+
+def load(path: str):
+    from temp_gym.benchmarks.motionbenchmaker import load as load_motionbenchmaker
+
+    return load_motionbenchmaker(path), []
+
+
+SOURCE = ProblemSource(
+    metavar="MBM", help="a MotionBenchMaker archive or folder of problems", load=load
+)
+
+
+def main(argv=None) -> int:
+    args = parse_args(build_parser(SOURCE, prog="mbm.py"), argv)
+    return run_checked(args, SOURCE)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,194 @@
+import csv
+import json
+import sqlite3
+
+import numpy as np
+import pytest
+
+from temp_gym.evaluation.benchmark import (
+    BenchmarkSettings,
+    read_records,
+    run_once,
+)
+from temp_gym.evaluation.benchmark_command import main
+from temp_gym.evaluation.benchmark_problems import group_experiments
+from temp_gym.files import StoredFileError
+from temp_gym.planning.plan import PLANNERS, register_planner
+from temp_gym.planning.result import PlanResult
+from temp_gym.problem import Problem
+
+WALLS = {"robot": "point2d", "bounds": [[0, 0], [20, 20]],
+         "obstacles": [{"center": [10, 10], "half_extents": [1, 6]}],
+         "start": [2, 10], "goal": [18, 10], "goal_radius": 0.5}  # fmt: skip
+OPEN = {**WALLS, "obstacles": [{"center": [10, 18], "half_extents": [1, 1]}]}
+START_IN_A_WALL = {**WALLS, "start": [10, 10]}
+PLANNER_NAMES = ["rrt_star", "informed_rrt_star"]
+
+
+def command(problems, out, *extra):
+    return ["--problems", str(problems), "--planners", *PLANNER_NAMES, "--runs", "2",
+            "--time-limit", "1", "--max-nodes", "300", "--out", str(out), "--no-progress",
+            *extra]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    root = tmp_path_factory.mktemp("bench")
+    problems = root / "problems"
+    for name, data in [("walls/0000", WALLS), ("walls/0001", START_IN_A_WALL),
+                       ("open/0000", OPEN)]:  # fmt: skip
+        path = problems / f"{name}.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(data))
+    out = root / "out"
+    assert main(command(problems, out)) == 0
+    return problems, out
+
+
+def runs_table(database):
+    with sqlite3.connect(database) as connection:
+        return connection.execute(
+            "SELECT experiments.name, plannerConfigs.name, runs.problem, runs.run, runs.seed, "
+            "runs.time, runs.solved, runs.best_cost, runs.first_solution_time FROM runs "
+            "JOIN plannerConfigs ON plannerConfigs.id = runs.plannerid "
+            "JOIN experiments ON experiments.id = runs.experimentid ORDER BY runs.id"
+        ).fetchall()
+
+
+def expected_rows(out):
+    """The runs table the stored records imply: one row per run, experiment by experiment."""
+    records = read_records(out / "runs.jsonl")
+    rows = []
+    for experiment, problem in [("open", "open/0000"), ("walls", "walls/0000")]:
+        for planner in PLANNER_NAMES:
+            for r in records:
+                if r["problem"] == problem and r["planner"] == planner:
+                    cost = r["cost"] if r["solved"] else None
+                    rows.append((experiment, planner, 0, r["run"], r["seed"], r["time"],
+                                 int(r["solved"]), cost, r["first_time"]))  # fmt: skip
+    return rows
+
+
+def test_the_database_rows_are_the_stored_runs(bench):
+    _, out = bench
+    rows = runs_table(out / "benchmark.db")
+    assert len(rows) == 2 * 2 * 2  # two experiments, two planners, two runs each
+    assert sorted(rows) == sorted(expected_rows(out))
+    assert any(row[6] for row in rows)  # the point problems are solved in a second
+
+
+def test_ompls_own_script_reads_the_logs_into_the_same_rows(bench, tmp_path):
+    tools = pytest.importorskip("ompl.tools")
+    _, out = bench
+    logs = sorted(str(path) for path in (out / "logs").glob("*.log"))
+    tools.readBenchmarkLog(str(tmp_path / "ompl.db"), logs, False)
+    assert sorted(runs_table(tmp_path / "ompl.db")) == sorted(expected_rows(out))
+    with (
+        sqlite3.connect(tmp_path / "ompl.db") as theirs,
+        sqlite3.connect(out / "benchmark.db") as ours,
+    ):
+        for table in ("experiments", "plannerConfigs", "enums", "runs", "progress"):
+            query = f"SELECT * FROM {table} ORDER BY 1, 2"
+            assert theirs.execute(query).fetchall() == ours.execute(query).fetchall(), table
+            info = f"PRAGMA table_info({table})"
+            assert theirs.execute(info).fetchall() == ours.execute(info).fetchall(), table
+
+
+def test_rerunning_skips_finished_runs_and_redoes_a_cut_one(bench):
+    problems, out = bench
+    stored = (out / "runs.jsonl").read_bytes()
+    assert main(command(problems, out)) == 0
+    assert (out / "runs.jsonl").read_bytes() == stored  # nothing run again, nothing added
+    lines = stored.splitlines(keepends=True)
+    (out / "runs.jsonl").write_bytes(b"".join(lines[:-1]) + lines[-1][:40])  # killed mid-write
+    assert main(command(problems, out)) == 0
+    records = read_records(out / "runs.jsonl")
+    keys = [(r["problem"], r["planner"], r["run"]) for r in records]
+    assert len(keys) == len(set(keys)) == len(lines)
+    assert records[:-1] == [json.loads(line) for line in lines[:-1]]
+    assert keys[-1] == tuple(json.loads(lines[-1])[k] for k in ("problem", "planner", "run"))
+
+
+def test_the_summary_lists_each_planner_and_the_skipped_problem_and_plots_exist(bench):
+    _, out = bench
+    with open(out / "summary.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(row["experiment"], row["planner"]) for row in rows] == [
+        (experiment, planner) for experiment in ("open", "walls") for planner in PLANNER_NAMES
+    ]
+    records = read_records(out / "runs.jsonl")
+    for row in rows:
+        mine = [r for r in records if r["problem"].startswith(row["experiment"] + "/")
+                and r["planner"] == row["planner"]]  # fmt: skip
+        assert float(row["solved"]) == sum(r["solved"] for r in mine) / len(mine)
+    summary = (out / "summary.md").read_text()
+    assert "walls/0001" in summary and "Skipped problems (1)" in summary
+    for experiment in ("open", "walls"):
+        assert (out / "plots" / f"{experiment}.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_path_through_an_obstacle_does_not_count_as_solved():
+    def straight_line(problem, settings):
+        path = np.stack([problem.start, problem.goal])
+        return PlanResult("straight_line", True, path, 16.0, 2, 1, 0, 1, 0.0, 0.0, 2)
+
+    register_planner("straight_line", straight_line)
+    try:
+        problem = Problem.from_dict(WALLS)
+        settings = BenchmarkSettings(("straight_line",), time_limit=1.0, runs=1)
+        record = run_once(("walls/0000", problem, "straight_line", 0, 0, settings))
+    finally:
+        PLANNERS.pop("straight_line")
+    assert record["status"] == "uncertified" and record["solved"] is False
+    assert record["first_time"] is None and record["cost"] is None
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--planners", "no_such_planner"], "--planners: unknown planner 'no_such_planner'"),
+        (["--time-limit", "0"], "--time-limit: expected a positive number"),
+    ],
+)
+def test_bad_flags_are_one_line(bench, tmp_path, capsys, flags, message):
+    problems, _ = bench
+    argv = command(problems, tmp_path / "out")
+    for flag, value in zip(flags[::2], flags[1::2]):
+        at = argv.index(flag)
+        argv[at + 1 : at + 1 + (2 if flag == "--planners" else 1)] = [value]
+    assert main(argv) == 2
+    error = capsys.readouterr().err.strip()
+    assert message in error and "\n" not in error
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_paths_are_one_line(bench, tmp_path, capsys):
+    problems, out = bench
+    for argv, message in [
+        (command(tmp_path / "missing", tmp_path / "o1"), "does not exist"),
+        (command(problems, problems / "inside"), "inside the problem folder"),
+        (command(problems, out, "--seed", "5"), "other settings"),
+    ]:
+        assert main(argv) == 2
+        error = capsys.readouterr().err.strip()
+        assert error.startswith("temp-benchmark: error:") and message in error, error
+        assert "\n" not in error
+
+
+def test_a_damaged_record_before_the_last_line_is_refused(tmp_path):
+    path = tmp_path / "runs.jsonl"
+    path.write_text('{"problem": "a"}\n{damaged\n{"problem": "b"}\n')
+    with pytest.raises(StoredFileError, match="line 2"):
+        read_records(path)
+    path.write_text('{"problem": "a"}\n{"problem": "b", "cut')
+    assert read_records(path, repair=True) == [{"problem": "a"}]
+    assert path.read_text() == '{"problem": "a"}\n'
+
+
+def test_problems_group_by_scene_in_one_or_one_per_problem():
+    problem = Problem.from_dict(WALLS)
+    named = [("a/0", problem), ("a/1", problem), ("b c/0", problem), ("loose", problem)]
+    assert {k: [n for n, _ in v] for k, v in group_experiments(named, "scene", "set").items()} == {
+        "a": ["a/0", "a/1"], "b_c": ["b c/0"], "set": ["loose"]}  # fmt: skip
+    assert list(group_experiments(named, "one", "set")) == ["set"]
+    assert len(group_experiments(named, "problem")) == 4
