@@ -13,8 +13,9 @@ collision, with its reason.
 
 Example:
     >>> problems = load("problems.tar.bz2")
-    >>> problems[0][0], len(problems)
-    ('bookshelf_small/0001', 700)
+    >>> name, problem = problems[0]
+    >>> name, len(problems), problem.robot
+    ('bookshelf_small/0001', 700, 'franka_panda')
     >>> skipped = invalid(problems)   # {name: reason}
 """
 
