@@ -135,8 +135,9 @@ def _panda() -> tuple[tuple[str, ...], dict[str, float], str]:
 
 
 def _order(item: tuple[tuple[str, str], dict]) -> tuple[str, int]:
+    """Problems sorted by scene name (without ``_panda``), then by number."""
     (folder, number), _ = item
-    return folder, int(number)
+    return folder.removesuffix(SCENE_SUFFIX), int(number)
 
 
 def _yaml(name: str, data: bytes) -> object:
@@ -188,9 +189,8 @@ def _archive_entries(path: Path) -> list:
     with archive:
         for member in archive:
             parts = PurePosixPath(member.name).parts
-            if member.isfile() and len(parts) >= 2:
-                read = archive.extractfile(member).read  # type: ignore[union-attr]
-                data = read(MAX_PROBLEM_BYTES + 1) if FILE_NAME.fullmatch(parts[-1]) else b""
+            if member.isfile() and len(parts) >= 2 and FILE_NAME.fullmatch(parts[-1]):
+                data = archive.extractfile(member).read(MAX_PROBLEM_BYTES + 1)  # type: ignore[union-attr]
                 entries.append((parts[-2], parts[-1], len(data), lambda data=data: data))
     return entries
 

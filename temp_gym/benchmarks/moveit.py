@@ -222,7 +222,9 @@ def scene_obstacles(
                 raise source.error(f"{key}[{i}]", f"a link {neutral} other than {what:g} is "
                                    "not supported (the robot's geometry is fixed)")  # fmt: skip
     world = source.mapping(scene.get("world") or {}, "world", {"collision_objects", "octomap"})
-    source.empty(world.get("octomap"), "world.octomap", "octomaps")
+    octomap = source.mapping(world.get("octomap") or {}, "world.octomap")
+    tree = source.mapping(octomap.get("octomap") or {}, "world.octomap.octomap")
+    source.empty(tree.get("data"), "world.octomap", "octomaps")  # an empty one has no data
     objects = source.listing(world.get("collision_objects"), "world.collision_objects")
     if len(objects) > MAX_OBSTACLES:
         raise source.error("world.collision_objects", f"more than {MAX_OBSTACLES} objects")

@@ -83,6 +83,11 @@ SHELF = scene(
 """A box, a cylinder, a z-rotated box and a tilted box."""
 TABLE = scene(primitive("box", [1.0, 1.0, 0.1], [0.7, 0.0, -0.1]),
               primitive("sphere", [0.05], [0.5, 0.3, 0.7]))  # fmt: skip
+TABLE["world"]["octomap"] = {"header": {"frame_id": "world"},
+                             "origin": {"position": [0, 0, 0], "orientation": IDENTITY},
+                             "octomap": {"binary": True, "id": "OcTree", "resolution": 0.02,
+                                         "data": []}}  # fmt: skip
+"""A box and a sphere, and an empty octomap as MoveIt writes it in a whole scene."""
 FIXTURE = {
     "shelf_panda": {"0001": (SHELF, request(goal=GOAL)), "0002": (SHELF, request())},
     "table_panda": {"0001": (TABLE, request(start=GOAL)), "0010": (TABLE, request(goal=GOAL))},
