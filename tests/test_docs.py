@@ -31,6 +31,7 @@ PUBLIC_PACKAGES = (
     "temp_gym.data",
     "temp_gym.training",
     "temp_gym.evaluation",
+    "temp_gym.benchmarks.motionbenchmaker",
     "temp_gym.config",
 )
 """The package and its main subpackages: each name in their ``__all__`` must be documented."""

@@ -19,6 +19,7 @@ LAYERS = {
     "envs": 4,
     "wrappers": 4,
     "evaluation": 4,
+    "benchmarks": 4,
     "viewer": 4,
     "data": 5,
     "training": 6,

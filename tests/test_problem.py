@@ -310,3 +310,18 @@ def test_swapped_exchanges_start_and_goal_as_a_checked_problem_would():
         assert not getattr(swapped, name).flags.writeable
     assert swapped.workspace is problem.workspace and swapped.goal_radius == problem.goal_radius
     assert swapped.swapped() == problem
+
+
+def test_unchecked_keeps_a_start_in_collision_and_checks_the_rest():
+    workspace = Problem.from_dict(EXAMPLE).workspace
+    with pytest.raises(ValueError, match=r"start: \[10.0, 10.0\] is in collision"):
+        Problem(workspace, [10, 10], [18, 18], 0.5)
+    problem = Problem.unchecked(workspace, [10, 10], [18, 18], 0.5)
+    assert problem.start.tolist() == [10.0, 10.0] and problem.goal_radius == 0.5
+    assert not problem.start.flags.writeable
+    with pytest.raises(ValueError, match=r"^goal: outside the bounds"):
+        Problem.unchecked(workspace, [10, 10], [21, 18], 0.5)
+    with pytest.raises(ValueError, match=r"^goal_radius: must be positive"):
+        Problem.unchecked(workspace, [10, 10], [18, 18], 0.0)
+    with pytest.raises(ValueError, match=r"^start: expected"):
+        Problem.unchecked(workspace, [10, 10, 10], [18, 18], 0.5)

@@ -32,7 +32,8 @@ otherwise.
 
 Start and goal must be free: inside the bounds, clear of the obstacles and, for an arm, of
 itself (a self-collision error names the link pair). Every violation raises a `ValueError`
-that names the field and the reason.
+that names the field and the reason. `Problem.unchecked` skips the collision test alone, for
+benchmark sets whose problems are taken as they are.
 """
 
 from __future__ import annotations
@@ -100,6 +101,35 @@ class Problem:
     """Radius of the goal region (a closed ball in configuration space)."""
 
     def __post_init__(self) -> None:
+        self._validate()
+        robot = robot_named(self.workspace.robot)
+        reasons = robot.collision_reasons(self.workspace, np.stack([self.start, self.goal]))
+        for name, point, reason in zip(("start", "goal"), (self.start, self.goal), reasons):
+            if reason is not None:
+                raise ValueError(f"{name}: {point.tolist()} is in {reason}")
+
+    @classmethod
+    def unchecked(cls, workspace: Workspace, start: Any, goal: Any, goal_radius: float) -> Problem:
+        """A problem validated like any other except that start and goal may be in collision.
+
+        For benchmark sets made elsewhere, whose problems must be loaded as they are and the
+        ones in collision reported rather than refused (`temp_gym.benchmarks`). The workspace,
+        shapes, bounds and goal radius are still checked. Such a problem does not survive
+        `replace` or ``Problem.from_dict(p.to_dict())``, which check collisions again.
+        """
+        problem = object.__new__(cls)
+        for name, value in (
+            ("workspace", workspace),
+            ("start", start),
+            ("goal", goal),
+            ("goal_radius", goal_radius),
+        ):
+            object.__setattr__(problem, name, value)
+        problem._validate()
+        return problem
+
+    def _validate(self) -> None:
+        """Check and store every field, the collision test aside (`unchecked` stops here)."""
         if not isinstance(self.workspace, Workspace):
             raise ValueError(
                 f"workspace: expected a Workspace, got {type(self.workspace).__name__}"
@@ -124,11 +154,6 @@ class Problem:
         object.__setattr__(self, "start", start)
         object.__setattr__(self, "goal", goal)
         object.__setattr__(self, "goal_radius", radius)
-        robot = robot_named(self.workspace.robot)
-        reasons = robot.collision_reasons(self.workspace, np.stack([start, goal]))
-        for name, point, reason in zip(("start", "goal"), (start, goal), reasons):
-            if reason is not None:
-                raise ValueError(f"{name}: {point.tolist()} is in {reason}")
 
     # ------------------------------------------------------------------ properties
     @property

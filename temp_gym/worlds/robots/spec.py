@@ -185,12 +185,16 @@ class RobotSpec:
             state = states[k]
             if exact.states_free(state[None])[0]:
                 continue
-            reasons[k] = _refusal(exact, state)
+            reasons[k] = refusal(exact, state)
         return reasons
 
 
-def _refusal(checker: CollisionChecker, state: np.ndarray) -> str:
-    """Why ``checker`` (an exact one) calls ``state`` in collision, in words."""
+def refusal(checker: CollisionChecker, state: np.ndarray) -> str:
+    """Why ``checker`` (an exact one) calls ``state`` in collision, in words.
+
+    Names the colliding link pairs, or the link touching an obstacle with the penetration
+    depth, and the checker; the reason `collision_reasons` and benchmark reports give.
+    """
     pairs = checker.self_collisions(state) if isinstance(checker, SelfCollisionChecker) else []
     report = checker.obstacle_report(state) if hasattr(checker, "obstacle_report") else []
     if pairs:

@@ -1,0 +1,209 @@
+"""MotionBenchMaker's Panda problems, loaded as they are: 7 scenes of 100 problems each.
+
+MotionBenchMaker (Chamzas et al., 2022) ships each problem as a MoveIt planning scene
+(``sceneNNNN.yaml``) and a motion-plan request (``requestNNNN.yaml``) in a folder per scene
+(``box_panda/``, ``table_pick_panda/``, ...). VAMP's source distribution carries the Panda's
+set as ``resources/panda/problems.tar.bz2`` (``docs/motionbenchmaker.md`` says how to get it).
+
+The robot is ``franka_panda``, whose joints and limits are MotionBenchMaker's Panda's and
+whose fingers it holds 6.5 cm open, as MotionBenchMaker's URDF fixes them. `load` reads every
+problem without testing start and goal for collisions (`Problem.unchecked`), so the set loads
+whole; `invalid` then lists the problems whose start or goal the exact checker calls in
+collision, with its reason.
+
+Example:
+    >>> problems = load("problems.tar.bz2")
+    >>> name, problem = problems[0]
+    >>> name, len(problems), problem.robot
+    ('bookshelf_small/0001', 700, 'franka_panda')
+    >>> skipped = invalid(problems)   # {name: reason}
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+import tarfile
+from collections.abc import Iterable
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+import yaml
+
+from temp_gym.limits import MAX_PROBLEM_BYTES
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds.checkers import make_checker
+from temp_gym.worlds.robots import robot_spec
+from temp_gym.worlds.robots.spec import refusal
+
+from .moveit import MoveItFile, request_joints, scene_obstacles
+
+ROBOT = "franka_panda"
+"""The robot MotionBenchMaker's Panda problems are loaded for."""
+MODEL_NAME = "panda"
+"""The ``robot_model_name`` of MotionBenchMaker's Panda scenes (its SRDF's robot name)."""
+SCENE_SUFFIX = "_panda"
+"""The suffix of MotionBenchMaker's Panda scene folders, left out of problem names."""
+WORLD_FRAMES = {"", "world"}
+"""Frame names of the scenes' world, which is the Panda base's frame (checked per scene)."""
+FILE_NAME = re.compile(r"(scene|request)(\d+)\.yaml")
+"""A problem's two files: ``sceneNNNN.yaml`` and ``requestNNNN.yaml``."""
+
+SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+"""``yaml.safe_load``'s loader, in libyaml's build where PyYAML has it (ten times faster: the
+set's 1,400 files take seconds instead of most of a minute); it builds plain values only."""
+
+Files = dict[tuple[str, str], dict[str, tuple[str, bytes]]]
+"""``(scene folder, number) -> {"scene" | "request": (file name for errors, bytes)}``."""
+
+
+def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, Problem]]:
+    """Every problem of a MotionBenchMaker Panda set, as ``(name, problem)`` pairs.
+
+    ``path`` is the ``problems.tar.bz2`` archive (read in memory, nothing is extracted) or an
+    unpacked folder (``problems/`` or the folder holding it). A problem's name is its scene
+    without ``_panda`` and its number as in its files, e.g. ``"table_pick/0001"``; the list is
+    sorted by scene, then number. ``goal_radius`` is the goal region's radius in joint space
+    (radians); None takes the Panda's default, its spec's ``goal_radius``.
+
+    Start and goal are not tested for collisions here (`invalid` does that).
+
+    Raises:
+        ValueError: one line naming the file and field of anything it cannot represent:
+            meshes, planes, cones, octomaps, attached objects, frames away from the robot
+            base, a moved robot base, unknown joints, fingers not at the Panda's held
+            opening, position or orientation goals, more than one goal.
+    """
+    spec = robot_spec(ROBOT)
+    radius = spec.goal_radius if goal_radius is None else goal_radius
+    bounds = spec.joint_limits()
+    joints, held, base = _panda()
+    problems = []
+    for (folder, number), pair in sorted(_problem_files(Path(path)).items(), key=_order):
+        for kind in ("scene", "request"):
+            if kind not in pair:
+                other = next(iter(pair.values()))[0]
+                raise ValueError(f"{other}: no {kind}{number}.yaml beside it")
+        scene_file, request_file = MoveItFile(pair["scene"][0]), MoveItFile(pair["request"][0])
+        scene = _yaml(*pair["scene"])
+        obstacles = scene_obstacles(scene_file, scene, MODEL_NAME, WORLD_FRAMES | {base})
+        start, goal = request_joints(request_file, _yaml(*pair["request"]), joints, held)
+        try:
+            workspace = Workspace.from_obstacles(ROBOT, bounds, obstacles)
+        except ValueError as error:
+            raise scene_file.error("world.collision_objects", str(error)) from None
+        try:
+            problem = Problem.unchecked(workspace, start, goal, radius)
+        except ValueError as error:
+            raise ValueError(f"{request_file.name}: {error}") from None
+        problems.append((f"{folder.removesuffix(SCENE_SUFFIX)}/{number}", problem))
+    return problems
+
+
+def invalid(problems: Iterable[tuple[str, Problem]]) -> dict[str, str]:
+    """The problems whose start or goal the exact checker calls in collision: name -> reason.
+
+    The reason names the point (``start`` or ``goal``) and gives the exact checker's own
+    words: the colliding link pairs, or the link touching an obstacle with the penetration.
+
+    Example:
+        >>> invalid(load("problems.tar.bz2"))["box/0042"]   # doctest: +SKIP
+        'start: collision: panda_hand touches box 3, penetration 1.2 mm (fcl on ...)'
+    """
+    reasons = {}
+    for name, problem in problems:
+        checker = make_checker(problem, exact=True)
+        states = np.stack([problem.start, problem.goal])
+        free = checker.states_free(states)
+        refused = [
+            f"{point}: {refusal(checker, state)}"
+            for point, state, ok in zip(("start", "goal"), states, free)
+            if not ok
+        ]
+        if refused:
+            reasons[name] = "; ".join(refused)
+    return reasons
+
+
+@functools.cache
+def _panda() -> tuple[tuple[str, ...], dict[str, float], str]:
+    """The Panda's joints, its held joints (the fingers) with their values, and its base link."""
+    from temp_gym.worlds.arm.model import load_arm
+
+    arm = load_arm(robot_spec(ROBOT).description)
+    return arm.joint_names, dict(arm.chain.fixed_values), arm.body_names[0]
+
+
+def _order(item: tuple[tuple[str, str], dict]) -> tuple[str, int]:
+    """Problems sorted by scene name (without ``_panda``), then by number."""
+    (folder, number), _ = item
+    return folder.removesuffix(SCENE_SUFFIX), int(number)
+
+
+def _yaml(name: str, data: bytes) -> object:
+    try:
+        return yaml.load(data, Loader=SAFE_LOADER)  # noqa: S506  (a safe loader)
+    except yaml.YAMLError as error:
+        problem = getattr(error, "problem", None) or type(error).__name__
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        raise ValueError(f"{name}: not valid YAML{where}: {problem}") from None
+
+
+def _problem_files(path: Path) -> Files:
+    """Every scene and request file under ``path`` (an archive or a folder), by problem."""
+    if not path.exists():
+        raise ValueError(f"path: {path} does not exist")
+    entries = _archive_entries(path) if path.is_file() else _folder_entries(path)
+    files: Files = {}
+    for folder, file_name, size, read in entries:
+        match = FILE_NAME.fullmatch(file_name)
+        if match is None:
+            continue
+        name = f"{folder}/{file_name}"
+        if not folder.endswith(SCENE_SUFFIX):
+            raise ValueError(f"{name}: not a Panda problem (its folder does not end in "
+                             f"{SCENE_SUFFIX!r})")  # fmt: skip
+        if size > MAX_PROBLEM_BYTES:
+            raise ValueError(f"{name}: larger than {MAX_PROBLEM_BYTES // 2**20} MB")
+        kind, number = match.groups()
+        pair = files.setdefault((folder, number), {})
+        if kind in pair:
+            raise ValueError(f"{name}: found twice in {path}")
+        pair[kind] = (name, read())
+    if not files:
+        raise ValueError(
+            f"path: no MotionBenchMaker problems in {path} (sceneNNNN.yaml and "
+            f"requestNNNN.yaml in <scene>{SCENE_SUFFIX} folders)"
+        )
+    return files
+
+
+def _archive_entries(path: Path) -> list:
+    """``(folder, file name, size, read)`` of each regular file of a tar archive."""
+    try:
+        archive = tarfile.open(path, "r:*")
+    except (tarfile.TarError, OSError) as error:
+        raise ValueError(f"path: {path} is neither a folder nor a tar archive ({error})") from None
+    entries = []
+    with archive:
+        for member in archive:
+            parts = PurePosixPath(member.name).parts
+            if member.isfile() and len(parts) >= 2 and FILE_NAME.fullmatch(parts[-1]):
+                data = archive.extractfile(member).read(MAX_PROBLEM_BYTES + 1)  # type: ignore[union-attr]
+                entries.append((parts[-2], parts[-1], len(data), lambda data=data: data))
+    return entries
+
+
+def _folder_entries(path: Path) -> list:
+    """``(folder, file name, size, read)`` of the files of each scene folder under ``path``."""
+    root = path / "problems" if (path / "problems").is_dir() else path
+    entries = []
+    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
+        for file in sorted(folder.iterdir()):
+            if file.is_file() and FILE_NAME.fullmatch(file.name):
+                entries.append((folder.name, file.name, file.stat().st_size, file.read_bytes))
+    return entries
+
+
+__all__ = ["load", "invalid"]
