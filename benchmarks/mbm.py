@@ -15,9 +15,14 @@ from temp_gym.evaluation.benchmark_command import ProblemSource, build_parser, r
 
 
 def load(path: str):
+    """All problems of the set, less those whose start or goal the exact checker refuses."""
+    from temp_gym.benchmarks.motionbenchmaker import invalid
     from temp_gym.benchmarks.motionbenchmaker import load as load_motionbenchmaker
 
-    return load_motionbenchmaker(path), []
+    problems = load_motionbenchmaker(path)
+    refused = invalid(problems)
+    kept = [(name, problem) for name, problem in problems if name not in refused]
+    return kept, sorted(refused.items())
 
 
 SOURCE = ProblemSource(
