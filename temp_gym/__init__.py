@@ -56,6 +56,7 @@ __all__ = [
     "PlanResult",
     "PlanSettings",
     "Problem",
+    "RRTConnectSettings",
     "RRTStarSettings",
     "TEMPSettings",
     "load_policy",
@@ -67,7 +68,8 @@ __all__ = [
 
 
 _PLANNING = {"InformedRRTStarSettings", "OMPLSettings", "PLANNERS", "PlanResult", "PlanSettings",
-             "RRTStarSettings", "TEMPSettings", "plan", "register_planner"}  # fmt: skip
+             "RRTConnectSettings", "RRTStarSettings", "TEMPSettings", "plan",
+             "register_planner"}  # fmt: skip
 """Names of `temp_gym.planning`, imported from there on first use."""
 
 

@@ -178,8 +178,9 @@ def test_ompl_bit_star_stop_at_first_and_its_own_settings(problem_2d):
     result = plan(problem_2d, planner="ompl_bit_star", seed=0, max_nodes=400, k_nearest=True,
                   samples_per_batch=50)  # fmt: skip
     assert result.success and result.nodes <= 400
-    with pytest.raises(ValueError, match=r"^samples_per_batch: expected an integer of at least"):
-        plan(problem_2d, planner="ompl_bit_star", samples_per_batch=0)
+    for batch, words in ((0, r"an integer in \[1, 2\*\*53\], got 0"), (2**31, r"at most 2\*\*31")):
+        with pytest.raises(ValueError, match=rf"^samples_per_batch: expected {words}"):
+            plan(problem_2d, planner="ompl_bit_star", samples_per_batch=batch)
     with pytest.raises(ValueError, match=r"^range: only the .* planners take it, not ompl_bit"):
         plan(problem_2d, planner="ompl_bit_star", range=1.0)
 
