@@ -1,9 +1,9 @@
-"""Benchmark: our RRT* / Informed RRT* against OMPL's, on generated problems.
+"""Benchmark: our RRT* / Informed RRT* / RRT-Connect against OMPL's, on generated problems.
 
 One run per (problem, planner), all planners on the same problems and the same fast checker.
 Reports, per world and planner: success, time and nodes to the first solution, mean cost at
-fixed node budgets (over the problems every planner had solved by that budget), wall time per
-node, and our/OMPL ratios.
+fixed node budgets (over the problems every planner had solved by that budget; RRT-Connect's is
+its one solution, which it does not improve), wall time per node, and our/OMPL ratios.
 
     python benchmarks/planners.py --worlds 2d 3d --problems 20 --budgets 500 1000 2000
 """
@@ -20,7 +20,8 @@ from temp_gym.planning import plan
 from temp_gym.worlds.robots import robot_specs
 
 ROBOTS = {spec.short_name: spec.name for spec in robot_specs()}
-PAIRS = [("rrt_star", "ompl_rrt_star"), ("informed_rrt_star", "ompl_informed_rrt_star")]
+PAIRS = [("rrt_star", "ompl_rrt_star"), ("informed_rrt_star", "ompl_informed_rrt_star"),
+         ("rrt_connect", "ompl_rrt_connect")]  # fmt: skip
 
 
 def make_problems(world: str, count: int, seed: int):

@@ -58,6 +58,7 @@ __all__ = [
     "PlanResult",
     "PlanSettings",
     "Problem",
+    "RRTConnectSettings",
     "RRTStarSettings",
     "Sphere",
     "TEMPSettings",
@@ -71,7 +72,8 @@ __all__ = [
 
 
 _PLANNING = {"InformedRRTStarSettings", "OMPLSettings", "PLANNERS", "PlanResult", "PlanSettings",
-             "RRTStarSettings", "TEMPSettings", "plan", "register_planner"}  # fmt: skip
+             "RRTConnectSettings", "RRTStarSettings", "TEMPSettings", "plan",
+             "register_planner"}  # fmt: skip
 """Names of `temp_gym.planning`, imported from there on first use."""
 
 

@@ -58,17 +58,20 @@ RESULT_FORMAT = "temp-gym plan result"
 only if it has it (or is a result written before the field, `_LEGACY_RESULT_KEYS`)."""
 _LEGACY_RESULT_KEYS = {"planner", "success", "path", "cost", "nodes", "history", "seed"}
 
-BUILT_IN_PLANNERS = ("temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star",
-                     "ompl_informed_rrt_star")  # fmt: skip
+BUILT_IN_PLANNERS = ("temp", "rrt_star", "informed_rrt_star", "rrt_connect", "ompl_rrt_star",
+                     "ompl_informed_rrt_star", "ompl_rrt_connect", "ompl_bit_star")  # fmt: skip
 """The planners `temp_gym.planning.PLANNERS` registers, for the help text alone: reading them
 from the registry would load numba (a second) on every ``--help``. A test keeps both equal;
 ``--planner`` is checked against the registry itself, planners registered later included."""
 DEFAULT_MAX_NODES = 5000
 """`temp_gym.planning.PlanSettings.max_nodes`, for the help text alone (a test keeps both
 equal)."""
-OMPL_OWN_SETTINGS = ("k_nearest", "range")
-"""`temp_gym.planning.OMPLSettings`' own fields, for the help text alone: reading them would
-load numba (a test keeps both equal)."""
+OWN_SETTINGS = {"rrt_connect": ("range",), "ompl_rrt_star": ("k_nearest", "range"),
+                "ompl_informed_rrt_star": ("k_nearest", "range"), "ompl_rrt_connect": ("range",),
+                "ompl_bit_star": ("k_nearest", "samples_per_batch")}  # fmt: skip
+"""The own fields of the settings classes that load the planners (`RRTConnectSettings` and
+the OMPL planners'), for the help text alone: reading them would load numba (a test keeps both
+equal)."""
 
 
 class _HelpFormatter(DefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
@@ -79,15 +82,14 @@ def own_settings() -> dict[str, list[str]]:
     """Built-in planner -> the settings of its class beyond the common ones, for ``--help``.
 
     Read from the settings classes that load without the planners (`PlanSettings`,
-    `TEMPSettings`) and `OMPL_OWN_SETTINGS`; ``rrt_star`` and ``informed_rrt_star`` have none.
+    `TEMPSettings`) and `OWN_SETTINGS`; ``rrt_star`` and ``informed_rrt_star`` have none.
     """
     from temp_gym.planning.settings import PlanSettings, field_names
     from temp_gym.planning.temp_settings import TEMPSettings
 
     common = field_names(PlanSettings)
-    ompl = sorted(OMPL_OWN_SETTINGS)
-    return {"temp": sorted(field_names(TEMPSettings) - common - {"policy"}),
-            "ompl_rrt_star": ompl, "ompl_informed_rrt_star": ompl}  # fmt: skip
+    temp = sorted(field_names(TEMPSettings) - common - {"policy"})
+    return {"temp": temp} | {name: sorted(own) for name, own in OWN_SETTINGS.items()}
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -377,6 +377,24 @@ def test_any_setting_of_the_planner_is_set_and_checked_before_planning(tmp_path,
     assert not (tmp_path / "bad.json").exists()
 
 
+def test_rrt_connect_plans_from_the_command_line_with_its_own_setting(tmp_path, capsys):
+    from temp_gym import plan
+    from temp_gym.cli import main
+    from temp_gym.problem import Problem
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    out = tmp_path / "r.json"
+    flags = ["--planner", "rrt_connect", "--seed", "1", "--set", "range=0.5", "--out", str(out)]
+    assert main([str(problem), *flags]) == 0
+    assert "rrt_connect seed=1" in capsys.readouterr().out
+    written = json.loads(out.read_text())
+    same = plan(Problem.from_dict(PROBLEM), "rrt_connect", seed=1, range=0.5)
+    assert written["path"] == same.path.tolist() and written["nodes"] == same.nodes
+    code = main([str(problem), "--planner", "rrt_connect", "--set", "range=0", "--out", str(out)])
+    assert_one_line_error(code, capsys.readouterr().err, "range: expected a positive number")
+
+
 def test_temp_plan_uses_the_settings_the_shipped_policy_carries(tmp_path, capsys):
     """With no setting flag, the shipped policy's settings; the card's values set by hand
     give the same plan, and a value told otherwise another."""

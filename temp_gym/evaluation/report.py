@@ -23,7 +23,8 @@ from temp_gym.evaluation.protocol import (
 )
 from temp_gym.evaluation.statistics import format_interval
 
-PLANNER_ORDER = ("temp", "rrt_star", "informed_rrt_star", "ompl_rrt_star", "ompl_informed_rrt_star")
+PLANNER_ORDER = ("temp", "rrt_star", "informed_rrt_star", "rrt_connect", "ompl_rrt_star",
+                 "ompl_informed_rrt_star", "ompl_rrt_connect", "ompl_bit_star")  # fmt: skip
 
 
 def _planner_records(records: list[dict[str, Any]], group: str) -> list[dict[str, Any]]:

@@ -1,10 +1,13 @@
-"""OMPL's RRTstar and InformedRRTstar on our `Problem`: the reference baselines.
+"""OMPL's RRTstar, InformedRRTstar, RRTConnect and BITstar on our `Problem`: the references.
 
-Both planners see the world only through our fast checker: state validity calls
+The planners see the world only through our fast checker: state validity calls
 ``states_free`` and motion validity is a custom ``MotionValidator`` that calls ``edge_free``
 (OMPL's default discrete motion check, at its default resolution, could cut box corners).
 The goal region (a ``GoalState`` with threshold ``goal_radius``), goal bias and path-length
-objective match our planners.
+objective match our planners. ``ompl_rrt_connect`` is the reference of our ``rrt_connect``
+(`temp_gym.planning.rrt_connect`), with the same ``range`` (our step unless given), and
+``ompl_bit_star`` is Batch Informed Trees (Gammell et al. 2015), which we do not implement;
+neither takes a goal bias.
 
 Range and neighbourhood (why OMPL's ``range`` is ``RANGE_FACTOR = 2`` steering steps): OMPL's
 ``range`` is both the steering step and a hard cap on the length of every edge RRTstar makes.
@@ -32,9 +35,15 @@ Not the cause (checked): the termination condition is evaluated once per iterati
 iterations it reaches 1.04x in the empty 3D world: slowly, not never).
 
 Node budget: OMPL cannot stop at a tree size, so the termination condition (evaluated once per
-iteration) and the motion validator together count the nodes added: the first motion checked
-in an iteration is the steered edge, and RRTstar adds a node exactly when it is valid. Pruned
-nodes are still counted, as in our planners, which never prune.
+iteration) and the motion validator together count the nodes added (`_NODE_RULES`). RRTstar:
+the first motion checked in an iteration is the steered edge, and it adds a node exactly when
+that is valid. RRTConnect: every valid motion adds a node (to either tree; both roots count),
+and once the budget is spent the validator refuses motions, so that a CONNECT, which runs
+without looking at the termination condition, cannot overshoot it. BITstar: the distinct states
+that a valid edge was checked to, an upper bound of its tree's vertices (it checks an edge
+before it decides to add it). Pruned nodes are still counted, as in our planners, which never
+prune. Samples are iterations (BITstar's: an edge or a batch of samples each) and sampling
+failures the iterations whose first motion was refused (BITstar's: the edges refused).
 
 Seeding: OMPL seeds its random generators from one process-wide seed generator that can
 only be seeded before its first use, so the first OMPL run in a process is seeded with its
@@ -54,13 +63,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from temp_gym.planning.result import AnytimeLog, PlanResult
-from temp_gym.planning.settings import PlanSettings, flag, positive
+from temp_gym.planning.settings import PlanSettings, count, flag, positive
 from temp_gym.planning.tree import default_step_size
 from temp_gym.problem import Problem
 from temp_gym.worlds.checkers import certify_path, make_checker
 from temp_gym.worlds.collision import CollisionChecker
 
-OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star")
+OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star", "ompl_rrt_connect", "ompl_bit_star")
+_NODE_RULES = {"ompl_rrt_star": "first_motion", "ompl_informed_rrt_star": "first_motion",
+               "ompl_rrt_connect": "every_motion", "ompl_bit_star": "new_state"}  # fmt: skip
+"""How the motion validator counts the nodes a planner adds (the module docstring says why)."""
 RANGE_FACTOR = 2.0
 """OMPL's ``range`` is this many steering steps unless given (see the module docstring)."""
 K_NEAREST = False
@@ -69,6 +81,8 @@ given."""
 _SEEDED = False
 MAX_SEED = 2**64 - 2
 """Largest seed the OMPL planners take (OMPL's seeds are 64-bit and may not be 0)."""
+MAX_SAMPLES_PER_BATCH = 2**31 - 1
+"""Largest ``samples_per_batch`` (BITstar takes an unsigned int)."""
 
 
 def ompl_seed(seed: int) -> int:
@@ -93,16 +107,19 @@ def _import_ompl():
 
 
 class _Counters:
-    """What the callbacks count during one solve."""
+    """What the callbacks count during one solve; ``rule``: a value of `_NODE_RULES`."""
 
-    def __init__(self, max_nodes: int, deadline: float) -> None:
+    def __init__(self, max_nodes: int, deadline: float, rule: str, start: np.ndarray) -> None:
         self.max_nodes = max_nodes
         self.deadline = deadline
-        self.nodes = 1
+        self.rule = rule
+        self.nodes = 2 if rule == "every_motion" else 1  # RRTConnect's goal tree has a root
         self.iterations = 0
         self.failures = 0
         self.checks = 0
         self.first_check_pending = False
+        self.vertices = {start.tobytes()}
+        """BITstar's: the states counted as its tree's vertices (the start's to begin with)."""
 
 
 @dataclass(frozen=True)
@@ -132,12 +149,53 @@ class OMPLInformedRRTStarSettings(OMPLSettings):
     """``ompl_informed_rrt_star``'s settings (`OMPLSettings`)."""
 
 
+@dataclass(frozen=True)
+class OMPLRRTConnectSettings(PlanSettings):
+    """``ompl_rrt_connect``'s settings: the common ones and ``range``.
+
+    ``goal_bias``, ``stop_at_first`` and ``target_cost`` are not used: RRTConnect samples
+    uniformly and stops at its first solution, as our ``rrt_connect``.
+    """
+
+    range: float | None = None
+    """OMPL's ``range``, the longest extension (world units; None: ``step_size``, whose None is
+    the robot's step: the range of our ``rrt_connect``)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.range is not None:
+            self._normalize("range", positive(self.range, "range"))
+
+
+@dataclass(frozen=True)
+class OMPLBITStarSettings(PlanSettings):
+    """``ompl_bit_star``'s settings: the common ones and two of BITstar's own.
+
+    ``goal_bias`` and ``step_size`` are not used: BITstar samples in batches and has no steering
+    step.
+    """
+
+    k_nearest: bool = K_NEAREST
+    """Neighbours by BITstar's k-nearest rule (True, OMPL's default) or its radius rule
+    (False, the rule of our planners)."""
+    samples_per_batch: int = 100
+    """States BITstar samples per batch (OMPL's default)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self._normalize("k_nearest", flag(self.k_nearest, "k_nearest"))
+        batch = count(self.samples_per_batch, "samples_per_batch")
+        if batch > MAX_SAMPLES_PER_BATCH:
+            raise ValueError(f"samples_per_batch: expected at most 2**31 - 1, got {batch}")
+        self._normalize("samples_per_batch", batch)
+
+
 MIN_EXTENT = 1e-12
 """Shortest diagonal of the bounds OMPL plans in: its longest valid segment (1% of the
 diagonal) must be a positive double well above rounding, or ``SpaceInformation.setup`` fails."""
 
 
-def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> PlanResult:
+def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> PlanResult:
     """Run OMPL's planner ``name`` (one of `OMPL_PLANNERS`) and return a certified result.
 
     A start already in the goal region is a solution of cost 0, returned as our planners
@@ -154,8 +212,8 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
     if not extent >= MIN_EXTENT:
         raise ValueError(
             f"bounds: OMPL's planners need bounds at least {MIN_EXTENT:g} across (the "
-            f"diagonal), got {extent:g}; our planners (rrt_star, informed_rrt_star, temp) "
-            "plan in them"
+            f"diagonal), got {extent:g}; our planners (rrt_star, informed_rrt_star, "
+            "rrt_connect, temp) plan in them"
         )
     started = time.perf_counter()
     if float(np.sum((problem.start - problem.goal) ** 2)) <= problem.goal_radius**2:
@@ -169,7 +227,8 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
     dim = problem.dim
     checker = make_checker(problem)
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
-    counters = _Counters(settings.max_nodes, started + time_limit)
+    rule = _NODE_RULES[name]
+    counters = _Counters(settings.max_nodes, started + time_limit, rule, problem.start)
 
     space = ob.RealVectorStateSpace(dim)
     bounds = ob.RealVectorBounds(dim)
@@ -211,13 +270,10 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
         objective.setCostThreshold(ob.Cost(-math.inf))
     pdef.setOptimizationObjective(objective)
 
-    planner = og.RRTstar(si) if name == "ompl_rrt_star" else og.InformedRRTstar(si)
-    step = default_step_size(problem) if settings.step_size is None else settings.step_size
-    planner.setRange(RANGE_FACTOR * step if settings.range is None else settings.range)
-    planner.setKNearest(settings.k_nearest)
-    planner.setGoalBias(settings.goal_bias)
+    planner = _configured_planner(og, si, problem, settings, name)
     planner.setProblemDefinition(pdef)
     planner.setup()
+    anytime = rule != "every_motion"  # RRTConnect has no best cost to poll: it stops when solved
 
     log = AnytimeLog()
     best = [math.inf]
@@ -226,10 +282,13 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
     def should_stop() -> bool:
         # Called once at the top of every planner iteration: poll the best cost, then arm the
         # motion validator to recognise this iteration's steered edge.
-        cost = planner.bestCost().value()
-        if cost < best[0]:
-            best[0] = cost
-            log.record(counters.nodes, time.perf_counter() - started, cost)
+        if anytime:
+            cost = planner.bestCost().value()
+            if cost < best[0]:
+                best[0] = cost
+                log.record(counters.nodes, time.perf_counter() - started, cost)
+        if counters.first_check_pending and rule == "every_motion":
+            counters.failures += 1  # the last EXTEND made no motion: its new state was invalid
         if (
             counters.nodes >= counters.max_nodes
             or counters.iterations >= max_samples
@@ -243,21 +302,24 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
     planner.solve(ob.PlannerTerminationCondition(should_stop))
     # OMPL returns as soon as a solution meets the cost threshold, without another call to
     # should_stop: log that last improvement too (the tolerance protocol reads it).
-    final_cost = planner.bestCost().value()
-    if final_cost < best[0]:
-        best[0] = final_cost
-        log.record(counters.nodes, time.perf_counter() - started, final_cost)
-    path = None
-    cost = math.inf
-    rejected = 0
+    solved_at = time.perf_counter() - started
+    candidate = None
     if pdef.hasExactSolution():
         solution = pdef.getSolutionPath()
         candidate = np.array([to_array(s) for s in solution.getStates()])
+    if anytime:
+        final_cost = planner.bestCost().value()
+    else:
+        final_cost = math.inf if candidate is None else _length(candidate)
+    if final_cost < best[0]:
+        best[0] = final_cost
+        log.record(counters.nodes, solved_at, final_cost)
+    path = None
+    cost = math.inf
+    rejected = 0
+    if candidate is not None:
         if certify_path(problem, candidate):
-            path, cost = (
-                candidate,
-                float(np.sum(np.linalg.norm(np.diff(candidate, axis=0), axis=1))),
-            )
+            path, cost = candidate, _length(candidate)
         else:
             rejected = 1
     history = log.as_arrays()
@@ -280,19 +342,57 @@ def solve_with_ompl(problem: Problem, settings: OMPLSettings, name: str) -> Plan
     )
 
 
+def _configured_planner(og, si, problem: Problem, settings: PlanSettings, name: str):
+    """OMPL's planner ``name`` on ``si``, with the settings of ``settings`` it takes."""
+    step = default_step_size(problem) if settings.step_size is None else settings.step_size
+    if name == "ompl_bit_star":
+        planner = og.BITstar(si)
+        planner.setUseKNearest(settings.k_nearest)
+        planner.setSamplesPerBatch(settings.samples_per_batch)
+        return planner
+    if name == "ompl_rrt_connect":
+        planner = og.RRTConnect(si)
+        planner.setRange(step if settings.range is None else settings.range)
+        return planner
+    planner = og.RRTstar(si) if name == "ompl_rrt_star" else og.InformedRRTstar(si)
+    planner.setRange(RANGE_FACTOR * step if settings.range is None else settings.range)
+    planner.setKNearest(settings.k_nearest)
+    planner.setGoalBias(settings.goal_bias)
+    return planner
+
+
+def _length(path: np.ndarray) -> float:
+    """The length of a path of states ``(K, d)``."""
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+
+
 def _make_motion_validator(ob, si, checker: CollisionChecker, counters: _Counters, to_array):
-    """A ``MotionValidator`` calling our exact-for-points / conservative ``edge_free``."""
+    """A ``MotionValidator`` calling our exact-for-points / conservative ``edge_free``.
+
+    It counts the nodes the planner adds by ``counters.rule`` (`_NODE_RULES`).
+    """
 
     class EdgeMotionValidator(ob.MotionValidator):
         def checkMotion(self, s1, s2, *last_valid) -> bool:  # noqa: N802 (OMPL's name)
+            rule, pending = counters.rule, counters.first_check_pending
+            counters.first_check_pending = False
+            if rule == "every_motion" and counters.nodes >= counters.max_nodes:
+                return False  # the budget is spent: a CONNECT would add nodes past it
             counters.checks += 1
-            free = bool(checker.edge_free(to_array(s1), to_array(s2)))
-            if counters.first_check_pending:
-                counters.first_check_pending = False
-                if free:
+            end = to_array(s2)
+            free = bool(checker.edge_free(to_array(s1), end))
+            if rule == "every_motion":
+                counters.nodes += free
+                counters.failures += pending and not free
+            elif rule == "new_state":
+                key = end.tobytes()
+                if free and key not in counters.vertices:
+                    counters.vertices.add(key)
                     counters.nodes += 1
-                else:
-                    counters.failures += 1
+                counters.failures += not free
+            elif pending:
+                counters.nodes += free
+                counters.failures += not free
             return free
 
     return EdgeMotionValidator(si)

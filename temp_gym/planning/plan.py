@@ -11,7 +11,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from temp_gym.planning.ompl_planners import OMPLInformedRRTStarSettings, OMPLRRTStarSettings
+from temp_gym.planning.ompl_planners import (
+    OMPLBITStarSettings,
+    OMPLInformedRRTStarSettings,
+    OMPLRRTConnectSettings,
+    OMPLRRTStarSettings,
+)
 from temp_gym.planning.planners import (
     InformedRRTStarSettings,
     RRTStarSettings,
@@ -20,6 +25,7 @@ from temp_gym.planning.planners import (
 )
 from temp_gym.planning.registry import PLANNERS, planner_of, register_planner, settings_for
 from temp_gym.planning.result import PlanResult
+from temp_gym.planning.rrt_connect import RRTConnectSettings, rrt_connect
 from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.temp_planner import temp
 from temp_gym.planning.temp_settings import TEMPSettings
@@ -43,12 +49,15 @@ def _ompl_planner(name: str):
 
 register_planner("rrt_star", rrt_star, RRTStarSettings)
 register_planner("informed_rrt_star", informed_rrt_star, InformedRRTStarSettings)
+register_planner("rrt_connect", rrt_connect, RRTConnectSettings)
 register_planner("temp", temp, TEMPSettings)
 # OMPL is imported only when one of these runs; without it they raise a clear ImportError.
 register_planner("ompl_rrt_star", _ompl_planner("ompl_rrt_star"), OMPLRRTStarSettings)
 register_planner(
     "ompl_informed_rrt_star", _ompl_planner("ompl_informed_rrt_star"), OMPLInformedRRTStarSettings
 )
+register_planner("ompl_rrt_connect", _ompl_planner("ompl_rrt_connect"), OMPLRRTConnectSettings)
+register_planner("ompl_bit_star", _ompl_planner("ompl_bit_star"), OMPLBITStarSettings)
 
 
 def plan(
@@ -80,7 +89,9 @@ def plan(
     extends the common `PlanSettings` (``seed``, ``max_nodes``, ``time_limit``,
     ``stop_at_first``, ``step_size``, ``goal_bias``, ``target_cost``, ``max_samples``):
     `TEMPSettings` for ``temp`` (its ``policy`` and the attention phase's settings),
-    `RRTStarSettings`, `InformedRRTStarSettings`, and `OMPLSettings` for the OMPL planners.
+    `RRTStarSettings`, `InformedRRTStarSettings`, `RRTConnectSettings` (``range``), and for the
+    OMPL planners `OMPLSettings` (OMPL's RRT*s), `OMPLRRTConnectSettings` and
+    `OMPLBITStarSettings`.
     Pass one as ``settings``, or its fields as keywords, or both (the keywords win)::
 
         plan(problem, planner="rrt_star", seed=1, max_nodes=2000)
@@ -92,9 +103,10 @@ def plan(
     Args:
         problem: The query.
         planner: A key of `PLANNERS`: ``temp`` (TEMP, with the policy shipped for the robot
-            unless ``policy`` is given), ``rrt_star``, ``informed_rrt_star``,
-            ``ompl_rrt_star``, ``ompl_informed_rrt_star``. None: the planner whose settings
-            class ``settings`` is, else ``temp``.
+            unless ``policy`` is given), ``rrt_star``, ``informed_rrt_star``, ``rrt_connect``,
+            ``ompl_rrt_star``, ``ompl_informed_rrt_star``, ``ompl_rrt_connect``,
+            ``ompl_bit_star``. None: the planner whose settings class ``settings`` is, else
+            ``temp``.
         settings: The planner's settings (its class, or a plain `PlanSettings` whose common
             fields it takes); None: every field's default.
         **options: Fields of the planner's settings class, applied over ``settings``. A field

@@ -12,9 +12,10 @@ whatever the planner calls is warmed. For ``temp`` that includes the goal tree, 
 run meets only once an attention phase stops unsolved: a third plan, on a query whose goal is
 a free straight motion away, stops the attention phase after one node so that the goal tree
 joins it (without it, the first such task of a process paid 20 ms of loading, or 1.8 s of
-compiling with an empty cache, inside its time); a fourth, on uniform samples with a stall
-patience of one node, stalls, so that the phases after a stall are loaded too (their
-compiled sequence cost the first stalled 2D plan of a process 66 ms of loading).
+compiling with an empty cache, inside its time; ``rrt_connect`` plans that query too, for its
+first join); a fourth, on uniform samples with a stall patience of one node, stalls, so that
+the phases after a stall are loaded too (their compiled sequence cost the first stalled 2D
+plan of a process 66 ms of loading).
 
 With an empty cache the compiling takes minutes (longest for the arm), so the first time a
 process meets a compilation it logs one line through the ``temp_gym`` logger at WARNING level,
@@ -53,7 +54,8 @@ logger = logging.getLogger("temp_gym")
 
 WARM_UP_NODES = 64
 """Tree nodes of a warm-up plan (half of them attention-based for ``temp``)."""
-STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star"}
+STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star",
+             "ompl_rrt_connect": "rrt_star", "ompl_bit_star": "rrt_star"}  # fmt: skip
 """Planners warmed up through another (see the module docstring)."""
 
 _WARMED: set[tuple[str, str]] = set()
@@ -142,6 +144,10 @@ def _warm(
     # Our planners' loops check motions in compiled code; OMPL's callbacks (and Python loops)
     # call the fast checker's Python methods: compile those too.
     checker = make_checker(problem)
+    if name == "rrt_connect":  # a first join, whose graft a short plan may not reach
+        near = _joinable_problem(problem, checker, settings.step_size)
+        if near is not None:
+            planners[name](near, short)
     if isinstance(short, TEMPSettings) and settings.goal_tree is not False:
         near = _joinable_problem(problem, checker, settings.step_size)
         if near is not None:  # the attention phase ends unsolved, the goal tree joins

@@ -141,3 +141,51 @@ def test_bounds_too_small_for_ompl_are_a_clear_error(planner):
     plan(problem, planner="rrt_star", seed=0, max_nodes=50)  # ours take them
     with pytest.raises(ValueError, match="bounds: OMPL's planners need bounds"):
         plan(problem, planner=planner, seed=0, max_nodes=50)
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_connect", "ompl_bit_star"])
+@pytest.mark.parametrize("fixture", ["problem_2d", "problem_3d"])
+def test_ompl_rrt_connect_and_bit_star_solve_within_the_budget(request, fixture, planner):
+    problem = request.getfixturevalue(fixture)
+    result = plan(problem, planner=planner, seed=0, max_nodes=1500)
+    assert result.success and result.planner == planner
+    np.testing.assert_array_equal(result.path[0], problem.start)
+    assert np.linalg.norm(result.path[-1] - problem.goal) <= problem.goal_radius + 1e-9
+    assert certify_path(problem, result.path)
+    assert result.history["best_cost"][-1] == pytest.approx(result.cost)
+    assert result.nodes_to_first_solution <= result.nodes <= 1500
+
+
+def test_ompl_rrt_connect_stops_at_its_first_solution_with_edges_within_its_range(problem_2d):
+    from temp_gym.planning import OMPLRRTConnectSettings
+
+    result = plan(problem_2d, settings=OMPLRRTConnectSettings(seed=0, max_nodes=5000, range=0.5))
+    assert result.success and result.planner == "ompl_rrt_connect"
+    assert result.history["nodes"].tolist() == [result.nodes] and result.nodes < 5000
+    assert np.linalg.norm(np.diff(result.path, axis=0), axis=1).max() <= 0.5 + 1e-9
+
+
+@pytest.mark.parametrize("max_nodes", [10, 25])
+def test_ompl_rrt_connect_never_overshoots_the_node_budget(problem_2d, max_nodes):
+    # A CONNECT adds nodes without looking at the termination condition: the validator stops it.
+    result = plan(problem_2d, planner="ompl_rrt_connect", seed=0, max_nodes=max_nodes)
+    assert not result.success and result.nodes == max_nodes
+
+
+def test_ompl_bit_star_stop_at_first_and_its_own_settings(problem_2d):
+    first = plan(problem_2d, planner="ompl_bit_star", seed=0, stop_at_first=True, max_nodes=5000)
+    assert first.success and first.nodes < 5000 and len(first.history["nodes"]) == 1
+    result = plan(problem_2d, planner="ompl_bit_star", seed=0, max_nodes=400, k_nearest=True,
+                  samples_per_batch=50)  # fmt: skip
+    assert result.success and result.nodes <= 400
+    for batch, words in ((0, r"an integer in \[1, 2\*\*53\], got 0"), (2**31, r"at most 2\*\*31")):
+        with pytest.raises(ValueError, match=rf"^samples_per_batch: expected {words}"):
+            plan(problem_2d, planner="ompl_bit_star", samples_per_batch=batch)
+    with pytest.raises(ValueError, match=r"^range: only the .* planners take it, not ompl_bit"):
+        plan(problem_2d, planner="ompl_bit_star", range=1.0)
+
+
+@pytest.mark.parametrize("planner", ["ompl_rrt_connect", "ompl_bit_star"])
+def test_ompl_rrt_connect_and_bit_star_find_no_path_to_an_enclosed_goal(enclosed_goal_2d, planner):
+    result = plan(enclosed_goal_2d, planner=planner, seed=0, max_nodes=400)
+    assert not result.success and result.path is None and result.nodes <= 400

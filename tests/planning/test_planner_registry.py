@@ -75,7 +75,9 @@ def test_a_settings_object_a_common_one_and_shortcuts_plan_alike(problem):
          "planner='temp', settings=TEMPSettings(attention_patience=...))"),
         ({"planner": "rrt_star", "policy": object()}, "policy: only the temp planner takes it"),
         ({"planner": "temp", "range": 0.5},
-         "range: only the ompl_rrt_star and ompl_informed_rrt_star planners take it, not temp"),
+         "range: only the rrt_connect, ompl_rrt_star, ompl_informed_rrt_star and "
+         "ompl_rrt_connect planners take it, not temp; use plan(problem, planner='rrt_connect', "
+         "settings=RRTConnectSettings(range=...))"),
         ({"attention_patiense": 30}, "attention_patiense: not a setting of the temp planner "
          "(did you mean attention_patience?); TEMPSettings has "),
         ({"planner": "rrt_star", "settings": TEMPSettings()},

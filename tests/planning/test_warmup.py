@@ -81,7 +81,7 @@ def _calls_in_a_fresh_process(problems, planners, options=None):
 
 @pytest.mark.parametrize("robot", sorted(PROBLEMS))
 def test_the_timed_run_compiles_nothing(robot):
-    planners = ["rrt_star", "informed_rrt_star", "temp"]
+    planners = ["rrt_star", "informed_rrt_star", "rrt_connect", "temp"]
     calls = _calls_in_a_fresh_process(PROBLEMS[robot], planners)
     timed = [call for call in calls if call[1] == 300]
     warm_ups = [call for call in calls if call[1] == WARM_UP_NODES]
