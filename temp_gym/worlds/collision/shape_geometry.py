@@ -53,14 +53,13 @@ def obstacle_arrays(workspace: Workspace) -> tuple[np.ndarray, ...]:
     centers = np.array(workspace.obstacle_centers, dtype=np.float64)
     halves = np.array(workspace.obstacle_half_extents, dtype=np.float64)
     rotations = np.array(workspace.obstacle_rotations, dtype=np.float64)
-    lower = np.array(workspace.obstacle_lower, dtype=np.float64)
-    upper = np.array(workspace.obstacle_upper, dtype=np.float64)
+    reach = workspace.obstacle_world_half_extents  # what `Workspace.obstacle_lower` subtracts
+    lower, upper = centers - reach, centers + reach
     shaped = codes != AXIS_BOX
     if np.any(shaped):
-        reach = workspace.obstacle_world_half_extents[shaped]
-        grow = BOUNDING_SLACK * (reach + np.abs(centers[shaped]))
-        lower[shaped] = centers[shaped] - reach - grow
-        upper[shaped] = centers[shaped] + reach + grow
+        grow = BOUNDING_SLACK * (reach[shaped] + np.abs(centers[shaped]))
+        lower[shaped] -= grow
+        upper[shaped] += grow
     return codes, centers, halves, rotations, lower, upper
 
 
