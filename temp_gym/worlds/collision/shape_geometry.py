@@ -310,7 +310,7 @@ def box_overlaps_shape(lower, upper, codes, centers, halves, rotations, b) -> bo
         if _separates(lower, upper, codes, centers, halves, rotations, b, axis):
             return False
     if code == CYLINDER:
-        for axis in (11, 8, 14):  # ... and the world axes crossed with its axis, then radial
+        for axis in (8, 11, 14):  # ... and the world axes crossed with its axis, then radial
             if _separates(lower, upper, codes, centers, halves, rotations, b, axis):
                 return False
         if _radial_separates(lower, upper, centers, halves, rotations, b):
