@@ -31,7 +31,7 @@ import numpy as np
 
 from temp_gym.models.array_backed import ArrayBacked
 from temp_gym.problem import Workspace
-from temp_gym.worlds.encoding import mark_boxes, occupancy_boxes
+from temp_gym.worlds.encoding import mark_obstacles, occupancy_obstacles
 
 if TYPE_CHECKING:  # PyTorch is imported only to take a snapshot of a model (`eise_arrays`)
     import torch
@@ -75,10 +75,12 @@ def _encode_kernel(
 
 
 @numba.njit(cache=True, nogil=True)
-def _encode_boxes_kernel(region, lower, upper, resolution, w1, b1, w2, b2, out) -> None:
-    """`_encode_kernel` of the occupancy grid of boxes (`mark_boxes`'s grid), in one call."""
+def _encode_obstacles_kernel(
+    region, codes, centers, halves, rotations, lower, upper, resolution, w1, b1, w2, b2, out
+) -> None:
+    """`_encode_kernel` of the occupancy grid (`mark_obstacles`' grid), in one call."""
     occupied = np.zeros(resolution ** region.shape[1], np.bool_)
-    mark_boxes(occupied, region, lower, upper, resolution)
+    mark_obstacles(occupied, region, codes, centers, halves, rotations, lower, upper, resolution)
     _encode_kernel(occupied.astype(np.float32), w1, b1, w2, b2, out)
 
 
@@ -157,7 +159,7 @@ class FastEISE(ArrayBacked):
         policy pays once per new workspace, at the start of a plan. The encoder's grid must
         be the workspace's: one axis per workspace dimension, all of one resolution.
         """
-        region, lower, upper = occupancy_boxes(workspace)
+        region, *obstacles = occupancy_obstacles(workspace)
         resolution = self.grid_shape[0]
         if self.grid_shape != (resolution,) * region.shape[1]:
             raise ValueError(
@@ -165,8 +167,8 @@ class FastEISE(ArrayBacked):
                 f"encoder's shape {self.grid_shape}"
             )
         out = np.empty(self.num_tokens * self.token_dim, np.float32)
-        _encode_boxes_kernel(
-            region, lower, upper, resolution, self._w1, self._b1, self._w2, self._b2, out
+        _encode_obstacles_kernel(
+            region, *obstacles, resolution, self._w1, self._b1, self._w2, self._b2, out
         )
         return out.reshape(self.num_tokens, self.token_dim)
 

@@ -58,7 +58,7 @@ STAND_INS = {"ompl_rrt_star": "rrt_star", "ompl_informed_rrt_star": "rrt_star",
              "ompl_rrt_connect": "rrt_star", "ompl_bit_star": "rrt_star"}  # fmt: skip
 """Planners warmed up through another (see the module docstring)."""
 
-_WARMED: set[tuple[str, str]] = set()
+_WARMED: set[tuple[str, str, bool]] = set()
 _ANNOUNCED: set[str] = set()
 
 
@@ -91,15 +91,16 @@ def warm_up(
     """Plan ``problem`` briefly with ``planner`` unless this process already did; untimed.
 
     ``settings`` are the planner's (`temp_gym.planning.registry.settings_for`), ``planners``
-    the registry. Returns whether a warm-up ran. Keyed by (robot, planner): kernels are
-    compiled per process, not per problem.
+    the registry. Returns whether a warm-up ran. Keyed by (robot, planner, whether every
+    obstacle is an axis-aligned box): kernels are compiled per process, not per problem, but
+    a workspace of other obstacle kinds has a checker, and compiled loops, of its own.
     """
     name = STAND_INS.get(planner, planner)
     policy = settings.policy if isinstance(settings, TEMPSettings) else None
     fresh = None if policy is None else getattr(policy, "fresh", None)
     if name == "temp" and policy is not None and fresh is None:
         name = "rrt_star"
-    key = (problem.robot, name)
+    key = (problem.robot, name, problem.workspace.axis_aligned)
     if key in _WARMED:  # checked before any copy of the policy is made: this is per call
         return False
     _WARMED.add(key)

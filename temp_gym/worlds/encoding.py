@@ -1,7 +1,9 @@
 """Environment encoding: an occupancy grid of the workspace, the model's view of obstacles.
 
-A cell is occupied when the box of the cell overlaps an obstacle box (closed intervals), so a
-box thinner than a cell still shows up. The grid covers the robot's encoding region
+A cell is occupied when the closed box of the cell overlaps an obstacle, so an obstacle
+thinner than a cell still shows up: exactly for boxes (rotated or not) and spheres, and
+conservatively for cylinders, where a cell by the rim may be marked without touching it
+(`mark_obstacles`). The grid covers the robot's encoding region
 (`temp_gym.worlds.robots.RobotSpec.region`): the configuration bounds for point robots, and a
 fixed box around the iiwa that holds its whole reach.
 """
@@ -16,6 +18,7 @@ import numpy as np
 from temp_gym.limits import MAX_ENCODING_CELLS, MIN_ENCODING_RESOLUTION
 from temp_gym.problem import Workspace
 from temp_gym.worlds.cells import next_cell
+from temp_gym.worlds.collision.shape_geometry import AXIS_BOX, box_overlaps_shape, obstacle_arrays
 from temp_gym.worlds.robots import robot_spec
 
 
@@ -61,22 +64,21 @@ def occupancy_grid(workspace: Workspace, resolution: int) -> np.ndarray:
     Examples:
         >>> grid = occupancy_grid(problem.workspace, resolution=32)  # (32, 32) for 2D
     """
-    region, lower, upper = occupancy_boxes(workspace)
-    resolution = check_resolution(resolution, region.shape[1])
-    key = (region.tobytes(), lower.shape, lower.tobytes(), upper.tobytes(), int(resolution))
+    arrays = occupancy_obstacles(workspace)
+    resolution = check_resolution(resolution, arrays[0].shape[1])
+    key = (int(resolution), tuple((a.dtype.str, a.shape, a.tobytes()) for a in arrays))
     return _grid(key).copy()  # a fresh array: callers may write to it
 
 
-def occupancy_boxes(workspace: Workspace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What `occupancy_grid` is made of: the region and the boxes' lower and upper corners.
+def occupancy_obstacles(workspace: Workspace) -> tuple[np.ndarray, ...]:
+    """What `occupancy_grid` is made of, in the form `mark_obstacles` reads it.
 
-    Contiguous float64 arrays, ``(2, workspace_dim)`` and ``(boxes, workspace_dim)`` twice, in
-    the form `mark_boxes` reads them.
+    ``(region, codes, centers, halves, rotations, lower, upper)``: the ``(2, workspace_dim)``
+    region and the obstacles' arrays (`temp_gym.worlds.collision.shape_geometry.obstacle_arrays`),
+    contiguous.
     """
     region = np.ascontiguousarray(workspace_region(workspace), dtype=np.float64)
-    lower = np.ascontiguousarray(workspace.obstacle_lower, dtype=np.float64)
-    upper = np.ascontiguousarray(workspace.obstacle_upper, dtype=np.float64)
-    return region, lower, upper
+    return (region, *obstacle_arrays(workspace))
 
 
 def clear_occupancy_grids() -> None:
@@ -86,53 +88,74 @@ def clear_occupancy_grids() -> None:
 
 @functools.lru_cache(maxsize=128)
 def _grid(key: tuple) -> np.ndarray:
-    """The grid of a (region, obstacles, resolution) key, computed once per key.
+    """The grid of a (resolution, region and obstacles) key, computed once per key.
 
     A planner and its policy both encode the workspace of a problem (the observation and the
     EISE input); an evaluation plans every task with several planners. Caching by content
     makes the second encoding free.
     """
-    region_bytes, shape, lower_bytes, upper_bytes, resolution = key
-    region = np.frombuffer(region_bytes, dtype=np.float64).reshape(2, -1)
-    lower = np.frombuffer(lower_bytes, dtype=np.float64).reshape(shape)
-    upper = np.frombuffer(upper_bytes, dtype=np.float64).reshape(shape)
+    resolution, described = key
+    region, *obstacles = (
+        np.frombuffer(data, dtype=np.dtype(kind)).reshape(shape) for kind, shape, data in described
+    )
     wdim = region.shape[1]
     flat = np.zeros(resolution**wdim, dtype=np.bool_)
-    mark_boxes(flat, np.ascontiguousarray(region), lower, upper, resolution)
+    mark_obstacles(flat, region, *obstacles, resolution)
     grid = flat.reshape((resolution,) * wdim).astype(np.float32)
     grid.flags.writeable = False
     return grid
 
 
 @numba.njit(cache=True, nogil=True)
-def mark_boxes(flat, region, lower, upper, resolution) -> None:
-    """Mark, in the C-order flattened grid, the cells that overlap each box (closed intervals).
+def mark_obstacles(flat, region, codes, centers, halves, rotations, lower, upper, resolution):
+    """Mark, in the C-order flattened grid, the cells that overlap each obstacle (closed).
 
-    The kernel of `occupancy_grid`, for compiled callers too (`occupancy_boxes`' arrays).
-
+    The kernel of `occupancy_grid`, for compiled callers too (`occupancy_obstacles`' arrays).
     Cell ``i`` of an axis spans ``[region0 + i * cell, region0 + (i + 1) * cell]``.
+
+    An axis-aligned box marks the cells its box spans, as grids have always been made. Any
+    other obstacle visits the cells of its bounding box and marks those that overlap it
+    (`temp_gym.worlds.collision.shape_geometry.box_overlaps_shape`): exactly for spheres and
+    rotated boxes, conservatively for cylinders (a cell by a cylinder's rim may be marked
+    without touching it; no overlapping cell is missed).
     """
     wdim = region.shape[1]
     cell = (region[1] - region[0]) / resolution
     first = np.empty(wdim, dtype=np.int64)
     stop = np.empty(wdim, dtype=np.int64)
     index = np.empty(wdim, dtype=np.int64)
+    cell_lower = np.empty(wdim)
+    cell_upper = np.empty(wdim)
     for b in range(lower.shape[0]):
+        exact = codes[b] == AXIS_BOX
         skip = False
         for k in range(wdim):
             first[k] = min(max(int(np.floor((lower[b, k] - region[0, k]) / cell[k])), 0),
                            resolution - 1)  # fmt: skip
-            stop[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])), 0),
-                          resolution)  # fmt: skip
+            if exact:
+                stop[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])), 0),
+                              resolution)  # fmt: skip
+            else:  # a cell its bounding box only touches is tested too
+                stop[k] = min(max(int(np.floor((upper[b, k] - region[0, k]) / cell[k])) + 1, 0),
+                              resolution)  # fmt: skip
             if stop[k] <= first[k] or upper[b, k] < region[0, k] or lower[b, k] > region[1, k]:
                 skip = True
             index[k] = first[k]
         if skip:
             continue
-        while True:  # every cell of the box
-            position = 0
-            for k in range(wdim):
-                position = position * resolution + index[k]
-            flat[position] = True
+        while True:  # every cell of the bounding box
+            covered = exact
+            if not exact:
+                for k in range(wdim):
+                    cell_lower[k] = region[0, k] + index[k] * cell[k]
+                    cell_upper[k] = region[0, k] + (index[k] + 1) * cell[k]
+                covered = box_overlaps_shape(
+                    cell_lower, cell_upper, codes, centers, halves, rotations, b
+                )
+            if covered:
+                position = 0
+                for k in range(wdim):
+                    position = position * resolution + index[k]
+                flat[position] = True
             if not next_cell(index, first, stop, wdim):
                 break

@@ -30,6 +30,7 @@ import numpy as np
 
 from temp_gym.problem import Problem, Workspace, robot_named
 from temp_gym.worlds.collision.point import PointBoxChecker
+from temp_gym.worlds.collision.point_shapes import point_checker
 from temp_gym.worlds.difficulty import check_difficulty
 from temp_gym.worlds.reference import ReferencePlanner
 
@@ -126,7 +127,7 @@ def generate_point_task(
         RuntimeError: if no task of that difficulty turns up in `MAX_TASK_TRIES` draws.
     """
     check_difficulty(difficulty)
-    checker = PointBoxChecker(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+    checker = point_checker(workspace)
     lower, upper = workspace.bounds
     min_distance = MIN_DISTANCE_FRACTION * float(np.linalg.norm(upper - lower))
     reference = reference_planner(workspace) if difficulty != "any" else None

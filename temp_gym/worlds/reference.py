@@ -2,8 +2,9 @@
 
 A `ReferencePlanner` discretizes a point workspace into a lattice, keeps the free lattice
 points, joins every pair of neighbours (up to two cells apart in 2D, one in 3D) whose segment
-is free under the exact analytic checker, and answers start-goal queries with Dijkstra on that
-graph followed by greedy shortcutting. The result is a collision-free path whose cost is an
+is free under the exact analytic checker (`point_checker`: every obstacle kind by its own
+geometry, nothing rasterized), and answers start-goal queries with Dijkstra on that graph
+followed by greedy shortcutting. The result is a collision-free path whose cost is an
 upper bound on the optimal cost and, at the default resolution, typically within a few percent
 of it. The graph is built once per workspace, so many tasks in one workspace are cheap.
 """
@@ -18,7 +19,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from temp_gym.problem import Workspace
-from temp_gym.worlds.collision.point import PointBoxChecker
+from temp_gym.worlds.collision.point_shapes import point_checker
 
 DEFAULT_SPACING = {2: 0.25, 3: 0.5}
 """Lattice spacing per dimension for the default [0, 20]^d worlds."""
@@ -66,9 +67,7 @@ class ReferencePlanner:
                 f"robot: reference paths exist for point robots, not {workspace.robot}"
             )
         self.spacing = float(spacing or DEFAULT_SPACING[dim])
-        self.checker = PointBoxChecker(
-            workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper
-        )
+        self.checker = point_checker(workspace)
         lower, upper = workspace.bounds
         shape = np.floor((upper - lower) / self.spacing + 1e-9).astype(int) + 1
         self._shape = shape

@@ -18,13 +18,17 @@ rectangular windows in 3D):
   random size, position and opening direction, with random boxes around them (never on them);
 * ``narrow``: one or two thick walls across the workspace, each pierced by one narrow passage
   of random width and position (a short tunnel), with random boxes beside the walls;
-* ``clutter``: many small random boxes, added until a random occupancy up to the limit.
+* ``clutter``: many small random boxes, added until a random occupancy up to the limit;
+* ``shapes`` (`temp_gym.worlds.shapes`): a random mix of rotated boxes, spheres (discs) and,
+  in 3D, cylinders, as many and as large as the ``boxes`` family's. It is the one family of
+  other obstacle kinds than axis-aligned boxes, drawn for point robots only and not part of
+  ``mixed``, whose draws stay as they were.
 
 Every workspace lies within the bounds ``[0, size]^d`` of `DEFAULT_POINT_WORLDS`, covers at
 most their ``max_occupancy`` of the space, and its free space is one connected region (up to
 slivers), so that demonstrations rarely meet an unsolvable task. Occupancy and connectivity
 are measured on a raster of `RASTER_CELL` cells that counts a cell as occupied when it
-touches a box, so the occupancy measured is an upper bound. All randomness comes from the
+touches an obstacle, so the occupancy measured is an upper bound. All randomness comes from the
 `numpy.random.Generator` passed in: the same generator state gives the same workspace.
 `temp_gym.worlds.generators.generate_workspace` picks a family by name (``mixed``: one drawn
 per workspace with the weights of `FAMILY_MIX`) through the robot's spec; the iiwa's versions
@@ -59,8 +63,10 @@ import numpy as np
 from scipy import ndimage
 
 from temp_gym.problem import Workspace, robot_named
+from temp_gym.worlds.encoding import mark_obstacles, occupancy_obstacles
 from temp_gym.worlds.point_world import DEFAULT_POINT_WORLDS
 from temp_gym.worlds.robots import robot_spec
+from temp_gym.worlds.shapes import SHAPES, draw_shapes
 
 BOXES = "boxes"
 """The robot's own generator (random boxes in the point worlds): the pools datasets and
@@ -68,11 +74,12 @@ shipped policies were made from."""
 MIXED = "mixed"
 """One family per workspace, drawn with the weights of `FAMILY_MIX`."""
 WORKSPACE_FAMILIES = (BOXES, "corridors", "maze", "traps", "narrow", "clutter")
-"""The families a single name selects."""
+"""The families of axis-aligned boxes a single name selects, which ``mixed`` draws from."""
 FAMILY_MIX = {family: 1.0 for family in WORKSPACE_FAMILIES}
 """Relative weights of the families in ``mixed``: equal, so that no structure dominates."""
-FAMILY_NAMES = (*WORKSPACE_FAMILIES, MIXED)
-"""Every name that selects workspaces: a family, or ``mixed``."""
+FAMILY_NAMES = (*WORKSPACE_FAMILIES, SHAPES, MIXED)
+"""Every name that selects workspaces: a family, or ``mixed``. ``shapes``
+(`temp_gym.worlds.shapes`) is the point worlds' only, and not part of ``mixed``."""
 RASTER_CELL = 0.25
 """Side of the raster cells behind the occupancy and connectivity checks (the 2D reference
 lattice's spacing): a passage twice as wide always has a free cell across it."""
@@ -102,6 +109,14 @@ def check_family(robot: str, family: str) -> None:
             f"family: {family!r} needs structured families, which {robot} has not; "
             f"it has only its own generator, {BOXES!r}"
         )
+    if family == SHAPES and not is_point_robot(robot):
+        raise ValueError(f"family: {SHAPES!r} is drawn for 2D and 3D point robots, not {robot}")
+
+
+def is_point_robot(robot: str) -> bool:
+    """Whether ``robot``'s configuration is its position in a 2D or 3D point world."""
+    spec = robot_named(robot)
+    return spec.dim == spec.workspace_dim and spec.dim in DEFAULT_POINT_WORLDS
 
 
 def draw_family(rng: np.random.Generator) -> str:
@@ -118,29 +133,53 @@ def generate_structured_workspace(robot: str, rng: np.random.Generator, family: 
         RuntimeError: no workspace passed the occupancy and connectivity checks in `TRIES`.
     """
     check_family(robot, family)
-    if family not in BUILDERS:
-        raise ValueError(f"family: {family!r} is not structured; expected one of {tuple(BUILDERS)}")
-    spec = robot_named(robot)
-    dim = spec.dim
-    if dim != spec.workspace_dim or dim not in DEFAULT_POINT_WORLDS:
+    if family not in BUILDERS and family != SHAPES:
+        raise ValueError(
+            f"family: {family!r} is not structured; expected one of {(*BUILDERS, SHAPES)}"
+        )
+    if not is_point_robot(robot):
         raise ValueError(f"robot: {robot} is not a 2D or 3D point robot")
+    dim = robot_named(robot).dim
     config = DEFAULT_POINT_WORLDS[dim]
     size = config.size
+    bounds = np.array([np.zeros(dim), np.full(dim, size)])
     for _ in range(TRIES):
+        if family == SHAPES:
+            workspace = Workspace.from_obstacles(robot, bounds, draw_shapes(dim, size, rng))
+            free = obstacles_free_raster(workspace)
+            if _passes(free, config.max_occupancy):
+                return workspace
+            continue
         boxes = BUILDERS[family](dim, size, rng)
         lower = np.clip(np.array([box[0] for box in boxes]), 0.0, size)
         upper = np.clip(np.array([box[1] for box in boxes]), 0.0, size)
         kept = np.all(upper > lower, axis=1)
         lower, upper = lower[kept], upper[kept]
-        free = free_raster(lower, upper, dim, size)
-        occupancy = 1.0 - free.mean()
-        if occupancy <= config.max_occupancy and largest_region_share(free) >= CONNECTED_FRACTION:
-            bounds = np.array([np.zeros(dim), np.full(dim, size)])
+        if _passes(free_raster(lower, upper, dim, size), config.max_occupancy):
             return Workspace(robot, bounds, (lower + upper) / 2, (upper - lower) / 2)
     raise RuntimeError(f"no {family} workspace passed the checks in {TRIES} draws")
 
 
 # ---- the checks -------------------------------------------------------------------------------
+def _passes(free: np.ndarray, max_occupancy: float) -> bool:
+    """Whether a raster of free cells keeps to the occupancy limit and is one region."""
+    occupancy = 1.0 - free.mean()
+    return occupancy <= max_occupancy and largest_region_share(free) >= CONNECTED_FRACTION
+
+
+def obstacles_free_raster(workspace: Workspace) -> np.ndarray:
+    """`free_raster` of a workspace of any obstacle kinds: cells overlapping none of them.
+
+    The occupancy grid's kernel (`temp_gym.worlds.encoding.mark_obstacles`) on `RASTER_CELL`
+    cells over the bounds; a cell touching an obstacle is occupied.
+    """
+    region, *obstacles = occupancy_obstacles(workspace)
+    cells = int(round(float(region[1, 0] - region[0, 0]) / RASTER_CELL))
+    occupied = np.zeros(cells**workspace.workspace_dim, dtype=np.bool_)
+    mark_obstacles(occupied, region, *obstacles, cells)
+    return ~occupied.reshape((cells,) * workspace.workspace_dim)
+
+
 def free_raster(lower: np.ndarray, upper: np.ndarray, dim: int, size: float) -> np.ndarray:
     """Free cells of a `RASTER_CELL` grid over ``[0, size]^dim``: those touching no box."""
     occupied = np.zeros((int(round(size / RASTER_CELL)),) * dim, dtype=bool)

@@ -261,3 +261,28 @@ def test_a_warm_cache_says_nothing(tmp_path):
         done = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=ROOT)
         assert done.returncode in (0, 3), done.stderr
     assert done.stderr == ""
+
+
+def test_a_workspace_of_other_obstacle_kinds_is_warmed_up_on_its_own(monkeypatch):
+    """Its checker has compiled loops of its own, which the box worlds' warm-up never reached."""
+    from temp_gym import Problem
+    from temp_gym.planning import warmup
+    from temp_gym.planning.settings import PlanSettings
+    from temp_gym.problem.obstacles import Sphere
+
+    monkeypatch.setattr(warmup, "_WARMED", set())
+    boxes = Problem.from_dict(PROBLEMS["point2d"])
+    disc = Problem.from_dict(
+        dict(
+            PROBLEMS["point2d"],
+            version=2,
+            obstacles=[{"type": "sphere", "center": [10, 10], "radius": 2.0}],
+        )
+    )
+    assert disc.workspace.obstacles == [Sphere((10.0, 10.0), 2.0)]
+    calls = []
+    planners = {"rrt_star": lambda problem, settings: calls.append(problem.workspace)}
+    assert warmup.warm_up(boxes, "rrt_star", PlanSettings(), planners)
+    assert warmup.warm_up(disc, "rrt_star", PlanSettings(), planners)
+    assert not warmup.warm_up(disc, "rrt_star", PlanSettings(), planners)
+    assert disc.workspace in calls

@@ -2,8 +2,10 @@
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from temp_gym.problem import Workspace
+from temp_gym.problem.obstacles import Box, Cylinder, Sphere
 from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.robots import KUKA_IIWA14
 
@@ -79,3 +81,180 @@ def test_grid_matches_a_cell_by_cell_overlap_test(robot, dim):
     )
     expected = overlaps.any(axis=1).reshape((resolution,) * dim)
     np.testing.assert_array_equal(grid.astype(bool), expected)
+
+
+# ---- obstacles of every kind ------------------------------------------------------------------
+def _old_box_grid(space: Workspace, resolution: int) -> np.ndarray:
+    """The grid as boxes were always marked: cells ``floor(lower)`` to ``ceil(upper)`` per axis."""
+    dim = space.workspace_dim
+    region = np.asarray(space.bounds, float)
+    cell = (region[1] - region[0]) / resolution
+    grid = np.zeros((resolution,) * dim, np.float32)
+    for lower, upper in zip(space.obstacle_lower, space.obstacle_upper):
+        first = np.clip(np.floor((lower - region[0]) / cell).astype(int), 0, resolution - 1)
+        stop = np.clip(np.ceil((upper - region[0]) / cell).astype(int), 0, resolution)
+        if np.any(stop <= first) or np.any(upper < region[0]) or np.any(lower > region[1]):
+            continue
+        grid[tuple(slice(a, b) for a, b in zip(first, stop))] = 1.0
+    return grid
+
+
+@pytest.mark.parametrize("robot, dim", [("point2d", 2), ("point3d", 3)])
+def test_axis_aligned_boxes_give_the_grids_they_always_gave(robot, dim):
+    rng = np.random.default_rng(9)
+    for round_to in (None, 0.5):  # faces anywhere, then on cell borders
+        centers = rng.uniform(-3.0, 23.0, size=(15, dim))
+        halves = rng.uniform(0.01, 4.0, size=(15, dim))
+        if round_to:
+            centers, halves = np.round(centers / round_to) * round_to, np.ceil(halves * 2) / 2
+        space = Workspace(robot, [[0.0] * dim, [20.0] * dim], centers, halves)
+        for resolution in (8, 10, 16):
+            np.testing.assert_array_equal(
+                occupancy_grid(space, resolution), _old_box_grid(space, resolution)
+            )
+
+
+def _shapes_world(dim: int, seed: int) -> Workspace:
+    rng = np.random.default_rng(seed)
+    obstacles = []
+    for i in range(12):
+        center = tuple(rng.uniform(-1.0, 21.0, dim))
+        kind = i % 3 if dim == 3 else (0, 2)[i % 2]
+        quat = tuple(Rotation.random(random_state=rng).as_quat())
+        if kind == 0:
+            turn = float(rng.uniform(-np.pi, np.pi)) if dim == 2 else quat
+            obstacles.append(Box(center, tuple(rng.uniform(0.05, 3.0, dim)), turn))
+        elif kind == 1:
+            obstacles.append(Cylinder(center, rng.uniform(0.05, 2.5), rng.uniform(0.1, 6.0), quat))
+        else:
+            obstacles.append(Sphere(center, rng.uniform(0.05, 2.5)))
+    robot = "point2d" if dim == 2 else "point3d"
+    return Workspace.from_obstacles(robot, [[0.0] * dim, [20.0] * dim], obstacles)
+
+
+def _inside(obstacle, points: np.ndarray) -> np.ndarray:
+    """Which points lie in the obstacle, by scipy's rotations (not the package's)."""
+    dim = points.shape[1]
+    offset = points - np.asarray(obstacle.center)
+    if isinstance(obstacle, Sphere):
+        return np.linalg.norm(offset, axis=1) <= obstacle.radius
+    if dim == 2:
+        rotation = Rotation.from_euler("z", obstacle.orientation or 0.0).as_matrix()[:2, :2]
+    else:
+        rotation = Rotation.from_quat(obstacle.orientation or (0, 0, 0, 1)).as_matrix()
+    local = offset @ rotation
+    if isinstance(obstacle, Cylinder):
+        radial = np.hypot(local[:, 0], local[:, 1])
+        return (radial <= obstacle.radius) & (np.abs(local[:, 2]) <= obstacle.length / 2)
+    return np.all(np.abs(local) <= np.asarray(obstacle.half_extents), axis=1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_no_cell_holding_a_point_of_an_obstacle_is_left_free(dim):
+    space = _shapes_world(dim, dim)
+    resolution = 16 if dim == 3 else 40
+    grid = occupancy_grid(space, resolution)
+    rng = np.random.default_rng(0)
+    for obstacle, lower, upper in zip(space.obstacles, space.obstacle_lower, space.obstacle_upper):
+        points = rng.uniform(lower, upper, (4000, dim))
+        points = points[_inside(obstacle, points) & np.all((points >= 0) & (points <= 20), 1)]
+        cells = np.minimum((points / (20.0 / resolution)).astype(int), resolution - 1)
+        assert grid[tuple(cells.T)].all(), obstacle
+
+
+def _rotation(obstacle, dim: int) -> np.ndarray:
+    if dim == 2:
+        return Rotation.from_euler("z", obstacle.orientation or 0.0).as_matrix()[:2, :2]
+    return Rotation.from_quat(obstacle.orientation or (0, 0, 0, 1)).as_matrix()
+
+
+def _overlap_depth(obstacle, low: np.ndarray, high: np.ndarray) -> float:
+    """Positive when the cell overlaps the obstacle, negative when apart (about by how much).
+
+    A box: the largest margin by which a point of the cell is inside all of the box's slabs, a
+    linear program. A sphere: its radius less the least distance from its center to the cell.
+    A cylinder: minus the least squared distance from the cell to it (0 when they meet).
+    """
+    from scipy.optimize import linprog, minimize
+
+    dim = len(low)
+    center = np.asarray(obstacle.center)
+    if isinstance(obstacle, Sphere):
+        result = minimize(lambda p: np.sum((p - center) ** 2), np.clip(center, low, high),
+                          bounds=list(zip(low, high)), method="L-BFGS-B", tol=1e-14)  # fmt: skip
+        return obstacle.radius - np.sqrt(result.fun)
+    rotation = _rotation(obstacle, dim)
+    if isinstance(obstacle, Cylinder):
+
+        def outside(p):
+            local = (p - center) @ rotation
+            radial = max(np.hypot(local[0], local[1]) - obstacle.radius, 0.0)
+            along = max(abs(local[2]) - obstacle.length / 2, 0.0)
+            return radial**2 + along**2
+
+        starts = [np.clip(center, low, high), (low + high) / 2]
+        return -min(minimize(outside, x, bounds=list(zip(low, high))).fun for x in starts)
+    # maximize s: low <= p <= high, +-(R^T (p - c))_k + s <= h_k; variables (p, s)
+    rows = np.vstack([np.hstack([rotation.T, np.ones((dim, 1))]),
+                      np.hstack([-rotation.T, np.ones((dim, 1))])])  # fmt: skip
+    half = np.asarray(obstacle.half_extents)
+    limits = np.concatenate([half + rotation.T @ center, half - rotation.T @ center])
+    cost = np.zeros(dim + 1)
+    cost[-1] = -1.0
+    bounds = [*zip(low, high), (None, None)]
+    return float(-linprog(cost, A_ub=rows, b_ub=limits, bounds=bounds).fun)
+
+
+def _cells_near(space: Workspace, b: int, resolution: int):
+    """The cells of obstacle ``b``'s bounding box and one more around it, as (index, low, high)."""
+    cell = 20.0 / resolution
+    first = np.clip(np.floor(space.obstacle_lower[b] / cell).astype(int) - 1, 0, resolution)
+    stop = np.clip(np.ceil(space.obstacle_upper[b] / cell).astype(int) + 1, 0, resolution)
+    for index in np.ndindex(*(stop - first)):
+        index = tuple(np.asarray(index) + first)
+        yield index, np.asarray(index) * cell, (np.asarray(index) + 1) * cell
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_spheres_and_rotated_boxes_mark_exactly_the_cells_they_overlap(dim):
+    space = _shapes_world(dim, 20 + dim)
+    resolution = 12
+    called = 0
+    for b, obstacle in enumerate(space.obstacles):
+        if isinstance(obstacle, Cylinder):
+            continue
+        grid = occupancy_grid(space.with_obstacles([b]), resolution).astype(bool)
+        for index, low, high in _cells_near(space, b, resolution):
+            depth = _overlap_depth(obstacle, low, high)
+            if abs(depth) > 1e-7:
+                assert grid[index] == (depth > 0), (obstacle, index, depth)
+                called += 1
+    assert called > 100
+
+
+def test_cylinders_mark_every_cell_they_overlap_and_few_others():
+    space = _shapes_world(3, 30)
+    resolution = 12
+    marked, extra = 0, 0
+    for b, obstacle in enumerate(space.obstacles):
+        if not isinstance(obstacle, Cylinder):
+            continue
+        grid = occupancy_grid(space.with_obstacles([b]), resolution).astype(bool)
+        for index, low, high in _cells_near(space, b, resolution):
+            depth = _overlap_depth(obstacle, low, high)
+            if depth == 0.0:
+                assert grid[index], (obstacle, index)
+            marked += int(grid[index])
+            extra += int(grid[index] and depth < -1e-6)
+    print(f"cylinders: {extra} of {marked} marked cells do not touch them")
+    assert marked > 20 and extra <= 0.15 * marked
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_grids_of_rotated_worlds_are_cached_by_their_obstacles(dim):
+    space = _shapes_world(dim, 40)
+    grid = occupancy_grid(space, 16)
+    boxes_only = Workspace(space.robot, space.bounds, space.obstacle_centers,
+                           space.obstacle_half_extents)  # fmt: skip
+    assert not np.array_equal(occupancy_grid(boxes_only, 16), grid)  # kinds are in the key
+    np.testing.assert_array_equal(occupancy_grid(space, 16), grid)

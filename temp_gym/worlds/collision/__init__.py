@@ -1,10 +1,12 @@
 """Collision checking behind one interface, at two levels.
 
 * The **fast** checker is what planners call in their hot loop: batched states ``(N, d)`` to
-  ``bool[N]`` and edges to ``bool``. Point robots use an exact analytic segment-versus-box
-  test. An arm (`arm_fast`) uses forward kinematics and trees of spheres that cover its links'
-  convex pieces, and tests the body pairs its allowed-collision matrix enables against each
-  other, so it is conservative: it never calls a state free that is in collision.
+  ``bool[N]`` and edges to ``bool``. Point robots use exact analytic tests of a segment
+  against each obstacle kind (`point_shapes.point_checker`; the slab test of `point` when
+  every obstacle is an axis-aligned box). An arm (`arm_fast`) uses forward kinematics and
+  trees of spheres that cover its links' convex pieces, and tests the body pairs its
+  allowed-collision matrix enables against each other, so it is conservative: it never calls
+  a state free that is in collision.
 * The **exact** checker certifies the paths a planner returns. Point robots: the same analytic
   test, which is exact. An arm (`arm_exact`): python-fcl on the links' collision meshes against
   the boxes and on their (padded) convex pieces against each other, within the joint limits.

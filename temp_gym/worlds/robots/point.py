@@ -1,8 +1,9 @@
-"""Point robots among boxes: the factory behind `point2d` and `point3d`.
+"""Point robots among obstacles: the factory behind `point2d` and `point3d`.
 
-A point robot's configuration is its position in a box world ``[0, 20]^d``: the analytic
-segment-versus-box test is exact (one checker serves both levels), tasks are drawn by
-`temp_gym.worlds.point_world`, pictures by matplotlib. Factories import their machinery on
+A point robot's configuration is its position in a world ``[0, 20]^d`` of obstacles: the
+analytic segment tests (`temp_gym.worlds.collision.point_shapes`) are exact (one checker
+serves both levels), tasks are drawn by `temp_gym.worlds.point_world`, pictures by
+matplotlib. Factories import their machinery on
 first use, so registering a robot loads none of it.
 """
 
@@ -24,18 +25,18 @@ EVALUATION_TASKS = 100
 """Test tasks per evaluation row (easy and challenging: the paper's 100 + 100)."""
 
 
-def _box_checker(workspace: Workspace, exact: bool) -> CollisionChecker:
-    """The analytic slab test; it is exact, so it is also the fast checker."""
-    from temp_gym.worlds.collision.point import PointBoxChecker
+def _point_checker(workspace: Workspace, exact: bool) -> CollisionChecker:
+    """The analytic test of every obstacle kind; it is exact, so it is also the fast checker."""
+    from temp_gym.worlds.collision.point_shapes import point_checker
 
     del exact
-    return PointBoxChecker(workspace.bounds, workspace.obstacle_lower, workspace.obstacle_upper)
+    return point_checker(workspace)
 
 
 def point_robot(
     name: str, env_id: str, short_name: str, seed_code: int, dim: int, encoding_resolution: int
 ) -> RobotSpec:
-    """The spec of a point robot in a ``dim``-dimensional box world (see the module docstring).
+    """The spec of a point robot in a ``dim``-dimensional world (see the module docstring).
 
     Its evaluation has an easy and a challenging row, named after ``short_name``.
     """
@@ -52,7 +53,7 @@ def point_robot(
         max_nodes=MAX_NODES,
         evaluation_rows={f"{label} easy": "easy", f"{label} challenging": "challenging"},
         evaluation_tasks=EVALUATION_TASKS,
-        checker_factory=_box_checker,
+        checker_factory=_point_checker,
         workspace_generator=lazy("temp_gym.worlds.point_world", "generate_point_workspace"),
         task_generator=lazy("temp_gym.worlds.point_world", "generate_point_task"),
         structured_generator=lazy("temp_gym.worlds.structured", "generate_structured_workspace"),

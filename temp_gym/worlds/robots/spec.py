@@ -203,6 +203,8 @@ def refusal(checker: CollisionChecker, state: np.ndarray) -> str:
         link, box, distance = report[0]
         depth = f", penetration {-distance * 1000:.1f} mm" if distance < 0 else ""
         what = f"collision: {link} touches box {box}{depth}"
+    elif hasattr(checker, "collision_reason"):  # a checker that names the obstacle itself
+        what = checker.collision_reason(state)
     else:
         what = "collision"
     return f"{what} ({checker.description})"
