@@ -179,11 +179,12 @@ def scaled(boxes: list[Box], scale: float) -> list[Box]:
 def base_free(arm: ArmModel, boxes: list[Box]) -> bool:
     """Whether the arm's base, at the origin, keeps clear of ``boxes`` (exact test)."""
     from temp_gym.worlds.collision.arm_exact import base_collides
+    from temp_gym.worlds.collision.arm_obstacles import ArmObstacles
 
     if not boxes:
         return True
-    params = np.array([np.concatenate([c, h]) for c, h in boxes])
-    return not base_collides(arm, params)
+    centers, halves = np.array([c for c, _ in boxes]), np.array([h for _, h in boxes])
+    return not base_collides(arm, ArmObstacles.boxes(centers, halves))
 
 
 def draw_base_free(
