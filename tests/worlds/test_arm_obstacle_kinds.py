@@ -16,6 +16,7 @@ import pytest
 from temp_gym.problem import Problem, Workspace
 from temp_gym.problem.obstacles import BOX, CYLINDER, KIND_NAMES, SPHERE, Box, Cylinder, Sphere
 from temp_gym.worlds.arm.model import load_arm
+from temp_gym.worlds.arm_world import generate_arm_task, near_surface
 from temp_gym.worlds.collision.arm_exact import ArmExactChecker, obstacle_objects
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 from temp_gym.worlds.collision.arm_fast_obstacles import SHAPE_COLUMNS, sphere_hits_shape
@@ -269,6 +270,14 @@ def test_a_refused_start_names_the_obstacle_by_kind_and_index(scenes, kind):
         assert "\n" not in message
         return
     pytest.fail(f"no state touching a {KIND_NAMES[kind]} in the draws")
+
+
+def test_tasks_near_a_surface_are_drawn_among_every_kind(scenes):
+    workspace, _, exact = scenes["kuka_iiwa14"]
+    problem = generate_arm_task(workspace, np.random.default_rng(9), "any", 0.1, near="both")
+    ends = np.stack([problem.start, problem.goal])
+    assert exact.states_free(ends).all()
+    assert near_surface(exact, ends).all()
 
 
 def test_a_checker_takes_box_corners_or_obstacles_not_both():
