@@ -71,7 +71,12 @@ WORKSPACE_FAMILIES = (BOXES, "corridors", "maze", "traps", "narrow", "clutter")
 """The families a single name selects."""
 FAMILY_MIX = {family: 1.0 for family in WORKSPACE_FAMILIES}
 """Relative weights of the families in ``mixed``: equal, so that no structure dominates."""
-FAMILY_NAMES = (*WORKSPACE_FAMILIES, MIXED)
+MANIPULATION = "manipulation"
+"""The arms' manipulation scenes (`temp_gym.worlds.arm_manipulation`): shelves, open boxes,
+cages and tables turned at any angle, with cylinders and oriented boxes."""
+ARM_FAMILIES = (MANIPULATION,)
+"""Families only arms draw; ``mixed`` never draws them, so its workspaces stay as they were."""
+FAMILY_NAMES = (*WORKSPACE_FAMILIES, *ARM_FAMILIES, MIXED)
 """Every name that selects workspaces: a family, or ``mixed``."""
 RASTER_CELL = 0.25
 """Side of the raster cells behind the occupancy and connectivity checks (the 2D reference
@@ -91,12 +96,14 @@ def check_family(robot: str, family: str) -> None:
     """Raise a `ValueError` unless ``family`` is a known name that ``robot`` can draw.
 
     Every robot draws ``boxes`` (its own generator); the others need the robot's spec to have
-    structured families (`RobotSpec.structured_generator`: the point worlds here, the iiwa in
-    `temp_gym.worlds.arm_structured`).
+    structured families (`RobotSpec.structured_generator`: the point worlds here, the arms in
+    `temp_gym.worlds.arm_structured`), and `ARM_FAMILIES` an arm.
     """
     if family not in FAMILY_NAMES:
         raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")
     spec = robot_spec(robot)
+    if family in ARM_FAMILIES and spec.description is None:
+        raise ValueError(f"family: {family!r} is drawn for arms only, and {robot} is not an arm")
     if family != BOXES and spec.structured_generator is None:
         raise ValueError(
             f"family: {family!r} needs structured families, which {robot} has not; "
