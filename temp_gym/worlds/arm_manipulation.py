@@ -394,16 +394,20 @@ def draw_structure(rng: np.random.Generator, name: str, ground: Ground) -> list[
     return placed(pieces, rng.uniform(0.0, 2 * np.pi), rng.uniform(-TWIST, TWIST), anchor)
 
 
-def manipulation_pieces(robot: str, rng: np.random.Generator) -> list[Piece]:
-    """One candidate scene's pieces, scaled to the arm: ground first, then the structures.
+def manipulation_scene(
+    robot: str, rng: np.random.Generator
+) -> tuple[list[Piece], list[list[Piece]]]:
+    """One candidate scene, scaled to the arm: the ground's pieces and each structure's.
 
-    Every structure keeps clear of the base and of the other structures' footprints.
+    Every structure keeps clear of the base and of the other structures' footprints; one
+    that finds no such place in `PLACEMENT_TRIES` is left out.
     """
     arm = arm_of(robot)
     scale = arm_scale(arm)
-    ground, pieces = _ground(rng)
-    pieces = [piece.scaled(scale) for piece in pieces]
+    ground, ground_pieces = _ground(rng)
+    ground_pieces = [piece.scaled(scale) for piece in ground_pieces]
     names = list(BUILDERS)
+    structures: list[list[Piece]] = []
     footprints: list[np.ndarray] = []
     for _ in range(int(rng.integers(STRUCTURES[0], STRUCTURES[1] + 1))):
         name = names[int(rng.integers(len(names)))]
@@ -414,10 +418,10 @@ def manipulation_pieces(robot: str, rng: np.random.Generator) -> list[Piece]:
                 continue
             lower, upper = bounding_boxes(structure)
             if base_free(arm, list(zip((lower + upper) / 2, (upper - lower) / 2))):
-                pieces += structure
+                structures.append(structure)
                 footprints.append(footprint)
                 break
-    return pieces
+    return ground_pieces, structures
 
 
 def free_fraction(workspace: Workspace, rng: np.random.Generator, probes: int) -> float:
@@ -442,7 +446,8 @@ def generate_manipulation_workspace(robot: str, rng: np.random.Generator) -> Wor
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
     limits = arm_of(robot).joint_limits()
     for _ in range(TRIES):
-        pieces = manipulation_pieces(robot, rng)
+        ground, structures = manipulation_scene(robot, rng)
+        pieces = ground + [piece for structure in structures for piece in structure]
         workspace = Workspace.from_obstacles(robot, limits, as_obstacles(pieces))
         if free_fraction(workspace, rng, FREE_PROBES) >= MIN_FREE_FRACTION:
             return workspace
@@ -456,5 +461,5 @@ __all__ = [
     "draw_structure",
     "free_fraction",
     "generate_manipulation_workspace",
-    "manipulation_pieces",
+    "manipulation_scene",
 ]
