@@ -25,7 +25,13 @@ from temp_gym.worlds.arm_manipulation import (
 )
 from temp_gym.worlds.arm_pieces import bounding_boxes
 from temp_gym.worlds.arm_structured import MIN_FREE_FRACTION
-from temp_gym.worlds.arm_world import FLOOR_TOP, arm_scale, base_free
+from temp_gym.worlds.arm_world import (
+    FLOOR_TOP,
+    arm_scale,
+    base_free,
+    generate_arm_task,
+    near_surface,
+)
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.robots import robot_spec
@@ -255,3 +261,18 @@ def test_each_structure_has_as_many_pieces_as_its_builder_draws(name):
             assert bounding_boxes(pieces)[0][:, 2].min() >= ground - 1e-12
     assert low <= min(counts) and max(counts) <= high, (min(counts), max(counts))
     assert max(counts) - min(counts) >= 3  # counts are drawn, not fixed
+
+
+# ---- tasks ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_tasks_are_free_for_the_exact_checker_and_goals_reach_near_surfaces(robot):
+    """`generate_arm_task` draws in these scenes: start and goal free by the exact checker, a
+    goal near a surface within `NEAR_SURFACE` of one, and both difficulties found."""
+    rng = np.random.default_rng(5)
+    for workspace in sample(robot, 3, seed=11):
+        exact = make_checker(workspace, exact=True)
+        for difficulty, near in (("easy", "none"), ("challenging", "none"), ("any", "goal")):
+            problem = generate_arm_task(workspace, rng, difficulty, 0.1, near=near)
+            assert exact.states_free(np.stack([problem.start, problem.goal])).all()
+            if near == "goal":
+                assert near_surface(exact, problem.goal[None])[0]
