@@ -89,18 +89,21 @@ def _local(point: np.ndarray, yaw: float) -> np.ndarray:
 
 
 def _window() -> Problem:
-    """A wall 55 cm away, 1.6 m wide and 1.1 m tall, with a 40 x 40 cm window, turned 30 deg."""
+    """A wall 55 cm away, 1.6 m wide and 1.1 m tall, with a 50 x 45 cm window, turned 30 deg.
+
+    The start has the hand in front of the wall beside the window, the goal through it.
+    """
     x, yaw = 0.55, np.pi / 6
     wall = [
-        box((x, -0.5, 0.545), (PLATE, 0.3, 0.555)),
-        box((x, 0.5, 0.545), (PLATE, 0.3, 0.555)),
-        box((x, 0.0, 0.12), (PLATE, 0.2, 0.13)),
-        box((x, 0.0, 0.87), (PLATE, 0.2, 0.23)),
+        box((x, -0.525, 0.545), (PLATE, 0.275, 0.555)),
+        box((x, 0.525, 0.545), (PLATE, 0.275, 0.555)),
+        box((x, 0.0, 0.12), (PLATE, 0.25, 0.13)),
+        box((x, 0.0, 0.9), (PLATE, 0.25, 0.2)),
     ]
     return _panda_problem(
         placed(wall, yaw),
-        lambda p: _local(p, yaw)[0] < -0.2,
-        lambda p: (q := _local(p, yaw))[0] > x + 0.05 and abs(q[1]) < 0.15 and 0.3 < q[2] < 0.6,
+        lambda p: 0.1 < (q := _local(p, yaw))[0] < x - 0.1 and abs(q[1]) > 0.35,
+        lambda p: (q := _local(p, yaw))[0] > x + 0.05 and abs(q[1]) < 0.15 and 0.35 < q[2] < 0.6,
         seed=11,
     )
 
@@ -124,11 +127,12 @@ def _pillar_ring() -> Problem:
 
 
 def _cubby_grid() -> Problem:
-    """Three by three cells (22 cm wide, 20 cm tall, 30 cm deep) from 0.2 m up, turned -50 deg.
+    """Three by three cells (30 cm wide, 28 cm tall, 30 cm deep) from 0.1 m up, turned -50 deg.
 
-    They are open towards the robot, on a stand; the goal is in the middle row's right cell.
+    They are open towards the robot, on a stand; the goal has the hand within 20 cm of the
+    right half of the grid's face, or in a cell there.
     """
-    near, depth, cell, tall, bottom, yaw = 0.45, 0.15, 0.22, 0.2, 0.2, -5 * np.pi / 18
+    near, depth, cell, tall, bottom, yaw = 0.55, 0.15, 0.3, 0.28, 0.1, -5 * np.pi / 18
     x, half_width = near + depth, 1.5 * cell
     top = bottom + 3 * tall
     pieces = [box((x + depth + PLATE, 0.0, (bottom + top) / 2), (PLATE, half_width, 1.5 * tall))]
@@ -139,19 +143,21 @@ def _cubby_grid() -> Problem:
                for k in range(4)]  # fmt: skip
     stand = (bottom - PLATE + 0.01) / 2  # from the floor's top (-1 cm) to the lowest board
     pieces.append(box((x, 0.0, bottom - PLATE - stand), (depth, 0.8 * half_width, stand)))
-    y0, z0 = half_width - cell, bottom + tall
     return _panda_problem(
         placed(pieces, yaw),
         lambda p: _local(p, yaw)[0] < -0.2,
-        lambda p: (q := _local(p, yaw))[0] > near + 0.05 and y0 + 0.04 < q[1] < half_width - 0.04
-        and z0 + 0.04 < q[2] < z0 + tall - 0.04,
+        lambda p: near - 0.2 < (q := _local(p, yaw))[0] < x and 0.0 < q[1] < half_width
+        and bottom < q[2] < top,
         seed=14,
     )  # fmt: skip
 
 
 def _side_box() -> Problem:
-    """A 45 cm box lying on its side behind the robot, open towards it, on a stand."""
-    near, half, bottom, yaw = 0.45, 0.225, 0.3, 5 * np.pi / 6
+    """A 60 cm box lying on its side behind the robot, open towards it, on a stand.
+
+    The goal has the hand in its opening.
+    """
+    near, half, bottom, yaw = 0.4, 0.3, 0.2, 5 * np.pi / 6
     x, z = near + half, bottom + half
     stand = (bottom - PLATE + 0.01) / 2  # from the floor's top (-1 cm) to the bottom plate
     pieces = [
@@ -165,7 +171,7 @@ def _side_box() -> Problem:
     return _panda_problem(
         placed(pieces, yaw),
         lambda p: _local(p, yaw)[0] < -0.2,
-        lambda p: (q := _local(p, yaw))[0] > near + 0.05 and abs(q[1]) < half - 0.06
+        lambda p: (q := _local(p, yaw))[0] > near - 0.05 and abs(q[1]) < half - 0.06
         and bottom + 0.06 < q[2] < bottom + 2 * half - 0.06,
         seed=15,
     )  # fmt: skip
