@@ -94,7 +94,7 @@ def refusals(args: argparse.Namespace) -> None:
         free = states[exact.states_free(states)]
         with PybulletArm(arm, workspace) as bullet:
             both = free[bullet.states_free(free)]
-            nearest = np.array([min(bullet.box_distances(s, moving_only=True), default=np.inf)
+            nearest = np.array([min(bullet.obstacle_distances(s, moving_only=True), default=np.inf)
                                 for s in both])  # fmt: skip
         samples = {kinds[0]: free[:per_workspace], kinds[1]: both[:per_workspace],
                    kinds[2]: both[nearest <= 0.02][:per_workspace]}  # fmt: skip

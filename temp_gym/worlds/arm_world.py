@@ -19,10 +19,11 @@ over it (`arm_scale`), so every arm gets furniture of its own size. Nothing touc
 
 **Tasks.** A start and a goal are drawn uniformly in the joint limits until both are free
 (fast checker: the exact checker then agrees). A share `NEAR_SURFACE_SHARE` of goals is drawn
-*near a surface*: the arm within 2-10 mm of a box, its hand nearest (`near_surface`), as a
-grasp, a placement or an insertion has it; `generate_arm_task(..., near="both")` draws starts
+*near a surface*: the arm within 2-10 mm of an obstacle, its hand nearest (`near_surface`), as
+a grasp, a placement or an insertion has it; `generate_arm_task(..., near="both")` draws starts
 there too. Edges leave and reach such states because the fast checker refines its edge checks
-near surfaces (`temp_gym.worlds.collision.arm_fast`).
+near surfaces (`temp_gym.worlds.collision.arm_fast`). Tasks can be drawn in any arm workspace,
+whatever its obstacles' kinds: the checkers and `near_surface` measure every kind.
 
 Difficulty of a task, measured with the fast checker:
 
@@ -57,7 +58,7 @@ REFERENCE_REACH = 1.5490807825132829
 NEAR_SURFACE_SHARE = 0.25
 """Share of drawn goals placed near a surface (`near_surface`)."""
 NEAR_SURFACE = (0.002, 0.010)
-"""How far (m, by the exact checker) from a box a state near a surface is."""
+"""How far (m, by the exact checker) from an obstacle a state near a surface is."""
 NEAR_DRAW_BATCHES = 8
 """Batches of 256 uniform states drawn per attempt at states near a surface."""
 SIDES = (
@@ -177,13 +178,18 @@ def scaled(boxes: list[Box], scale: float) -> list[Box]:
 
 
 def base_free(arm: ArmModel, boxes: list[Box]) -> bool:
-    """Whether the arm's base, at the origin, keeps clear of ``boxes`` (exact test)."""
+    """Whether the arm's base, at the origin, keeps clear of ``boxes`` (exact test).
+
+    Axis-aligned ``(center, half)`` boxes, as the generators build them;
+    `temp_gym.worlds.collision.arm_exact.base_collides` takes obstacles of any kind.
+    """
     from temp_gym.worlds.collision.arm_exact import base_collides
+    from temp_gym.worlds.collision.arm_obstacles import ArmObstacles
 
     if not boxes:
         return True
-    params = np.array([np.concatenate([c, h]) for c, h in boxes])
-    return not base_collides(arm, params)
+    centers, halves = np.array([c for c, _ in boxes]), np.array([h for _, h in boxes])
+    return not base_collides(arm, ArmObstacles.boxes(centers, halves))
 
 
 def draw_base_free(
@@ -244,9 +250,10 @@ def generate_arm_workspace(robot: str, rng: np.random.Generator, max_tries: int 
 
 
 def near_surface(checker, states: np.ndarray, hand_only: bool = True) -> np.ndarray:
-    """``bool[N]``: the arm is within `NEAR_SURFACE` of a box (exact checker ``checker``).
+    """``bool[N]``: the arm is within `NEAR_SURFACE` of an obstacle (exact checker ``checker``).
 
-    With ``hand_only``, the body nearest a box must also be the last (the hand).
+    Any obstacle kind: the exact checker's report measures each. With ``hand_only``, the body
+    nearest an obstacle must also be the last (the hand).
     """
     last = checker.arm.body_names[-1]
     out = np.zeros(len(states), dtype=bool)
@@ -261,8 +268,8 @@ def _draw_near(fast, exact, rng: np.random.Generator, lower: np.ndarray, upper: 
                count: int, batches: int = NEAR_DRAW_BATCHES) -> np.ndarray:  # fmt: skip
     """Up to ``count`` states near a surface, ``(<= count, dim)``.
 
-    Free states whose grown spheres touch a box, kept when the exact checker puts the hand
-    within `NEAR_SURFACE` of one; at most ``batches`` batches of 256 uniform states are drawn,
+    Free states whose grown spheres touch an obstacle, kept when the exact checker puts the
+    hand within `NEAR_SURFACE` of one; at most ``batches`` batches of 256 uniform states are drawn,
     so a workspace with no such state gives fewer (or none) instead of drawing forever.
     """
     found: list[np.ndarray] = []

@@ -397,7 +397,7 @@ def _tier_distances(exact, poses, j):
     tolerances = (0.0, DISTANCE_TOLERANCE, 0.0)
     return np.array([
         [max(min(fcl.distance(obj, box, request, fcl.DistanceResult()) for obj in objects)
-             - tolerance, 0.0) for box in exact._boxes]
+             - tolerance, 0.0) for box in exact._obstacles]
         for objects, tolerance in zip(tiers, tolerances)
     ])  # fmt: skip
 

@@ -71,15 +71,17 @@ class ArmPart:
 
 
 def make_arm_checker(arm, workspace, exact: bool = False):
-    """The fast (default) or exact checker of ``workspace`` for ``arm``."""
-    lower, upper = workspace.obstacle_lower, workspace.obstacle_upper
+    """The fast (default) or exact checker of ``workspace`` for ``arm``, every obstacle kind."""
+    from temp_gym.worlds.collision.arm_obstacles import arm_obstacles
+
+    obstacles = arm_obstacles(workspace)
     if exact:
         from temp_gym.worlds.collision.arm_exact import ArmExactChecker
 
-        return ArmExactChecker(arm, workspace.bounds, lower, upper)
+        return ArmExactChecker(arm, workspace.bounds, obstacles=obstacles)
     from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 
-    return ArmSphereChecker(arm, workspace.bounds, lower, upper)
+    return ArmSphereChecker(arm, workspace.bounds, obstacles=obstacles)
 
 
 def default_region(reach: float) -> np.ndarray:

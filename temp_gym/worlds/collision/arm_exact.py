@@ -1,30 +1,32 @@
-"""Exact collision checking for any arm (python-fcl): boxes and self-collision.
+"""Exact collision checking for any arm (python-fcl): obstacles and self-collision.
 
 This is the checker that certifies every path a planner returns. Each body's collision
 elements (`temp_gym.worlds.arm.meshes`) are fcl geometry: meshes as ``BVHModel`` (OBBRSS),
 boxes, cylinders and spheres as fcl's own shapes. They are posed by the arm's forward
-kinematics and tested against ``fcl.Box`` obstacles. Self-collision is tested on the bodies'
-convex pieces, padded like pybullet's, for the pairs the allowed-collision matrix enables
-(`temp_gym.worlds.collision.arm_self`).
+kinematics and tested against the obstacles, fcl shapes posed by their rotations: ``fcl.Box``,
+``fcl.Cylinder`` (along its local z, full length) and ``fcl.Sphere`` (`obstacle_objects`).
+Self-collision is tested on the bodies' convex pieces, padded like pybullet's, for the pairs
+the allowed-collision matrix enables (`temp_gym.worlds.collision.arm_self`).
 
 **States.** A cheap broad phase (each body's local bounding box, posed, enlarged to a world
-AABB) drops the body-box pairs that cannot touch; fcl's narrow phase decides the rest, then the
-enabled body pairs are tested (bounding spheres, then GJK on the pieces). A state outside the
-bounds or the joint limits, whatever the bounds say, or with NaN/inf coordinates, is not free.
-fcl tests a mesh's *surface* against boxes: an obstacle entirely inside a link without
-touching a triangle is missed, which needs a box smaller than a link.
+AABB) drops the pairs of a body and an obstacle whose world AABBs are apart; fcl's narrow
+phase decides the rest, then the enabled body pairs are tested (bounding spheres, then GJK on
+the pieces). A state outside the bounds or the joint limits, whatever the bounds say, or with
+NaN/inf coordinates, is not free. fcl tests a mesh's *surface* against obstacles: an obstacle
+entirely inside a link without touching a triangle is missed, which needs an obstacle smaller
+than a link.
 
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
 point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
 ``W_j = sum_i |b_i - a_i| R[i, j]`` (`ArmModel.motion_radii`). If ``d_j`` is a lower bound on
-body ``j``'s distance to every box at ``q(t)``, nothing can touch while ``t`` advances by less
-than ``d_j / W_j``; likewise for body pairs with their relative motion. The checker walks the
-segment with steps of `STEP_SAFETY` times the smallest of these; ``d_j`` is fcl's element
-distance where the body is within `MESH_DISTANCE_BELOW` of a box, and otherwise a cheaper,
-smaller bound (the distance from its convex pieces, or, farther than `EXACT_DISTANCE_BELOW`,
-from its oriented bounding box). It gives up, returning *not free*, when a clearance drops to
-`MIN_CLEARANCE` or after ``max_steps`` steps: the answer is then "not certified", which is what
-a certifier must say when unsure.
+body ``j``'s distance to every obstacle at ``q(t)``, nothing can touch while ``t`` advances by
+less than ``d_j / W_j``; likewise for body pairs with their relative motion. The checker walks
+the segment with steps of `STEP_SAFETY` times the smallest of these; ``d_j`` is fcl's element
+distance where the body is within `MESH_DISTANCE_BELOW` of an obstacle, and otherwise a
+cheaper, smaller bound (the distance from its convex pieces, or, farther than
+`EXACT_DISTANCE_BELOW`, from its oriented bounding box). It gives up, returning *not free*,
+when a clearance drops to `MIN_CLEARANCE` or after ``max_steps`` steps: the answer is then
+"not certified", which is what a certifier must say when unsure.
 """
 
 from __future__ import annotations
@@ -32,8 +34,10 @@ from __future__ import annotations
 import fcl
 import numpy as np
 
+from temp_gym.problem.obstacles import BOX, CYLINDER
 from temp_gym.worlds.arm.model import ArmModel
-from temp_gym.worlds.collision.arm_inputs import as_bounds, as_boxes, as_state, as_states
+from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states
+from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.arm_self import (
     DISTANCE_TOLERANCE,
     SELF_COLLISION_GAP,
@@ -49,7 +53,7 @@ EXACT_DISTANCE_BELOW = 0.1
 MESH_DISTANCE_BELOW = 0.01
 """Piece clearances (m) below this are refined with fcl's element distance."""
 STEP_SAFETY = 0.9
-"""Fraction of the provably safe step taken, so that the motion never reaches a box."""
+"""Fraction of the provably safe step taken, so that the motion never reaches an obstacle."""
 
 
 def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
@@ -108,13 +112,34 @@ def _body_bounds(arm: ArmModel) -> tuple[np.ndarray, np.ndarray]:
     return arm._arrays[key]
 
 
-def base_collides(arm: ArmModel, box_params: np.ndarray) -> bool:
-    """Whether the base body (at the origin) touches a box ``(cx, cy, cz, hx, hy, hz)``."""
+def obstacle_objects(obstacles: ArmObstacles) -> list[fcl.CollisionObject]:
+    """Each obstacle as a posed fcl object: a box, a cylinder or a sphere.
+
+    fcl's cylinder lies along its local z with its full length, as a workspace's does.
+    """
+    objects = []
+    for b in range(len(obstacles)):
+        center, half, kind = obstacles.centers[b], obstacles.half_extents[b], obstacles.kinds[b]
+        if kind == BOX:
+            shape = fcl.Box(*(2 * half))
+        elif kind == CYLINDER:
+            shape = fcl.Cylinder(float(half[0]), float(2 * half[2]))
+        else:
+            shape = fcl.Sphere(float(half[0]))
+        if obstacles.axis_aligned[b]:
+            pose = fcl.Transform(center)
+        else:
+            pose = fcl.Transform(np.array(obstacles.rotations[b]), center)
+        objects.append(fcl.CollisionObject(shape, pose))
+    return objects
+
+
+def base_collides(arm: ArmModel, obstacles: ArmObstacles) -> bool:
+    """Whether the base body (at the origin) touches an obstacle."""
     request = fcl.CollisionRequest()
     objects = [fcl.CollisionObject(shape, transform(pose))
                for shape, pose in element_models(arm)[0]]  # fmt: skip
-    for box in box_params:
-        obstacle = fcl.CollisionObject(fcl.Box(*(2 * box[3:])), fcl.Transform(box[:3]))
+    for obstacle in obstacle_objects(obstacles):
         for obj in objects:
             if fcl.collide(obj, obstacle, request, fcl.CollisionResult()) > 0:
                 return True
@@ -128,21 +153,26 @@ class ArmExactChecker:
         arm: the arm (`temp_gym.worlds.arm.load_arm`).
         bounds: ``(2, dim)`` joint bounds; states outside them or the joint limits are not
             free.
-        box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
+        box_lower: ``(M, 3)`` lower corners of axis-aligned boxes in the world frame (base at
+            the origin, z up); or None with ``obstacles``.
         box_upper: ``(M, 3)`` upper box corners.
         max_steps: largest number of certification steps per edge before giving up.
         self_collision: test the enabled body pairs against each other. Only switched off to
             measure what self-collision costs; `certify_path` always tests it.
+        obstacles: obstacles of every kind (`arm_obstacles` of a workspace), instead of
+            ``box_lower`` and ``box_upper``.
     """
 
     def __init__(
         self,
         arm: ArmModel,
         bounds: np.ndarray,
-        box_lower: np.ndarray,
-        box_upper: np.ndarray,
+        box_lower: np.ndarray | None = None,
+        box_upper: np.ndarray | None = None,
         max_steps: int = 20_000,
         self_collision: bool = True,
+        *,
+        obstacles: ArmObstacles | None = None,
     ) -> None:
         self.arm = arm
         self.dim = arm.dim
@@ -151,13 +181,14 @@ class ArmExactChecker:
         self._limits = arm.joint_limits()
         pairs = arm.enabled_pairs() if self_collision else np.zeros((0, 2), dtype=np.int64)
         self._hulls = BodyHulls(arm, pairs)
-        lower, upper = as_boxes(box_lower, box_upper)
-        self._box_center = (lower + upper) / 2
-        self._box_half = (upper - lower) / 2
-        self._boxes = [
-            fcl.CollisionObject(fcl.Box(*(2 * h)), fcl.Transform(c))
-            for c, h in zip(self._box_center, self._box_half)
-        ]
+        self.obstacles = resolve_obstacles(box_lower, box_upper, obstacles)
+        # The obstacles' world AABBs: the broad phase and the cheapest clearance bounds.
+        lower, upper = self.obstacles.lower, self.obstacles.upper
+        self._aabb_center = (lower + upper) / 2
+        self._aabb_half = (upper - lower) / 2
+        self._obstacles = obstacle_objects(self.obstacles)
+        # fcl measures curved and turned obstacles by GJK: their distances get its tolerance.
+        self._tolerance = np.where(self.obstacles.axis_aligned, 0.0, DISTANCE_TOLERANCE)
         self._elements = [
             [(fcl.CollisionObject(shape, fcl.Transform()), pose) for shape, pose in body]
             for body in element_models(arm)
@@ -174,11 +205,9 @@ class ArmExactChecker:
         ]
         self._pair_motion = arm.relative_motion_radii(self._hulls.pairs)
         self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
-        box_params = np.hstack([self._box_center, self._box_half]) if self._boxes else np.zeros(
-            (0, 6))  # fmt: skip
-        self.base_free = not base_collides(arm, box_params)
+        self.base_free = not base_collides(arm, self.obstacles)
         self.description = (
-            f"fcl on the {arm.name} collision geometry, {len(self._boxes)} boxes, self-collision "
+            f"fcl on the {arm.name} collision geometry, {self.obstacles.summary()}, self-collision "
             f"of {len(self._hulls.pairs)} body pairs (padded convex pieces), certified motions"
             + ("" if self.base_free else ", base link in collision")
         )
@@ -188,20 +217,20 @@ class ArmExactChecker:
         for obj, pose in self._elements[j]:
             obj.setTransform(transform(poses[j] @ pose))
 
-    def _body_touches(self, j: int, box: int) -> bool:
+    def _body_touches(self, j: int, obstacle: int) -> bool:
         request = fcl.CollisionRequest()
         return any(
-            fcl.collide(obj, self._boxes[box], request, fcl.CollisionResult()) > 0
+            fcl.collide(obj, self._obstacles[obstacle], request, fcl.CollisionResult()) > 0
             for obj, _ in self._elements[j]
         )
 
     def _candidate_pairs(self, poses: np.ndarray) -> np.ndarray:
-        """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles."""
+        """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles'."""
         rotations = poses[..., :3, :3]
         centers = np.einsum("...ij,...j->...i", rotations, self._local_center) + poses[..., :3, 3]
         halves = np.einsum("...ij,...j->...i", np.abs(rotations), self._local_half)
-        gap = np.abs(centers[..., None, :] - self._box_center) - halves[..., None, :]
-        return np.all(gap <= self._box_half, axis=-1) & self._has_geometry[:, None]
+        gap = np.abs(centers[..., None, :] - self._aabb_center) - halves[..., None, :]
+        return np.all(gap <= self._aabb_half, axis=-1) & self._has_geometry[:, None]
 
     def _pose_free(self, poses: np.ndarray, candidates: np.ndarray) -> bool:
         posed = set()
@@ -221,21 +250,21 @@ class ArmExactChecker:
         return np.all(inside, axis=1)
 
     def _aabb_gaps(self, poses: np.ndarray) -> np.ndarray:
-        """``(B, M)`` distances from each body's world AABB to each box: cheap lower bounds."""
+        """``(B, M)`` distances from each body's world AABB to each obstacle's: lower bounds."""
         rotations = poses[:, :3, :3]
         centers = np.einsum("jik,jk->ji", rotations, self._local_center) + poses[:, :3, 3]
         halves = np.einsum("jik,jk->ji", np.abs(rotations), self._local_half)
-        gap = np.abs(centers[:, None, :] - self._box_center) - halves[:, None, :]
-        gap = np.maximum(gap - self._box_half, 0.0)
+        gap = np.abs(centers[:, None, :] - self._aabb_center) - halves[:, None, :]
+        gap = np.maximum(gap - self._aabb_half, 0.0)
         return np.sqrt(np.einsum("jbk,jbk->jb", gap, gap))
 
     def _body_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
-        """A lower bound on body ``j``'s distance to the nearest box.
+        """A lower bound on body ``j``'s distance to the nearest obstacle.
 
-        Given its world-AABB ``gaps`` (M,): per box the cheapest informative bound of three
-        nested shapes (the body's bounding box, its convex pieces less fcl's tolerance, its
-        elements), boxes visited nearest first and the visit stopped once no box left can
-        lower it.
+        Given its world-AABB ``gaps`` (M,): per obstacle the cheapest informative bound of
+        three nested shapes (the body's bounding box, its convex pieces less fcl's tolerance,
+        its elements), obstacles visited nearest first and the visit stopped once no obstacle
+        left can lower it.
         """
         box_pose = poses[j].copy()
         box_pose[:3, 3] += box_pose[:3, :3] @ self._local_center[j]
@@ -262,10 +291,11 @@ class ArmExactChecker:
                         self._pose_body(poses, j)
                 posed[tier] = True
                 found = min(
-                    fcl.distance(obj, self._boxes[b], request, fcl.DistanceResult())
+                    fcl.distance(obj, self._obstacles[b], request, fcl.DistanceResult())
                     for obj in objects
                 )
-                bound = max(found - tolerance, 0.0)  # fcl reports -1 for intersecting shapes
+                # fcl reports -1 for intersecting shapes.
+                bound = max(found - tolerance - self._tolerance[b], 0.0)
                 if bound >= best:
                     break
                 if bound >= enough:
@@ -319,7 +349,7 @@ class ArmExactChecker:
             return free
         index = np.flatnonzero(free)
         poses = self.arm.forward_kinematics(states[index])
-        if self._boxes:
+        if self._obstacles:
             candidates = self._candidate_pairs(poses)
             for k in np.flatnonzero(candidates[:, 1:].any(axis=(1, 2))):
                 free[index[k]] = self._pose_free(poses[k], candidates[k])
@@ -337,14 +367,14 @@ class ArmExactChecker:
         return [self.arm.pair_name(a, b) for a, b in self._hulls.pairs[colliding]]
 
     def obstacle_report(self, state: np.ndarray) -> list[tuple[str, int, float]]:
-        """Per body near a box: ``(link, box index, distance)``, nearest first.
+        """Per body near an obstacle: ``(link, obstacle index, distance)``, nearest first.
 
         The distance is in metres (0 or less: touching, with fcl's penetration depth negated
-        where fcl gives one). Bodies farther than `MESH_DISTANCE_BELOW` from every box are
-        left out.
+        where fcl gives one). Bodies farther than `MESH_DISTANCE_BELOW` from every obstacle
+        are left out. `obstacle_name` names an index in words.
         """
         poses = self.arm.forward_kinematics(as_state(state, "state", self.dim))[0]
-        if not self._boxes:
+        if not self._obstacles:
             return []
         gaps = self._aabb_gaps(poses)
         report = []
@@ -353,21 +383,28 @@ class ArmExactChecker:
                 continue
             self._pose_body(poses, j)
             for b in np.flatnonzero(gaps[j] <= MESH_DISTANCE_BELOW):
+                obstacle = self._obstacles[b]
                 distance = min(
-                    fcl.distance(obj, self._boxes[b], fcl.DistanceRequest(), fcl.DistanceResult())
+                    fcl.distance(obj, obstacle, fcl.DistanceRequest(), fcl.DistanceResult())
                     for obj, _ in self._elements[j]
                 )
-                if distance <= 0:
+                # fcl may report a mesh overlapping a sphere or a cylinder as 0 apart, not -1.
+                aligned = self.obstacles.axis_aligned[b]
+                if distance <= 0 or (not aligned and self._body_touches(j, b)):
                     request = fcl.CollisionRequest(num_max_contacts=8, enable_contact=True)
                     depth = 0.0
                     for obj, _ in self._elements[j]:
                         result = fcl.CollisionResult()
-                        if fcl.collide(obj, self._boxes[b], request, result):
+                        if fcl.collide(obj, self._obstacles[b], request, result):
                             depth = max([depth] + [c.penetration_depth for c in result.contacts])
                     distance = -depth
                 if distance <= MESH_DISTANCE_BELOW:
                     report.append((self.arm.body_names[j], int(b), float(distance)))
         return sorted(report, key=lambda entry: entry[2])
+
+    def obstacle_name(self, index: int) -> str:
+        """Obstacle ``index`` as messages name it: its kind and index, e.g. ``"cylinder 3"``."""
+        return self.obstacles.name(index)
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """Certify the straight joint-space motion ``start -> end`` (module docstring)."""
@@ -377,7 +414,7 @@ class ArmExactChecker:
             return False
         delta = end - start
         sweep = np.abs(delta) @ self._motion_radii
-        moving = (np.flatnonzero((sweep > 0) & self._has_geometry) if self._boxes
+        moving = (np.flatnonzero((sweep > 0) & self._has_geometry) if self._obstacles
                   else np.zeros(0, dtype=np.int64))  # fmt: skip
         pair_sweep = self._pair_motion @ np.abs(delta)
         moving_pairs = np.flatnonzero(pair_sweep > 0)
@@ -419,4 +456,5 @@ __all__ = [
     "ArmExactChecker",
     "base_collides",
     "element_models",
+    "obstacle_objects",
 ]

@@ -1,11 +1,17 @@
-"""Fast, conservative collision checking for any arm: boxes and self-collision.
+"""Fast, conservative collision checking for any arm: obstacles and self-collision.
 
 The planners' hot loop. One numba kernel does forward kinematics and walks each body's tree of
-covering spheres (`temp_gym.worlds.arm.sphere_tree`) against the boxes, with early exit, then
-the body pairs that the allowed-collision matrix enables against each other
-(`arm_fast_self`). A body's tree is only walked for a box its root sphere touches (the broad
-phase, SIMD over boxes), and the base, which never moves, is tested against the boxes once in
-``__init__``, by the exact checker's own test. Boxes are closed: touching counts.
+covering spheres (`temp_gym.worlds.arm.sphere_tree`) against the obstacles, with early exit,
+then the body pairs that the allowed-collision matrix enables against each other
+(`arm_fast_self`). A body's tree is only walked for an obstacle its root sphere touches (the
+broad phase, SIMD over the obstacles' world bounding boxes), and the base, which never moves,
+is tested against the obstacles once in ``__init__``, by the exact checker's own test.
+Obstacles are closed: touching counts.
+
+**Obstacle kinds** (`arm_fast_obstacles`). Axis-aligned boxes are tested as they always
+were, on their own list; oriented boxes, cylinders and spheres are on a second list, tested in
+each obstacle's frame. A world of axis-aligned boxes only runs the same arithmetic, and gets
+the same verdicts, as before obstacles had kinds.
 
 **Conservative, and close.** The leaves cover each convex piece of each body, bulging out of it
 by at most about the robot's sphere tolerance (`temp_gym.worlds.arm.spheres`), so a state this
@@ -49,14 +55,10 @@ from temp_gym.worlds.collision.arm_fast_kernels import (
     motion_free_kernel,
     states_free_kernel,
 )
+from temp_gym.worlds.collision.arm_fast_obstacles import SHAPE_COLUMNS
 from temp_gym.worlds.collision.arm_fast_self import scratch_for
-from temp_gym.worlds.collision.arm_inputs import (
-    as_bounds,
-    as_boxes,
-    as_state,
-    as_states,
-    within_limits,
-)
+from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states, within_limits
+from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
 DEFAULT_RESOLUTION = 0.02
@@ -71,7 +73,7 @@ INNER_BALLS = 8
 def _inner_balls(arm: ArmModel, body: int, centers: np.ndarray) -> tuple[np.ndarray, ...]:
     """Up to `INNER_BALLS` balls inside body ``body``'s pieces, centred on leaf centers.
 
-    A box that touches one touches the body, so a deep collision is found without a tree walk.
+    An obstacle that touches one touches the body, so a deep collision is found without a tree walk.
     Each is shrunk by `FAST_FK_MARGIN`, so the fast kinematics keeps it inside.
     """
     from temp_gym.worlds.arm.spheres import depth, hull_planes
@@ -132,28 +134,33 @@ def _self_model(arm: ArmModel) -> tuple[np.ndarray, ...]:
 
 
 class ArmSphereChecker:
-    """Fast, conservative arm checker: sphere trees against boxes and each other.
+    """Fast, conservative arm checker: sphere trees against obstacles and each other.
 
     Args:
         arm: the arm (`temp_gym.worlds.arm.load_arm`).
         bounds: ``(2, dim)`` joint bounds; states outside them or the joint limits are not
             free.
-        box_lower: ``(M, 3)`` lower box corners in the world frame (base at the origin, z up).
+        box_lower: ``(M, 3)`` lower corners of axis-aligned boxes in the world frame (base at
+            the origin, z up); or None with ``obstacles``.
         box_upper: ``(M, 3)`` upper box corners.
         resolution: largest workspace motion (m) of any body point between two checked states
             of an edge before intervals are split (module docstring).
         self_collision: test the enabled body pairs against each other. Only switched off to
             measure what self-collision costs; planners and generators always test it.
+        obstacles: obstacles of every kind (`arm_obstacles` of a workspace), instead of
+            ``box_lower`` and ``box_upper``.
     """
 
     def __init__(
         self,
         arm: ArmModel,
         bounds: np.ndarray,
-        box_lower: np.ndarray,
-        box_upper: np.ndarray,
+        box_lower: np.ndarray | None = None,
+        box_upper: np.ndarray | None = None,
         resolution: float = DEFAULT_RESOLUTION,
         self_collision: bool = True,
+        *,
+        obstacles: ArmObstacles | None = None,
     ) -> None:
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
             raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
@@ -163,7 +170,8 @@ class ArmSphereChecker:
         self.dim = arm.dim
         self.resolution = float(resolution)
         self._bounds = within_limits(as_bounds(bounds, arm.dim), arm.joint_limits())
-        lower, upper = as_boxes(box_lower, box_upper)
+        obstacles = resolve_obstacles(box_lower, box_upper, obstacles)
+        self.obstacles = obstacles
         trees = sphere_trees(arm)
         self._trees = trees.arrays()
         self._kinematics = arm.kinematic_arrays()
@@ -172,24 +180,39 @@ class ArmSphereChecker:
         self._table_pairs = self_model[4]
         self._self_model = tuple(array if self_collision else array[:0] for array in self_model[:4])
         self._scratch = scratch_for(trees)
-        box_params = np.ascontiguousarray(np.hstack([(lower + upper) / 2, (upper - lower) / 2]))
         from temp_gym.worlds.collision.arm_exact import base_collides
 
-        self.base_free = not base_collides(arm, box_params)
-        self._boxes = self._candidate_boxes(trees, box_params, lower, upper)
-        self._num_boxes = len(box_params)
+        self.base_free = not base_collides(arm, obstacles)
+        aligned = obstacles.axis_aligned
+        box_params = np.ascontiguousarray(
+            np.hstack([obstacles.centers[aligned], obstacles.half_extents[aligned]])
+        )
+        others = ~aligned
+        shape_params = np.zeros((int(others.sum()), SHAPE_COLUMNS))
+        shape_params[:, :3] = obstacles.centers[others]
+        shape_params[:, 3:6] = obstacles.half_extents[others]
+        shape_params[:, 6] = obstacles.kinds[others]
+        shape_params[:, 7:] = obstacles.rotations[others].reshape(-1, 9)
+        shape_lower, shape_upper = obstacles.lower[others], obstacles.upper[others]
+        shapes = (shape_params, *self._candidates(trees, (shape_lower + shape_upper) / 2,
+                                                  (shape_upper - shape_lower) / 2, shape_lower,
+                                                  shape_upper))  # fmt: skip
+        boxes = self._candidates(trees, box_params[:, :3], box_params[:, 3:],
+                                 obstacles.lower[aligned], obstacles.upper[aligned])  # fmt: skip
+        self._obstacle_arrays = (box_params, *boxes, shapes)
         self.description = (
-            f"{arm.name} sphere model ({len(trees.radii)} spheres), {self._num_boxes} boxes, "
+            f"{arm.name} sphere model ({len(trees.radii)} spheres), {obstacles.summary()}, "
             f"self-collision of {self.num_self_pairs} body pairs, edge resolution "
             f"{self.resolution} m" + ("" if self.base_free else ", base link in collision")
         )
 
-    def _candidate_boxes(self, trees: SphereTrees, box_params: np.ndarray, lower: np.ndarray,
-                         upper: np.ndarray) -> tuple[np.ndarray, ...]:  # fmt: skip
-        """Per body, the boxes it can reach.
+    def _candidates(self, trees: SphereTrees, center: np.ndarray, half: np.ndarray,
+                    lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, ...]:  # fmt: skip
+        """Per body, the obstacles it can reach: ``(lists, counts, lowers, uppers)``.
 
-        Those within its reach of the first joint's origin (which never moves), plus half the
-        resolution (the most an edge check grows it).
+        Those whose world bounding box (``center``, ``half``; corners ``lower``, ``upper``)
+        is within the body's reach of the first joint's origin (which never moves), plus half
+        the resolution (the most an edge check grows it).
         """
         arm = self.arm
         bodies = arm.num_bodies
@@ -197,9 +220,8 @@ class ArmSphereChecker:
         shift = arm.chain.joint_origins[:, :3, 3]
         slides = np.where(arm.chain.joint_types == 1, np.abs(arm.chain.joint_limits).max(axis=0),
                           0.0)  # fmt: skip
-        gaps = np.linalg.norm(np.maximum(np.abs(anchor - box_params[:, :3]) - box_params[:, 3:],
-                                         0.0), axis=1)  # fmt: skip
-        body_boxes = np.zeros((bodies, max(len(box_params), 1)), dtype=np.int64)
+        gaps = np.linalg.norm(np.maximum(np.abs(anchor - center) - half, 0.0), axis=1)
+        body_lists = np.zeros((bodies, max(len(center), 1)), dtype=np.int64)
         counts = np.zeros(bodies, dtype=np.int64)
         for j in range(1, bodies):
             root = trees.body_start[j]
@@ -209,15 +231,15 @@ class ArmSphereChecker:
             reach = (float(np.linalg.norm(shift[1:j], axis=1).sum()) + float(slides[:j].sum())
                      + extent)  # fmt: skip
             near = np.flatnonzero(gaps <= reach + self.resolution / 2 + 1e-9)
-            body_boxes[j, : len(near)] = near
+            body_lists[j, : len(near)] = near
             counts[j] = len(near)
-        body_lower = np.zeros((bodies, 3, body_boxes.shape[1]))
-        body_upper = np.zeros((bodies, 3, body_boxes.shape[1]))
+        body_lower = np.zeros((bodies, 3, body_lists.shape[1]))
+        body_upper = np.zeros((bodies, 3, body_lists.shape[1]))
         for j in range(bodies):
-            near = body_boxes[j, : counts[j]]
+            near = body_lists[j, : counts[j]]
             body_lower[j, :, : len(near)] = lower[near].T
             body_upper[j, :, : len(near)] = upper[near].T
-        return box_params, body_boxes, counts, body_lower, body_upper
+        return body_lists, counts, body_lower, body_upper
 
     @property
     def num_self_pairs(self) -> int:
@@ -233,12 +255,12 @@ class ArmSphereChecker:
         """Return ``bool[N]``: each state of ``states`` (N x dim) is in bounds and free.
 
         With ``clearance`` > 0 a state only counts as free when every moving body's spheres,
-        grown by that many metres, still miss every box, and the bodies of every checked
+        grown by that many metres, still miss every obstacle, and the bodies of every checked
         pair keep that much more than their collision gap between them.
 
         Raises:
             ValueError: ``clearance`` negative, not finite or above ``resolution / 2`` (the
-                broad phase only keeps boxes within that margin of each body).
+                broad phase only keeps obstacles within that margin of each body).
         """
         if not (isinstance(clearance, (int, float)) and 0 <= clearance <= self.resolution / 2):
             raise ValueError(
@@ -249,7 +271,7 @@ class ArmSphereChecker:
         if not self.base_free:
             return np.zeros(len(states), dtype=bool)
         return states_free_kernel(states, self._bounds, self._kinematics, self._trees,
-                                  self._boxes, self._self_model, float(clearance),
+                                  self._obstacle_arrays, self._self_model, float(clearance),
                                   self._scratch)  # fmt: skip
 
     def self_collisions(self, state: np.ndarray) -> list[tuple[str, str]]:
@@ -274,7 +296,7 @@ class ArmSphereChecker:
                 *_edge_work(dim, bodies, len(self._self_model[1]), steps))  # fmt: skip
         work[3][0] = self._trees[0][self._trees[5][0]] if self._trees[5][1] > 0 else 0.0
         settings = np.array([1.0 if self.base_free else 0.0, self.resolution])
-        context = (settings, self._bounds, self._kinematics, self._trees, self._boxes,
+        context = (settings, self._bounds, self._kinematics, self._trees, self._obstacle_arrays,
                    self._self_model, self._motion_radii, scratch_for(sphere_trees(self.arm)),
                    work)  # fmt: skip
         register_motion_kernel(context, motion_free_kernel)
@@ -294,7 +316,7 @@ class ArmSphereChecker:
         if not self.base_free:
             return np.zeros(len(starts), dtype=bool)
         return edges_free_kernel(starts, ends, self._bounds, self._kinematics, self._trees,
-                                 self._boxes, self._self_model, self._motion_radii,
+                                 self._obstacle_arrays, self._self_model, self._motion_radii,
                                  self.resolution, self._scratch)  # fmt: skip
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:

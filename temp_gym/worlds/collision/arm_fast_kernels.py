@@ -1,12 +1,14 @@
-"""The fast arm checker's compiled kernels: states and edges against boxes and itself.
+"""The fast arm checker's compiled kernels: states and edges against obstacles and itself.
 
 `temp_gym.worlds.collision.arm_fast` prepares the arrays and explains why the tests are
-conservative and certify whole motions; `temp_gym.worlds.collision.arm_fast_self` holds the
+conservative and certify whole motions; `temp_gym.worlds.collision.arm_fast_obstacles` holds
+the sphere-versus-obstacle tests and `temp_gym.worlds.collision.arm_fast_self` the
 self-collision tests. The kernels that return arrays allocate them and their scratch space,
 then hand everything to loops compiled without reference counting
 (`temp_gym.worlds.hot_path`), whose helpers numba inlines: counting the references of some
 thirty arrays per state used to cost more than the forward kinematics. The self-collision
-pairs are first screened on the root-sphere centers the box broad phase has just computed.
+pairs are first screened on the root-sphere centers the obstacle broad phase has just
+computed.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.arm.kinematics import chain_into, identity_poses, sincos_into
+from temp_gym.worlds.collision.arm_fast_obstacles import CERTAIN, FREE, HIT, body_touches
 from temp_gym.worlds.collision.arm_fast_self import (
     FAST_SELF_GAP,
     TABLE_MARGIN,
@@ -30,17 +33,6 @@ from temp_gym.worlds.hot_path import hot_inline, hot_path
 
 GROWTH_FLOOR = 1e-4
 """An edge interval whose spheres would grow by at most this (m) and still touch is blocked."""
-FREE, HIT, CERTAIN = 0, 1, 2
-"""`_pose_free`'s answers: free; a grown sphere touches a box; the state itself collides."""
-
-
-@hot_inline
-def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
-    """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
-    gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
-    gy = max(abs(y - box_params[b, 1]) - box_params[b, 4], 0.0)
-    gz = max(abs(z - box_params[b, 2]) - box_params[b, 5], 0.0)
-    return gx * gx + gy * gy + gz * gz <= radius * radius
 
 
 @hot_inline
@@ -54,45 +46,25 @@ def _in_bounds(states, i, bounds) -> bool:
 
 
 @hot_inline
-def tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-                  body_start, centers, radii, grow, box_params, b) -> bool:  # fmt: skip
-    """Whether a leaf sphere of body ``j``, grown by ``grow``, touches box ``b`` (a tree walk)."""
-    n = body_start[j]
-    end = body_start[j + 1]
-    while n < end:
-        x, y, z = place(poses, j, node_centers, n)
-        if sphere_hits_box(x, y, z, node_radii[n] + grow, box_params, b):
-            count = node_count[n]
-            if count > 0:
-                for k in range(node_first[n], node_first[n] + count):
-                    x, y, z = place(poses, j, centers, k)
-                    if sphere_hits_box(x, y, z, radii[k] + grow, box_params, b):
-                        return True
-                n = node_skip[n]
-            else:
-                n += 1
-        else:
-            n = node_skip[n]
-    return False
-
-
-@hot_inline
 def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
                node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
                radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, inflation, poses,
+               body_box_count, body_lower, body_upper, shapes, inflation, poses,
                root_world) -> int:  # fmt: skip
-    """Whether a pose is free of the boxes: `FREE`, `HIT` or `CERTAIN`.
+    """Whether a pose is free of the obstacles: `FREE`, `HIT` or `CERTAIN`.
 
-    `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every box, `HIT`
-    when one touches a box, `CERTAIN` when a body's inner ball (inside its pieces, not grown)
-    does: the state itself is in collision.
+    `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every obstacle,
+    `HIT` when one touches an obstacle, `CERTAIN` when a body's inner ball (inside its pieces,
+    not grown) does: the state itself is in collision. The axis-aligned boxes come first
+    (``box_params`` and the body lists after it), then the other obstacles (``shapes``:
+    `ArmSphereChecker`'s tuple of the same five arrays for them).
 
     ``sines[base + i]``, ``cosines[base + i]`` and ``values[value_base + i]`` are joint ``i``'s;
     ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
     ``poses`` holds the body frames and ``root_world`` (B, 3) the world centers of the bodies'
     root spheres (row 0, the base's, never changes): the self-collision test reads them.
     """
+    shape_params, body_shapes, body_shape_count, shape_lower, shape_upper = shapes
     chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value_base)
     # Distal bodies first: they sweep the most space, so collisions are found sooner.
     for j in range(poses.shape[0] - 1, 0, -1):
@@ -101,30 +73,19 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
             continue
         bx, by, bz = place(poses, j, node_centers, root)
         root_world[j, 0], root_world[j, 1], root_world[j, 2] = bx, by, bz
-        count = body_box_count[j]
         bound = node_radii[root] + inflation[j]
-        # Broad phase, branch-free so that LLVM makes it SIMD over the body's candidates.
-        hits = 0
-        for n in range(count):
-            gx = max(max(body_lower[j, 0, n] - bx, bx - body_upper[j, 0, n]), 0.0)
-            gy = max(max(body_lower[j, 1, n] - by, by - body_upper[j, 1, n]), 0.0)
-            gz = max(max(body_lower[j, 2, n] - bz, bz - body_upper[j, 2, n]), 0.0)
-            hits += gx * gx + gy * gy + gz * gz <= bound * bound
-        if hits == 0:
-            continue
-        for n in range(count):
-            b = body_boxes[j, n]
-            if not sphere_hits_box(bx, by, bz, bound, box_params, b):
-                continue
-            # A box that reaches an inner ball is in the body: no tree walk needed.
-            for k in range(inner_start[j], inner_start[j + 1]):
-                x, y, z = place(poses, j, inner_centers, k)
-                if sphere_hits_box(x, y, z, inner_radii[k], box_params, b):
-                    return CERTAIN
-            if tree_hits_box(poses, j, node_centers, node_radii, node_skip, node_first,
-                             node_count, body_start, centers, radii, inflation[j], box_params,
-                             b):  # fmt: skip
-                return HIT
+        answer = body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
+                              node_first, node_count, body_start, centers, radii, inner_centers,
+                              inner_radii, inner_start, inflation[j], box_params, body_boxes,
+                              body_box_count[j], body_lower, body_upper, False)  # fmt: skip
+        if answer != FREE:
+            return answer
+        answer = body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
+                              node_first, node_count, body_start, centers, radii, inner_centers,
+                              inner_radii, inner_start, inflation[j], shape_params, body_shapes,
+                              body_shape_count[j], shape_lower, shape_upper, True)  # fmt: skip
+        if answer != FREE:
+            return answer
     return FREE
 
 
@@ -163,7 +124,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     poses, root_world, inflation, table_growth, sines, cosines, scratch = work
     num, dim = states.shape
@@ -176,14 +137,15 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
                     flat, i * dim, table_grid, table_bounds, table_growth,
                     TABLE_MARGIN)):  # fmt: skip
                 continue
-            boxes_free = _pose_free(
+            obstacles_free = _pose_free(
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
                 node_centers, node_radii, node_skip, node_first, node_count,
                 body_start, centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                body_boxes, body_box_count, body_lower, body_upper, inflation, poses, root_world,
+                body_boxes, body_box_count, body_lower, body_upper, shapes, inflation, poses,
+                root_world,
             ) == FREE  # fmt: skip
             # Most poses keep every pair's root spheres apart: no tree walk.
-            out[i] = boxes_free and (
+            out[i] = obstacles_free and (
                 roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
                             FAST_SELF_GAP)
                 or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
@@ -197,7 +159,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
 def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
-                body_lower, body_upper, sphere_pairs, table_grid, table_bounds, inflation,
+                body_lower, body_upper, shapes, sphere_pairs, table_grid, table_bounds, inflation,
                 table_growth, poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
@@ -210,8 +172,8 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift,
                         node_centers, node_radii, node_skip, node_first, node_count, body_start,
                         centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                        body_boxes, body_box_count, body_lower, body_upper, inflation, poses,
-                        root_world)  # fmt: skip
+                        body_boxes, body_box_count, body_lower, body_upper, shapes, inflation,
+                        poses, root_world)  # fmt: skip
     if answer != FREE:
         return answer
     if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
@@ -227,7 +189,7 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
                inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, sphere_pairs,
+               body_box_count, body_lower, body_upper, shapes, sphere_pairs,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -285,8 +247,8 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, capsules, box_params,
-                             body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
-                             table_grid, table_bounds, inflation, table_growth, poses,
+                             body_boxes, body_box_count, body_lower, body_upper, shapes,
+                             sphere_pairs, table_grid, table_bounds, inflation, table_growth, poses,
                              root_world, sines, cosines, scratch)  # fmt: skip
         if answer == FREE:
             continue
@@ -300,7 +262,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-                       body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
+                       body_box_count, body_lower, body_upper, shapes, sphere_pairs, table_grid,
                        table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
                        scratch) != FREE:  # fmt: skip
             return False
@@ -330,7 +292,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = starts.shape[1]
     bodies = dim + 1
@@ -355,7 +317,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                             node_centers, node_radii, node_skip, node_first, node_count,
                             body_start, centers, radii, inner_centers, inner_radii,
                             inner_start, capsules, box_params, body_boxes, body_box_count,
-                            body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
+                            body_lower, body_upper, shapes, sphere_pairs, table_grid, table_bounds,
                             table_motion, motion, resolution, poses, root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                             stack_high, scratch)  # fmt: skip
@@ -375,7 +337,7 @@ def motion_free_kernel(context, start, end) -> bool:
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
      cosines, stack_low, stack_high) = work  # fmt: skip
@@ -394,8 +356,8 @@ def motion_free_kernel(context, start, end) -> bool:
     return _edge_free(starts, ends, 0, bounds, kind, rotation, shift,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
                       centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
-                      body_boxes, body_box_count, body_lower,
-                      body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
+                      body_boxes, body_box_count, body_lower, body_upper, shapes,
+                      sphere_pairs, table_grid, table_bounds, table_motion, motion,
                       settings[1], poses, root_world, sweep, inflation, table_sweep,
                       table_growth, q, sines, cosines, stack_low, stack_high,
                       scratch)  # fmt: skip
@@ -431,7 +393,5 @@ __all__ = [
     "colliding_pairs_kernel",
     "edges_free_kernel",
     "motion_free_kernel",
-    "sphere_hits_box",
     "states_free_kernel",
-    "tree_hits_box",
 ]

@@ -172,8 +172,8 @@ class RobotSpec:
         A state the fast checker calls free is free. One it refuses is asked of the exact
         checker too, whose verdict stands: the fast checker is conservative, so a state a few
         millimetres from a surface may be refused by it and be free. A refused state's
-        reason names the touching link and box with the penetration depth, or the colliding
-        link pairs, and the checker.
+        reason names the touching link and obstacle (its kind and index, "cylinder 3") with
+        the penetration depth, or the colliding link pairs, and the checker.
         """
         checker = self.make_checker(workspace)
         fast_free = checker.states_free(states)
@@ -196,9 +196,11 @@ def _refusal(checker: CollisionChecker, state: np.ndarray) -> str:
     if pairs:
         what = "self-collision between " + ", ".join(f"{a} and {b}" for a, b in pairs)
     elif report and report[0][2] <= 0:
-        link, box, distance = report[0]
+        link, index, distance = report[0]
         depth = f", penetration {-distance * 1000:.1f} mm" if distance < 0 else ""
-        what = f"collision: {link} touches box {box}{depth}"
+        named = hasattr(checker, "obstacle_name")
+        obstacle = checker.obstacle_name(index) if named else f"obstacle {index}"
+        what = f"collision: {link} touches {obstacle}{depth}"
     else:
         what = "collision"
     return f"{what} ({checker.description})"

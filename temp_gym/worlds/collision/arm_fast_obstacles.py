@@ -1,0 +1,149 @@
+"""The fast arm checker's sphere-versus-obstacle tests, for every obstacle kind.
+
+`temp_gym.worlds.collision.arm_fast_kernels` calls `body_touches` once per moving body and
+obstacle list. Obstacles come in two lists:
+
+* **axis-aligned boxes**, rows ``(cx, cy, cz, hx, hy, hz)`` tested by `sphere_hits_box`: the
+  arithmetic every box-only world has always been checked with;
+* **other obstacles** (oriented boxes, cylinders, spheres), rows of `SHAPE_COLUMNS` numbers:
+  center, half extents in the obstacle's frame, kind (`temp_gym.problem.obstacles`), and the
+  rotation matrix row by row, tested by `sphere_hits_shape` in the obstacle's frame.
+
+`body_touches` takes the list's kind as a constant (``any_kind``); inlined, the compiler drops
+the other branch, so the box list runs the code it always ran and a world without other
+obstacles pays one empty loop per body.
+
+Every test is closed (touching counts) and exact up to rounding, so the fast checker stays
+conservative: its spheres cover the arm (`temp_gym.worlds.collision.arm_fast`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from temp_gym.problem.obstacles import CYLINDER, SPHERE
+from temp_gym.worlds.collision.arm_fast_self import place
+from temp_gym.worlds.hot_path import hot_inline
+
+FREE, HIT, CERTAIN = 0, 1, 2
+"""Answers: free; a grown sphere touches an obstacle; an inner ball does (the state collides)."""
+SHAPE_COLUMNS = 16
+"""Numbers per other obstacle: center (3), half extents (3), kind (1), rotation (9, by rows)."""
+
+
+@hot_inline
+def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
+    """Closed sphere versus closed box ``box_params[b] = (cx, cy, cz, hx, hy, hz)``."""
+    gx = max(abs(x - box_params[b, 0]) - box_params[b, 3], 0.0)
+    gy = max(abs(y - box_params[b, 1]) - box_params[b, 4], 0.0)
+    gz = max(abs(z - box_params[b, 2]) - box_params[b, 5], 0.0)
+    return gx * gx + gy * gy + gz * gz <= radius * radius
+
+
+@hot_inline
+def sphere_hits_shape(x, y, z, radius, shapes, s) -> bool:
+    """Closed sphere versus the closed obstacle ``shapes[s]`` of any kind (module docstring).
+
+    A sphere obstacle: center distance against the summed radii. A cylinder, in its frame:
+    the distance from a point to it is the hypotenuse of the radial excess
+    ``max(|xy| - r, 0)`` and the axial excess ``max(|z| - l, 0)``. A box, in its frame: the
+    axis-aligned test.
+    """
+    dx = x - shapes[s, 0]
+    dy = y - shapes[s, 1]
+    dz = z - shapes[s, 2]
+    kind = shapes[s, 6]
+    if kind == SPHERE:
+        reach = radius + shapes[s, 3]
+        return dx * dx + dy * dy + dz * dz <= reach * reach
+    # The point in the obstacle's frame, R^T (p - c); R's rows are columns 7-9, 10-12, 13-15.
+    lx = shapes[s, 7] * dx + shapes[s, 10] * dy + shapes[s, 13] * dz
+    ly = shapes[s, 8] * dx + shapes[s, 11] * dy + shapes[s, 14] * dz
+    lz = shapes[s, 9] * dx + shapes[s, 12] * dy + shapes[s, 15] * dz
+    if kind == CYLINDER:
+        radial = max(math.sqrt(lx * lx + ly * ly) - shapes[s, 3], 0.0)
+        axial = max(abs(lz) - shapes[s, 5], 0.0)
+        return radial * radial + axial * axial <= radius * radius
+    gx = max(abs(lx) - shapes[s, 3], 0.0)
+    gy = max(abs(ly) - shapes[s, 4], 0.0)
+    gz = max(abs(lz) - shapes[s, 5], 0.0)
+    return gx * gx + gy * gy + gz * gz <= radius * radius
+
+
+@hot_inline
+def sphere_hits(x, y, z, radius, params, b, any_kind) -> bool:
+    """`sphere_hits_shape` when ``any_kind``, else `sphere_hits_box` (a constant per caller)."""
+    if any_kind:
+        return sphere_hits_shape(x, y, z, radius, params, b)
+    return sphere_hits_box(x, y, z, radius, params, b)
+
+
+@hot_inline
+def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
+              body_start, centers, radii, grow, params, b, any_kind) -> bool:  # fmt: skip
+    """Whether a leaf sphere of body ``j``, grown by ``grow``, touches obstacle ``b`` (a walk)."""
+    n = body_start[j]
+    end = body_start[j + 1]
+    while n < end:
+        x, y, z = place(poses, j, node_centers, n)
+        if sphere_hits(x, y, z, node_radii[n] + grow, params, b, any_kind):
+            count = node_count[n]
+            if count > 0:
+                for k in range(node_first[n], node_first[n] + count):
+                    x, y, z = place(poses, j, centers, k)
+                    if sphere_hits(x, y, z, radii[k] + grow, params, b, any_kind):
+                        return True
+                n = node_skip[n]
+            else:
+                n += 1
+        else:
+            n = node_skip[n]
+    return False
+
+
+@hot_inline
+def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
+                 node_count, body_start, centers, radii, inner_centers, inner_radii,
+                 inner_start, grow, params, body_list, count, body_lower, body_upper,
+                 any_kind) -> int:  # fmt: skip
+    """`FREE`, `HIT` or `CERTAIN`: body ``j`` against its ``count`` candidate obstacles.
+
+    ``(bx, by, bz)`` is its root sphere's world center and ``bound`` that sphere's grown
+    radius; ``body_list[j, :count]`` are the candidates' rows of ``params`` and
+    ``body_lower[j]``, ``body_upper[j]`` (3, count) their world bounding boxes.
+    """
+    # Broad phase, branch-free so that LLVM makes it SIMD over the body's candidates.
+    hits = 0
+    for n in range(count):
+        gx = max(max(body_lower[j, 0, n] - bx, bx - body_upper[j, 0, n]), 0.0)
+        gy = max(max(body_lower[j, 1, n] - by, by - body_upper[j, 1, n]), 0.0)
+        gz = max(max(body_lower[j, 2, n] - bz, bz - body_upper[j, 2, n]), 0.0)
+        hits += gx * gx + gy * gy + gz * gz <= bound * bound
+    if hits == 0:
+        return FREE
+    for n in range(count):
+        b = body_list[j, n]
+        if not sphere_hits(bx, by, bz, bound, params, b, any_kind):
+            continue
+        # An obstacle that reaches an inner ball is in the body: no tree walk needed.
+        for k in range(inner_start[j], inner_start[j + 1]):
+            x, y, z = place(poses, j, inner_centers, k)
+            if sphere_hits(x, y, z, inner_radii[k], params, b, any_kind):
+                return CERTAIN
+        if tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
+                     body_start, centers, radii, grow, params, b, any_kind):  # fmt: skip
+            return HIT
+    return FREE
+
+
+__all__ = [
+    "CERTAIN",
+    "FREE",
+    "HIT",
+    "SHAPE_COLUMNS",
+    "body_touches",
+    "sphere_hits",
+    "sphere_hits_box",
+    "sphere_hits_shape",
+    "tree_hits",
+]
