@@ -7,7 +7,8 @@ from functools import cache
 import numpy as np
 import pytest
 
-from temp_gym.problem import Workspace
+from temp_gym.planning.plan import plan
+from temp_gym.problem import Problem, Workspace
 from temp_gym.problem.obstacles import BOX, CYLINDER, rotation_matrices
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_manipulation import (
@@ -276,3 +277,28 @@ def test_tasks_are_free_for_the_exact_checker_and_goals_reach_near_surfaces(robo
             assert exact.states_free(np.stack([problem.start, problem.goal])).all()
             if near == "goal":
                 assert near_surface(exact, problem.goal[None])[0]
+
+
+def test_the_expert_solves_tasks_of_both_difficulties():
+    """Informed RRT* solves every task at 3000 nodes with the demonstrations' retries (other
+    seeds, `data.attempts`, each also planned from the goal, `data.expert_reverse`), and its
+    paths are certified by the exact checker (`plan` certifies what it returns)."""
+    rng = np.random.default_rng(5)
+    unsolved = []
+    for workspace in sample("franka_panda", 2, seed=11):
+        for difficulty in ("easy", "challenging"):
+            problem = generate_arm_task(workspace, rng, difficulty, 0.1)
+            reverse = Problem(workspace, problem.goal, problem.start, problem.goal_radius)
+            results = [
+                plan(task, planner="informed_rrt_star", seed=seed, max_nodes=3000,
+                     stop_at_first=True)
+                for seed in range(3) for task in (problem, reverse)
+            ]  # fmt: skip
+            solved = [result for result in results if result.success]
+            if not solved:
+                unsolved.append(difficulty)
+            exact = make_checker(workspace, exact=True)
+            for result in solved:
+                path = np.asarray(result.path)
+                assert exact.states_free(path).all()
+    assert not unsolved, f"Informed RRT* missed {unsolved} at 3000 nodes"
