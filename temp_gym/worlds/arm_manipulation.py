@@ -58,9 +58,10 @@ from temp_gym.worlds.arm_pieces import (
     Piece,
     as_obstacles,
     axis_quaternion,
+    bar,
     bounding_boxes,
     box,
-    cylinder,
+    objects_on,
     placed,
 )
 from temp_gym.worlds.arm_world import FLOOR_TOP, arm_of, arm_scale, base_free
@@ -78,12 +79,6 @@ TWIST = 0.35
 """Largest turn (radians) of a structure about its own centre, away from facing the robot."""
 SEPARATION = 0.05
 """Least gap (m) between two structures' footprints."""
-OBJECT_RADIUS = (0.02, 0.06)
-"""Radius range (m) of a can (an upright cylinder)."""
-OBJECT_HALF = (0.015, 0.12)
-"""Range of a box object's horizontal half sides (m)."""
-OBJECT_HALF_HEIGHT = (0.03, 0.2)
-"""Range of an object's half height (m), cut to the room above its surface."""
 PLACEMENT_TRIES = 50
 """Placements of a structure tried before the workspace is drawn with one fewer."""
 TRIES = 100
@@ -96,62 +91,6 @@ Ground = float | None
 def _low_end(rng: np.random.Generator, ground: Ground, top: float) -> float:
     """Where supports from ``top`` down end: the ground, or, without one, 40-80 cm lower."""
     return ground if ground is not None else top - rng.uniform(0.4, 0.8)
-
-
-def _objects_on(rng: np.random.Generator, count: int, rect: tuple, surface: float,
-                room: float) -> list[Piece]:  # fmt: skip
-    """Up to ``count`` cans and boxes standing on ``surface`` within ``rect`` (x0, x1, y0, y1).
-
-    ``room`` is the free height above the surface; objects take at most 80% of it and do not
-    overlap one another (footprint circles apart). Fewer come when the surface is full.
-    """
-    x0, x1, y0, y1 = rect
-    highest = min(OBJECT_HALF_HEIGHT[1], 0.4 * room)
-    if highest < OBJECT_HALF_HEIGHT[0]:
-        return []
-    pieces: list[Piece] = []
-    circles: list[tuple[float, float, float]] = []
-    for _ in range(count):
-        for _ in range(10):
-            half_height = rng.uniform(OBJECT_HALF_HEIGHT[0], highest)
-            if rng.random() < 0.5:
-                radius = rng.uniform(*OBJECT_RADIUS)
-                footprint, yaw, half = radius, None, None
-            else:
-                half = np.array([*rng.uniform(*OBJECT_HALF, size=2), half_height])
-                footprint, yaw, radius = (
-                    float(np.hypot(half[0], half[1])),
-                    rng.uniform(-np.pi, np.pi),
-                    None,
-                )
-            if x1 - x0 <= 2 * footprint or y1 - y0 <= 2 * footprint:
-                continue
-            x, y = (
-                rng.uniform(x0 + footprint, x1 - footprint),
-                rng.uniform(y0 + footprint, y1 - footprint),
-            )
-            if any(np.hypot(x - cx, y - cy) < footprint + r for cx, cy, r in circles):
-                continue
-            center = (x, y, surface + half_height)
-            pieces.append(
-                cylinder(center, radius, half_height) if half is None else box(center, half, yaw)
-            )
-            circles.append((x, y, footprint))
-            break
-    return pieces
-
-
-def _bar(start, end, thickness: float, round_bar: bool) -> Piece:
-    """A bar (a box, or a cylinder when ``round_bar``) between two points on one world axis."""
-    start, end = np.asarray(start, float), np.asarray(end, float)
-    axis = int(np.argmax(np.abs(end - start)))
-    half_length = abs(end[axis] - start[axis]) / 2
-    center = (start + end) / 2
-    if round_bar:
-        return cylinder(center, thickness, half_length, axis)
-    half = np.full(3, thickness)
-    half[axis] = half_length
-    return box(center, half)
 
 
 def _bookshelf(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], np.ndarray]:
@@ -177,7 +116,7 @@ def _bookshelf(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], n
         for dx in (-1.0, 1.0):
             for dy in (-1.0, 1.0):
                 at = (x + dx * (depth - leg), dy * (width - leg))
-                pieces.append(_bar((*at, low), (*at, top), leg, round_leg))
+                pieces.append(bar((*at, low), (*at, top), leg, round_leg))
     shelves = [(-width, width)]
     if rng.random() < 0.35:  # a vertical divider between the lowest and highest boards
         lateral, half_thickness = rng.uniform(-0.5, 0.5) * width, rng.uniform(0.01, 0.02)
@@ -192,7 +131,7 @@ def _bookshelf(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], n
     for k, z in enumerate(heights):
         room = spacing - 2 * board if k + 1 < count else 0.5
         for y0, y1 in shelves:
-            pieces += _objects_on(rng, int(rng.integers(0, 4)), (x - depth, x + depth, y0, y1),
+            pieces += objects_on(rng, int(rng.integers(0, 4)), (x - depth, x + depth, y0, y1),
                                   z + board, room)  # fmt: skip
     return pieces, np.array([x, 0.0, 0.0])
 
@@ -236,7 +175,7 @@ def _open_box(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], np
         box((x, width, floor + height), (depth + wall, wall, height)),
     ]
     pieces += _lid(rng, x, (depth + wall, width + wall), top, wall)
-    pieces += _objects_on(rng, int(rng.integers(0, 4)),
+    pieces += objects_on(rng, int(rng.integers(0, 4)),
                           (x - depth + wall, x + depth - wall, -width + wall, width - wall),
                           floor, 2 * height)  # fmt: skip
     if ground is not None and bottom - wall - ground > 0.03 and rng.random() < 0.6:
@@ -256,9 +195,9 @@ def _face_bars(rng: np.random.Generator, corners: tuple, thickness: float,
     start, end = np.asarray(start, float), np.asarray(end, float)
     spots = (np.arange(count) + rng.uniform(0.6, 1.4, size=count)) / (count + 0.5)
     if horizontal:
-        return [_bar((*start, low + f * (high - low)), (*end, low + f * (high - low)), thickness,
+        return [bar((*start, low + f * (high - low)), (*end, low + f * (high - low)), thickness,
                      round_bar) for f in spots]  # fmt: skip
-    return [_bar((*(start + f * (end - start)), low), (*(start + f * (end - start)), high),
+    return [bar((*(start + f * (end - start)), low), (*(start + f * (end - start)), high),
                  thickness, round_bar) for f in spots]  # fmt: skip
 
 
@@ -298,7 +237,7 @@ def _cage(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], np.nda
     else:  # a cap of bars across
         for f in np.linspace(-1.0, 1.0, int(rng.integers(2, 5)) + 2)[1:-1]:
             pieces.append(
-                _bar(
+                bar(
                     (x + f * depth, -width, high + thickness),
                     (x + f * depth, width, high + thickness),
                     thickness,
@@ -307,12 +246,12 @@ def _cage(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], np.nda
             )
     if rng.random() < 0.7:
         room = (x - depth + plate, x + depth - plate, -width + plate, width - plate)
-        pieces += _objects_on(rng, 1, room, low, 2 * height)
+        pieces += objects_on(rng, 1, room, low, 2 * height)
     if ground is not None and bottom - plate - ground > 0.05 and rng.random() < 0.5:
         for dx in (-1.0, 1.0):
             for dy in (-1.0, 1.0):
                 at = (x + dx * depth, dy * width)
-                pieces.append(_bar((*at, ground), (*at, bottom - plate), thickness, round_bar))
+                pieces.append(bar((*at, ground), (*at, bottom - plate), thickness, round_bar))
     return pieces, np.array([x, 0.0, 0.0])
 
 
@@ -331,19 +270,19 @@ def _table(rng: np.random.Generator, ground: Ground) -> tuple[list[Piece], np.nd
     for dx in (-1.0, 1.0):
         for dy in (-1.0, 1.0):
             at = (x + dx * reach_x, dy * reach_y)
-            pieces.append(_bar((*at, low), (*at, top - thickness), leg, round_leg))
+            pieces.append(bar((*at, low), (*at, top - thickness), leg, round_leg))
     surface = top + thickness
-    pieces += _objects_on(rng, int(rng.integers(2, 9)), (x - depth, x + depth, -width, width),
+    pieces += objects_on(rng, int(rng.integers(2, 9)), (x - depth, x + depth, -width, width),
                           surface, 0.5)  # fmt: skip
     if rng.random() < 0.6:  # objects under the table
         inner = (x - reach_x + leg, x + reach_x - leg, -reach_y + leg, reach_y - leg)
         if ground is None or rng.random() < 0.5:  # on a lower board between the legs
             z = low + (top - low) * rng.uniform(0.15, 0.5)
             pieces.append(box((x, 0.0, z), (reach_x + leg, reach_y + leg, thickness)))
-            pieces += _objects_on(rng, int(rng.integers(1, 4)), inner, z + thickness,
+            pieces += objects_on(rng, int(rng.integers(1, 4)), inner, z + thickness,
                                   top - 2 * thickness - z)  # fmt: skip
         else:  # on the ground
-            pieces += _objects_on(
+            pieces += objects_on(
                 rng, int(rng.integers(1, 4)), inner, ground, top - thickness - ground
             )
     return pieces, np.array([x, 0.0, 0.0])

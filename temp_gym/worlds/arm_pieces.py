@@ -5,7 +5,8 @@ of its own: ``x`` points away from the robot, ``y`` is lateral, ``z`` is up, and
 base is at the origin. A `Piece` is one obstacle in that frame; `placed` turns a structure's
 pieces about the vertical axis (any angle, not only the four sides of
 `temp_gym.worlds.arm_world`), and `as_obstacles` hands them to
-`temp_gym.problem.Workspace.from_obstacles`.
+`temp_gym.problem.Workspace.from_obstacles`. `bar` and `objects_on` build the parts every
+structure shares: bars and legs, and cans and boxes standing on a surface.
 
 Orientations are quaternions ``[x, y, z, w]``, as in the problem format
 (`temp_gym.problem.obstacles`).
@@ -29,6 +30,12 @@ from temp_gym.problem.obstacles import (
 
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 """The identity quaternion ``[x, y, z, w]``."""
+OBJECT_RADIUS = (0.02, 0.06)
+"""Radius range (m) of a can (an upright cylinder)."""
+OBJECT_HALF = (0.015, 0.12)
+"""Range of a box object's horizontal half sides (m)."""
+OBJECT_HALF_HEIGHT = (0.03, 0.2)
+"""Range of an object's half height (m), cut to the room above its surface."""
 
 
 def axis_quaternion(axis: int, angle: float) -> np.ndarray:
@@ -101,6 +108,62 @@ def cylinder(center, radius: float, half_length: float, axis: int = 2) -> Piece:
     return Piece(CYLINDER, np.asarray(center, float), half, orientation)
 
 
+def objects_on(rng: np.random.Generator, count: int, rect: tuple, surface: float,
+                room: float) -> list[Piece]:  # fmt: skip
+    """Up to ``count`` cans and boxes standing on ``surface`` within ``rect`` (x0, x1, y0, y1).
+
+    ``room`` is the free height above the surface; objects take at most 80% of it and do not
+    overlap one another (footprint circles apart). Fewer come when the surface is full.
+    """
+    x0, x1, y0, y1 = rect
+    highest = min(OBJECT_HALF_HEIGHT[1], 0.4 * room)
+    if highest < OBJECT_HALF_HEIGHT[0]:
+        return []
+    pieces: list[Piece] = []
+    circles: list[tuple[float, float, float]] = []
+    for _ in range(count):
+        for _ in range(10):
+            half_height = rng.uniform(OBJECT_HALF_HEIGHT[0], highest)
+            if rng.random() < 0.5:
+                radius = rng.uniform(*OBJECT_RADIUS)
+                footprint, yaw, half = radius, None, None
+            else:
+                half = np.array([*rng.uniform(*OBJECT_HALF, size=2), half_height])
+                footprint, yaw, radius = (
+                    float(np.hypot(half[0], half[1])),
+                    rng.uniform(-np.pi, np.pi),
+                    None,
+                )
+            if x1 - x0 <= 2 * footprint or y1 - y0 <= 2 * footprint:
+                continue
+            x, y = (
+                rng.uniform(x0 + footprint, x1 - footprint),
+                rng.uniform(y0 + footprint, y1 - footprint),
+            )
+            if any(np.hypot(x - cx, y - cy) < footprint + r for cx, cy, r in circles):
+                continue
+            center = (x, y, surface + half_height)
+            pieces.append(
+                cylinder(center, radius, half_height) if half is None else box(center, half, yaw)
+            )
+            circles.append((x, y, footprint))
+            break
+    return pieces
+
+
+def bar(start, end, thickness: float, round_bar: bool) -> Piece:
+    """A bar (a box, or a cylinder when ``round_bar``) between two points on one world axis."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    axis = int(np.argmax(np.abs(end - start)))
+    half_length = abs(end[axis] - start[axis]) / 2
+    center = (start + end) / 2
+    if round_bar:
+        return cylinder(center, thickness, half_length, axis)
+    half = np.full(3, thickness)
+    half[axis] = half_length
+    return box(center, half)
+
+
 def placed(pieces: list[Piece], yaw: float, twist: float = 0.0, anchor=None) -> list[Piece]:
     """A structure's ``pieces`` turned by ``twist`` about its ``anchor``, then by ``yaw``.
 
@@ -141,13 +204,18 @@ def as_obstacles(pieces: list[Piece]) -> list[Obstacle]:
 
 __all__ = [
     "IDENTITY",
+    "OBJECT_HALF",
+    "OBJECT_HALF_HEIGHT",
+    "OBJECT_RADIUS",
     "Piece",
     "as_obstacles",
     "axis_quaternion",
+    "bar",
     "bounding_boxes",
     "box",
     "compose",
     "cylinder",
+    "objects_on",
     "placed",
     "turn_about_z",
 ]

@@ -14,17 +14,19 @@ from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_manipulation import (
     BUILDERS,
     FLOOR_SHARE,
-    OBJECT_HALF,
-    OBJECT_HALF_HEIGHT,
-    OBJECT_RADIUS,
     PEDESTAL_FLOOR,
     SEPARATION,
     STRUCTURES,
     _lid,
-    _objects_on,
     manipulation_scene,
 )
-from temp_gym.worlds.arm_pieces import bounding_boxes
+from temp_gym.worlds.arm_pieces import (
+    OBJECT_HALF,
+    OBJECT_HALF_HEIGHT,
+    OBJECT_RADIUS,
+    bounding_boxes,
+    objects_on,
+)
 from temp_gym.worlds.arm_structured import MIN_FREE_FRACTION
 from temp_gym.worlds.arm_world import (
     FLOOR_TOP,
@@ -140,7 +142,7 @@ def test_objects_stand_on_their_surface_apart_and_in_the_ranges():
     drawn = 0
     for _ in range(50):
         room = rng.uniform(0.1, 0.6)
-        pieces = _objects_on(rng, 6, rect, 0.3, room)
+        pieces = objects_on(rng, 6, rect, 0.3, room)
         drawn += len(pieces)
         assert len(pieces) <= 6
         lower, upper = bounding_boxes(pieces)
@@ -162,7 +164,7 @@ def test_objects_stand_on_their_surface_apart_and_in_the_ranges():
             for b, rb in footprints[k + 1 :]:
                 assert np.linalg.norm(a - b) >= ra + rb
     assert drawn > 100
-    assert _objects_on(rng, 5, rect, 0.3, 0.05) == []  # no room for the smallest object
+    assert objects_on(rng, 5, rect, 0.3, 0.05) == []  # no room for the smallest object
 
 
 def test_a_tilted_lid_rests_on_its_hinge_edge():
