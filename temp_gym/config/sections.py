@@ -78,8 +78,9 @@ class DataConfig:
     workspace_family: str = "boxes"
     """Which workspaces the train and val pools hold (`temp_gym.worlds.structured`): boxes (the
     robot's own generator, as every dataset before the key), corridors, maze, traps, narrow,
-    clutter (the point worlds' and the iiwa's own versions), or mixed (a family drawn per
-    workspace)."""
+    clutter (the point worlds' and the arms' own versions), manipulation (arms only: shelves,
+    open boxes, cages and tables at any angle, `temp_gym.worlds.arm_manipulation`), or mixed
+    (one of the first six drawn per workspace)."""
     planner: str = "informed_rrt_star"
     """The expert, a planner of `temp_gym.plan`: Informed RRT* refines in fewer nodes."""
     max_nodes: int = 2000

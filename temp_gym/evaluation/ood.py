@@ -24,9 +24,13 @@ opt-in families of `temp_gym.worlds.structured` have walls with openings, cups a
 but randomized and never such a scene (``tests/worlds/test_structured.py`` measures it;
 ``tests/worlds/test_arm_structured.py`` for the arms' families).
 
-The problems are fixed (no randomness) and stored as JSON under ``examples/ood/{2d,3d}/``;
-``python -m temp_gym.evaluation.ood`` rewrites those files from the builders here, and the tests
-check that the two agree. `load_ood_family` reads them.
+The arms' scenes (the iiwa's here, the Panda's in `temp_gym.evaluation.ood_arm`, made of
+structures its training family ``manipulation`` never draws in that form) have tasks drawn
+from fixed seeds and checked solvable.
+
+The problems are fixed (no randomness) and stored as JSON under
+``examples/ood/{2d,3d,7d,panda}/``; ``python -m temp_gym.evaluation.ood`` rewrites those files
+from the builders here, and the tests check that the two agree. `load_ood_family` reads them.
 """
 
 from __future__ import annotations
@@ -39,12 +43,13 @@ import numpy as np
 
 from temp_gym.config import script_parser
 from temp_gym.config.checks import check_output_dir
+from temp_gym.evaluation.ood_arm import PANDA_BUILDERS
 from temp_gym.jobs import run_script
-from temp_gym.problem import Problem
-from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, RobotSpec
+from temp_gym.problem import Problem, Workspace
+from temp_gym.worlds.robots import FRANKA_PANDA, KUKA_IIWA14, POINT2D, POINT3D, RobotSpec
 
 EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples" / "ood"
-WORLD_DIRS = {spec.name: spec.short_name for spec in (POINT2D, POINT3D, KUKA_IIWA14)}
+WORLD_DIRS = {spec.name: spec.short_name for spec in (POINT2D, POINT3D, KUKA_IIWA14, FRANKA_PANDA)}
 """Robot -> folder of its family under `EXAMPLES_DIR` (the robot's short name)."""
 
 
@@ -225,55 +230,13 @@ PLATE = 0.01
 
 def _arm_problem(boxes: list[dict], start_near, goal_near, seed: int,
                  spec: RobotSpec = KUKA_IIWA14) -> Problem:  # fmt: skip
-    """A task in a fixed arm scene: start and goal with the end effector in given regions.
+    """A task in a fixed scene of axis-aligned ``boxes`` (`ood_arm.arm_task`)."""
+    from temp_gym.evaluation.ood_arm import arm_task
 
-    ``start_near`` and ``goal_near`` are predicates on the end effector's position (the last
-    body's origin). Configurations are drawn from a fixed seed; a pair is kept when both are
-    free, the straight motion between them is blocked, and Informed RRT* (seed 0,
-    `FEASIBILITY_NODES` nodes) connects them, so the task is known to be solvable.
-    Deterministic: the same scene and seed give the same task.
-    """
-    from temp_gym.planning.plan import plan
-    from temp_gym.worlds.arm.model import load_arm
-    from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
-
-    arm = load_arm(spec.description)
-    limits = arm.joint_limits()
-    lower = np.array([np.subtract(b["center"], b["half_extents"]) for b in boxes])
-    upper = np.array([np.add(b["center"], b["half_extents"]) for b in boxes])
-    checker = ArmSphereChecker(arm, limits, lower, upper)
-    rng = np.random.default_rng(seed)
-    candidates: dict[str, list[np.ndarray]] = {"start": [], "goal": []}
-    for _ in range(400):
-        states = rng.uniform(limits[0], limits[1], size=(512, arm.dim))
-        free = checker.states_free(states)
-        effector = arm.forward_kinematics(states)[:, -1, :3, 3]
-        for name, near in (("start", start_near), ("goal", goal_near)):
-            hits = np.flatnonzero(free & np.array([bool(near(p)) for p in effector]))
-            candidates[name].extend(states[hits[:4]])
-        pairs = min(len(candidates["start"]), len(candidates["goal"]))
-        for start, goal in zip(candidates["start"][:pairs], candidates["goal"][:pairs]):
-            if checker.edge_free(start, goal):
-                continue
-            problem = Problem.from_dict(
-                {
-                    "robot": spec.name,
-                    "obstacles": boxes,
-                    "start": start.tolist(),
-                    "goal": goal.tolist(),
-                    "goal_radius": spec.goal_radius,
-                }
-            )
-            result = plan(problem, planner="informed_rrt_star", seed=0,
-                          max_nodes=FEASIBILITY_NODES, stop_at_first=True)  # fmt: skip
-            if result.success:
-                return problem
-        candidates = {name: found[pairs:] for name, found in candidates.items()}
-    raise RuntimeError("no solvable start and goal found for this scene")
-
-
-FEASIBILITY_NODES = 5_000
-"""Node budget of the Informed RRT* run that shows a 7D task is solvable."""
+    centers = np.array([b["center"] for b in boxes], dtype=np.float64)
+    halves = np.array([b["half_extents"] for b in boxes], dtype=np.float64)
+    workspace = Workspace(spec.name, spec.joint_limits(), centers, halves)
+    return arm_task(workspace, start_near, goal_near, seed)
 
 
 def _window_7d() -> Problem:
@@ -363,6 +326,7 @@ BUILDERS: dict[str, dict[str, Callable[[], Problem]]] = {
         "cubby": _cubby_7d,
         "pillar_ring": _pillar_ring_7d,
     },
+    FRANKA_PANDA.name: PANDA_BUILDERS,
 }
 """Robot -> name -> builder of each problem of the family."""
 
@@ -375,7 +339,7 @@ def build_ood_family(robot: str) -> dict[str, Problem]:
 
 
 def load_ood_family(robot: str, directory: str | Path | None = None) -> dict[str, Problem]:
-    """The stored family of ``robot`` (``examples/ood/{2d,3d}/*.json``), by name."""
+    """The stored family of ``robot`` (``examples/ood/<short name>/*.json``), by name."""
     if robot not in WORLD_DIRS:
         raise ValueError(f"robot: no out-of-distribution family for {robot!r}")
     folder = Path(directory) if directory is not None else EXAMPLES_DIR / WORLD_DIRS[robot]
@@ -389,7 +353,8 @@ def main(argv: list[str] | None = None) -> None:
     """Write every family's problems to ``examples/ood``."""
     parser = script_parser(
         "Write the out-of-distribution problems.",
-        epilog="Output: {out}/{2d,3d,7d}/{problem}.json, made if missing, replaced if present.",
+        epilog="Output: {out}/{2d,3d,7d,panda}/{problem}.json, made if missing, replaced if "
+        "present.",
     )
     parser.add_argument("--out", type=Path, default=EXAMPLES_DIR, help="folder of the families")
     args = parser.parse_args(argv)

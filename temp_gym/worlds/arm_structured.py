@@ -67,6 +67,7 @@ from temp_gym.worlds.arm_world import (
     place,
     scaled,
 )
+from temp_gym.worlds.structured import MANIPULATION
 
 MIN_FREE_FRACTION = 0.1
 """Least share of `FREE_PROBES` random joint configurations that must be free."""
@@ -249,11 +250,17 @@ def generate_arm_structured_workspace(
 ) -> Workspace:
     """Draw an arm workspace of a structured ``family`` (see the module docstring).
 
+    ``manipulation`` is drawn by `temp_gym.worlds.arm_manipulation`.
+
     Raises:
         ValueError: an unknown family or a bad ``rng``.
         RuntimeError: no workspace kept the base free and enough configurations free in
             `TRIES` draws.
     """
+    if family == MANIPULATION:
+        from temp_gym.worlds.arm_manipulation import generate_manipulation_workspace
+
+        return generate_manipulation_workspace(robot, rng)
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
     if family not in FAMILY_STRUCTURES:

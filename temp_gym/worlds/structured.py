@@ -77,9 +77,15 @@ WORKSPACE_FAMILIES = (BOXES, "corridors", "maze", "traps", "narrow", "clutter")
 """The families of axis-aligned boxes a single name selects, which ``mixed`` draws from."""
 FAMILY_MIX = {family: 1.0 for family in WORKSPACE_FAMILIES}
 """Relative weights of the families in ``mixed``: equal, so that no structure dominates."""
-FAMILY_NAMES = (*WORKSPACE_FAMILIES, SHAPES, MIXED)
+MANIPULATION = "manipulation"
+"""The arms' manipulation scenes (`temp_gym.worlds.arm_manipulation`): shelves, open boxes,
+cages and tables turned at any angle, with cylinders and oriented boxes."""
+ARM_FAMILIES = (MANIPULATION,)
+"""Families only arms draw; ``mixed`` never draws them, so its workspaces stay as they were."""
+FAMILY_NAMES = (*WORKSPACE_FAMILIES, SHAPES, *ARM_FAMILIES, MIXED)
 """Every name that selects workspaces: a family, or ``mixed``. ``shapes``
-(`temp_gym.worlds.shapes`) is the point worlds' only, and not part of ``mixed``."""
+(`temp_gym.worlds.shapes`) is the point worlds' only, ``manipulation`` the arms' only; neither
+is part of ``mixed``."""
 RASTER_CELL = 0.25
 """Side of the raster cells behind the occupancy and connectivity checks (the 2D reference
 lattice's spacing): a passage twice as wide always has a free cell across it."""
@@ -98,12 +104,14 @@ def check_family(robot: str, family: str) -> None:
     """Raise a `ValueError` unless ``family`` is a known name that ``robot`` can draw.
 
     Every robot draws ``boxes`` (its own generator); the others need the robot's spec to have
-    structured families (`RobotSpec.structured_generator`: the point worlds here, the iiwa in
-    `temp_gym.worlds.arm_structured`).
+    structured families (`RobotSpec.structured_generator`: the point worlds here, the arms in
+    `temp_gym.worlds.arm_structured`), and `ARM_FAMILIES` an arm.
     """
     if family not in FAMILY_NAMES:
         raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")
     spec = robot_spec(robot)
+    if family in ARM_FAMILIES and spec.description is None:
+        raise ValueError(f"family: {family!r} is drawn for arms only, and {robot} is not an arm")
     if family != BOXES and spec.structured_generator is None:
         raise ValueError(
             f"family: {family!r} needs structured families, which {robot} has not; "
