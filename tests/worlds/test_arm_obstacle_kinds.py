@@ -19,7 +19,7 @@ from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_world import generate_arm_task, near_surface
 from temp_gym.worlds.collision.arm_exact import ArmExactChecker, obstacle_objects
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
-from temp_gym.worlds.collision.arm_fast_obstacles import SHAPE_COLUMNS, sphere_hits_shape
+from temp_gym.worlds.collision.arm_fast_obstacles import OBSTACLE_COLUMNS, sphere_hits_shape
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, arm_obstacles
 from temp_gym.worlds.collision.pybullet_reference import BULLET_MARGIN, PybulletArm
 from temp_gym.worlds.robots import robot_spec
@@ -69,8 +69,8 @@ def _touching(exact, state) -> list[int]:
 
 # ---- the sphere tests of the fast checker --------------------------------------------------------
 def _random_rows(rng, count):
-    """Obstacle rows (`SHAPE_COLUMNS`) of random kind, size and rotation about the origin."""
-    rows = np.zeros((count, SHAPE_COLUMNS))
+    """Obstacle rows (`OBSTACLE_COLUMNS`) of random kind, size and rotation about the origin."""
+    rows = np.zeros((count, OBSTACLE_COLUMNS))
     kinds = rng.integers(0, 3, size=count)
     quaternions = rng.normal(size=(count, 4))
     workspace = Workspace.from_obstacles("kuka_iiwa14", robot_spec("kuka_iiwa14").joint_limits(), [
@@ -113,7 +113,7 @@ def test_sphere_tests_agree_with_fcl_for_every_kind():
 
 def test_sphere_tests_are_closed():
     """Touching counts, for each kind: a sphere resting on a face, a cap, a side."""
-    rows = np.zeros((3, SHAPE_COLUMNS))
+    rows = np.zeros((3, OBSTACLE_COLUMNS))
     rows[:, 7:] = np.eye(3).reshape(9)
     rows[:, 3:6] = [[1.0, 2.0, 3.0], [1.0, 1.0, 2.0], [1.0, 1.0, 1.0]]
     rows[:, 6] = [BOX, CYLINDER, SPHERE]
@@ -136,12 +136,12 @@ def test_axis_aligned_boxes_are_read_from_their_corners_and_kept_on_the_box_list
     corners = ArmObstacles.from_corners(workspace.obstacle_lower, workspace.obstacle_upper)
     for name in ("centers", "half_extents", "kinds", "rotations", "lower", "upper"):
         assert np.array_equal(getattr(ours, name), getattr(corners, name)), name
-    fast = spec.make_checker(workspace)
-    assert len(fast._obstacle_arrays[0]) == len(boxes) and len(fast._obstacle_arrays[5][0]) == 0
+    counts = spec.make_checker(workspace)._obstacle_arrays[2]
+    assert counts[1:, 0].max() == len(boxes) and counts[:, 1].max() == 0
     mixed = spec.make_checker(Workspace.from_obstacles(spec.name, spec.joint_limits(), SCENE))
     # The floor is the one axis-aligned box; an upright cylinder is not a box.
-    assert len(mixed._obstacle_arrays[0]) == 1
-    assert len(mixed._obstacle_arrays[5][0]) == len(SCENE) - 1
+    counts = mixed._obstacle_arrays[2]
+    assert counts[1:, 0].max() == 1 and counts[1:, 1].max() == len(SCENE) - 1
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -155,7 +155,7 @@ def test_a_box_turned_half_a_turn_is_checked_alike_on_the_general_path(robot):
     half_turn = [Box(b.center, b.half_extents, (0.0, 0.0, 1.0, 0.0)) for b in boxes]
     plain = spec.make_checker(Workspace.from_obstacles(robot, arm.joint_limits(), boxes))
     general = spec.make_checker(Workspace.from_obstacles(robot, arm.joint_limits(), half_turn))
-    assert len(general._obstacle_arrays[0]) == 0  # all on the general list
+    assert general._obstacle_arrays[2][:, 0].max() == 0  # all on the general list
     states = np.random.default_rng(1).uniform(*arm.joint_limits(), size=(4000, arm.dim))
     free = plain.states_free(states)
     assert 0.1 < free.mean() < 0.95
