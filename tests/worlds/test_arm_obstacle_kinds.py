@@ -183,13 +183,13 @@ def test_the_fast_checker_never_frees_what_the_exact_one_refuses(scenes, robot):
     assert touched >= set(range(1, len(SCENE))), sorted(touched)
 
 
-def _bisect(checker, free, blocked, steps):
-    """Bisect each segment ``free[i] -> blocked[i]`` by ``checker``: ``(last free, first
+def _bisect(states_free, free, blocked, steps):
+    """Bisect each segment ``free[i] -> blocked[i]`` by ``states_free``: ``(last free, first
     blocked)`` states, a hair's breadth apart."""
     low, high = free.copy(), blocked.copy()
     for _ in range(steps):
         middle = (low + high) / 2
-        ok = checker.states_free(middle)
+        ok = states_free(middle)
         low[ok], high[~ok] = middle[ok], middle[~ok]
     return low, high
 
@@ -202,13 +202,13 @@ def test_near_contact_states_keep_the_fast_checker_conservative(scenes, robot):
     states = _uniform(workspace, 600, seed=4)
     ok = exact.states_free(states)
     count = min(int(ok.sum()), int((~ok).sum()), 120)
-    _, entered = _bisect(exact, states[ok][:count], states[~ok][:count], 28)
+    _, entered = _bisect(exact.states_free, states[ok][:count], states[~ok][:count], 28)
     touching = np.array([bool(_touching(exact, state)) for state in entered])
     assert touching.sum() > count / 2  # most met an obstacle, not the arm itself
     assert not fast.states_free(entered).any(), "fast freed a state exact refuses"
     ok = fast.states_free(states)
     count = min(int(ok.sum()), int((~ok).sum()), 120)
-    edge, _ = _bisect(fast, states[ok][:count], states[~ok][:count], 28)
+    edge, _ = _bisect(fast.states_free, states[ok][:count], states[~ok][:count], 28)
     assert fast.states_free(edge).all()
     assert exact.states_free(edge).all(), "fast freed a state exact refuses"
     kinds = {int(workspace.obstacle_kinds[report[0][1]])
@@ -225,6 +225,15 @@ def test_fast_free_motions_are_certified(scenes, robot):
     free = fast.edges_free(starts, ends)
     assert free.any() and not free.all()
     for start, end in zip(starts[free][:12], ends[free][:12]):
+        assert exact.edge_free(start, end)
+    # Motions that end with the fast model 2 mm from contact, most near an obstacle.
+    ok = fast.states_free(starts)
+    count = min(int(ok.sum()), int((~ok).sum()), 40)
+    grazing, _ = _bisect(lambda states: fast.states_free(states, 0.002), starts[ok][:count],
+                         starts[~ok][:count], 28)  # fmt: skip
+    free = fast.edges_free(starts[ok][:count], grazing)
+    assert free.sum() >= 8  # not all: the straight motion may cross an obstacle on its way
+    for start, end in zip(starts[ok][:count][free][:8], grazing[free][:8]):
         assert exact.edge_free(start, end)
 
 
@@ -278,6 +287,24 @@ def test_tasks_near_a_surface_are_drawn_among_every_kind(scenes):
     ends = np.stack([problem.start, problem.goal])
     assert exact.states_free(ends).all()
     assert near_surface(exact, ends).all()
+
+
+BASE_CUTTERS = [Cylinder((0.0, 0.0, 0.05), 0.3, 0.02, turned((1, 0, 0), 0.3)),
+                Sphere((0.0, 0.0, 0.05), 0.15)]  # fmt: skip
+"""A tilted disc and a ball through the iiwa's base, both crossing its surface."""
+
+
+@pytest.mark.parametrize("obstacle", BASE_CUTTERS)
+def test_an_obstacle_in_the_base_leaves_nothing_free(obstacle):
+    """The base never moves: both checkers test it against every kind once, when built."""
+    spec = robot_spec("kuka_iiwa14")
+    workspace = Workspace.from_obstacles(spec.name, spec.joint_limits(), [obstacle])
+    for checker in (spec.make_checker(workspace), spec.make_checker(workspace, exact=True)):
+        assert not checker.base_free and "base link in collision" in checker.description
+        assert not checker.states_free(_uniform(workspace, 20, seed=10)).any()
+    away = Workspace.from_obstacles(spec.name, spec.joint_limits(), [
+        Sphere((0.0, 0.0, -0.3), 0.02)])  # fmt: skip
+    assert spec.make_checker(away).base_free and spec.make_checker(away, exact=True).base_free
 
 
 def test_a_checker_takes_box_corners_or_obstacles_not_both():

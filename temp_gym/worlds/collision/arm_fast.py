@@ -8,10 +8,10 @@ broad phase, SIMD over the obstacles' world bounding boxes), and the base, which
 is tested against the obstacles once in ``__init__``, by the exact checker's own test.
 Obstacles are closed: touching counts.
 
-**Obstacle kinds** (`arm_fast_obstacles`). Axis-aligned boxes are tested as they always
-were, on their own list; oriented boxes, cylinders and spheres are on a second list, tested in
-each obstacle's frame. A world of axis-aligned boxes only runs the same arithmetic, and gets
-the same verdicts, as before obstacles had kinds.
+**Obstacle kinds** (`arm_fast_obstacles`). Each body lists the obstacles it can reach,
+axis-aligned boxes first, tested as they always were; then oriented boxes, cylinders and
+spheres, tested in each obstacle's frame. A world of axis-aligned boxes only runs the same
+arithmetic, and gets the same verdicts, as before obstacles had kinds.
 
 **Conservative, and close.** The leaves cover each convex piece of each body, bulging out of it
 by at most about the robot's sphere tolerance (`temp_gym.worlds.arm.spheres`), so a state this
@@ -172,6 +172,7 @@ class ArmSphereChecker:
         self._bounds = within_limits(as_bounds(bounds, arm.dim), arm.joint_limits())
         obstacles = resolve_obstacles(box_lower, box_upper, obstacles)
         self.obstacles = obstacles
+        """The obstacles checked (`ArmObstacles`)."""
         trees = sphere_trees(arm)
         self._trees = trees.arrays()
         self._kinematics = arm.kinematic_arrays()
