@@ -19,7 +19,7 @@ from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_world import generate_arm_task, near_surface
 from temp_gym.worlds.collision.arm_exact import ArmExactChecker, obstacle_objects
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
-from temp_gym.worlds.collision.arm_fast_obstacles import SHAPE_COLUMNS, sphere_hits_shape
+from temp_gym.worlds.collision.arm_fast_obstacles import OBSTACLE_COLUMNS, sphere_hits_shape
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, arm_obstacles
 from temp_gym.worlds.collision.pybullet_reference import BULLET_MARGIN, PybulletArm
 from temp_gym.worlds.robots import robot_spec
@@ -69,8 +69,8 @@ def _touching(exact, state) -> list[int]:
 
 # ---- the sphere tests of the fast checker --------------------------------------------------------
 def _random_rows(rng, count):
-    """Obstacle rows (`SHAPE_COLUMNS`) of random kind, size and rotation about the origin."""
-    rows = np.zeros((count, SHAPE_COLUMNS))
+    """Obstacle rows (`OBSTACLE_COLUMNS`) of random kind, size and rotation about the origin."""
+    rows = np.zeros((count, OBSTACLE_COLUMNS))
     kinds = rng.integers(0, 3, size=count)
     quaternions = rng.normal(size=(count, 4))
     workspace = Workspace.from_obstacles("kuka_iiwa14", robot_spec("kuka_iiwa14").joint_limits(), [
@@ -113,7 +113,7 @@ def test_sphere_tests_agree_with_fcl_for_every_kind():
 
 def test_sphere_tests_are_closed():
     """Touching counts, for each kind: a sphere resting on a face, a cap, a side."""
-    rows = np.zeros((3, SHAPE_COLUMNS))
+    rows = np.zeros((3, OBSTACLE_COLUMNS))
     rows[:, 7:] = np.eye(3).reshape(9)
     rows[:, 3:6] = [[1.0, 2.0, 3.0], [1.0, 1.0, 2.0], [1.0, 1.0, 1.0]]
     rows[:, 6] = [BOX, CYLINDER, SPHERE]
@@ -136,12 +136,12 @@ def test_axis_aligned_boxes_are_read_from_their_corners_and_kept_on_the_box_list
     corners = ArmObstacles.from_corners(workspace.obstacle_lower, workspace.obstacle_upper)
     for name in ("centers", "half_extents", "kinds", "rotations", "lower", "upper"):
         assert np.array_equal(getattr(ours, name), getattr(corners, name)), name
-    fast = spec.make_checker(workspace)
-    assert len(fast._obstacle_arrays[0]) == len(boxes) and len(fast._obstacle_arrays[5][0]) == 0
+    counts = spec.make_checker(workspace)._obstacle_arrays[2]
+    assert counts[1:, 0].max() == len(boxes) and counts[:, 1].max() == 0
     mixed = spec.make_checker(Workspace.from_obstacles(spec.name, spec.joint_limits(), SCENE))
     # The floor is the one axis-aligned box; an upright cylinder is not a box.
-    assert len(mixed._obstacle_arrays[0]) == 1
-    assert len(mixed._obstacle_arrays[5][0]) == len(SCENE) - 1
+    counts = mixed._obstacle_arrays[2]
+    assert counts[1:, 0].max() == 1 and counts[1:, 1].max() == len(SCENE) - 1
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -155,7 +155,7 @@ def test_a_box_turned_half_a_turn_is_checked_alike_on_the_general_path(robot):
     half_turn = [Box(b.center, b.half_extents, (0.0, 0.0, 1.0, 0.0)) for b in boxes]
     plain = spec.make_checker(Workspace.from_obstacles(robot, arm.joint_limits(), boxes))
     general = spec.make_checker(Workspace.from_obstacles(robot, arm.joint_limits(), half_turn))
-    assert len(general._obstacle_arrays[0]) == 0  # all on the general list
+    assert general._obstacle_arrays[2][:, 0].max() == 0  # all on the general list
     states = np.random.default_rng(1).uniform(*arm.joint_limits(), size=(4000, arm.dim))
     free = plain.states_free(states)
     assert 0.1 < free.mean() < 0.95
@@ -183,13 +183,13 @@ def test_the_fast_checker_never_frees_what_the_exact_one_refuses(scenes, robot):
     assert touched >= set(range(1, len(SCENE))), sorted(touched)
 
 
-def _bisect(checker, free, blocked, steps):
-    """Bisect each segment ``free[i] -> blocked[i]`` by ``checker``: ``(last free, first
+def _bisect(states_free, free, blocked, steps):
+    """Bisect each segment ``free[i] -> blocked[i]`` by ``states_free``: ``(last free, first
     blocked)`` states, a hair's breadth apart."""
     low, high = free.copy(), blocked.copy()
     for _ in range(steps):
         middle = (low + high) / 2
-        ok = checker.states_free(middle)
+        ok = states_free(middle)
         low[ok], high[~ok] = middle[ok], middle[~ok]
     return low, high
 
@@ -202,13 +202,13 @@ def test_near_contact_states_keep_the_fast_checker_conservative(scenes, robot):
     states = _uniform(workspace, 600, seed=4)
     ok = exact.states_free(states)
     count = min(int(ok.sum()), int((~ok).sum()), 120)
-    _, entered = _bisect(exact, states[ok][:count], states[~ok][:count], 28)
+    _, entered = _bisect(exact.states_free, states[ok][:count], states[~ok][:count], 28)
     touching = np.array([bool(_touching(exact, state)) for state in entered])
     assert touching.sum() > count / 2  # most met an obstacle, not the arm itself
     assert not fast.states_free(entered).any(), "fast freed a state exact refuses"
     ok = fast.states_free(states)
     count = min(int(ok.sum()), int((~ok).sum()), 120)
-    edge, _ = _bisect(fast, states[ok][:count], states[~ok][:count], 28)
+    edge, _ = _bisect(fast.states_free, states[ok][:count], states[~ok][:count], 28)
     assert fast.states_free(edge).all()
     assert exact.states_free(edge).all(), "fast freed a state exact refuses"
     kinds = {int(workspace.obstacle_kinds[report[0][1]])
@@ -225,6 +225,15 @@ def test_fast_free_motions_are_certified(scenes, robot):
     free = fast.edges_free(starts, ends)
     assert free.any() and not free.all()
     for start, end in zip(starts[free][:12], ends[free][:12]):
+        assert exact.edge_free(start, end)
+    # Motions that end with the fast model 2 mm from contact, most near an obstacle.
+    ok = fast.states_free(starts)
+    count = min(int(ok.sum()), int((~ok).sum()), 40)
+    grazing, _ = _bisect(lambda states: fast.states_free(states, 0.002), starts[ok][:count],
+                         starts[~ok][:count], 28)  # fmt: skip
+    free = fast.edges_free(starts[ok][:count], grazing)
+    assert free.sum() >= 8  # not all: the straight motion may cross an obstacle on its way
+    for start, end in zip(starts[ok][:count][free][:8], grazing[free][:8]):
         assert exact.edge_free(start, end)
 
 
@@ -278,6 +287,24 @@ def test_tasks_near_a_surface_are_drawn_among_every_kind(scenes):
     ends = np.stack([problem.start, problem.goal])
     assert exact.states_free(ends).all()
     assert near_surface(exact, ends).all()
+
+
+BASE_CUTTERS = [Cylinder((0.0, 0.0, 0.05), 0.3, 0.02, turned((1, 0, 0), 0.3)),
+                Sphere((0.0, 0.0, 0.05), 0.15)]  # fmt: skip
+"""A tilted disc and a ball through the iiwa's base, both crossing its surface."""
+
+
+@pytest.mark.parametrize("obstacle", BASE_CUTTERS)
+def test_an_obstacle_in_the_base_leaves_nothing_free(obstacle):
+    """The base never moves: both checkers test it against every kind once, when built."""
+    spec = robot_spec("kuka_iiwa14")
+    workspace = Workspace.from_obstacles(spec.name, spec.joint_limits(), [obstacle])
+    for checker in (spec.make_checker(workspace), spec.make_checker(workspace, exact=True)):
+        assert not checker.base_free and "base link in collision" in checker.description
+        assert not checker.states_free(_uniform(workspace, 20, seed=10)).any()
+    away = Workspace.from_obstacles(spec.name, spec.joint_limits(), [
+        Sphere((0.0, 0.0, -0.3), 0.02)])  # fmt: skip
+    assert spec.make_checker(away).base_free and spec.make_checker(away, exact=True).base_free
 
 
 def test_a_checker_takes_box_corners_or_obstacles_not_both():

@@ -182,6 +182,7 @@ class ArmExactChecker:
         pairs = arm.enabled_pairs() if self_collision else np.zeros((0, 2), dtype=np.int64)
         self._hulls = BodyHulls(arm, pairs)
         self.obstacles = resolve_obstacles(box_lower, box_upper, obstacles)
+        """The obstacles checked (`ArmObstacles`)."""
         # The obstacles' world AABBs: the broad phase and the cheapest clearance bounds.
         lower, upper = self.obstacles.lower, self.obstacles.upper
         self._aabb_center = (lower + upper) / 2

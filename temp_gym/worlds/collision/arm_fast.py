@@ -8,10 +8,10 @@ broad phase, SIMD over the obstacles' world bounding boxes), and the base, which
 is tested against the obstacles once in ``__init__``, by the exact checker's own test.
 Obstacles are closed: touching counts.
 
-**Obstacle kinds** (`arm_fast_obstacles`). Axis-aligned boxes are tested as they always
-were, on their own list; oriented boxes, cylinders and spheres are on a second list, tested in
-each obstacle's frame. A world of axis-aligned boxes only runs the same arithmetic, and gets
-the same verdicts, as before obstacles had kinds.
+**Obstacle kinds** (`arm_fast_obstacles`). Each body lists the obstacles it can reach,
+axis-aligned boxes first, tested as they always were; then oriented boxes, cylinders and
+spheres, tested in each obstacle's frame. A world of axis-aligned boxes only runs the same
+arithmetic, and gets the same verdicts, as before obstacles had kinds.
 
 **Conservative, and close.** The leaves cover each convex piece of each body, bulging out of it
 by at most about the robot's sphere tolerance (`temp_gym.worlds.arm.spheres`), so a state this
@@ -55,7 +55,7 @@ from temp_gym.worlds.collision.arm_fast_kernels import (
     motion_free_kernel,
     states_free_kernel,
 )
-from temp_gym.worlds.collision.arm_fast_obstacles import SHAPE_COLUMNS
+from temp_gym.worlds.collision.arm_fast_obstacles import OBSTACLE_COLUMNS
 from temp_gym.worlds.collision.arm_fast_self import scratch_for
 from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states, within_limits
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
@@ -172,6 +172,7 @@ class ArmSphereChecker:
         self._bounds = within_limits(as_bounds(bounds, arm.dim), arm.joint_limits())
         obstacles = resolve_obstacles(box_lower, box_upper, obstacles)
         self.obstacles = obstacles
+        """The obstacles checked (`ArmObstacles`)."""
         trees = sphere_trees(arm)
         self._trees = trees.arrays()
         self._kinematics = arm.kinematic_arrays()
@@ -183,36 +184,24 @@ class ArmSphereChecker:
         from temp_gym.worlds.collision.arm_exact import base_collides
 
         self.base_free = not base_collides(arm, obstacles)
-        aligned = obstacles.axis_aligned
-        box_params = np.ascontiguousarray(
-            np.hstack([obstacles.centers[aligned], obstacles.half_extents[aligned]])
-        )
-        others = ~aligned
-        shape_params = np.zeros((int(others.sum()), SHAPE_COLUMNS))
-        shape_params[:, :3] = obstacles.centers[others]
-        shape_params[:, 3:6] = obstacles.half_extents[others]
-        shape_params[:, 6] = obstacles.kinds[others]
-        shape_params[:, 7:] = obstacles.rotations[others].reshape(-1, 9)
-        shape_lower, shape_upper = obstacles.lower[others], obstacles.upper[others]
-        shapes = (shape_params, *self._candidates(trees, (shape_lower + shape_upper) / 2,
-                                                  (shape_upper - shape_lower) / 2, shape_lower,
-                                                  shape_upper))  # fmt: skip
-        boxes = self._candidates(trees, box_params[:, :3], box_params[:, 3:],
-                                 obstacles.lower[aligned], obstacles.upper[aligned])  # fmt: skip
-        self._obstacle_arrays = (box_params, *boxes, shapes)
+        params = np.zeros((len(obstacles), OBSTACLE_COLUMNS))
+        params[:, :3] = obstacles.centers
+        params[:, 3:6] = obstacles.half_extents
+        params[:, 6] = obstacles.kinds
+        params[:, 7:] = obstacles.rotations.reshape(-1, 9)
+        self._obstacle_arrays = (params, *self._candidates(trees, obstacles))
         self.description = (
             f"{arm.name} sphere model ({len(trees.radii)} spheres), {obstacles.summary()}, "
             f"self-collision of {self.num_self_pairs} body pairs, edge resolution "
             f"{self.resolution} m" + ("" if self.base_free else ", base link in collision")
         )
 
-    def _candidates(self, trees: SphereTrees, center: np.ndarray, half: np.ndarray,
-                    lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, ...]:  # fmt: skip
+    def _candidates(self, trees: SphereTrees, obstacles: ArmObstacles) -> tuple[np.ndarray, ...]:
         """Per body, the obstacles it can reach: ``(lists, counts, lowers, uppers)``.
 
-        Those whose world bounding box (``center``, ``half``; corners ``lower``, ``upper``)
-        is within the body's reach of the first joint's origin (which never moves), plus half
-        the resolution (the most an edge check grows it).
+        Those whose world bounding box is within the body's reach of the first joint's origin
+        (which never moves), plus half the resolution (the most an edge check grows it). A
+        body's list holds ``counts[j, 0]`` axis-aligned boxes, then ``counts[j, 1]`` others.
         """
         arm = self.arm
         bodies = arm.num_bodies
@@ -220,9 +209,11 @@ class ArmSphereChecker:
         shift = arm.chain.joint_origins[:, :3, 3]
         slides = np.where(arm.chain.joint_types == 1, np.abs(arm.chain.joint_limits).max(axis=0),
                           0.0)  # fmt: skip
+        lower, upper = obstacles.lower, obstacles.upper
+        center, half = (lower + upper) / 2, (upper - lower) / 2
         gaps = np.linalg.norm(np.maximum(np.abs(anchor - center) - half, 0.0), axis=1)
         body_lists = np.zeros((bodies, max(len(center), 1)), dtype=np.int64)
-        counts = np.zeros(bodies, dtype=np.int64)
+        counts = np.zeros((bodies, 2), dtype=np.int64)
         for j in range(1, bodies):
             root = trees.body_start[j]
             if root == trees.body_start[j + 1]:
@@ -230,13 +221,15 @@ class ArmSphereChecker:
             extent = float(np.linalg.norm(trees.node_centers[root]) + trees.node_radii[root])
             reach = (float(np.linalg.norm(shift[1:j], axis=1).sum()) + float(slides[:j].sum())
                      + extent)  # fmt: skip
-            near = np.flatnonzero(gaps <= reach + self.resolution / 2 + 1e-9)
-            body_lists[j, : len(near)] = near
-            counts[j] = len(near)
+            near = gaps <= reach + self.resolution / 2 + 1e-9
+            boxes = np.flatnonzero(near & obstacles.axis_aligned)
+            others = np.flatnonzero(near & ~obstacles.axis_aligned)
+            body_lists[j, : len(boxes) + len(others)] = np.concatenate([boxes, others])
+            counts[j] = len(boxes), len(others)
         body_lower = np.zeros((bodies, 3, body_lists.shape[1]))
         body_upper = np.zeros((bodies, 3, body_lists.shape[1]))
         for j in range(bodies):
-            near = body_lists[j, : counts[j]]
+            near = body_lists[j, : counts[j].sum()]
             body_lower[j, :, : len(near)] = lower[near].T
             body_upper[j, :, : len(near)] = upper[near].T
         return body_lists, counts, body_lower, body_upper

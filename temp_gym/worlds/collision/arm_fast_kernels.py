@@ -49,22 +49,21 @@ def _in_bounds(states, i, bounds) -> bool:
 def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
                node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
                radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, shapes, inflation, poses,
+               body_box_count, body_lower, body_upper, inflation, poses,
                root_world) -> int:  # fmt: skip
     """Whether a pose is free of the obstacles: `FREE`, `HIT` or `CERTAIN`.
 
     `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every obstacle,
     `HIT` when one touches an obstacle, `CERTAIN` when a body's inner ball (inside its pieces,
-    not grown) does: the state itself is in collision. The axis-aligned boxes come first
-    (``box_params`` and the body lists after it), then the other obstacles (``shapes``:
-    `ArmSphereChecker`'s tuple of the same five arrays for them).
+    not grown) does: the state itself is in collision. ``box_params`` holds every obstacle's
+    row, ``body_boxes[j]`` body ``j``'s candidates: ``body_box_count[j, 0]`` axis-aligned
+    boxes, then ``body_box_count[j, 1]`` others (`arm_fast_obstacles.body_touches`).
 
     ``sines[base + i]``, ``cosines[base + i]`` and ``values[value_base + i]`` are joint ``i``'s;
     ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
     ``poses`` holds the body frames and ``root_world`` (B, 3) the world centers of the bodies'
     root spheres (row 0, the base's, never changes): the self-collision test reads them.
     """
-    shape_params, body_shapes, body_shape_count, shape_lower, shape_upper = shapes
     chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value_base)
     # Distal bodies first: they sweep the most space, so collisions are found sooner.
     for j in range(poses.shape[0] - 1, 0, -1):
@@ -73,17 +72,11 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
             continue
         bx, by, bz = place(poses, j, node_centers, root)
         root_world[j, 0], root_world[j, 1], root_world[j, 2] = bx, by, bz
-        bound = node_radii[root] + inflation[j]
-        answer = body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
-                              node_first, node_count, body_start, centers, radii, inner_centers,
-                              inner_radii, inner_start, inflation[j], box_params, body_boxes,
-                              body_box_count[j], body_lower, body_upper, False)  # fmt: skip
-        if answer != FREE:
-            return answer
-        answer = body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
-                              node_first, node_count, body_start, centers, radii, inner_centers,
-                              inner_radii, inner_start, inflation[j], shape_params, body_shapes,
-                              body_shape_count[j], shape_lower, shape_upper, True)  # fmt: skip
+        answer = body_touches(poses, j, bx, by, bz, node_radii[root] + inflation[j],
+                              node_centers, node_radii, node_skip, node_first, node_count,
+                              body_start, centers, radii, inner_centers, inner_radii,
+                              inner_start, inflation[j], box_params, body_boxes, body_box_count,
+                              body_lower, body_upper)  # fmt: skip
         if answer != FREE:
             return answer
     return FREE
@@ -124,7 +117,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     poses, root_world, inflation, table_growth, sines, cosines, scratch = work
     num, dim = states.shape
@@ -141,8 +134,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
                 node_centers, node_radii, node_skip, node_first, node_count,
                 body_start, centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                body_boxes, body_box_count, body_lower, body_upper, shapes, inflation, poses,
-                root_world,
+                body_boxes, body_box_count, body_lower, body_upper, inflation, poses, root_world,
             ) == FREE  # fmt: skip
             # Most poses keep every pair's root spheres apart: no tree walk.
             out[i] = obstacles_free and (
@@ -159,7 +151,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
 def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
-                body_lower, body_upper, shapes, sphere_pairs, table_grid, table_bounds, inflation,
+                body_lower, body_upper, sphere_pairs, table_grid, table_bounds, inflation,
                 table_growth, poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
@@ -172,8 +164,8 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift,
                         node_centers, node_radii, node_skip, node_first, node_count, body_start,
                         centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                        body_boxes, body_box_count, body_lower, body_upper, shapes, inflation,
-                        poses, root_world)  # fmt: skip
+                        body_boxes, body_box_count, body_lower, body_upper, inflation, poses,
+                        root_world)  # fmt: skip
     if answer != FREE:
         return answer
     if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
@@ -189,7 +181,7 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
                inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, shapes, sphere_pairs,
+               body_box_count, body_lower, body_upper, sphere_pairs,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -247,8 +239,8 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, capsules, box_params,
-                             body_boxes, body_box_count, body_lower, body_upper, shapes,
-                             sphere_pairs, table_grid, table_bounds, inflation, table_growth, poses,
+                             body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+                             table_grid, table_bounds, inflation, table_growth, poses,
                              root_world, sines, cosines, scratch)  # fmt: skip
         if answer == FREE:
             continue
@@ -262,7 +254,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-                       body_box_count, body_lower, body_upper, shapes, sphere_pairs, table_grid,
+                       body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
                        table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
                        scratch) != FREE:  # fmt: skip
             return False
@@ -292,7 +284,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     dim = starts.shape[1]
     bodies = dim + 1
@@ -317,7 +309,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                             node_centers, node_radii, node_skip, node_first, node_count,
                             body_start, centers, radii, inner_centers, inner_radii,
                             inner_start, capsules, box_params, body_boxes, body_box_count,
-                            body_lower, body_upper, shapes, sphere_pairs, table_grid, table_bounds,
+                            body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
                             table_motion, motion, resolution, poses, root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                             stack_high, scratch)  # fmt: skip
@@ -337,7 +329,7 @@ def motion_free_kernel(context, start, end) -> bool:
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper, shapes = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
     sphere_pairs, table_grid, table_bounds, table_motion = self_model
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
      cosines, stack_low, stack_high) = work  # fmt: skip
@@ -356,8 +348,8 @@ def motion_free_kernel(context, start, end) -> bool:
     return _edge_free(starts, ends, 0, bounds, kind, rotation, shift,
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
                       centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
-                      body_boxes, body_box_count, body_lower, body_upper, shapes,
-                      sphere_pairs, table_grid, table_bounds, table_motion, motion,
+                      body_boxes, body_box_count, body_lower,
+                      body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
                       settings[1], poses, root_world, sweep, inflation, table_sweep,
                       table_growth, q, sines, cosines, stack_low, stack_high,
                       scratch)  # fmt: skip

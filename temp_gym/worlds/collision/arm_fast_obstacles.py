@@ -1,17 +1,19 @@
 """The fast arm checker's sphere-versus-obstacle tests, for every obstacle kind.
 
-`temp_gym.worlds.collision.arm_fast_kernels` calls `body_touches` once per moving body and
-obstacle list. Obstacles come in two lists:
+`temp_gym.worlds.collision.arm_fast_kernels` calls `body_touches` once per moving body. Each
+obstacle is a row of `OBSTACLE_COLUMNS` numbers: center, half extents in the obstacle's frame,
+kind (`temp_gym.problem.obstacles`), and the rotation matrix row by row. A body's candidate
+obstacles list the axis-aligned boxes first, then the others:
 
-* **axis-aligned boxes**, rows ``(cx, cy, cz, hx, hy, hz)`` tested by `sphere_hits_box`: the
-  arithmetic every box-only world has always been checked with;
-* **other obstacles** (oriented boxes, cylinders, spheres), rows of `SHAPE_COLUMNS` numbers:
-  center, half extents in the obstacle's frame, kind (`temp_gym.problem.obstacles`), and the
-  rotation matrix row by row, tested by `sphere_hits_shape` in the obstacle's frame.
+* **axis-aligned boxes** are tested by `sphere_hits_box` on the row's first six numbers
+  ``(cx, cy, cz, hx, hy, hz)``: the arithmetic every box-only world has always been checked
+  with;
+* **other obstacles** (oriented boxes, cylinders, spheres) by `sphere_hits_shape`, in the
+  obstacle's frame.
 
-`body_touches` takes the list's kind as a constant (``any_kind``); inlined, the compiler drops
-the other branch, so the box list runs the code it always ran and a world without other
-obstacles pays one empty loop per body.
+The tests take the list's kind as a constant (``any_kind``); inlined, the compiler drops the
+other branch, so the boxes run the code they always ran and a world without other obstacles
+pays one empty loop per body.
 
 Every test is closed (touching counts) and exact up to rounding, so the fast checker stays
 conservative: its spheres cover the arm (`temp_gym.worlds.collision.arm_fast`).
@@ -27,8 +29,8 @@ from temp_gym.worlds.hot_path import hot_inline
 
 FREE, HIT, CERTAIN = 0, 1, 2
 """Answers: free; a grown sphere touches an obstacle; an inner ball does (the state collides)."""
-SHAPE_COLUMNS = 16
-"""Numbers per other obstacle: center (3), half extents (3), kind (1), rotation (9, by rows)."""
+OBSTACLE_COLUMNS = 16
+"""Numbers per obstacle: center (3), half extents (3), kind (1), rotation (9, by rows)."""
 
 
 @hot_inline
@@ -42,7 +44,7 @@ def sphere_hits_box(x, y, z, radius, box_params, b) -> bool:
 
 @hot_inline
 def sphere_hits_shape(x, y, z, radius, shapes, s) -> bool:
-    """Closed sphere versus the closed obstacle ``shapes[s]`` of any kind (module docstring).
+    """Closed sphere versus the closed obstacle row ``shapes[s]`` of any kind.
 
     A sphere obstacle: center distance against the summed radii. A cylinder, in its frame:
     the distance from a point to it is the hypotenuse of the radial excess
@@ -102,26 +104,11 @@ def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_co
 
 
 @hot_inline
-def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
-                 node_count, body_start, centers, radii, inner_centers, inner_radii,
-                 inner_start, grow, params, body_list, count, body_lower, body_upper,
-                 any_kind) -> int:  # fmt: skip
-    """`FREE`, `HIT` or `CERTAIN`: body ``j`` against its ``count`` candidate obstacles.
-
-    ``(bx, by, bz)`` is its root sphere's world center and ``bound`` that sphere's grown
-    radius; ``body_list[j, :count]`` are the candidates' rows of ``params`` and
-    ``body_lower[j]``, ``body_upper[j]`` (3, count) their world bounding boxes.
-    """
-    # Broad phase, branch-free so that LLVM makes it SIMD over the body's candidates.
-    hits = 0
-    for n in range(count):
-        gx = max(max(body_lower[j, 0, n] - bx, bx - body_upper[j, 0, n]), 0.0)
-        gy = max(max(body_lower[j, 1, n] - by, by - body_upper[j, 1, n]), 0.0)
-        gz = max(max(body_lower[j, 2, n] - bz, bz - body_upper[j, 2, n]), 0.0)
-        hits += gx * gx + gy * gy + gz * gz <= bound * bound
-    if hits == 0:
-        return FREE
-    for n in range(count):
+def _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
+             node_count, body_start, centers, radii, inner_centers, inner_radii, inner_start,
+             grow, params, body_list, first, last, any_kind) -> int:  # fmt: skip
+    """`body_touches`'s narrow phase over candidates ``body_list[j, first:last]``."""
+    for n in range(first, last):
         b = body_list[j, n]
         if not sphere_hits(bx, by, bz, bound, params, b, any_kind):
             continue
@@ -136,11 +123,46 @@ def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_ski
     return FREE
 
 
+@hot_inline
+def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
+                 node_count, body_start, centers, radii, inner_centers, inner_radii,
+                 inner_start, grow, params, body_list, counts, body_lower,
+                 body_upper) -> int:  # fmt: skip
+    """`FREE`, `HIT` or `CERTAIN`: body ``j`` against its candidate obstacles.
+
+    ``(bx, by, bz)`` is its root sphere's world center and ``bound`` that sphere's grown
+    radius. ``body_list[j]`` lists the candidates' rows of ``params``: ``counts[j, 0]``
+    axis-aligned boxes, then ``counts[j, 1]`` others; ``body_lower[j]`` and ``body_upper[j]``
+    (3, candidates) are their world bounding boxes.
+    """
+    boxes = counts[j, 0]
+    total = boxes + counts[j, 1]
+    # Broad phase, branch-free so that LLVM makes it SIMD over the body's candidates.
+    hits = 0
+    for n in range(total):
+        gx = max(max(body_lower[j, 0, n] - bx, bx - body_upper[j, 0, n]), 0.0)
+        gy = max(max(body_lower[j, 1, n] - by, by - body_upper[j, 1, n]), 0.0)
+        gz = max(max(body_lower[j, 2, n] - bz, bz - body_upper[j, 2, n]), 0.0)
+        hits += gx * gx + gy * gy + gz * gz <= bound * bound
+    if hits == 0:
+        return FREE
+    answer = _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
+                      node_first, node_count, body_start, centers, radii, inner_centers,
+                      inner_radii, inner_start, grow, params, body_list, 0, boxes,
+                      False)  # fmt: skip
+    if answer != FREE:
+        return answer
+    return _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
+                    node_first, node_count, body_start, centers, radii, inner_centers,
+                    inner_radii, inner_start, grow, params, body_list, boxes, total,
+                    True)  # fmt: skip
+
+
 __all__ = [
     "CERTAIN",
     "FREE",
     "HIT",
-    "SHAPE_COLUMNS",
+    "OBSTACLE_COLUMNS",
     "body_touches",
     "sphere_hits",
     "sphere_hits_box",
