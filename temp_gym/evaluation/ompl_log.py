@@ -16,8 +16,8 @@ Example:
     >>> planner = LogPlanner("rrt_star", {"goal_bias": "0.05"},
     ...                      [{"time REAL": real(0.2), "solved BOOLEAN": boolean(True)}])
     >>> text = format_log(LogExperiment("walls", planners=[planner], time_limit=1.0))
-    >>> text.splitlines()[-3:]
-    ['1 runs', '1; 0.2; ', '.']
+    >>> "1; 0.2; " in text.splitlines()
+    True
 """
 
 from __future__ import annotations
