@@ -305,6 +305,19 @@ def _volume_floor(lower_bounds, upper_bounds, box_lower, box_upper) -> float:
     return total - boxes - 1e-9 * total
 
 
+def as_states(states: np.ndarray, dim: int) -> np.ndarray:
+    """``(N, dim)`` contiguous float64 states; one ``(dim,)`` state becomes ``(1, dim)``.
+
+    Any other shape is a `ValueError` naming it.
+    """
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    if states.ndim == 1:
+        states = states.reshape(1, -1)
+    if states.ndim != 2 or states.shape[1] != dim:
+        raise ValueError(f"states: expected shape (N, {dim}), got {states.shape}")
+    return states
+
+
 class PointBoxChecker:
     """Fast *and* exact checker for a point robot among axis-aligned boxes.
 
@@ -355,12 +368,7 @@ class PointBoxChecker:
         return self._context
 
     def _as_states(self, states: np.ndarray) -> np.ndarray:
-        states = np.ascontiguousarray(states, dtype=np.float64)
-        if states.ndim == 1:
-            states = states.reshape(1, -1)
-        if states.ndim != 2 or states.shape[1] != self.dim:
-            raise ValueError(f"states: expected shape (N, {self.dim}), got {states.shape}")
-        return states
+        return as_states(states, self.dim)
 
     def states_free(self, states: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: each state is inside the bounds and outside every box."""

@@ -25,7 +25,12 @@ import numpy as np
 from temp_gym.problem import Workspace
 from temp_gym.problem.obstacles import KIND_NAMES
 from temp_gym.worlds.collision.compiled import register_motion_kernel
-from temp_gym.worlds.collision.point import UNION_SAMPLES, PointBoxChecker, _segment_hits_box
+from temp_gym.worlds.collision.point import (
+    UNION_SAMPLES,
+    PointBoxChecker,
+    _segment_hits_box,
+    as_states,
+)
 from temp_gym.worlds.collision.shape_geometry import (
     AXIS_BOX,
     ROTATED_BOX,
@@ -201,12 +206,7 @@ class PointShapeChecker:
         return "collision"
 
     def _as_states(self, states: np.ndarray) -> np.ndarray:
-        states = np.ascontiguousarray(states, dtype=np.float64)
-        if states.ndim == 1:
-            states = states.reshape(1, -1)
-        if states.ndim != 2 or states.shape[1] != self.dim:
-            raise ValueError(f"states: expected shape (N, {self.dim}), got {states.shape}")
-        return states
+        return as_states(states, self.dim)
 
     def states_free(self, states: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: each state is inside the bounds and outside every obstacle."""
