@@ -187,6 +187,13 @@ def format_log(experiment: LogExperiment) -> str:
     return text + "\n".join(lines) + "\n"
 
 
+def _table_head(names: list[str], what: str, label: str, runs: int) -> list[str]:
+    """A table's header lines: ``"<n> <label> for each run"``, the names, ``"<runs> runs"``."""
+    for name in names:
+        _check_property(name, what)
+    return [f"{len(names)} {label} for each run", *names, f"{runs} runs"]
+
+
 def _planner_lines(planner: LogPlanner) -> list[str]:
     if not planner.name.strip() or "\n" in planner.name:
         raise ValueError(f"planner name: expected one non-empty line, got {planner.name!r}")
@@ -195,11 +202,8 @@ def _planner_lines(planner: LogPlanner) -> list[str]:
         _check_value(planner.common[name], f"{planner.name} setting {name}", ("\n", "\r"))
         lines.append(f"{name} = {planner.common[name]}")
     properties = planner.run_properties()
-    for name in properties:
-        _check_property(name, f"{planner.name} run property")
-    lines.append(f"{len(properties)} properties for each run")
-    lines += properties
-    lines.append(f"{len(planner.runs)} runs")
+    lines += _table_head(properties, f"{planner.name} run property", "properties",
+                         len(planner.runs))  # fmt: skip
     for run in planner.runs:
         for name, value in run.items():
             _check_value(value, f"{planner.name} {name}")
@@ -211,11 +215,8 @@ def _planner_lines(planner: LogPlanner) -> list[str]:
                 f"got {len(planner.progress)}"
             )
         names = planner.progress_properties()
-        for name in names:
-            _check_property(name, f"{planner.name} progress property")
-        lines.append(f"{len(names)} progress properties for each run")
-        lines += names
-        lines.append(f"{len(planner.progress)} runs")
+        lines += _table_head(names, f"{planner.name} progress property",
+                             "progress properties", len(planner.progress))  # fmt: skip
         for samples in planner.progress:
             row = ""
             for sample in samples:

@@ -102,6 +102,19 @@ def _full(tree) -> bool:
     return tree[1][NUM_NODES] >= tree[0][0].shape[0]
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _extend_counted(tree, goal, context, sample, forward):
+    """EXTEND ``tree`` towards ``sample``: ``(node, added)``, counted on the tree's counters."""
+    counters = tree[1]
+    before = counters[NUM_NODES]
+    _, node = grow_towards(tree, goal, context, sample, forward)
+    added = counters[NUM_NODES] > before
+    counters[SAMPLES] += 1
+    if not added:
+        counters[FAILURES] += 1
+    return node, added
+
+
 @numba.njit(cache=True, nogil=True)
 def connect_slice(
     start_tree, goal_tree, goal, start, bounds, context, rng_address, buffer, cursor, target,
@@ -139,19 +152,9 @@ def connect_slice(
                 return FULL_GOAL
             sample = fallback_sample(rng, bounds[0], bounds[1], buffer, cursor)
             if grown == 0:
-                before = starts[NUM_NODES]
-                _, node = grow_towards(start_tree, goal, context, sample, True)
-                added = starts[NUM_NODES] > before
-                starts[SAMPLES] += 1
-                if not added:
-                    starts[FAILURES] += 1
+                node, added = _extend_counted(start_tree, goal, context, sample, True)
             else:
-                before = goals[NUM_NODES]
-                _, node = grow_towards(goal_tree, start, context, sample, False)
-                added = goals[NUM_NODES] > before
-                goals[SAMPLES] += 1
-                if not added:
-                    goals[FAILURES] += 1
+                node, added = _extend_counted(goal_tree, start, context, sample, False)
             state[TURN] = 1 - grown
             if not added:
                 continue

@@ -145,6 +145,26 @@ def test_axis_aligned_boxes_are_read_from_their_corners_and_kept_on_the_box_list
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
+def test_verdicts_do_not_depend_on_the_order_of_the_obstacles(robot):
+    """Boxes and the other kinds live in two tables: an obstacle list that interleaves them
+    (axis-aligned boxes among the rest) finds each obstacle's own row."""
+    spec = robot_spec(robot)
+    aligned = [Box((0.5, 0.1, 0.35), (0.15, 0.04, 0.3)), Box((-0.2, 0.55, 0.5), (0.2, 0.05, 0.2))]
+    scene = SCENE + aligned
+    order = np.random.default_rng(3).permutation(len(scene))
+    shuffled = [scene[i] for i in order]
+    assert not all(isinstance(o, Box) and o.orientation is None for o in shuffled[:3])
+    first = spec.make_checker(Workspace.from_obstacles(robot, spec.joint_limits(), scene))
+    second = spec.make_checker(Workspace.from_obstacles(robot, spec.joint_limits(), shuffled))
+    limits = spec.joint_limits()
+    states = np.random.default_rng(4).uniform(*limits, size=(4000, limits.shape[1]))
+    free = first.states_free(states)
+    assert 0.1 < free.mean() < 0.9
+    assert np.array_equal(second.states_free(states), free)
+    assert np.array_equal(second.states_free(states, 0.005), first.states_free(states, 0.005))
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
 def test_a_box_turned_half_a_turn_is_checked_alike_on_the_general_path(robot):
     """A turn by pi about z maps ``(x, y, z)`` to ``(-x, -y, z)`` exactly: the same boxes,
     tested in their frames, get the box path's verdicts bit for bit."""

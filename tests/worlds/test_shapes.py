@@ -35,16 +35,6 @@ def sample(robot: str, count: int, seed: int = 0) -> tuple[Workspace, ...]:
 
 
 @pytest.mark.parametrize("robot", POINT_ROBOTS)
-def test_same_seed_same_workspace_other_seed_other_workspace(robot):
-    def draw(seed: int) -> list[Workspace]:
-        rng = np.random.default_rng(seed)
-        return [generate_workspace(robot, rng, SHAPES) for _ in range(3)]
-
-    assert draw(3) == draw(3)
-    assert draw(3) != draw(4)
-
-
-@pytest.mark.parametrize("robot", POINT_ROBOTS)
 def test_a_turned_mix_of_every_kind_of_the_boxes_familys_count_and_size(robot):
     dim = 2 if robot == POINT2D.name else 3
     config = DEFAULT_POINT_WORLDS[dim]

@@ -16,6 +16,7 @@ from temp_gym.worlds.encoding import occupancy_grid
 from temp_gym.worlds.generators import generate_workspace
 from temp_gym.worlds.point_world import DEFAULT_POINT_WORLDS, generate_point_task, reference_planner
 from temp_gym.worlds.robots import KUKA_IIWA14, POINT2D, POINT3D, robot_spec
+from temp_gym.worlds.shapes import SHAPES
 from temp_gym.worlds.splits import split_workspace
 from temp_gym.worlds.structured import (
     BOXES,
@@ -38,7 +39,7 @@ def sample(robot: str, family: str, count: int, seed: int = 0) -> tuple[Workspac
 
 
 # ---- determinism, bounds, occupancy -----------------------------------------------------------
-@pytest.mark.parametrize("family", [*WORKSPACE_FAMILIES, MIXED])
+@pytest.mark.parametrize("family", [*WORKSPACE_FAMILIES, MIXED, SHAPES])
 @pytest.mark.parametrize("robot", POINT_ROBOTS)
 def test_same_seed_same_workspace_other_seed_other_workspace(robot, family):
     def draw(seed: int) -> list[Workspace]:

@@ -55,7 +55,7 @@ from temp_gym.worlds.collision.arm_fast_kernels import (
     motion_free_kernel,
     states_free_kernel,
 )
-from temp_gym.worlds.collision.arm_fast_obstacles import OBSTACLE_COLUMNS
+from temp_gym.worlds.collision.arm_fast_obstacles import obstacle_tables
 from temp_gym.worlds.collision.arm_fast_self import scratch_for
 from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states, within_limits
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
@@ -184,12 +184,7 @@ class ArmSphereChecker:
         from temp_gym.worlds.collision.arm_exact import base_collides
 
         self.base_free = not base_collides(arm, obstacles)
-        params = np.zeros((len(obstacles), OBSTACLE_COLUMNS))
-        params[:, :3] = obstacles.centers
-        params[:, 3:6] = obstacles.half_extents
-        params[:, 6] = obstacles.kinds
-        params[:, 7:] = obstacles.rotations.reshape(-1, 9)
-        self._obstacle_arrays = (params, *self._candidates(trees, obstacles))
+        self._obstacle_arrays = (obstacle_tables(obstacles), *self._candidates(trees, obstacles))
         self.description = (
             f"{arm.name} sphere model ({len(trees.radii)} spheres), {obstacles.summary()}, "
             f"self-collision of {self.num_self_pairs} body pairs, edge resolution "
@@ -201,7 +196,8 @@ class ArmSphereChecker:
 
         Those whose world bounding box is within the body's reach of the first joint's origin
         (which never moves), plus half the resolution (the most an edge check grows it). A
-        body's list holds ``counts[j, 0]`` axis-aligned boxes, then ``counts[j, 1]`` others.
+        body's list holds ``counts[j, 0]`` rows of the box table, then ``counts[j, 1]`` rows of
+        the other obstacles' table (`obstacle_tables`).
         """
         arm = self.arm
         bodies = arm.num_bodies
@@ -214,6 +210,11 @@ class ArmSphereChecker:
         gaps = np.linalg.norm(np.maximum(np.abs(anchor - center) - half, 0.0), axis=1)
         body_lists = np.zeros((bodies, max(len(center), 1)), dtype=np.int64)
         counts = np.zeros((bodies, 2), dtype=np.int64)
+        body_lower = np.zeros((bodies, 3, body_lists.shape[1]))
+        body_upper = np.zeros((bodies, 3, body_lists.shape[1]))
+        aligned = obstacles.axis_aligned
+        # Each obstacle's row in its own table.
+        rank = np.where(aligned, np.cumsum(aligned) - 1, np.cumsum(~aligned) - 1)
         for j in range(1, bodies):
             root = trees.body_start[j]
             if root == trees.body_start[j + 1]:
@@ -222,14 +223,11 @@ class ArmSphereChecker:
             reach = (float(np.linalg.norm(shift[1:j], axis=1).sum()) + float(slides[:j].sum())
                      + extent)  # fmt: skip
             near = gaps <= reach + self.resolution / 2 + 1e-9
-            boxes = np.flatnonzero(near & obstacles.axis_aligned)
-            others = np.flatnonzero(near & ~obstacles.axis_aligned)
-            body_lists[j, : len(boxes) + len(others)] = np.concatenate([boxes, others])
+            boxes = np.flatnonzero(near & aligned)
+            others = np.flatnonzero(near & ~aligned)
+            near = np.concatenate([boxes, others])
+            body_lists[j, : len(near)] = rank[near]
             counts[j] = len(boxes), len(others)
-        body_lower = np.zeros((bodies, 3, body_lists.shape[1]))
-        body_upper = np.zeros((bodies, 3, body_lists.shape[1]))
-        for j in range(bodies):
-            near = body_lists[j, : counts[j].sum()]
             body_lower[j, :, : len(near)] = lower[near].T
             body_upper[j, :, : len(near)] = upper[near].T
         return body_lists, counts, body_lower, body_upper

@@ -1,15 +1,15 @@
 """The fast arm checker's sphere-versus-obstacle tests, for every obstacle kind.
 
-`temp_gym.worlds.collision.arm_fast_kernels` calls `body_touches` once per moving body. Each
-obstacle is a row of `OBSTACLE_COLUMNS` numbers: center, half extents in the obstacle's frame,
-kind (`temp_gym.problem.obstacles`), and the rotation matrix row by row. A body's candidate
-obstacles list the axis-aligned boxes first, then the others:
+`temp_gym.worlds.collision.arm_fast_kernels` calls `body_touches` once per moving body. The
+obstacles live in two tables (`obstacle_tables`), and a body's candidate obstacles list rows of
+the first, then rows of the second:
 
-* **axis-aligned boxes** are tested by `sphere_hits_box` on the row's first six numbers
-  ``(cx, cy, cz, hx, hy, hz)``: the arithmetic every box-only world has always been checked
-  with;
-* **other obstacles** (oriented boxes, cylinders, spheres) by `sphere_hits_shape`, in the
-  obstacle's frame.
+* **axis-aligned boxes**, rows of `BOX_COLUMNS` numbers ``(cx, cy, cz, hx, hy, hz)``, tested
+  by `sphere_hits_box`: the arithmetic and the memory layout every box-only world has always
+  been checked with;
+* **other obstacles** (oriented boxes, cylinders, spheres), rows of `OBSTACLE_COLUMNS`
+  numbers: center, half extents in the obstacle's frame, kind (`temp_gym.problem.obstacles`)
+  and the rotation matrix row by row, tested by `sphere_hits_shape` in the obstacle's frame.
 
 The tests take the list's kind as a constant (``any_kind``); inlined, the compiler drops the
 other branch, so the boxes run the code they always ran and a world without other obstacles
@@ -22,15 +22,40 @@ conservative: its spheres cover the arm (`temp_gym.worlds.collision.arm_fast`).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from temp_gym.problem.obstacles import CYLINDER, SPHERE
 from temp_gym.worlds.collision.arm_fast_self import place
 from temp_gym.worlds.hot_path import hot_inline
 
+if TYPE_CHECKING:
+    from temp_gym.worlds.collision.arm_obstacles import ArmObstacles
+
 FREE, HIT, CERTAIN = 0, 1, 2
 """Answers: free; a grown sphere touches an obstacle; an inner ball does (the state collides)."""
+BOX_COLUMNS = 6
+"""Numbers per axis-aligned box: center (3), half extents (3)."""
 OBSTACLE_COLUMNS = 16
-"""Numbers per obstacle: center (3), half extents (3), kind (1), rotation (9, by rows)."""
+"""Numbers per other obstacle: center (3), half extents (3), kind (1), rotation (9, by rows)."""
+
+
+def obstacle_tables(obstacles: ArmObstacles) -> tuple[np.ndarray, np.ndarray]:
+    """``(boxes, others)``: the axis-aligned boxes' rows, then the other obstacles' rows.
+
+    Each table keeps the obstacles' order; `ArmSphereChecker` maps an obstacle to its row.
+    """
+    aligned = obstacles.axis_aligned
+    boxes = np.ascontiguousarray(
+        np.hstack([obstacles.centers[aligned], obstacles.half_extents[aligned]])
+    ).reshape(-1, BOX_COLUMNS)
+    others = np.zeros((int((~aligned).sum()), OBSTACLE_COLUMNS))
+    others[:, :3] = obstacles.centers[~aligned]
+    others[:, 3:6] = obstacles.half_extents[~aligned]
+    others[:, 6] = obstacles.kinds[~aligned]
+    others[:, 7:] = obstacles.rotations[~aligned].reshape(-1, 9)
+    return boxes, others
 
 
 @hot_inline
@@ -73,27 +98,30 @@ def sphere_hits_shape(x, y, z, radius, shapes, s) -> bool:
 
 
 @hot_inline
-def sphere_hits(x, y, z, radius, params, b, any_kind) -> bool:
-    """`sphere_hits_shape` when ``any_kind``, else `sphere_hits_box` (a constant per caller)."""
+def sphere_hits(x, y, z, radius, tables, b, any_kind) -> bool:
+    """Row ``b`` of ``tables[1]`` (`sphere_hits_shape`) or of ``tables[0]`` (`sphere_hits_box`).
+
+    ``any_kind`` picks the table and the test; it is a constant per caller.
+    """
     if any_kind:
-        return sphere_hits_shape(x, y, z, radius, params, b)
-    return sphere_hits_box(x, y, z, radius, params, b)
+        return sphere_hits_shape(x, y, z, radius, tables[1], b)
+    return sphere_hits_box(x, y, z, radius, tables[0], b)
 
 
 @hot_inline
 def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-              body_start, centers, radii, grow, params, b, any_kind) -> bool:  # fmt: skip
+              body_start, centers, radii, grow, tables, b, any_kind) -> bool:  # fmt: skip
     """Whether a leaf sphere of body ``j``, grown by ``grow``, touches obstacle ``b`` (a walk)."""
     n = body_start[j]
     end = body_start[j + 1]
     while n < end:
         x, y, z = place(poses, j, node_centers, n)
-        if sphere_hits(x, y, z, node_radii[n] + grow, params, b, any_kind):
+        if sphere_hits(x, y, z, node_radii[n] + grow, tables, b, any_kind):
             count = node_count[n]
             if count > 0:
                 for k in range(node_first[n], node_first[n] + count):
                     x, y, z = place(poses, j, centers, k)
-                    if sphere_hits(x, y, z, radii[k] + grow, params, b, any_kind):
+                    if sphere_hits(x, y, z, radii[k] + grow, tables, b, any_kind):
                         return True
                 n = node_skip[n]
             else:
@@ -106,19 +134,19 @@ def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_co
 @hot_inline
 def _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
              node_count, body_start, centers, radii, inner_centers, inner_radii, inner_start,
-             grow, params, body_list, first, last, any_kind) -> int:  # fmt: skip
+             grow, tables, body_list, first, last, any_kind) -> int:  # fmt: skip
     """`body_touches`'s narrow phase over candidates ``body_list[j, first:last]``."""
     for n in range(first, last):
         b = body_list[j, n]
-        if not sphere_hits(bx, by, bz, bound, params, b, any_kind):
+        if not sphere_hits(bx, by, bz, bound, tables, b, any_kind):
             continue
         # An obstacle that reaches an inner ball is in the body: no tree walk needed.
         for k in range(inner_start[j], inner_start[j + 1]):
             x, y, z = place(poses, j, inner_centers, k)
-            if sphere_hits(x, y, z, inner_radii[k], params, b, any_kind):
+            if sphere_hits(x, y, z, inner_radii[k], tables, b, any_kind):
                 return CERTAIN
         if tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-                     body_start, centers, radii, grow, params, b, any_kind):  # fmt: skip
+                     body_start, centers, radii, grow, tables, b, any_kind):  # fmt: skip
             return HIT
     return FREE
 
@@ -126,14 +154,15 @@ def _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, n
 @hot_inline
 def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
                  node_count, body_start, centers, radii, inner_centers, inner_radii,
-                 inner_start, grow, params, body_list, counts, body_lower,
+                 inner_start, grow, tables, body_list, counts, body_lower,
                  body_upper) -> int:  # fmt: skip
     """`FREE`, `HIT` or `CERTAIN`: body ``j`` against its candidate obstacles.
 
     ``(bx, by, bz)`` is its root sphere's world center and ``bound`` that sphere's grown
-    radius. ``body_list[j]`` lists the candidates' rows of ``params``: ``counts[j, 0]``
-    axis-aligned boxes, then ``counts[j, 1]`` others; ``body_lower[j]`` and ``body_upper[j]``
-    (3, candidates) are their world bounding boxes.
+    radius. ``body_list[j]`` lists the candidates: ``counts[j, 0]`` rows of the box table
+    ``tables[0]``, then ``counts[j, 1]`` rows of the other obstacles' table ``tables[1]``
+    (`obstacle_tables`); ``body_lower[j]`` and ``body_upper[j]`` (3, candidates) are their
+    world bounding boxes.
     """
     boxes = counts[j, 0]
     total = boxes + counts[j, 1]
@@ -148,22 +177,24 @@ def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_ski
         return FREE
     answer = _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
                       node_first, node_count, body_start, centers, radii, inner_centers,
-                      inner_radii, inner_start, grow, params, body_list, 0, boxes,
+                      inner_radii, inner_start, grow, tables, body_list, 0, boxes,
                       False)  # fmt: skip
     if answer != FREE:
         return answer
     return _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
                     node_first, node_count, body_start, centers, radii, inner_centers,
-                    inner_radii, inner_start, grow, params, body_list, boxes, total,
+                    inner_radii, inner_start, grow, tables, body_list, boxes, total,
                     True)  # fmt: skip
 
 
 __all__ = [
+    "BOX_COLUMNS",
     "CERTAIN",
     "FREE",
     "HIT",
     "OBSTACLE_COLUMNS",
     "body_touches",
+    "obstacle_tables",
     "sphere_hits",
     "sphere_hits_box",
     "sphere_hits_shape",
