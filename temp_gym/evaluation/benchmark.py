@@ -1,7 +1,8 @@
 """Benchmark registered planners over a problem set: resumable runs, one record per run.
 
 A work unit is one run: a planner on a problem with its own seed, stopped by the time limit
-(or a node budget high enough that the time limit ends it). Runs go to local processes or
+(or a node budget high enough that the time limit ends it), or at its first solution with
+``stop_at_first``. Runs go to local processes or
 Ray (`temp_gym.distributed`); the driver appends each record, as it arrives, to
 ``{out}/runs.jsonl`` (one JSON object per line, flushed and fsynced), so a killed benchmark
 loses at most the runs in flight. The same command again skips every stored run and
@@ -71,10 +72,12 @@ class BenchmarkSettings:
     """Seed of the runs' seeds."""
     max_nodes: int = DEFAULT_MAX_NODES
     """Node budget per run."""
+    stop_at_first: bool = False
+    """End each run at its first solution (for time to a first solution), not the time limit."""
 
     def __post_init__(self) -> None:
         from temp_gym.planning.plan import PLANNERS  # the built-in planners registered
-        from temp_gym.planning.settings import count, seed_value
+        from temp_gym.planning.settings import count, flag, seed_value
 
         planners = tuple(self.planners)
         if not planners:
@@ -98,11 +101,14 @@ class BenchmarkSettings:
         object.__setattr__(self, "runs", count(self.runs, "runs"))
         object.__setattr__(self, "seed", seed_value(self.seed))
         object.__setattr__(self, "max_nodes", count(self.max_nodes, "max_nodes"))
+        object.__setattr__(self, "stop_at_first", flag(self.stop_at_first, "stop_at_first"))
 
     def manifest(self) -> dict[str, Any]:
         """What ``benchmark.json`` holds: the settings a stored run depends on."""
         shared = asdict(self)
         del shared["planners"], shared["runs"]  # may grow between reruns
+        if not self.stop_at_first:  # as benchmarks stored before the setting existed
+            del shared["stop_at_first"]
         return {"format": FORMAT, "record_version": RECORD_VERSION, **shared}
 
 
@@ -136,7 +142,8 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
     started = time.perf_counter()
     try:
         result = plan(problem, planner, seed=seed, time_limit=settings.time_limit,
-                      max_nodes=settings.max_nodes)  # fmt: skip
+                      max_nodes=settings.max_nodes,
+                      stop_at_first=settings.stop_at_first)  # fmt: skip
     except Exception as error:  # recorded as OMPL's Benchmark records a crash; rerun later
         return {**record, "status": "crash", "solved": False, "error": one_line(error),
                 "time": time.perf_counter() - started, "finished": time.time()}  # fmt: skip

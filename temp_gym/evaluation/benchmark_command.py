@@ -8,8 +8,10 @@ Example:
 The problem set is a folder of problem JSON files (searched recursively; a file
 ``walls/0003.json`` is the problem ``walls/0003`` of scene ``walls``) or the evaluation's
 generated test tasks (``--split ROBOT:DIFFICULTY:COUNT``). ``--group`` makes experiments of
-it: one per scene (default), one for the whole set, or one per problem. Problems whose start
-or goal is invalid are skipped and listed.
+it: one per scene (default), one for the whole set, or one per problem; ``--limit N`` keeps
+the first N problems of each. Problems whose start or goal is invalid are skipped and listed.
+Anytime planners run until the time limit unless ``--stop-at-first`` ends each run at its
+first solution.
 
 Outputs in ``--out``: ``logs/{experiment}.log`` (OMPL's benchmark log), ``benchmark.db``
 (their SQLite database, for Planner Arena), ``summary.md`` and ``summary.csv``,
@@ -72,6 +74,11 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
     parser.add_argument("--max-nodes", type=count(1), default=None,
                         help="node budget per run (None: high enough that the time limit "
                         "ends every run)")  # fmt: skip
+    parser.add_argument("--stop-at-first", action="store_true",
+                        help="end each run at its first solution instead of the time limit "
+                        "(what a time to a first solution needs of anytime planners)")  # fmt: skip
+    parser.add_argument("--limit", type=count(1), default=None, metavar="N",
+                        help="run only the first N problems of each experiment (by name)")
     parser.add_argument("--group", choices=("scene", "one", "problem"), default="scene",
                         help="experiments: one per scene (a problem name's part before its "
                         "last '/'), one for the whole set, or one per problem")  # fmt: skip
@@ -87,6 +94,7 @@ def _settings(args: argparse.Namespace):
         return BenchmarkSettings(
             planners=tuple(args.planners), time_limit=args.time_limit, runs=args.runs,
             seed=args.seed, max_nodes=args.max_nodes or DEFAULT_MAX_NODES,
+            stop_at_first=args.stop_at_first,
         )  # fmt: skip
     except ValueError as error:
         field, _, reason = str(error).partition(":")
@@ -142,6 +150,10 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     if not problems:
         raise ValueError("problems: no problem left to run (every one was skipped)")
     experiments = group_experiments(problems, args.group, whole)
+    if args.limit is not None:
+        experiments = {name: sorted(members, key=lambda named: named[0])[: args.limit]
+                       for name, members in experiments.items()}  # fmt: skip
+        problems = [named for members in experiments.values() for named in members]
     records = run_benchmark(problems, settings, out, workers=args.workers or 1,
                             backend=args.backend, address=args.ray_address,
                             progress=not args.no_progress)  # fmt: skip

@@ -192,3 +192,27 @@ def test_problems_group_by_scene_in_one_or_one_per_problem():
         "a": ["a/0", "a/1"], "b_c": ["b c/0"], "set": ["loose"]}  # fmt: skip
     assert list(group_experiments(named, "one", "set")) == ["set"]
     assert len(group_experiments(named, "problem")) == 4
+
+
+def test_limit_keeps_the_first_problems_of_each_scene_and_stop_at_first_ends_runs_early(
+    bench, tmp_path
+):
+    problems, stored = bench
+    extra = problems / "open" / "0001.json"
+    extra.write_text(json.dumps(OPEN))
+    try:
+        out = tmp_path / "first"
+        argv = command(problems, out, "--limit", "1", "--stop-at-first")
+        argv[argv.index("--time-limit") + 1] = "10"
+        argv[argv.index("--max-nodes") + 1] = "100000"
+        assert main(argv) == 0
+    finally:
+        extra.unlink()
+    records = read_records(out / "runs.jsonl")
+    assert {r["problem"] for r in records} == {"open/0000", "walls/0000"}
+    # Stopped at the first solution: the anytime planners end long before 10 s or the budget.
+    solved = [r for r in records if r["solved"]]
+    assert solved and all(r["nodes"] == r["first_nodes"] for r in solved)
+    assert json.loads((out / "benchmark.json").read_text())["stop_at_first"] is True
+    # A benchmark run without the flag keeps the manifest it always had.
+    assert "stop_at_first" not in json.loads((stored / "benchmark.json").read_text())
