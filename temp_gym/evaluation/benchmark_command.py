@@ -77,8 +77,13 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
     parser.add_argument("--stop-at-first", action="store_true",
                         help="end each run at its first solution instead of the time limit "
                         "(what a time to a first solution needs of anytime planners)")  # fmt: skip
-    parser.add_argument("--limit", type=count(1), default=None, metavar="N",
-                        help="run only the first N problems of each experiment (by name)")
+    parser.add_argument(
+        "--limit",
+        type=count(1),
+        default=None,
+        metavar="N",
+        help="run only the first N problems of each experiment (by name)",
+    )
     parser.add_argument("--group", choices=("scene", "one", "problem"), default="scene",
                         help="experiments: one per scene (a problem name's part before its "
                         "last '/'), one for the whole set, or one per problem")  # fmt: skip
