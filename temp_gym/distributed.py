@@ -109,6 +109,9 @@ class RayUnavailableError(JobError, ConnectionError):
 def init_ray(address: str | None = None, workers: int | None = None):
     """Connect to ``address`` (or ``$RAY_ADDRESS``), or start a local instance; return ray.
 
+    Without an address the local instance is a new one with ``workers`` CPUs, even when a
+    cluster already runs on this machine (one joins that only by naming it).
+
     Raises:
         ImportError: Ray is not installed.
         RayUnavailableError: no cluster answers at the address (the message says how to
@@ -132,7 +135,9 @@ def init_ray(address: str | None = None, workers: int | None = None):
                     "$RAY_ADDRESS to run on a local Ray instance"
                 ) from None
         else:
-            ray.init(num_cpus=workers or os.cpu_count(), **options)
+            # "local": a new instance of our own, even while a cluster runs on this machine
+            # (ray.init() would join that cluster and refuse num_cpus).
+            ray.init(address="local", num_cpus=workers or os.cpu_count(), **options)
     return ray
 
 

@@ -66,3 +66,19 @@ def test_ray_address_auto_without_a_cluster_is_one_line_saying_how_to_start_one(
     assert err[-1].startswith("generate.py: error: no Ray cluster at --ray-address 'auto'")
     assert "ray start --head" in err[-1] and "leave out --ray-address" in err[-1]
     assert not any("Traceback" in line for line in err)
+
+
+def test_without_an_address_ray_starts_an_instance_of_its_own(monkeypatch):
+    """A cluster already running on the machine (``ray start --head``) is not joined: the
+    local instance gets the workers asked for."""
+    ray = pytest.importorskip("ray")
+    calls = []
+    monkeypatch.setattr(ray, "init", lambda *args, **kwargs: calls.append(kwargs))
+    monkeypatch.setattr(ray, "is_initialized", lambda: False)
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    from temp_gym.distributed import init_ray
+
+    init_ray(None, 3)
+    assert calls[0]["address"] == "local" and calls[0]["num_cpus"] == 3
+    init_ray("auto", 3)
+    assert calls[1]["address"] == "auto" and "num_cpus" not in calls[1]
