@@ -2,13 +2,13 @@
 
 A work unit is one run: a planner on a problem with its own seed, stopped by the time limit
 (or a node budget high enough that the time limit ends it), or at its first solution with
-``stop_at_first``. Runs go to local processes or
-Ray (`temp_gym.distributed`); the driver appends each record, as it arrives, to
-``{out}/runs.jsonl`` (one JSON object per line, flushed and fsynced), so a killed benchmark
-loses at most the runs in flight. The same command again skips every stored run and
-duplicates none; a line cut short by the kill is dropped. ``{out}/benchmark.json`` holds the
-settings every run shares (time limit, node budget, seed): a rerun with others stops with
-an error instead of mixing runs. Planners and runs per problem may grow between reruns.
+``stop_at_first``. Runs go to local processes or Ray (`temp_gym.distributed`); the driver
+appends each record, as it arrives, to ``{out}/runs.jsonl`` (one JSON object per line,
+flushed and fsynced), so a killed benchmark loses at most the runs in flight. The same
+command again skips every stored run and duplicates none; a line cut short by the kill is
+dropped. ``{out}/benchmark.json`` holds the settings every run shares (time limit, node
+budget, seed, ``stop_at_first``): a rerun with others stops with an error instead of mixing
+runs. Planners and runs per problem may grow between reruns.
 
 A run counts as solved only when its path passes the exact checker here, whatever the planner
 reported: it starts at the start, ends in the goal region, and `certify_path` (the exact

@@ -225,11 +225,11 @@ class ArmSphereChecker:
             near = gaps <= reach + self.resolution / 2 + 1e-9
             boxes = np.flatnonzero(near & aligned)
             others = np.flatnonzero(near & ~aligned)
-            near = np.concatenate([boxes, others])
-            body_lists[j, : len(near)] = rank[near]
+            chosen = np.concatenate([boxes, others])
+            body_lists[j, : len(chosen)] = rank[chosen]
             counts[j] = len(boxes), len(others)
-            body_lower[j, :, : len(near)] = lower[near].T
-            body_upper[j, :, : len(near)] = upper[near].T
+            body_lower[j, :, : len(chosen)] = lower[chosen].T
+            body_upper[j, :, : len(chosen)] = upper[chosen].T
         return body_lists, counts, body_lower, body_upper
 
     @property

@@ -47,9 +47,7 @@ def obstacle_tables(obstacles: ArmObstacles) -> tuple[np.ndarray, np.ndarray]:
     Each table keeps the obstacles' order; `ArmSphereChecker` maps an obstacle to its row.
     """
     aligned = obstacles.axis_aligned
-    boxes = np.ascontiguousarray(
-        np.hstack([obstacles.centers[aligned], obstacles.half_extents[aligned]])
-    ).reshape(-1, BOX_COLUMNS)
+    boxes = np.hstack([obstacles.centers[aligned], obstacles.half_extents[aligned]])
     others = np.zeros((int((~aligned).sum()), OBSTACLE_COLUMNS))
     others[:, :3] = obstacles.centers[~aligned]
     others[:, 3:6] = obstacles.half_extents[~aligned]

@@ -1,4 +1,7 @@
-"""Validation of the arm checkers' inputs: one place for the shapes and the error messages."""
+"""Validation of the checkers' inputs: one place for the shapes and the error messages.
+
+The arm checkers use all of it; the point checkers share `as_states`.
+"""
 
 from __future__ import annotations
 

@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.cells import next_cell
+from temp_gym.worlds.collision.arm_inputs import as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
 
@@ -303,19 +304,6 @@ def _volume_floor(lower_bounds, upper_bounds, box_lower, box_upper) -> float:
     for k in range(dim):
         total *= upper_bounds[k] - lower_bounds[k]
     return total - boxes - 1e-9 * total
-
-
-def as_states(states: np.ndarray, dim: int) -> np.ndarray:
-    """``(N, dim)`` contiguous float64 states; one ``(dim,)`` state becomes ``(1, dim)``.
-
-    Any other shape is a `ValueError` naming it.
-    """
-    states = np.ascontiguousarray(states, dtype=np.float64)
-    if states.ndim == 1:
-        states = states.reshape(1, -1)
-    if states.ndim != 2 or states.shape[1] != dim:
-        raise ValueError(f"states: expected shape (N, {dim}), got {states.shape}")
-    return states
 
 
 class PointBoxChecker:

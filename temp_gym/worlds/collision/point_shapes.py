@@ -24,13 +24,9 @@ import numpy as np
 
 from temp_gym.problem import Workspace
 from temp_gym.problem.obstacles import KIND_NAMES
+from temp_gym.worlds.collision.arm_inputs import as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
-from temp_gym.worlds.collision.point import (
-    UNION_SAMPLES,
-    PointBoxChecker,
-    _segment_hits_box,
-    as_states,
-)
+from temp_gym.worlds.collision.point import UNION_SAMPLES, PointBoxChecker, _segment_hits_box
 from temp_gym.worlds.collision.shape_geometry import (
     AXIS_BOX,
     ROTATED_BOX,
