@@ -1,6 +1,34 @@
-"""Fixtures shared across the test packages."""
+"""Fixtures shared across the test packages, and the CPU the suite's numba kernels target."""
+
+import importlib.util
+import os
+import sys
+from pathlib import Path
 
 import pytest
+
+
+def _compile_for_the_golden_cpu() -> None:
+    """Have numba compile for the CPU the golden fingerprints are computed under.
+
+    `tests/golden` recomputes its sample in child processes whose numba targets a named CPU
+    (``golden.PINNED_ENV``), and numba keeps one on-disk cache per target CPU. With the rest
+    of the suite compiling for the host, a fresh clone compiled every planner kernel twice
+    (the golden plans alone took about 5 minutes of the suite). Set before numba is imported
+    here or in any worker or child process, the same target makes both share one cache. A
+    variable the caller set wins; a CPU the fingerprints are not kept for keeps the host.
+    """
+    spec = importlib.util.spec_from_file_location(
+        "golden", Path(__file__).with_name("golden") / "golden.py"
+    )
+    golden = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("golden", golden)  # the module test_golden.py imports
+    spec.loader.exec_module(golden)
+    if golden.pinned_kernel_supported():
+        os.environ.setdefault("NUMBA_CPU_NAME", golden.PINNED_ENV["NUMBA_CPU_NAME"])
+
+
+_compile_for_the_golden_cpu()
 
 
 @pytest.fixture
