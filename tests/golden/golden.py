@@ -74,8 +74,9 @@ host CPU, and the MPT's kernels rounded differently when compiled for it (not pi
 further; LayerNorm's row sums, the one loop allowed to reassociate, are the likely place).
 With numba compiling for Haswell too
 (``NUMBA_CPU_NAME=haswell`` beside OpenBLAS's kernel, `PINNED_ENV`), all 85 fingerprints were
-identical there, as stored; none was rewritten. The child's numba caches are kept per target
-CPU, so it compiles its kernels once for Haswell beside the host's.
+identical there, as stored; none was rewritten. numba keeps its caches per target CPU, so the
+rest of the suite compiles for Haswell too (``tests/conftest.py``): the children load the
+kernels the suite compiled instead of compiling each of them a second time.
 
 Then the shipped 2D policy changed (the same tiny MPT with one layer instead of two): only the
 three 2D ``temp`` plans and the 2D evaluation record changed, and were rewritten the same way.
