@@ -20,16 +20,17 @@ untouched until the final measurement, ``--split test`` with the chosen setting)
 ``temp`` planner up to the first solution, and prints nodes to the first solution (mean and
 median, a failure counted as the whole budget), the share solved by attention-based planning
 within n (from the start alone, and both ways: from the start, or from the goal after a stall,
-or in a later round), cost and time; and, against RRT* on the same tasks, the share of tasks
-where TEMP needed fewer nodes and the mean difference with its 95% paired bootstrap interval.
+or in a later round), cost and time; and, against a classical planner on the same tasks and
+seeds (``--baseline``, RRT* by default), the share of tasks where TEMP needed fewer nodes and
+the mean difference with its 95% paired bootstrap interval.
 Each row prints the settings it ran with, the checkpoint's included. The recommendation
 minimizes the mean nodes among the settings whose attention phase solves at least
 ``--min-attention-success`` of the tasks (both ways); ``trainers/ship.py --attention-nodes ...
 --noise-std ...`` then ships it.
 
-Every run, RRT*'s included, has the node budget ``--max-nodes`` (default: the config's
+Every run, the baseline's included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
-quietly cut to it. ``--no-rrt`` leaves RRT* out (its columns print ``-``), for comparing
+quietly cut to it. ``--no-rrt`` leaves the baseline out (its columns print ``-``), for comparing
 policies with each other: ``--per-task FILE`` writes every run's figures task by task, which
 ``trainers/compare_policies.py`` pairs across policies.
 """
@@ -133,7 +134,7 @@ def _parser():
         "--max-nodes",
         type=count(1),
         default=None,
-        help="node budget of every run, RRT*'s included (None: "
+        help="node budget of every run, the baseline's included (None: "
         "train_eval.max_nodes of the config); each n must fit in it",
     )
     parser.add_argument("--tasks", type=count(1, MAX_TASKS), default=60, help="tasks per setting")
@@ -158,9 +159,15 @@ def _parser():
         help="least share of tasks the attention phase must solve (both ways) to be recommended",
     )
     parser.add_argument(
+        "--baseline",
+        default="rrt_star",
+        help="the classical planner TEMP is paired with on the same tasks and seeds (any "
+        "registered planner but temp; rrt_star, informed_rrt_star, rrt_connect, ompl_...)",
+    )
+    parser.add_argument(
         "--no-rrt",
         action="store_true",
-        help="leave RRT* out (its columns print -): for comparing policies with each other",
+        help="leave the baseline out (its columns print -): for comparing policies with each other",
     )
     parser.add_argument(
         "--per-task",
@@ -192,6 +199,15 @@ def _check_values(args, budget: int, budget_from: str) -> None:
             elif key not in POLICY_KEYS and key not in ("goal_tree", "attention_from_goal",
                                                         "attention_keep_chunk"):  # fmt: skip
                 check(key, value, flag)
+
+
+def _check_baseline(name: str) -> None:
+    """Refuse, naming ``--baseline``, a planner that is not registered or is TEMP itself."""
+    from temp_gym.planning import PLANNERS  # the built-in planners are registered with it
+
+    if name == "temp" or name not in PLANNERS:
+        known = sorted(set(PLANNERS) - {"temp"})
+        raise ValueError(f"--baseline: unknown classical planner {name!r}; expected one of {known}")
 
 
 def _rows(args) -> list[dict[str, Any]]:
@@ -307,6 +323,7 @@ def main(argv: list[str] | None = None) -> dict:
     try:
         _check_values(args, eval_config.max_nodes, budget_from)
         check_family(config.env.robot, args.family)
+        _check_baseline(args.baseline)
     except ValueError as error:
         parser.error(str(error))
     flag = "--checkpoint" if args.checkpoint else "the shipped policy"
@@ -329,13 +346,14 @@ def main(argv: list[str] | None = None) -> dict:
         )
     seeds = [eval_config.seed + index for index in range(len(problems))]
     rrt_runs = None
-    baseline = "RRT*: not run (--no-rrt)"
+    baseline = f"{args.baseline}: not run (--no-rrt)"
     if not args.no_rrt:
-        rrt_runs = [plan_episode(p, "rrt_star", s, eval_config) for p, s in zip(problems, seeds)]
+        rrt_runs = [plan_episode(p, args.baseline, s, eval_config) for p, s in zip(problems, seeds)]
         rrt = training.summarize(rrt_runs, eval_config.max_nodes)
         baseline = (
-            f"RRT*: nodes mean {rrt['nodes_mean']:.1f} median {rrt['nodes_median']:.0f}, "
-            f"cost {rrt['cost']:.2f}, time {rrt['time'] * 1e3:.1f} ms"
+            f"{args.baseline}: nodes mean {rrt['nodes_mean']:.1f} median "
+            f"{rrt['nodes_median']:.0f}, solved {rrt['success']:.3f}, cost {rrt['cost']:.2f}, "
+            f"time {rrt['time'] * 1e3:.1f} ms"
         )
     print(
         f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}), "
@@ -350,11 +368,13 @@ def main(argv: list[str] | None = None) -> dict:
         "max_nodes": eval_config.max_nodes,
         "seeds": seeds,
         "problems": [_digest(problem) for problem in problems],
-        "rrt_star": None if rrt_runs is None else _task_figures(rrt_runs),
+        "baseline": args.baseline,
+        args.baseline: None if rrt_runs is None else _task_figures(rrt_runs),
         "settings": [],
     }
     figures = ("nodes mean", "median", "AP solved", "AP both ways", "success", "cost",
-               "time (ms)", "fewer than RRT*", "mean difference [95% CI]")  # fmt: skip
+               "time (ms)", f"fewer than {args.baseline}",
+               "mean difference [95% CI]")  # fmt: skip
     print("| " + " | ".join((*COLUMNS, *figures)) + " |")
     print("|" + "---:|" * (len(COLUMNS) + len(figures) - 1) + "---|")
     best, best_nodes = None, np.inf

@@ -49,6 +49,8 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
          "--near-goal-factor: expected a finite number of at least 1, got 0.5"),
         (["--follow-fallback", "1.5"], "--follow-fallback: expected a number in [0, 1], got 1.5"),
         (["--local-fallback", "-1"], "--local-fallback"),
+        (["--baseline", "temp"], "--baseline: unknown classical planner 'temp'"),
+        (["--baseline", "rrt"], "--baseline: unknown classical planner 'rrt'"),
     ],
 )  # fmt: skip
 def test_a_bad_setting_is_refused_and_named(capsys, monkeypatch, args, message):
@@ -210,3 +212,21 @@ def test_with_no_setting_flag_the_policy_is_measured_as_it_ships(capsys, monkeyp
     assert shipped == by_hand and shipped["attention_local_fallback"] == 5
     assert other["attention_local_fallback"] == 0 and other["attention_patience"] == 30
     assert figures(told_otherwise) != figures(as_shipped)
+
+
+def test_the_baseline_is_paired_task_by_task_and_named(capsys, monkeypatch, tmp_path):
+    """``--baseline`` plans the same tasks and seeds; its name heads the column and the file."""
+    import json
+
+    monkeypatch.chdir(ROOT)
+    per_task = tmp_path / "runs.json"
+    tune_planner.main(
+        [*ARGS, "--baseline", "informed_rrt_star", "--max-nodes", "300", "--tasks", "3",
+         "--per-task", str(per_task)]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert "informed_rrt_star: nodes mean" in out
+    assert "fewer than informed_rrt_star" in out
+    data = json.loads(per_task.read_text())
+    assert data["baseline"] == "informed_rrt_star"
+    assert len(data["informed_rrt_star"]["nodes"]) == 3
