@@ -16,8 +16,9 @@ from temp_gym.worlds.checkers import certify_path
 from temp_gym.worlds.generators import generate_problem
 from temp_gym.worlds.robots import spec_for_env
 
-ROBOTS = {"TEMP-2D-v0": "point2d", "TEMP-3D-v0": "point3d", "TEMP-7D-v0": "kuka_iiwa14"}
-SHIPPED = {"TEMP-2D-v0": "2d", "TEMP-3D-v0": "3d", "TEMP-7D-v0": "7d"}
+ROBOTS = {"TEMP-2D-v0": "point2d", "TEMP-3D-v0": "point3d", "TEMP-7D-v0": "kuka_iiwa14",
+          "TEMP-Panda-v0": "franka_panda"}  # fmt: skip
+SHIPPED = {"TEMP-2D-v0": "2d", "TEMP-3D-v0": "3d", "TEMP-7D-v0": "7d", "TEMP-Panda-v0": "panda"}
 """Env id -> checkpoint stem, as shipped (the specs must keep naming these files)."""
 
 

@@ -19,7 +19,7 @@ from temp_gym.models.snapshot import file_digest, read_snapshot, snapshot_path, 
 from temp_gym.models.temp import TEMPModel, load_checkpoint
 
 PROBLEM = Problem.load("examples/point2d.json")
-SHIPPED = ["point2d", "point3d", "kuka_iiwa14"]
+SHIPPED = ["point2d", "point3d", "kuka_iiwa14", "franka_panda"]
 
 
 @pytest.fixture(autouse=True)
