@@ -4,6 +4,7 @@ import json
 import signal
 import subprocess
 import sys
+import tempfile
 import urllib.request
 
 import pytest
@@ -61,21 +62,34 @@ def test_temp_plan_view_takes_one_problem(problem_file, capsys):
 
 
 def _serve_until_interrupted(command: list[str]) -> tuple[str, int]:
-    """Run ``command``, read its announced address, load the page, press Ctrl-C."""
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        lines = []
-        while not any("viewer: http" in line for line in lines):
-            line = process.stdout.readline()
-            assert line, f"no address announced: {lines} {process.stderr.read()}"
-            lines.append(line)
-        url = lines[-1].split("viewer: ")[1].split()[0]
-        with urllib.request.urlopen(url, timeout=10) as page:
-            assert page.status == 200
-        process.send_signal(signal.SIGINT)
-        process.wait(timeout=30)
-    finally:
-        process.kill()
+    """Run ``command``, read its announced address, load the page, press Ctrl-C.
+
+    The command's stderr goes to a file, not a pipe nobody reads while it runs (a full pipe
+    would block it), and a command still running 30 s after Ctrl-C fails with what it wrote.
+    """
+    with tempfile.TemporaryFile("w+") as errors:
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
+        try:
+            lines = []
+            while not any("viewer: http" in line for line in lines):
+                line = process.stdout.readline()
+                if not line:
+                    process.wait(timeout=30)
+                    errors.seek(0)
+                    pytest.fail(f"no address announced: {lines} {errors.read()}")
+                lines.append(line)
+            url = lines[-1].split("viewer: ")[1].split()[0]
+            with urllib.request.urlopen(url, timeout=10) as page:
+                assert page.status == 200
+            process.send_signal(signal.SIGINT)
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                errors.seek(0)
+                pytest.fail(f"still running 30 s after Ctrl-C; its stderr: {errors.read()!r}")
+        finally:
+            process.kill()
+            process.wait()
     return "".join(lines), process.returncode
 
 
