@@ -61,6 +61,15 @@ def test_temp_plan_view_takes_one_problem(problem_file, capsys):
     assert err.strip() == "temp-plan: error: --view takes one problem"
 
 
+def _default_interrupts() -> None:
+    """In the child: Ctrl-C's default disposition, as in a terminal.
+
+    An ignored SIGINT is inherited across exec, and Python then leaves it ignored, so a test
+    process that ignores it (a test runner's worker may) would hand that on to the server.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _serve_until_interrupted(command: list[str]) -> tuple[str, int]:
     """Run ``command``, read its announced address, load the page, press Ctrl-C.
 
@@ -68,7 +77,10 @@ def _serve_until_interrupted(command: list[str]) -> tuple[str, int]:
     would block it), and a command still running 30 s after Ctrl-C fails with what it wrote.
     """
     with tempfile.TemporaryFile("w+") as errors:
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
+        process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=errors, text=True,
+            preexec_fn=_default_interrupts,
+        )  # fmt: skip
         try:
             lines = []
             while not any("viewer: http" in line for line in lines):
