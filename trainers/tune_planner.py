@@ -345,19 +345,21 @@ def main(argv: list[str] | None = None) -> dict:
             config, args.split, args.tasks, eval_config.seed + 20_000, workspace_family=args.family
         )
     seeds = [eval_config.seed + index for index in range(len(problems))]
-    rrt_runs = None
-    baseline = f"{args.baseline}: not run (--no-rrt)"
+    baseline_runs = None
+    baseline_line = f"{args.baseline}: not run (--no-rrt)"
     if not args.no_rrt:
-        rrt_runs = [plan_episode(p, args.baseline, s, eval_config) for p, s in zip(problems, seeds)]
-        rrt = training.summarize(rrt_runs, eval_config.max_nodes)
-        baseline = (
-            f"{args.baseline}: nodes mean {rrt['nodes_mean']:.1f} median "
-            f"{rrt['nodes_median']:.0f}, solved {rrt['success']:.3f}, cost {rrt['cost']:.2f}, "
-            f"time {rrt['time'] * 1e3:.1f} ms"
+        baseline_runs = [
+            plan_episode(p, args.baseline, s, eval_config) for p, s in zip(problems, seeds)
+        ]
+        base = training.summarize(baseline_runs, eval_config.max_nodes)
+        baseline_line = (
+            f"{args.baseline}: nodes mean {base['nodes_mean']:.1f} median "
+            f"{base['nodes_median']:.0f}, solved {base['success']:.3f}, cost {base['cost']:.2f}, "
+            f"time {base['time'] * 1e3:.1f} ms"
         )
     print(
         f"{len(problems)} {args.split} tasks ({'OOD' if args.split == 'ood' else args.family}), "
-        f"budget {eval_config.max_nodes} nodes per run; {baseline}; settings not given: "
+        f"budget {eval_config.max_nodes} nodes per run; {baseline_line}; settings not given: "
         f"{checkpoint}'s"
     )
     per_task = {
@@ -369,7 +371,7 @@ def main(argv: list[str] | None = None) -> dict:
         "seeds": seeds,
         "problems": [_digest(problem) for problem in problems],
         "baseline": args.baseline,
-        args.baseline: None if rrt_runs is None else _task_figures(rrt_runs),
+        args.baseline: None if baseline_runs is None else _task_figures(baseline_runs),
         "settings": [],
     }
     figures = ("nodes mean", "median", "AP solved", "AP both ways", "success", "cost",
@@ -384,11 +386,11 @@ def main(argv: list[str] | None = None) -> dict:
         summary = training.summarize(runs, eval_config.max_nodes)
         solved = float(np.mean([run["attention_solved"] for run in runs]))
         both_ways = float(np.mean([run["attention_solved_both_ways"] for run in runs]))
-        if rrt_runs is None:
-            versus_rrt = "- | -"
+        if baseline_runs is None:
+            versus_baseline = "- | -"
         else:
-            paired = training.paired_nodes(runs, rrt_runs, eval_config.max_nodes)
-            versus_rrt = (
+            paired = training.paired_nodes(runs, baseline_runs, eval_config.max_nodes)
+            versus_baseline = (
                 f"{paired['fewer']:.2f} | {paired['difference']:+.1f} "
                 f"[{paired['low']:+.1f}, {paired['high']:+.1f}]"
             )
@@ -398,7 +400,7 @@ def main(argv: list[str] | None = None) -> dict:
             "| " + " | ".join(_cells(setting, policy.window)) + " | "
             f"{summary['nodes_mean']:.1f} | {summary['nodes_median']:.0f} | "
             f"{solved:.3f} | {both_ways:.3f} | {summary['success']:.3f} | "
-            f"{summary['cost']:.2f} | {summary['time'] * 1e3:.2f} | {versus_rrt} |",
+            f"{summary['cost']:.2f} | {summary['time'] * 1e3:.2f} | {versus_baseline} |",
             flush=True,
         )
         if both_ways >= args.min_attention_success and summary["nodes_mean"] < best_nodes:
