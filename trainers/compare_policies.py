@@ -1,9 +1,9 @@
 r"""Pair policies task by task: a capped mean of nodes with its paired bootstrap interval.
 
     python trainers/tune_planner.py --config configs/7d.yaml --checkpoint A.pt ... \\
-        --no-rrt --per-task a.json
+        --no-baseline --per-task a.json
     python trainers/tune_planner.py --config configs/7d.yaml --checkpoint B.pt ... \\
-        --no-rrt --per-task b.json
+        --no-baseline --per-task b.json
     python trainers/compare_policies.py a.json b.json [c.json ...] [--cap 1000] [--margin 0.05]
 
 The first file is the reference (the shipped policy, say); every other file is a candidate

@@ -30,9 +30,9 @@ minimizes the mean nodes among the settings whose attention phase solves at leas
 
 Every run, the baseline's included, has the node budget ``--max-nodes`` (default: the config's
 ``train_eval.max_nodes``), printed with the table; an n above it is refused rather than
-quietly cut to it. ``--no-rrt`` leaves the baseline out (its columns print ``-``), for comparing
-policies with each other: ``--per-task FILE`` writes every run's figures task by task, which
-``trainers/compare_policies.py`` pairs across policies.
+quietly cut to it. ``--no-baseline`` (or its older name ``--no-rrt``) leaves the baseline out
+(its columns print ``-``), for comparing policies with each other: ``--per-task FILE`` writes
+every run's figures task by task, which ``trainers/compare_policies.py`` pairs across policies.
 """
 
 from __future__ import annotations
@@ -165,9 +165,12 @@ def _parser():
         "registered planner but temp; rrt_star, informed_rrt_star, rrt_connect, ompl_...)",
     )
     parser.add_argument(
+        "--no-baseline",
         "--no-rrt",
+        dest="no_baseline",
         action="store_true",
-        help="leave the baseline out (its columns print -): for comparing policies with each other",
+        help="leave the baseline out (its columns print -): for comparing policies with each "
+        "other (--no-rrt: the same flag's older name)",
     )
     parser.add_argument(
         "--per-task",
@@ -346,8 +349,8 @@ def main(argv: list[str] | None = None) -> dict:
         )
     seeds = [eval_config.seed + index for index in range(len(problems))]
     baseline_runs = None
-    baseline_line = f"{args.baseline}: not run (--no-rrt)"
-    if not args.no_rrt:
+    baseline_line = f"{args.baseline}: not run (--no-baseline)"
+    if not args.no_baseline:
         baseline_runs = [
             plan_episode(p, args.baseline, s, eval_config) for p, s in zip(problems, seeds)
         ]

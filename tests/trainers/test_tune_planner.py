@@ -230,3 +230,14 @@ def test_the_baseline_is_paired_task_by_task_and_named(capsys, monkeypatch, tmp_
     data = json.loads(per_task.read_text())
     assert data["baseline"] == "informed_rrt_star"
     assert len(data["informed_rrt_star"]["nodes"]) == 3
+
+
+@pytest.mark.parametrize("flag", ["--no-baseline", "--no-rrt"])
+def test_the_baseline_is_left_out_under_either_name_of_the_flag(capsys, monkeypatch, flag):
+    """``--no-baseline`` (and its older name, ``--no-rrt``) plans no baseline; its columns: -."""
+    monkeypatch.chdir(ROOT)
+    tune_planner.main([*ARGS, "--baseline", "informed_rrt_star", "--tasks", "1", flag])
+    out = capsys.readouterr().out
+    assert "informed_rrt_star: not run (--no-baseline)" in out
+    [row] = [line for line in out.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert row.rstrip().endswith("| - | - |")
