@@ -306,6 +306,9 @@ class EvaluationConfig:
     """Before each timed run, the planners forget the task's workspace (the tree's free
     volume, TEMP's encoding), so that every planner pays that set-up as a first plan on a new
     workspace does."""
+    workspace_family: str = "boxes"
+    """Workspace family of the test workspaces (`temp_gym.worlds.structured`): the family
+    the policy was trained on (``data.workspace_family``) measures it in distribution."""
     workers: int = 2
     """Processes (``--workers`` overrides it)."""
     out: str | None = None

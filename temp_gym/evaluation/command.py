@@ -100,7 +100,7 @@ def settings_from(
               if getattr(section, key) is None}  # fmt: skip
     section = dataclasses.replace(section, temp=TEMPConfig(**temp), **policy)
     spec = robot_spec(robot)
-    _check_section(section)
+    _check_section(section, robot)
     tasks = section.tasks or spec.evaluation_tasks
     groups = {name: (difficulty, tasks) for name, difficulty in spec.evaluation_rows.items()}
     settings = EvaluationSettings(
@@ -115,15 +115,23 @@ def settings_from(
         seed=section.seed,
         warm_runs=section.warm_runs,
         fresh_workspaces=section.fresh_workspaces,
+        workspace_family=section.workspace_family,
     )
     return settings, section
 
 
-def _check_section(section: EvaluationConfig) -> None:
+def _check_section(section: EvaluationConfig, robot: str) -> None:
     """Refuse, naming the key, what the planners would refuse task by task in the workers."""
     from temp_gym.planning.plan import PLANNERS
     from temp_gym.planning.settings import PlanSettings
     from temp_gym.planning.temp_settings import TEMPSettings
+    from temp_gym.worlds.structured import check_family
+
+    try:
+        check_family(robot, section.workspace_family)
+    except ValueError as error:
+        reason = str(error).removeprefix("family: ")
+        raise ConfigError(f"evaluation.workspace_family: {reason}") from None
 
     if section.tasks is not None and section.tasks < 1:
         raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")

@@ -51,6 +51,7 @@ from temp_gym.planning.warmup import WARM_UP_NODES
 from temp_gym.problem import Problem
 from temp_gym.worlds.generators import generate_task
 from temp_gym.worlds.splits import SPLITS, split_workspace
+from temp_gym.worlds.structured import BOXES
 
 EVAL_ENTROPY = 7_000_001
 TEST_SET_VERSION = 3
@@ -104,6 +105,9 @@ class EvaluationSettings:
     it only the first planner on a task, TEMP, pays the tree's set-up, the baselines find it
     cached, and TEMP finds its encoding cached when the same worker planned in that
     workspace before (test task ``i`` lives in workspace ``i mod 50``)."""
+    workspace_family: str = BOXES
+    """Workspace family of the test workspaces (`temp_gym.worlds.structured`); the manifest
+    leaves out the default (`_recorded`)."""
 
     def temp_settings(self, policy: Any, **changes: Any) -> TEMPSettings:
         """Every TEMP run's settings: these budgets and seed, ``temp``, then ``changes``."""
@@ -111,13 +115,18 @@ class EvaluationSettings:
         return TEMPSettings(**{**common, **self.temp, "policy": policy, **changes})
 
 
-def evaluation_problem(robot: str, difficulty: str, index: int, seed: int = 0) -> Problem:
-    """Task ``index`` of a test group: deterministic, independent of the other tasks."""
+def evaluation_problem(
+    robot: str, difficulty: str, index: int, seed: int = 0, family: str = BOXES
+) -> Problem:
+    """Task ``index`` of a test group: deterministic, independent of the other tasks.
+
+    Its workspace is one of the ``test`` pool of ``family``; other families draw other tasks.
+    """
     sequence = np.random.SeedSequence([EVAL_ENTROPY, seed, _DIFFICULTY_CODES[difficulty], index])
     rng = np.random.default_rng(sequence)
     pool = SPLITS["test"]
     for attempt in range(pool):
-        workspace = split_workspace(robot, "test", (index + attempt) % pool)
+        workspace = split_workspace(robot, "test", (index + attempt) % pool, family)
         try:
             return generate_task(workspace, rng, difficulty)
         except RuntimeError:  # no task of that difficulty in this workspace: the next one
@@ -225,7 +234,9 @@ _POLICIES: dict[str, Any] = {}
 def _run_job(job: tuple[EvaluationSettings, Callable[[], Any], str, str, int]) -> dict:
     settings, make_policy, group, difficulty, index = job
     key = repr(make_policy)
-    problem = evaluation_problem(settings.robot, difficulty, index, settings.seed)
+    problem = evaluation_problem(
+        settings.robot, difficulty, index, settings.seed, settings.workspace_family
+    )
     if key not in _POLICIES:  # plan() warms itself up before its first timed run
         _POLICIES[key] = make_policy()
     started = time.perf_counter()
@@ -239,6 +250,17 @@ RECORD_VERSION = 2
 """What a record means; records of another version never mix. 2: TEMP's figures are the whole
 planner's first solution (the attention phase hands over to Informed RRT* when it stalls, see
 `temp_gym.planning.attention.default_patience`), no longer the attention phase's alone."""
+
+
+def _recorded(settings: EvaluationSettings) -> dict[str, Any]:
+    """The settings as the manifest holds them: the default family left out.
+
+    Manifests written before the setting existed hold none, so that those runs still resume.
+    """
+    recorded = asdict(settings)
+    if recorded["workspace_family"] == BOXES:
+        del recorded["workspace_family"]
+    return recorded
 
 
 class ManifestMismatchError(JobError, ValueError):
@@ -296,7 +318,7 @@ def run_evaluation(
             {
                 "test_set_version": TEST_SET_VERSION,
                 "record_version": RECORD_VERSION,
-                "settings": asdict(settings),
+                "settings": _recorded(settings),
                 **(identity or {}),
             },
         )

@@ -334,3 +334,28 @@ def test_attention_example_shows_the_phase_from_the_start_whatever_stalls():
     assert example["attention_phase"]["stop"] == "stalled"
     assert "from_goal_stop" not in example["attention_phase"]
     assert all(len(values) > 0 for values in example["normalized"].values())
+
+
+def test_test_tasks_come_from_the_family_asked_for():
+    """Another family's test pool draws other workspaces; the default is the robot's own."""
+    from temp_gym.worlds.splits import split_workspace
+
+    own = evaluation_problem("point2d", "easy", 3)
+    maze = evaluation_problem("point2d", "easy", 3, family="maze")
+    assert own == evaluation_problem("point2d", "easy", 3, family="boxes")
+    assert maze.workspace == split_workspace("point2d", "test", 3, "maze")
+    assert maze.workspace != own.workspace
+
+
+def test_the_manifest_names_a_family_other_than_the_default_and_refuses_to_mix_them(tmp_path):
+    """A manifest written before the setting existed (no family: boxes) still resumes."""
+    empty = settings(groups={"2D easy": ("easy", 0)})
+    run_evaluation(empty, make_policy, tmp_path, progress=False)
+    assert "workspace_family" not in json.loads((tmp_path / "run.json").read_text())["settings"]
+    run_evaluation(empty, make_policy, tmp_path, progress=False)  # resumes
+    maze = settings(groups={"2D easy": ("easy", 0)}, workspace_family="maze")
+    with pytest.raises(ManifestMismatchError, match="differs in: settings"):
+        run_evaluation(maze, make_policy, tmp_path, progress=False)
+    run_evaluation(maze, make_policy, tmp_path / "maze", progress=False)
+    stored = json.loads((tmp_path / "maze" / "run.json").read_text())["settings"]
+    assert stored["workspace_family"] == "maze"

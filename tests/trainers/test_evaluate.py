@@ -77,7 +77,10 @@ def test_config_is_required_and_every_flag_shows_its_default(capsys):
      ("evaluation.max_nodes=0", "evaluation.max_nodes: must be at least 1"),
      ("evaluation.baselines=[foo]", "evaluation.baselines: unknown planner 'foo'"),
      ("evaluation.noise_std=-1", "evaluation.noise_std: must be at least 0"),
-     ("evaluation.horizon=9", "evaluation.horizon: expected an integer in 1..")],
+     ("evaluation.horizon=9", "evaluation.horizon: expected an integer in 1.."),
+     ("evaluation.workspace_family=nope", "evaluation.workspace_family: expected one of"),
+     ("evaluation.workspace_family=manipulation",
+      "evaluation.workspace_family: 'manipulation' is drawn for arms only")],
 )  # fmt: skip
 def test_bad_evaluation_settings_are_refused_by_name_before_any_task(tmp_path, override, message):
     TEMPModel.from_config(SMALL, "point2d", 16, 64).save(tmp_path / "best.pt")
@@ -133,3 +136,14 @@ def test_a_checkpoints_path_window_joins_the_manifest(tmp_path, monkeypatch):
     evaluate.main([*args[:-1], "evaluation.out=windowed"])
     assert json.loads(Path("windowed/run.json").read_text())["path_window"] == 3
     assert json.loads(Path("windowed/results.json").read_text())["settings"]["path_window"] == 3
+
+
+def test_the_workspace_family_reaches_the_evaluation():
+    """The Panda's config measures its policy on the family it was trained on."""
+    from temp_gym.config import load_config
+
+    panda = load_config(ROOT / "configs" / "panda.yaml", [])
+    assert panda.evaluation.workspace_family == panda.data.workspace_family == "manipulation"
+    assert evaluate.settings_from(panda)[0].workspace_family == "manipulation"
+    tiny = load_config(ROOT / "configs" / "tiny.yaml", [])
+    assert evaluate.settings_from(tiny)[0].workspace_family == "boxes"
