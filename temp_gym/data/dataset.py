@@ -85,10 +85,9 @@ def data_settings(config: Config) -> dict[str, Any]:
     if env.description is not None:  # an arm of a description file: workers register it
         settings["robot_description"] = env.description
     try:
-        check_family(robot, data.workspace_family)
+        check_family(robot, data.workspace_family, "data.workspace_family")
     except ValueError as error:
-        reason = str(error).removeprefix("family: ")
-        raise ConfigError(f"data.workspace_family: {reason}") from None
+        raise ConfigError(str(error)) from None
     if data.workspace_family != BOXES:  # absent means boxes: older datasets keep theirs
         settings["workspace_family"] = data.workspace_family
     if settings["planner"] not in PLANNERS:

@@ -175,10 +175,7 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"fallback: expected one of {FALLBACKS}, got {fallback!r}")
         if split not in SPLITS:
             raise ValueError(f"split: expected one of {list(SPLITS)}, got {split!r}")
-        try:
-            check_family(robot, workspace_family)
-        except ValueError as error:
-            raise ValueError(f"workspace_{error}") from None
+        check_family(robot, workspace_family, "workspace_family")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected one of {self.metadata['render_modes']}")
         max_nodes = spec.max_nodes if max_nodes is None else max_nodes

@@ -128,10 +128,9 @@ def _check_section(section: EvaluationConfig, robot: str) -> None:
     from temp_gym.worlds.structured import check_family
 
     try:
-        check_family(robot, section.workspace_family)
+        check_family(robot, section.workspace_family, "evaluation.workspace_family")
     except ValueError as error:
-        reason = str(error).removeprefix("family: ")
-        raise ConfigError(f"evaluation.workspace_family: {reason}") from None
+        raise ConfigError(str(error)) from None
 
     if section.tasks is not None and section.tasks < 1:
         raise ConfigError(f"evaluation.tasks: expected at least 1 or null, got {section.tasks}")

@@ -100,25 +100,26 @@ Boxes = list[tuple[np.ndarray, np.ndarray]]
 """Boxes as ``(lower, upper)`` corners."""
 
 
-def check_family(robot: str, family: str) -> None:
+def check_family(robot: str, family: str, field: str = "family") -> None:
     """Raise a `ValueError` unless ``family`` is a known name that ``robot`` can draw.
 
     Every robot draws ``boxes`` (its own generator); the others need the robot's spec to have
     structured families (`RobotSpec.structured_generator`: the point worlds here, the arms in
-    `temp_gym.worlds.arm_structured`), and `ARM_FAMILIES` an arm.
+    `temp_gym.worlds.arm_structured`), and `ARM_FAMILIES` an arm. The message names ``field``
+    (a config key, an argument) as the one-line errors do.
     """
     if family not in FAMILY_NAMES:
-        raise ValueError(f"family: expected one of {FAMILY_NAMES}, got {family!r}")
+        raise ValueError(f"{field}: expected one of {FAMILY_NAMES}, got {family!r}")
     spec = robot_spec(robot)
     if family in ARM_FAMILIES and spec.description is None:
-        raise ValueError(f"family: {family!r} is drawn for arms only, and {robot} is not an arm")
+        raise ValueError(f"{field}: {family!r} is drawn for arms only, and {robot} is not an arm")
     if family != BOXES and spec.structured_generator is None:
         raise ValueError(
-            f"family: {family!r} needs structured families, which {robot} has not; "
+            f"{field}: {family!r} needs structured families, which {robot} has not; "
             f"it has only its own generator, {BOXES!r}"
         )
     if family == SHAPES and not is_point_robot(robot):
-        raise ValueError(f"family: {SHAPES!r} is drawn for 2D and 3D point robots, not {robot}")
+        raise ValueError(f"{field}: {SHAPES!r} is drawn for 2D and 3D point robots, not {robot}")
 
 
 def is_point_robot(robot: str) -> bool:
