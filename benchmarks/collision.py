@@ -7,8 +7,10 @@ configurations and ``edges_free`` on random edges (edge length ~ the planners' s
 the fast checker and the exact one, and prints states/s, edges/s and the fast/exact ratio.
 Point robots have one checker that is both fast and exact (analytic), so their ratio is 1.
 For an arm it also times both checkers without self-collision (``self_collision=False``),
-alternating with the full checkers on the same states and edges, so the cost of
-self-collision is measured side by side. Single-threaded: numba kernels run on one core; set
+and the fast checker without its distance fields (``distance_fields=False``: the same
+verdicts, found by walking both bodies' sphere trees), alternating with the full checkers on
+the same states and edges, so the cost of self-collision and the fields' speed-up are measured
+side by side. Single-threaded: numba kernels run on one core; set
 NUMBA_NUM_THREADS=1 to be sure.
 """
 
@@ -49,7 +51,8 @@ def _random_edges(rng, bounds, step, count):
 
 
 def _variants(workspace) -> dict[str, tuple]:
-    """``{name: (fast, exact)}``: the checkers, and for an arm the same without self-collision."""
+    """``{name: (fast, exact)}``: the checkers; for an arm also without self-collision, and
+    the fast one without distance fields."""
     variants = {"": (make_checker(workspace), make_checker(workspace, exact=True))}
     from temp_gym.worlds.collision.arm_exact import ArmExactChecker
     from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
@@ -60,6 +63,10 @@ def _variants(workspace) -> dict[str, tuple]:
         variants[", no self-collision"] = (
             ArmSphereChecker(*args, self_collision=False),
             ArmExactChecker(*args, self_collision=False),
+        )
+        variants[", no distance fields"] = (
+            ArmSphereChecker(*args, distance_fields=False),
+            variants[""][1],
         )
     return variants
 
@@ -130,8 +137,14 @@ def main(argv: list[str] | None = None) -> None:
                 kind: result[kind] / result[kind + ", no self-collision"]
                 for kind in ("fast_states", "fast_edges", "exact_states", "exact_edges")
             }
+            fields = {kind: result[f"fast_{kind}"] / result[f"fast_{kind}, no distance fields"]
+                      for kind in ("states", "edges")}  # fmt: skip
             print(
-                "\nwith / without self-collision (throughput): "
+                "\ndistance fields, speed-up of the fast checker: "
+                + ", ".join(f"{kind} {ratio:.2f}x" for kind, ratio in fields.items())
+            )
+            print(
+                "with / without self-collision (throughput): "
                 + ", ".join(f"{kind.replace('_', ' ')} {ratio:.2f}" for kind, ratio in cost.items())
                 + f"; free states {100 * result['free_fraction, no self-collision']:.0f}% "
                 "without it"

@@ -101,7 +101,8 @@ fingerprints that depend on floating-point rounding outside our code. It differe
 the code of before and with numpy 2.3.5 or 2.4.6, scipy 1.16.3 or 1.17.1 and numba 0.67.0 or
 0.68.1 (OpenBLAS's Haswell kernel confirmed loaded), so the cause is outside the Python packages
 the project installs (not pinned down further). Every other fingerprint was identical there;
-the eleven were rewritten on that machine.
+the eleven were rewritten on that machine. The fast arm checker's distance fields and
+compiled sphere trees (the same verdicts, tested state by state) then changed none.
 The test recomputes the whole sample, section by section, each in a child process with the
 kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
 does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from temp_gym.worlds.arm.sphere_tree import build_trees
+from temp_gym.worlds.arm.sphere_tree import build_trees, enclosing_sphere
 from temp_gym.worlds.arm.spheres import depth, fit_piece, hull_planes
 
 
@@ -69,3 +69,33 @@ def test_trees_hold_their_leaves_and_skip_whole_subtrees():
             for k in range(trees.node_first[m], trees.node_first[m] + trees.node_count[m])
         ]
         assert sorted(met) == np.flatnonzero(trees.sphere_body == body).tolist()
+
+
+def _enclosing_sphere_numpy(centers, radii):
+    """The enclosing sphere's steps in plain numpy: the compiled one must give the same bits."""
+    center = (np.min(centers - radii[:, None], axis=0) + np.max(centers + radii[:, None],
+                                                                 axis=0)) / 2  # fmt: skip
+    for step in range(1, 60):
+        reach = np.linalg.norm(centers - center, axis=1) + radii
+        far = int(np.argmax(reach))
+        direction = centers[far] - center
+        length = float(np.linalg.norm(direction))
+        point = centers[far] + (direction / length * radii[far] if length > 0 else 0.0)
+        center = center + (point - center) / (step + 1)
+    return center, float(np.max(np.linalg.norm(centers - center, axis=1) + radii))
+
+
+def test_the_enclosing_sphere_is_the_same_to_the_last_bit_as_numpy_and_holds_its_spheres():
+    """Trees built before the sphere was compiled stay the same (and so do the fast checker's
+    verdicts): the same bits on sets of every size, coincident centers and zero radii too."""
+    rng = np.random.default_rng(3)
+    cases = [(rng.normal(size=(n, 3)) * rng.uniform(0.01, 1.0), rng.uniform(0.0, 0.05, n))
+             for n in rng.integers(1, 300, 400)]  # fmt: skip
+    cases += [(np.zeros((5, 3)), np.full(5, 0.1)), (np.ones((1, 3)), np.zeros(1))]
+    for centers, radii in cases:
+        center, radius = enclosing_sphere(centers, radii)
+        expected_center, expected_radius = _enclosing_sphere_numpy(centers, radii)
+        assert center.tobytes() == expected_center.tobytes() and radius == expected_radius
+        assert np.all(np.linalg.norm(centers - center, axis=1) + radii <= radius)
+    with pytest.raises(ValueError, match="spheres"):
+        enclosing_sphere(np.zeros((0, 3)), np.zeros(0))

@@ -122,6 +122,21 @@ def chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value
         poses[j + 1, 0, 3], poses[j + 1, 1, 3], poses[j + 1, 2, 3] = a03, a13, a23
 
 
+@hot_inline
+def place_point(poses, j, c0, c1, c2):
+    """World position of the point ``(c0, c1, c2)`` of body ``j`` (poses (B, 3, 4))."""
+    x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
+    y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
+    z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
+    return x, y, z
+
+
+@hot_inline
+def place(poses, j, centers, k):
+    """World position of row ``k`` of ``centers``, a point of body ``j`` (`place_point`)."""
+    return place_point(poses, j, centers[k, 0], centers[k, 1], centers[k, 2])
+
+
 @numba.njit(cache=True, nogil=True)
 def identity_poses(count):
     """``(count, 3, 4)`` poses, the first the identity (the base), the rest zero."""
@@ -147,6 +162,8 @@ def fk_batch(configs, kind, rotation, shift):
 
 __all__ = [
     "FAST_FK_MARGIN",
+    "place",
+    "place_point",
     "fk_batch",
     "identity_poses",
     "chain_into",

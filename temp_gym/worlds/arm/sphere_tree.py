@@ -18,8 +18,10 @@ axis of their bounding box, until at most `BUCKET` remain.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 BUCKET = 4
@@ -104,22 +106,55 @@ def enclosing_capsule(centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
 
 
 def enclosing_sphere(centers: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, float]:
-    """A small sphere holding the given spheres.
+    """A small sphere holding the given spheres (at least one).
 
     A few Badoiu-Clarkson steps, then the radius that holds every sphere from that center (any
-    center is valid; this one keeps it small).
+    center is valid; this one keeps it small). Compiled: a body's tree asks this of every node.
     """
-    center = (np.min(centers - radii[:, None], axis=0) + np.max(centers + radii[:, None],
-                                                                 axis=0)) / 2  # fmt: skip
+    centers = np.ascontiguousarray(centers, dtype=np.float64).reshape(-1, 3)
+    radii = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+    if len(radii) == 0 or len(radii) != len(centers):
+        raise ValueError(f"spheres: expected matching non-empty centers and radii, got "
+                         f"{len(centers)} centers and {len(radii)} radii")  # fmt: skip
+    center, radius = _enclosing_sphere(centers, radii)
+    return center, float(radius)
+
+
+@numba.njit(cache=True, nogil=True)
+def _enclosing_sphere(centers, radii):
+    """`enclosing_sphere`'s steps, in numpy's order of operations (the same bits as numpy)."""
+    count = centers.shape[0]
+    center = np.empty(3)
+    for k in range(3):
+        low, high = centers[0, k] - radii[0], centers[0, k] + radii[0]
+        for i in range(1, count):
+            low = min(low, centers[i, k] - radii[i])
+            high = max(high, centers[i, k] + radii[i])
+        center[k] = (low + high) / 2
     for step in range(1, 60):
-        reach = np.linalg.norm(centers - center, axis=1) + radii
-        far = int(np.argmax(reach))
-        direction = centers[far] - center
-        length = float(np.linalg.norm(direction))
-        point = centers[far] + (direction / length * radii[far] if length > 0 else 0.0)
-        center = center + (point - center) / (step + 1)
-    radius = float(np.max(np.linalg.norm(centers - center, axis=1) + radii))
+        far, farthest = 0, -np.inf
+        for i in range(count):
+            reach = _distance(centers, i, center) + radii[i]
+            if reach > farthest:  # the first of equals, as argmax
+                far, farthest = i, reach
+        length = _distance(centers, far, center)
+        for k in range(3):
+            point = centers[far, k]
+            if length > 0:
+                point = point + (centers[far, k] - center[k]) / length * radii[far]
+            center[k] = center[k] + (point - center[k]) / (step + 1)
+    radius = -np.inf
+    for i in range(count):
+        radius = max(radius, _distance(centers, i, center) + radii[i])
     return center, radius
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _distance(centers, i, center):
+    dx = centers[i, 0] - center[0]
+    dy = centers[i, 1] - center[1]
+    dz = centers[i, 2] - center[2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 def _build(centers, radii, index, nodes) -> None:

@@ -47,6 +47,7 @@ from temp_gym.worlds.arm.kinematics import FAST_FK_MARGIN
 from temp_gym.worlds.arm.model import ArmModel
 from temp_gym.worlds.arm.pair_tables import table_arrays
 from temp_gym.worlds.arm.sphere_tree import SphereTrees, build_trees
+from temp_gym.worlds.collision.arm_fast_fields import body_fields
 from temp_gym.worlds.collision.arm_fast_kernels import (
     GROWTH_FLOOR,
     _edge_work,
@@ -133,6 +134,24 @@ def _self_model(arm: ArmModel) -> tuple[np.ndarray, ...]:
     return arm._arrays[key]
 
 
+def _self_fields(arm: ArmModel, enabled: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``(values, layout)``: the bodies' distance fields (`arm_fast_fields`; cached).
+
+    Fields of the bodies that come first in a sphere pair; when not ``enabled``, none.
+    """
+    key = "fast_self_fields" if enabled else "fast_self_no_fields"
+    if key not in arm._arrays:
+        trees = sphere_trees(arm)
+        if enabled:
+            arrays = body_fields(trees, _self_model(arm)[0][:, 0])
+        else:
+            arrays = (np.zeros(0, dtype=np.float32), np.full((len(trees.body_start) - 1, 6), -1.0))
+        for array in arrays:
+            array.setflags(write=False)
+        arm._arrays[key] = arrays
+    return arm._arrays[key]
+
+
 class ArmSphereChecker:
     """Fast, conservative arm checker: sphere trees against obstacles and each other.
 
@@ -147,6 +166,9 @@ class ArmSphereChecker:
             of an edge before intervals are split (module docstring).
         self_collision: test the enabled body pairs against each other. Only switched off to
             measure what self-collision costs; planners and generators always test it.
+        distance_fields: walk close body pairs against distance fields (`arm_fast_fields`).
+            The verdicts are the same either way; only switched off to measure the speed-up
+            and to test that sameness.
         obstacles: obstacles of every kind (`arm_obstacles` of a workspace), instead of
             ``box_lower`` and ``box_upper``.
     """
@@ -161,6 +183,7 @@ class ArmSphereChecker:
         self_collision: bool = True,
         *,
         obstacles: ArmObstacles | None = None,
+        distance_fields: bool = True,
     ) -> None:
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
             raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
@@ -179,7 +202,8 @@ class ArmSphereChecker:
         self._motion_radii = arm.motion_radii()
         self_model = _self_model(arm)
         self._table_pairs = self_model[4]
-        self._self_model = tuple(array if self_collision else array[:0] for array in self_model[:4])
+        self._self_model = tuple(array if self_collision else array[:0] for array in (
+            *self_model[:4], *_self_fields(arm, distance_fields)))  # fmt: skip
         self._scratch = scratch_for(trees)
         from temp_gym.worlds.collision.arm_exact import base_collides
 

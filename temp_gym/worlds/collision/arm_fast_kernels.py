@@ -118,7 +118,8 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
-    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
+     field_layout) = self_model  # fmt: skip
     poses, root_world, inflation, table_growth, sines, cosines, scratch = work
     num, dim = states.shape
     for first in range(0, num, _BLOCK):
@@ -143,7 +144,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
                 or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
                               node_first, node_count, body_start, centers, radii,
                               inner_centers, inner_radii, inner_start, capsules,
-                              inflation, FAST_SELF_GAP, scratch)
+                              field_values, field_layout, inflation, FAST_SELF_GAP, scratch)
             )  # fmt: skip
 
 
@@ -151,8 +152,9 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
 def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
-                body_lower, body_upper, sphere_pairs, table_grid, table_bounds, inflation,
-                table_growth, poses, root_world, sines, cosines, scratch) -> int:  # fmt: skip
+                body_lower, body_upper, sphere_pairs, field_values, field_layout, table_grid,
+                table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
+                scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
     Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
@@ -172,7 +174,7 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                    FAST_SELF_GAP) or pairs_free(
             poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
             body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-            inflation, FAST_SELF_GAP, scratch):  # fmt: skip
+            field_values, field_layout, inflation, FAST_SELF_GAP, scratch):  # fmt: skip
         return FREE
     return HIT
 
@@ -181,7 +183,7 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
                inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, sphere_pairs,
+               body_box_count, body_lower, body_upper, sphere_pairs, field_values, field_layout,
                table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
@@ -240,8 +242,9 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                              body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
-                             table_grid, table_bounds, inflation, table_growth, poses,
-                             root_world, sines, cosines, scratch)  # fmt: skip
+                             field_values, field_layout, table_grid, table_bounds, inflation,
+                             table_growth, poses, root_world, sines, cosines,
+                             scratch)  # fmt: skip
         if answer == FREE:
             continue
         if answer == CERTAIN or worst * half <= GROWTH_FLOOR or top + 2 > stack_low.shape[0]:
@@ -254,9 +257,9 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-                       body_box_count, body_lower, body_upper, sphere_pairs, table_grid,
-                       table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
-                       scratch) != FREE:  # fmt: skip
+                       body_box_count, body_lower, body_upper, sphere_pairs, field_values,
+                       field_layout, table_grid, table_bounds, inflation, table_growth, poses,
+                       root_world, sines, cosines, scratch) != FREE:  # fmt: skip
             return False
         stack_low[top], stack_high[top] = t, high
         top += 1
@@ -285,7 +288,8 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
-    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
+     field_layout) = self_model  # fmt: skip
     dim = starts.shape[1]
     bodies = dim + 1
     out = np.empty(starts.shape[0], dtype=np.bool_)
@@ -309,8 +313,9 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                             node_centers, node_radii, node_skip, node_first, node_count,
                             body_start, centers, radii, inner_centers, inner_radii,
                             inner_start, capsules, box_params, body_boxes, body_box_count,
-                            body_lower, body_upper, sphere_pairs, table_grid, table_bounds,
-                            table_motion, motion, resolution, poses, root_world, sweep,
+                            body_lower, body_upper, sphere_pairs, field_values, field_layout,
+                            table_grid, table_bounds, table_motion, motion, resolution, poses,
+                            root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                             stack_high, scratch)  # fmt: skip
     return out
@@ -330,7 +335,8 @@ def motion_free_kernel(context, start, end) -> bool:
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
     box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
-    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
+     field_layout) = self_model  # fmt: skip
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
      cosines, stack_low, stack_high) = work  # fmt: skip
     for i in range(start.shape[0]):
@@ -349,10 +355,10 @@ def motion_free_kernel(context, start, end) -> bool:
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
                       centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                       body_boxes, body_box_count, body_lower,
-                      body_upper, sphere_pairs, table_grid, table_bounds, table_motion, motion,
-                      settings[1], poses, root_world, sweep, inflation, table_sweep,
-                      table_growth, q, sines, cosines, stack_low, stack_high,
-                      scratch)  # fmt: skip
+                      body_upper, sphere_pairs, field_values, field_layout, table_grid,
+                      table_bounds, table_motion, motion, settings[1], poses, root_world, sweep,
+                      inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
+                      stack_high, scratch)  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
@@ -361,7 +367,8 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    sphere_pairs, table_grid, table_bounds, table_motion = self_model
+    (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
+     field_layout) = self_model  # fmt: skip
     dim = state.shape[0]
     poses = identity_poses(dim + 1)
     inflation = np.zeros(dim + 1)
@@ -371,8 +378,8 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
         spheres_hit[p] = not pair_free(poses, sphere_pairs[p, 0], sphere_pairs[p, 1],
                                        node_centers, node_radii, node_skip, node_first,
                                        node_count, body_start, centers, radii, inner_centers,
-                                       inner_radii, inner_start, capsules, inflation,
-                                       FAST_SELF_GAP, scratch)  # fmt: skip
+                                       inner_radii, inner_start, capsules, field_values,
+                                       field_layout, inflation, FAST_SELF_GAP, scratch)  # fmt: skip
     tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
     for p in range(table_grid.shape[0]):
         tables_hit[p] = not tables_free(state, 0, table_grid[p : p + 1], table_bounds[p : p + 1],

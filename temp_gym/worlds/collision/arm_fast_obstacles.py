@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from temp_gym.problem.obstacles import CYLINDER, SPHERE
-from temp_gym.worlds.collision.arm_fast_self import place
+from temp_gym.worlds.arm.kinematics import place
 from temp_gym.worlds.hot_path import hot_inline
 
 if TYPE_CHECKING:

@@ -31,6 +31,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from temp_gym.worlds.arm.kinematics import place, place_point
+from temp_gym.worlds.collision.arm_fast_fields import field_pair_free
 from temp_gym.worlds.collision.arm_self import DISTANCE_TOLERANCE, SELF_COLLISION_GAP
 from temp_gym.worlds.hot_path import hot_inline
 
@@ -39,21 +41,6 @@ FAST_SELF_GAP = SELF_COLLISION_GAP + 2 * DISTANCE_TOLERANCE
 TABLE_MARGIN = 2 * DISTANCE_TOLERANCE
 """A tabulated pair is free when its bound (which already has the gap taken off) exceeds the
 growth by more than this: fcl's tolerance at the cell's center and at the pose."""
-
-
-@hot_inline
-def place_point(poses, j, c0, c1, c2):
-    """World position of the point ``(c0, c1, c2)`` of body ``j`` (poses (B, 3, 4))."""
-    x = poses[j, 0, 0] * c0 + poses[j, 0, 1] * c1 + poses[j, 0, 2] * c2 + poses[j, 0, 3]
-    y = poses[j, 1, 0] * c0 + poses[j, 1, 1] * c1 + poses[j, 1, 2] * c2 + poses[j, 1, 3]
-    z = poses[j, 2, 0] * c0 + poses[j, 2, 1] * c1 + poses[j, 2, 2] * c2 + poses[j, 2, 3]
-    return x, y, z
-
-
-@hot_inline
-def place(poses, j, centers, k):
-    """World position of row ``k`` of ``centers``, a point of body ``j`` (`place_point`)."""
-    return place_point(poses, j, centers[k, 0], centers[k, 1], centers[k, 2])
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -108,15 +95,17 @@ def _segments_apart(poses, a, b, capsules, reach) -> bool:
 @hot_inline
 def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node_count,
               body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-              inflation, gap, stack) -> bool:  # fmt: skip
+              field_values, field_layout, inflation, gap, stack) -> bool:  # fmt: skip
     """Whether the grown leaves of bodies ``a`` and ``b`` stay more than ``gap`` apart.
 
     A walk of both trees at once: a pair of nodes whose spheres are apart is dropped, else the
     larger inner node of the two is split, and two leaf nodes compare their leaf spheres. Two
     bodies whose root spheres overlap but whose pieces are apart are told apart a few levels
     down. First, capsules that hold each body's leaves and are apart end the test (free), and
-    so do two inner balls (inside the bodies' pieces) that overlap (in collision). ``stack``
-    is ``(>= 2 * (depth of a + depth of b) + 2, 2)`` scratch (`scratch_for`).
+    so do two inner balls (inside the bodies' pieces) that overlap (in collision). When body
+    ``a`` has a distance field (``field_layout[a, 0] >= 0``, `arm_fast_fields`), ``b``'s tree
+    is walked against it instead, with the same verdict. ``stack`` is
+    ``(>= 2 * (depth of a + depth of b) + 2, 2)`` scratch (`scratch_for`).
     """
     root_a, root_b = body_start[a], body_start[b]
     if root_a == body_start[a + 1] or root_b == body_start[b + 1]:
@@ -136,6 +125,10 @@ def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node
             kx, ky, kz = place(poses, b, inner_centers, k)
             if _near(ix, iy, iz, kx, ky, kz, inner_radii[i] + inner_radii[k]):
                 return False
+    if field_layout[a, 0] >= 0.0:
+        return field_pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first,
+                               node_count, body_start, centers, radii, field_values,
+                               field_layout, grow_a, grow_b, gap, stack)  # fmt: skip
     stack[0, 0], stack[0, 1] = root_a, root_b
     top = 1
     while top > 0:
@@ -185,13 +178,13 @@ def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bo
 @hot_inline
 def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, node_count,
                body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-               inflation, gap, stack) -> bool:  # fmt: skip
+               field_values, field_layout, inflation, gap, stack) -> bool:  # fmt: skip
     """Whether every enabled pair is free (`pair_free`), stopping at the first collision."""
     for p in range(pairs.shape[0]):
         if not pair_free(poses, pairs[p, 0], pairs[p, 1], node_centers, node_radii, node_skip,
                          node_first, node_count, body_start, centers, radii, inner_centers,
-                         inner_radii, inner_start, capsules, inflation, gap,
-                         stack):  # fmt: skip
+                         inner_radii, inner_start, capsules, field_values, field_layout,
+                         inflation, gap, stack):  # fmt: skip
             return False
     return True
 
