@@ -159,6 +159,21 @@ def _dot(poses, a, i, b, j) -> float:
 
 
 @hot_inline
+def _bound_at(relative, points, k, values, layout, a, root) -> float:
+    """`field_bound` at row ``k`` of ``points``, a point of another body.
+
+    ``relative`` is that body's frame in ``a``'s (``R`` row by row, then ``t``), ``root``
+    ``a``'s root sphere (center, radius).
+    """
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2 = relative
+    c0, c1, c2 = points[k, 0], points[k, 1], points[k, 2]
+    x = r00 * c0 + r01 * c1 + r02 * c2 + t0
+    y = r10 * c0 + r11 * c1 + r12 * c2 + t1
+    z = r20 * c0 + r21 * c1 + r22 * c2 + t2
+    return field_bound(values, layout, a, x, y, z, root[0], root[1], root[2], root[3])
+
+
+@hot_inline
 def field_pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node_count,
                     body_start, centers, radii, values, layout, grow_a, grow_b, gap,
                     stack) -> bool:  # fmt: skip
@@ -176,24 +191,16 @@ def field_pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first
     t0 -= _dot(poses, a, 0, a, 3)
     t1 -= _dot(poses, a, 1, a, 3)
     t2 -= _dot(poses, a, 2, a, 3)
-    root_x, root_y, root_z = (
-        node_centers[root_a, 0],
-        node_centers[root_a, 1],
-        node_centers[root_a, 2],
-    )
-    root_radius = node_radii[root_a]
+    relative = (r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2)
+    root = (node_centers[root_a, 0], node_centers[root_a, 1], node_centers[root_a, 2],
+            node_radii[root_a])  # fmt: skip
     extra = grow_a + grow_b + gap + FIELD_SLACK
     stack[0, 0] = body_start[b]
     top = 1
     while top > 0:
         top -= 1
         nb = int(stack[top, 0])
-        c0, c1, c2 = node_centers[nb, 0], node_centers[nb, 1], node_centers[nb, 2]
-        x = r00 * c0 + r01 * c1 + r02 * c2 + t0
-        y = r10 * c0 + r11 * c1 + r12 * c2 + t1
-        z = r20 * c0 + r21 * c1 + r22 * c2 + t2
-        if field_bound(values, layout, a, x, y, z, root_x, root_y, root_z,
-                       root_radius) > node_radii[nb] + extra:  # fmt: skip
+        if _bound_at(relative, node_centers, nb, values, layout, a, root) > node_radii[nb] + extra:
             continue
         if node_count[nb] == 0:
             stack[top, 0] = nb + 1
@@ -201,12 +208,7 @@ def field_pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first
             top += 2
             continue
         for s in range(node_first[nb], node_first[nb] + node_count[nb]):
-            c0, c1, c2 = centers[s, 0], centers[s, 1], centers[s, 2]
-            x = r00 * c0 + r01 * c1 + r02 * c2 + t0
-            y = r10 * c0 + r11 * c1 + r12 * c2 + t1
-            z = r20 * c0 + r21 * c1 + r22 * c2 + t2
-            if field_bound(values, layout, a, x, y, z, root_x, root_y, root_z,
-                           root_radius) > radii[s] + extra:  # fmt: skip
+            if _bound_at(relative, centers, s, values, layout, a, root) > radii[s] + extra:
                 continue
             # The leaf against a's tree, in the world frame, as the tree-against-tree walk.
             sx, sy, sz = place(poses, b, centers, s)
