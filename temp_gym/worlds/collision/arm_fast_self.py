@@ -8,7 +8,9 @@ edge kernels, on the joint values and body poses those kernels already have. Two
   (`temp_gym.worlds.arm.pair_tables`). The pair is free when the bound exceeds the two bodies'
   growth plus ``2 * DISTANCE_TOLERANCE``.
 * **Sphere trees against each other** for the other pairs: both trees walked at once, from
-  their roots down to the pairs of leaf nodes whose spheres meet.
+  their roots down to the pairs of leaf nodes whose spheres meet; or, when the pair's first
+  body has a distance field, the second body's tree walked against that field
+  (`temp_gym.worlds.collision.arm_fast_fields`), with the same verdict.
 
 **Conservative.** The leaves of body ``j`` cover its convex pieces
 (`temp_gym.worlds.arm.spheres`). The exact checker calls bodies ``a`` and ``b`` colliding when
