@@ -7,10 +7,12 @@ configurations and ``edges_free`` on random edges (edge length ~ the planners' s
 the fast checker and the exact one, and prints states/s, edges/s and the fast/exact ratio.
 Point robots have one checker that is both fast and exact (analytic), so their ratio is 1.
 For an arm it also times both checkers without self-collision (``self_collision=False``),
-and the fast checker without its distance fields (``distance_fields=False``: the same
-verdicts, found by walking both bodies' sphere trees), alternating with the full checkers on
-the same states and edges, so the cost of self-collision and the fields' speed-up are measured
-side by side. Single-threaded: numba kernels run on one core; set
+the fast checker without its distance fields (``distance_fields=False``: the same
+verdicts, found by walking both bodies' sphere trees), and the fast checker with its spheres
+alone near surfaces (``near_surfaces=False``: more refusals, no convex pieces), alternating
+with the full checkers on the same states and edges, so the cost of self-collision, the
+fields' speed-up and the pieces' cost are measured side by side. A variant that shares the
+exact checker reports its one measurement. Single-threaded: numba kernels run on one core; set
 NUMBA_NUM_THREADS=1 to be sure.
 """
 
@@ -52,7 +54,7 @@ def _random_edges(rng, bounds, step, count):
 
 def _variants(workspace) -> dict[str, tuple]:
     """``{name: (fast, exact)}``: the checkers; for an arm also without self-collision, and
-    the fast one without distance fields."""
+    the fast one without distance fields and with its spheres alone near surfaces."""
     variants = {"": (make_checker(workspace), make_checker(workspace, exact=True))}
     from temp_gym.worlds.collision.arm_exact import ArmExactChecker
     from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
@@ -66,6 +68,10 @@ def _variants(workspace) -> dict[str, tuple]:
         )
         variants[", no distance fields"] = (
             ArmSphereChecker(*args, distance_fields=False),
+            variants[""][1],
+        )
+        variants[", spheres only near surfaces"] = (
+            ArmSphereChecker(*args, near_surfaces=False),
             variants[""][1],
         )
     return variants
@@ -84,13 +90,17 @@ def bench_world(robot: str, args: argparse.Namespace) -> dict[str, float]:
         few_starts, few_ends = starts[: args.exact_edges], ends[: args.exact_edges]
         variants = _variants(workspace)
         fast, exact = zip(*variants.values())
+        # Each exact checker is timed once, however many variants share it.
+        unique = list({id(c): c for c in exact}.values())
+        slot = [unique.index(c) for c in exact]
+        exact_states = _rates([c.states_free for c in unique], states[: args.exact_states],
+                              repeats=1)  # fmt: skip
+        exact_edges = _rates([c.edges_free for c in unique], few_starts, few_ends, repeats=1)
         measured = {
             "fast_states": _rates([c.states_free for c in fast], states),
             "fast_edges": _rates([c.edges_free for c in fast], starts, ends),
-            "exact_states": _rates(
-                [c.states_free for c in exact], states[: args.exact_states], repeats=1
-            ),
-            "exact_edges": _rates([c.edges_free for c in exact], few_starts, few_ends, repeats=1),
+            "exact_states": [exact_states[k] for k in slot],
+            "exact_edges": [exact_edges[k] for k in slot],
             "free_fraction": [c.states_free(states).mean() for c in fast],
         }
         for key, values in measured.items():
@@ -142,6 +152,15 @@ def main(argv: list[str] | None = None) -> None:
             print(
                 "\ndistance fields, speed-up of the fast checker: "
                 + ", ".join(f"{kind} {ratio:.2f}x" for kind, ratio in fields.items())
+            )
+            pieces = {kind: result[f"fast_{kind}"]
+                      / result[f"fast_{kind}, spheres only near surfaces"]
+                      for kind in ("states", "edges")}  # fmt: skip
+            print(
+                "convex pieces near surfaces, throughput with / without: "
+                + ", ".join(f"{kind} {ratio:.2f}" for kind, ratio in pieces.items())
+                + f"; free states {100 * result['free_fraction']:.2f}% with, "
+                f"{100 * result['free_fraction, spheres only near surfaces']:.2f}% without"
             )
             print(
                 "with / without self-collision (throughput): "

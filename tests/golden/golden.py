@@ -103,9 +103,14 @@ the code of before and with numpy 2.3.5 or 2.4.6, scipy 1.16.3 or 1.17.1 and num
 the project installs (not pinned down further). Every other fingerprint was identical there;
 the eleven were rewritten on that machine. The fast arm checker's distance fields and
 compiled sphere trees (the same verdicts, tested state by state) then changed none.
-The test recomputes the whole sample, section by section, each in a child process with the
-kernel pinned (seconds once numba's caches are warm); ``python tests/golden/golden.py --check``
-does the same and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
+Then the fast arm checker let a body's convex pieces decide the touches within its spheres'
+bulge (a link a fraction of a millimetre from a box became free, and motion intervals near boxes
+are certified by the pieces where the spheres could not): five 7D fingerprints changed (the env
+episode, the evaluation record, the test task's RRT* and Informed RRT* plans, a generated
+problem's ``temp`` plan) and were rewritten; every other fingerprint was identical. The test
+recomputes the whole sample, section by section, each in a child process with the kernel pinned
+(seconds once numba's caches are warm); ``python tests/golden/golden.py --check`` does the same
+and prints what differs. On a CPU without AVX2 and FMA the test is skipped.
 
 The sample: in each world, evaluation test tasks and generated problems; every built-in
 planner (``rrt_star``, ``informed_rrt_star``, ``temp`` with the shipped policy) on them; an

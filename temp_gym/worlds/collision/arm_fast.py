@@ -15,9 +15,11 @@ arithmetic, and gets the same verdicts, as before obstacles had kinds.
 
 **Conservative, and close.** The leaves cover each convex piece of each body, bulging out of it
 by at most about the robot's sphere tolerance (`temp_gym.worlds.arm.spheres`), so a state this
-checker calls free is free for `ArmExactChecker` too; the converse fails only within that
-bulge of a surface. A state the exact checker calls free but this one does not is named by
-`collision_reasons` as the fast model's verdict.
+checker calls free is free for `ArmExactChecker` too. Within that bulge of a surface the
+spheres cannot tell, and the body's convex pieces decide by a separating plane
+(`arm_fast_hulls`): the converse then fails only where a piece's hull covers a hollow of its
+link, or against self-collision's tables. A state the exact checker calls free but this one
+does not is named by `collision_reasons` as the fast model's verdict.
 
 **Invalid states.** A state outside the bounds or the joint limits (bounds wider than the
 limits are cut to them), or with a NaN or inf coordinate, is not free (no exception); wrongly
@@ -48,6 +50,7 @@ from temp_gym.worlds.arm.model import ArmModel
 from temp_gym.worlds.arm.pair_tables import table_arrays
 from temp_gym.worlds.arm.sphere_tree import SphereTrees, build_trees
 from temp_gym.worlds.collision.arm_fast_fields import body_fields
+from temp_gym.worlds.collision.arm_fast_hulls import hull_arrays
 from temp_gym.worlds.collision.arm_fast_kernels import (
     GROWTH_FLOOR,
     _edge_work,
@@ -169,6 +172,10 @@ class ArmSphereChecker:
         distance_fields: walk close body pairs against distance fields (`arm_fast_fields`).
             The verdicts are the same either way; only switched off to measure the speed-up
             and to test that sameness.
+        near_surfaces: decide a body whose leaves touch an obstacle only within their bulge
+            by its convex pieces (`arm_fast_hulls`), so a link a millimetre from a surface is
+            free. Switched off, the spheres alone decide (more refusals, never fewer); only
+            to measure what it changes.
         obstacles: obstacles of every kind (`arm_obstacles` of a workspace), instead of
             ``box_lower`` and ``box_upper``.
     """
@@ -184,6 +191,7 @@ class ArmSphereChecker:
         *,
         obstacles: ArmObstacles | None = None,
         distance_fields: bool = True,
+        near_surfaces: bool = True,
     ) -> None:
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
             raise ValueError(f"resolution: expected a positive number, got {resolution!r}")
@@ -208,7 +216,8 @@ class ArmSphereChecker:
         from temp_gym.worlds.collision.arm_exact import base_collides
 
         self.base_free = not base_collides(arm, obstacles)
-        self._obstacle_arrays = (obstacle_tables(obstacles), *self._candidates(trees, obstacles))
+        self._obstacle_arrays = (obstacle_tables(obstacles), *self._candidates(trees, obstacles),
+                                 hull_arrays(arm, near_surfaces))  # fmt: skip
         self.description = (
             f"{arm.name} sphere model ({len(trees.radii)} spheres), {obstacles.summary()}, "
             f"self-collision of {self.num_self_pairs} body pairs, edge resolution "

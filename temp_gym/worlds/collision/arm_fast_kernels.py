@@ -19,7 +19,13 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.arm.kinematics import chain_into, identity_poses, sincos_into
-from temp_gym.worlds.collision.arm_fast_obstacles import CERTAIN, FREE, HIT, body_touches
+from temp_gym.worlds.collision.arm_fast_obstacles import (
+    CERTAIN,
+    FREE,
+    HIT,
+    UNSURE,
+    body_touches,
+)
 from temp_gym.worlds.collision.arm_fast_self import (
     FAST_SELF_GAP,
     TABLE_MARGIN,
@@ -49,15 +55,18 @@ def _in_bounds(states, i, bounds) -> bool:
 def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
                node_centers, node_radii, node_skip, node_first, node_count, body_start, centers,
                radii, inner_centers, inner_radii, inner_start, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, inflation, poses,
+               body_box_count, body_lower, body_upper, hulls, inflation, poses,
                root_world) -> int:  # fmt: skip
     """Whether a pose is free of the obstacles: `FREE`, `HIT` or `CERTAIN`.
 
-    `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every obstacle,
-    `HIT` when one touches an obstacle, `CERTAIN` when a body's inner ball (inside its pieces,
-    not grown) does: the state itself is in collision. ``box_params`` holds every obstacle's
-    row, ``body_boxes[j]`` body ``j``'s candidates: ``body_box_count[j, 0]`` axis-aligned
-    boxes, then ``body_box_count[j, 1]`` others (`arm_fast_obstacles.body_touches`).
+    `FREE` when the moving bodies' spheres (grown by ``inflation[j]``) miss every obstacle, or
+    touch one only within their bulge while the body's convex pieces clear it by
+    ``inflation[j]`` (`arm_fast_hulls`); `HIT` when a body touches an obstacle, `CERTAIN` when a
+    body's inner ball (inside its pieces, not grown) does: the state itself is in collision.
+    ``box_params`` holds every obstacle's row, ``body_boxes[j]`` body ``j``'s candidates:
+    ``body_box_count[j, 0]`` axis-aligned boxes, then ``body_box_count[j, 1]`` others
+    (`arm_fast_obstacles.body_touches`); ``hulls`` the bodies' convex pieces, which decide
+    touches within the spheres' bulge.
 
     ``sines[base + i]``, ``cosines[base + i]`` and ``values[value_base + i]`` are joint ``i``'s;
     ``poses`` (B, 3, 4) is scratch whose first entry is the identity. When this returns True,
@@ -65,7 +74,10 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
     root spheres (row 0, the base's, never changes): the self-collision test reads them.
     """
     chain_into(poses, kind, rotation, shift, cosines, sines, base, values, value_base)
-    # Distal bodies first: they sweep the most space, so collisions are found sooner.
+    # Distal bodies first: they sweep the most space, so collisions are found sooner. Touches
+    # within the spheres' bulge are left for a second pass, which only a state that collides
+    # nowhere else reaches.
+    unsure = False
     for j in range(poses.shape[0] - 1, 0, -1):
         root = body_start[j]
         if root == body_start[j + 1]:
@@ -76,9 +88,25 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
                               node_centers, node_radii, node_skip, node_first, node_count,
                               body_start, centers, radii, inner_centers, inner_radii,
                               inner_start, inflation[j], box_params, body_boxes, body_box_count,
-                              body_lower, body_upper)  # fmt: skip
-        if answer != FREE:
+                              body_lower, body_upper, hulls, False)  # fmt: skip
+        if answer == UNSURE:
+            unsure = True
+        elif answer != FREE:
             return answer
+    if not unsure:
+        return FREE
+    for j in range(poses.shape[0] - 1, 0, -1):
+        root = body_start[j]
+        if root < body_start[j + 1]:
+            answer = body_touches(poses, j, root_world[j, 0], root_world[j, 1],
+                                  root_world[j, 2], node_radii[root] + inflation[j],
+                                  node_centers, node_radii, node_skip, node_first, node_count,
+                                  body_start, centers, radii, inner_centers, inner_radii,
+                                  inner_start, inflation[j], box_params, body_boxes,
+                                  body_box_count, body_lower, body_upper, hulls,
+                                  True)  # fmt: skip
+            if answer != FREE:
+                return answer
     return FREE
 
 
@@ -117,7 +145,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, hulls = boxes
     (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
      field_layout) = self_model  # fmt: skip
     poses, root_world, inflation, table_growth, sines, cosines, scratch = work
@@ -135,7 +163,8 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
                 sines, cosines, (i - first) * dim, flat, i * dim, kind, rotation, shift,
                 node_centers, node_radii, node_skip, node_first, node_count,
                 body_start, centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                body_boxes, body_box_count, body_lower, body_upper, inflation, poses, root_world,
+                body_boxes, body_box_count, body_lower, body_upper, hulls, inflation, poses,
+                root_world,
             ) == FREE  # fmt: skip
             # Most poses keep every pair's root spheres apart: no tree walk.
             out[i] = obstacles_free and (
@@ -152,9 +181,9 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
 def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
-                body_lower, body_upper, sphere_pairs, field_values, field_layout, table_grid,
-                table_bounds, inflation, table_growth, poses, root_world, sines, cosines,
-                scratch) -> int:  # fmt: skip
+                body_lower, body_upper, hulls, sphere_pairs, field_values, field_layout,
+                table_grid, table_bounds, inflation, table_growth, poses, root_world, sines,
+                cosines, scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
     Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
@@ -166,8 +195,8 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     answer = _pose_free(sines, cosines, 0, q, 0, kind, rotation, shift,
                         node_centers, node_radii, node_skip, node_first, node_count, body_start,
                         centers, radii, inner_centers, inner_radii, inner_start, box_params,
-                        body_boxes, body_box_count, body_lower, body_upper, inflation, poses,
-                        root_world)  # fmt: skip
+                        body_boxes, body_box_count, body_lower, body_upper, hulls, inflation,
+                        poses, root_world)  # fmt: skip
     if answer != FREE:
         return answer
     if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
@@ -183,8 +212,9 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
                inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-               body_box_count, body_lower, body_upper, sphere_pairs, field_values, field_layout,
-               table_grid, table_bounds, table_motion, motion, resolution, poses, root_world,
+               body_box_count, body_lower, body_upper, hulls, sphere_pairs, field_values,
+               field_layout, table_grid, table_bounds, table_motion, motion, resolution, poses,
+               root_world,
                sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                stack_high, scratch) -> bool:  # fmt: skip
     """Whether edge ``starts[e] -> ends[e]`` is free (`arm_fast`'s adaptive intervals)."""
@@ -241,7 +271,8 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, capsules, box_params,
-                             body_boxes, body_box_count, body_lower, body_upper, sphere_pairs,
+                             body_boxes, body_box_count, body_lower, body_upper, hulls,
+                             sphere_pairs,
                              field_values, field_layout, table_grid, table_bounds, inflation,
                              table_growth, poses, root_world, sines, cosines,
                              scratch)  # fmt: skip
@@ -257,9 +288,10 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
-                       body_box_count, body_lower, body_upper, sphere_pairs, field_values,
-                       field_layout, table_grid, table_bounds, inflation, table_growth, poses,
-                       root_world, sines, cosines, scratch) != FREE:  # fmt: skip
+                       body_box_count, body_lower, body_upper, hulls, sphere_pairs,
+                       field_values, field_layout, table_grid, table_bounds, inflation,
+                       table_growth, poses, root_world, sines, cosines,
+                       scratch) != FREE:  # fmt: skip
             return False
         stack_low[top], stack_high[top] = t, high
         top += 1
@@ -287,7 +319,7 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, hulls = boxes
     (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
      field_layout) = self_model  # fmt: skip
     dim = starts.shape[1]
@@ -313,7 +345,8 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                             node_centers, node_radii, node_skip, node_first, node_count,
                             body_start, centers, radii, inner_centers, inner_radii,
                             inner_start, capsules, box_params, body_boxes, body_box_count,
-                            body_lower, body_upper, sphere_pairs, field_values, field_layout,
+                            body_lower, body_upper, hulls, sphere_pairs, field_values,
+                            field_layout,
                             table_grid, table_bounds, table_motion, motion, resolution, poses,
                             root_world, sweep,
                             inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
@@ -334,7 +367,7 @@ def motion_free_kernel(context, start, end) -> bool:
     kind, rotation, shift = kinematics
     (node_centers, node_radii, node_skip, node_first, node_count, body_start, centers, radii,
      inner_centers, inner_radii, inner_start, capsules) = trees  # fmt: skip
-    box_params, body_boxes, body_box_count, body_lower, body_upper = boxes
+    box_params, body_boxes, body_box_count, body_lower, body_upper, hulls = boxes
     (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
      field_layout) = self_model  # fmt: skip
     (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
@@ -355,7 +388,7 @@ def motion_free_kernel(context, start, end) -> bool:
                       node_centers, node_radii, node_skip, node_first, node_count, body_start,
                       centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                       body_boxes, body_box_count, body_lower,
-                      body_upper, sphere_pairs, field_values, field_layout, table_grid,
+                      body_upper, hulls, sphere_pairs, field_values, field_layout, table_grid,
                       table_bounds, table_motion, motion, settings[1], poses, root_world, sweep,
                       inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
                       stack_high, scratch)  # fmt: skip

@@ -16,7 +16,10 @@ other branch, so the boxes run the code they always ran and a world without othe
 pays one empty loop per body.
 
 Every test is closed (touching counts) and exact up to rounding, so the fast checker stays
-conservative: its spheres cover the arm (`temp_gym.worlds.collision.arm_fast`).
+conservative: its spheres cover the arm (`temp_gym.worlds.collision.arm_fast`). A touch within
+the spheres' bulge is not taken as a collision at once: `tree_hits` tells it apart, and the
+body's convex pieces decide it (`temp_gym.worlds.collision.arm_fast_hulls`), in a second pass
+that a state colliding elsewhere never reaches.
 """
 
 from __future__ import annotations
@@ -28,13 +31,17 @@ import numpy as np
 
 from temp_gym.problem.obstacles import CYLINDER, SPHERE
 from temp_gym.worlds.arm.kinematics import place
+from temp_gym.worlds.collision.arm_fast_hulls import pieces_clear
 from temp_gym.worlds.hot_path import hot_inline
 
 if TYPE_CHECKING:
     from temp_gym.worlds.collision.arm_obstacles import ArmObstacles
 
-FREE, HIT, CERTAIN = 0, 1, 2
-"""Answers: free; a grown sphere touches an obstacle; an inner ball does (the state collides)."""
+FREE, HIT, CERTAIN, UNSURE = 0, 1, 2, 3
+"""Answers: free; a grown sphere touches an obstacle; an inner ball does (the state collides);
+a first pass found only touches within the spheres' bulge (`body_touches`)."""
+MISSED, DEEP, SHALLOW = 0, 1, 2
+"""`tree_hits`'s answers: no leaf touches; one touches beyond the bulge; all within it."""
 BOX_COLUMNS = 6
 """Numbers per axis-aligned box: center (3), half extents (3)."""
 OBSTACLE_COLUMNS = 16
@@ -108,8 +115,16 @@ def sphere_hits(x, y, z, radius, tables, b, any_kind) -> bool:
 
 @hot_inline
 def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-              body_start, centers, radii, grow, tables, b, any_kind) -> bool:  # fmt: skip
-    """Whether a leaf sphere of body ``j``, grown by ``grow``, touches obstacle ``b`` (a walk)."""
+              body_start, centers, radii, grow, tables, b, any_kind, bulge,
+              full) -> int:  # fmt: skip
+    """How the leaf spheres of body ``j``, grown by ``grow``, touch obstacle ``b`` (a walk).
+
+    `MISSED`: none does; `DEEP`: one still would, shrunk by ``bulge`` (how far a leaf may
+    reach beyond its piece), so the touch is not the bulge's; `SHALLOW`: some do, all within
+    the bulge (not ``full``: the first leaf that touches does). A negative ``bulge`` makes
+    every touch `DEEP`.
+    """
+    shallow = False
     n = body_start[j]
     end = body_start[j + 1]
     while n < end:
@@ -119,21 +134,28 @@ def tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_co
             if count > 0:
                 for k in range(node_first[n], node_first[n] + count):
                     x, y, z = place(poses, j, centers, k)
-                    if sphere_hits(x, y, z, radii[k] + grow, tables, b, any_kind):
-                        return True
+                    reach = radii[k] + grow
+                    if sphere_hits(x, y, z, reach, tables, b, any_kind):
+                        if bulge < 0.0 or (reach > bulge and sphere_hits(
+                                x, y, z, reach - bulge, tables, b, any_kind)):  # fmt: skip
+                            return DEEP
+                        if not full:
+                            return SHALLOW
+                        shallow = True
                 n = node_skip[n]
             else:
                 n += 1
         else:
             n = node_skip[n]
-    return False
+    return SHALLOW if shallow else MISSED
 
 
 @hot_inline
 def _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
              node_count, body_start, centers, radii, inner_centers, inner_radii, inner_start,
-             grow, tables, body_list, first, last, any_kind) -> int:  # fmt: skip
+             grow, tables, body_list, first, last, any_kind, hulls, full) -> int:  # fmt: skip
     """`body_touches`'s narrow phase over candidates ``body_list[j, first:last]``."""
+    unsure = False
     for n in range(first, last):
         b = body_list[j, n]
         if not sphere_hits(bx, by, bz, bound, tables, b, any_kind):
@@ -143,24 +165,36 @@ def _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, n
             x, y, z = place(poses, j, inner_centers, k)
             if sphere_hits(x, y, z, inner_radii[k], tables, b, any_kind):
                 return CERTAIN
-        if tree_hits(poses, j, node_centers, node_radii, node_skip, node_first, node_count,
-                     body_start, centers, radii, grow, tables, b, any_kind):  # fmt: skip
+        touch = tree_hits(poses, j, node_centers, node_radii, node_skip, node_first,
+                          node_count, body_start, centers, radii, grow, tables, b, any_kind,
+                          hulls[3][0], full)  # fmt: skip
+        if touch == DEEP:
             return HIT
-    return FREE
+        if touch == SHALLOW:
+            if not full:
+                unsure = True
+            elif not pieces_clear(poses, j, hulls, tables, b, any_kind, grow):
+                return HIT
+    return UNSURE if unsure else FREE
 
 
 @hot_inline
 def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip, node_first,
                  node_count, body_start, centers, radii, inner_centers, inner_radii,
-                 inner_start, grow, tables, body_list, counts, body_lower,
-                 body_upper) -> int:  # fmt: skip
-    """`FREE`, `HIT` or `CERTAIN`: body ``j`` against its candidate obstacles.
+                 inner_start, grow, tables, body_list, counts, body_lower, body_upper,
+                 hulls, full) -> int:  # fmt: skip
+    """`FREE`, `HIT`, `CERTAIN` or `UNSURE`: body ``j`` against its candidate obstacles.
 
     ``(bx, by, bz)`` is its root sphere's world center and ``bound`` that sphere's grown
     radius. ``body_list[j]`` lists the candidates: ``counts[j, 0]`` rows of the box table
     ``tables[0]``, then ``counts[j, 1]`` rows of the other obstacles' table ``tables[1]``
     (`obstacle_tables`); ``body_lower[j]`` and ``body_upper[j]`` (3, candidates) are their
     world bounding boxes.
+
+    ``hulls`` is `arm_fast_hulls.hull_arrays`: a body whose leaves touch an obstacle only
+    within their bulge is decided by its convex pieces, but only in a ``full`` pass. A first
+    pass (not ``full``) answers `UNSURE` instead, cheaply: a state that collides elsewhere
+    needs neither the rest of the walk nor the pieces.
     """
     boxes = counts[j, 0]
     total = boxes + counts[j, 1]
@@ -176,21 +210,26 @@ def body_touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_ski
     answer = _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
                       node_first, node_count, body_start, centers, radii, inner_centers,
                       inner_radii, inner_start, grow, tables, body_list, 0, boxes,
-                      False)  # fmt: skip
-    if answer != FREE:
+                      False, hulls, full)  # fmt: skip
+    if answer == HIT or answer == CERTAIN:
         return answer
-    return _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
-                    node_first, node_count, body_start, centers, radii, inner_centers,
-                    inner_radii, inner_start, grow, tables, body_list, boxes, total,
-                    True)  # fmt: skip
+    others = _touches(poses, j, bx, by, bz, bound, node_centers, node_radii, node_skip,
+                      node_first, node_count, body_start, centers, radii, inner_centers,
+                      inner_radii, inner_start, grow, tables, body_list, boxes, total,
+                      True, hulls, full)  # fmt: skip
+    return answer if others == FREE else others
 
 
 __all__ = [
     "BOX_COLUMNS",
     "CERTAIN",
+    "DEEP",
     "FREE",
     "HIT",
+    "MISSED",
     "OBSTACLE_COLUMNS",
+    "SHALLOW",
+    "UNSURE",
     "body_touches",
     "obstacle_tables",
     "sphere_hits",
