@@ -2,7 +2,9 @@
 
 `run` starts the command with its address space limited (``RLIMIT_AS``, as ``prlimit --as``
 would) and its wall time bounded, reads what it printed, and measures its peak resident
-memory from the kernel's own account of the child (``wait4``). `files_under` lists a folder
+memory from the kernel's own account of the command (``wait4``), taken by a small launcher
+(`launcher.py`) that forks it: a command forked from the pytest worker itself would be
+charged the worker's memory too. `files_under` lists a folder
 so that a test can say that a refused command wrote nothing. Large inputs are made by the
 tests themselves, in their ``tmp_path``.
 """
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+LAUNCHER = Path(__file__).with_name("launcher.py")
 ADDRESS_SPACE = 3 * 2**30
 """The cap on a command's virtual memory: PyTorch and numba map about 1 GB between them."""
 PEAK_RSS = 2 * 2**30
@@ -69,15 +72,19 @@ def run(command: str, *args: str | os.PathLike, cwd: Path, env: dict | None = No
     environment = {**os.environ, "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", **(env or {})}
     environment.pop("TEMP_GYM_OVERRIDES", None)
     began = time.perf_counter()
+    report_start, report_end = os.pipe()
     child = subprocess.Popen(
-        [*COMMANDS[command], *map(os.fspath, args)],
+        [sys.executable, str(LAUNCHER), str(report_end), *COMMANDS[command],
+         *map(os.fspath, args)],
         cwd=cwd, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        preexec_fn=_limit,
+        preexec_fn=_limit, pass_fds=(report_end,),
     )  # fmt: skip
+    os.close(report_end)
+    report = open(report_start, "rb")  # noqa: SIM115 (closed below)
     streams: dict[str, bytes] = {}
     readers = [
         threading.Thread(target=lambda name=name, pipe=pipe: streams.update({name: pipe.read()}))
-        for name, pipe in (("out", child.stdout), ("err", child.stderr))
+        for name, pipe in (("out", child.stdout), ("err", child.stderr), ("report", report))
     ]
     for reader in readers:
         reader.start()
@@ -89,13 +96,17 @@ def run(command: str, *args: str | os.PathLike, cwd: Path, env: dict | None = No
         timer.cancel()
     for reader in readers:
         reader.join()
+    report.close()
+    peak_kib = usage.ru_maxrss  # the launcher's own account, if it was killed before reporting
+    if streams["report"]:
+        status, peak_kib = map(int, streams["report"].split())
     child.returncode = os.waitstatus_to_exitcode(status)
     return Outcome(
         code=child.returncode,
         out=streams["out"].decode("utf-8", "backslashreplace"),
         err=streams["err"].decode("utf-8", "backslashreplace"),
         seconds=time.perf_counter() - began,
-        peak_rss=usage.ru_maxrss * 1024,
+        peak_rss=peak_kib * 1024,
     )
 
 
