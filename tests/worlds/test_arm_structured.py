@@ -88,31 +88,39 @@ def test_workspaces_keep_the_base_and_enough_configurations_free(arms, robot, fa
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("family", STRUCTURED)
 def test_tasks_of_both_difficulties_and_informed_rrt_star_solves_them(robot, family):
-    """Start and goal are free for the exact checker too, and the expert solves every task at
-    3000 nodes: Informed RRT* to a first solution with retries (other seeds, as
+    """Start and goal are free for the exact checker too, every task is solvable, and the expert
+    solves them at 3000 nodes: Informed RRT* to a first solution with retries (other seeds, as
     `trainers/generate.py`'s ``data.attempts``), each also planned from the goal
-    (``data.expert_reverse``). One seed
-    alone can miss an easy 7D task whose goal lies among boxes, and a forward tree rarely
-    enters the slot or compartment a goal near a surface reaches into, which a tree rooted
-    there leaves at once."""
+    (``data.expert_reverse``). One seed alone can miss an easy 7D task whose goal lies among
+    boxes, and a forward tree rarely enters the slot or compartment a goal near a surface reaches
+    into, which a tree rooted there leaves at once.
+
+    Even so the expert misses a few challenging tasks, which `trainers/generate.py` counts as
+    failed: 1 of 80 challenging narrow-family Panda tasks, with the fast checker's convex pieces
+    as without them (RRT-Connect solved it). So this sample of two may hold one such task: a
+    miss is allowed once, of a challenging task, and only if RRT-Connect solves it (no trap)."""
     rng = np.random.default_rng(5)
-    exact_free, solved, unsolved = 0, 0, []
+    exact_free, missed = 0, []
     for workspace in sample(robot, family, 2, seed=11):
         exact = make_checker(workspace, exact=True)
         for difficulty in ("easy", "challenging"):
             problem = generate_task(workspace, rng, difficulty)
             exact_free += int(exact.states_free(np.stack([problem.start, problem.goal])).all())
             reverse = Problem(workspace, problem.goal, problem.start, problem.goal_radius)
-            success = any(
+            if any(
                 plan(task, planner="informed_rrt_star", seed=seed, max_nodes=3000,
                      stop_at_first=True).success
                 for seed in range(3) for task in (problem, reverse)
-            )  # fmt: skip
-            solved += success
-            if not success:
-                unsolved.append(difficulty)
+            ):  # fmt: skip
+                continue
+            missed.append(difficulty)
+            assert any(
+                plan(problem, planner="rrt_connect", seed=seed, max_nodes=3000,
+                     stop_at_first=True).success
+                for seed in range(3)
+            ), f"{robot} {family}: a {difficulty} task no planner solves at 3000 nodes"  # fmt: skip
     assert exact_free == 4
-    assert solved == 4, f"{robot} {family}: Informed RRT* missed {unsolved} at 3000 nodes"
+    assert missed in ([], ["challenging"]), f"{robot} {family}: Informed RRT* missed {missed}"
 
 
 def test_a_wall_with_windows_is_open_exactly_at_its_windows():
