@@ -86,8 +86,7 @@ class GoalTree:
     """
 
     def __init__(self, tree: Tree) -> None:
-        self.tree = Tree(tree.problem.swapped(), step_size=tree.step_size)
-        self.tree.checker = tree.checker  # the same workspace; its compiled context
+        self.tree = Tree(tree.problem.swapped(), step_size=tree.step_size, checker_of=tree)
         self._context = compiled_context_of(tree.checker)
         self._checked = np.array([tree.num_nodes, 0], dtype=np.int64)
         """Nodes of the planner's tree and of this one tried against the other so far: the

@@ -92,8 +92,7 @@ def rrt_connect(problem: Problem, settings: RRTConnectSettings) -> PlanResult:
     if tree.best_node >= 0:  # the start lies in the goal region
         log.record_tree(tree)
     elif settings.max_nodes >= 2:  # room for the goal tree's root
-        goal_tree = Tree(problem.swapped(), step_size=step)
-        goal_tree.checker = tree.checker  # the same workspace; its compiled context
+        goal_tree = Tree(problem.swapped(), step_size=step, checker_of=tree)
         rng = np.random.default_rng(settings.seed)
         status, link = connect_trees(tree, goal_tree, settings, rng, log.started)
         _finish(tree, goal_tree, status, link, log)

@@ -220,6 +220,10 @@ class Tree:
             the checker has a compiled path; False: never (the reference path); True: an
             error without one.
         capacity: Initial node capacity; doubles when full.
+        checker_of: A tree on the same workspace whose checker this one uses, as if it had
+            made its own (the free volume is the workspace's): a tree grown from the goal
+            beside one from the start, without building a second checker. Not with
+            ``checker``.
 
     Counters for wrappers and results: `num_nodes`, `samples`, `sampling_failures`,
     `collision_checks`; solution: `best_node`, `best_cost`, `best_path`; the newest node's
@@ -237,6 +241,8 @@ class Tree:
         parent_check_chunk: int = 8,
         capacity: int = 1024,
         compiled_extend: bool | None = None,
+        *,
+        checker_of: Tree | None = None,
     ) -> None:
         if neighbourhood not in NEIGHBOURHOODS:
             raise ValueError(
@@ -253,8 +259,16 @@ class Tree:
             raise ValueError(
                 f"compiled_extend: expected None, True or False, got {compiled_extend!r}"
             )
+        if checker_of is not None and (checker is not None or (
+                checker_of.problem.workspace is not problem.workspace
+                and checker_of.problem.workspace != problem.workspace)):  # fmt: skip
+            raise ValueError("checker_of: expected a tree on this problem's workspace, and no "
+                             "checker")  # fmt: skip
         self.problem = problem
-        self.checker = make_checker(problem) if checker is None else checker
+        if checker_of is not None:
+            self.checker = checker_of.checker
+        else:
+            self.checker = make_checker(problem) if checker is None else checker
         self.dim = problem.dim
         self.step_size = step_size
         self.neighbourhood = neighbourhood

@@ -152,6 +152,40 @@ def test_the_free_volume_floor_is_computed_once_per_workspace(problem_2d, monkey
     assert first._gamma_in_use == second._gamma_in_use
 
 
+def test_a_tree_from_the_goal_shares_the_checker_and_grows_as_one_with_its_own(
+    problem_2d, monkeypatch
+):
+    from dataclasses import replace
+
+    from temp_gym.planning import tree as tree_module
+    from temp_gym.problem import Workspace
+
+    made, make = [], tree_module.make_checker
+    monkeypatch.setattr(tree_module, "make_checker", lambda p: made.append(p) or make(p))
+    first = Tree(problem_2d)
+    shared = Tree(problem_2d.swapped(), checker_of=first)
+    assert shared.checker is first.checker and len(made) == 1
+    own = Tree(problem_2d.swapped())
+    assert len(made) == 2 and own.checker is not first.checker
+    for tree in (shared, own):
+        sampler = UniformSampler(problem_2d.bounds)
+        rng = np.random.default_rng(4)
+        for _ in range(300):
+            tree.extend(sampler.sample(rng))
+    n = own.num_nodes
+    assert shared.num_nodes == n > 100 and shared._gamma_in_use == own._gamma_in_use
+    np.testing.assert_array_equal(shared.positions[:n], own.positions[:n])
+    np.testing.assert_array_equal(shared.links[:n], own.links[:n])
+    space = problem_2d.workspace
+    empty = Workspace(
+        space.robot, space.bounds, space.obstacle_centers[:0], space.obstacle_half_extents[:0]
+    )
+    with pytest.raises(ValueError, match="checker_of: expected a tree on this problem's"):
+        Tree(replace(problem_2d, workspace=empty), checker_of=first)
+    with pytest.raises(ValueError, match="checker_of: .* and no checker"):
+        Tree(problem_2d, checker=first.checker, checker_of=first)
+
+
 def test_a_forgotten_workspace_pays_its_set_up_again_and_gets_the_same_tree(
     problem_2d, monkeypatch
 ):

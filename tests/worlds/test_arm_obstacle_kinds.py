@@ -17,7 +17,13 @@ from temp_gym.problem import Problem, Workspace
 from temp_gym.problem.obstacles import BOX, CYLINDER, KIND_NAMES, SPHERE, Box, Cylinder, Sphere
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_world import generate_arm_task, near_surface
-from temp_gym.worlds.collision.arm_exact import ArmExactChecker, obstacle_objects
+from temp_gym.worlds.collision.arm_exact import (
+    ArmExactChecker,
+    base_collides,
+    element_models,
+    obstacle_objects,
+    transform,
+)
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker
 from temp_gym.worlds.collision.arm_fast_obstacles import OBSTACLE_COLUMNS, sphere_hits_shape
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, arm_obstacles
@@ -142,6 +148,69 @@ def test_axis_aligned_boxes_are_read_from_their_corners_and_kept_on_the_box_list
     # The floor is the one axis-aligned box; an upright cylinder is not a box.
     counts = mixed._obstacle_arrays[2]
     assert counts[1:, 0].max() == 1 and counts[1:, 1].max() == len(SCENE) - 1
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_the_base_screen_keeps_every_obstacle_fcl_finds_touching_the_base(robot):
+    """`base_collides` asks fcl only about obstacles whose bounding box meets the base's: the
+    same answers as fcl on every obstacle, for small obstacles of each kind around the base
+    (many of them touching it)."""
+    arm = load_arm(robot_spec(robot).description)
+    bodies = [fcl.CollisionObject(shape, transform(pose)) for shape, pose in element_models(arm)[0]]
+    rng = np.random.default_rng(8)
+    touching = 0
+    for _ in range(300):
+        center = rng.uniform([-0.25, -0.25, -0.1], [0.25, 0.25, 0.35])
+        size = rng.uniform(0.005, 0.05)
+        axis = rng.normal(size=3)
+        obstacle = [Box(center, (size, size / 2, size), turned(axis, rng.uniform(0, 3))),
+                    Cylinder(center, size, 3 * size, turned(axis, rng.uniform(0, 3))),
+                    Sphere(center, size)][rng.integers(3)]  # fmt: skip
+        workspace = Workspace.from_obstacles(robot, arm.joint_limits(), [obstacle])
+        obstacles = arm_obstacles(workspace)
+        (shape,) = obstacle_objects(obstacles)
+        expected = any(fcl.collide(body, shape, fcl.CollisionRequest(), fcl.CollisionResult())
+                       for body in bodies)  # fmt: skip
+        assert base_collides(arm, obstacles) == expected, obstacle
+        touching += expected
+    assert 20 < touching < 280  # both answers, many times
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_each_body_lists_exactly_the_obstacles_within_its_reach(robot):
+    """The broad phase, against a reference written per body and obstacle: body j lists the
+    obstacles whose bounding box lies within its reach of the first joint (the joint offsets
+    before it plus its root sphere) and half the resolution, boxes first, each by its row."""
+    spec = robot_spec(robot)
+    far = [Box((3.0, 0.0, 0.5), (0.1, 0.1, 0.1)), Sphere((0.0, -2.5, 0.3), 0.2),
+           Cylinder((0.0, 0.0, 2.4), 0.1, 0.3, turned((1, 0, 0), 0.4))]  # fmt: skip
+    rng = np.random.default_rng(3)
+    for scene in (SCENE, far + SCENE[::-1], [SCENE[k] for k in rng.permutation(len(SCENE))]):
+        workspace = Workspace.from_obstacles(robot, spec.joint_limits(), scene)
+        checker = spec.make_checker(workspace)
+        lists, counts, lowers, uppers = checker._obstacle_arrays[1:5]
+        obstacles, trees = checker.obstacles, checker._trees
+        node_centers, node_radii, body_start = trees[0], trees[1], trees[5]
+        origins = checker.arm.chain.joint_origins[:, :3, 3]
+        aligned = obstacles.axis_aligned
+        for j in range(checker.arm.num_bodies):
+            root = body_start[j]
+            expected = {True: [], False: []}
+            if j > 0 and root < body_start[j + 1]:
+                reach = sum(np.linalg.norm(origins[k]) for k in range(1, j))
+                reach += np.linalg.norm(node_centers[root]) + node_radii[root]
+                for b in range(len(obstacles)):
+                    nearest = np.clip(origins[0], obstacles.lower[b], obstacles.upper[b])
+                    if np.linalg.norm(nearest - origins[0]) <= reach + checker.resolution / 2:
+                        expected[bool(aligned[b])].append(b)
+            chosen = expected[True] + expected[False]
+            assert list(counts[j]) == [len(expected[True]), len(expected[False])], (j, scene)
+            rows = [int(aligned[:b].sum()) if aligned[b] else int((~aligned[:b]).sum())
+                    for b in chosen]  # fmt: skip
+            assert list(lists[j, : len(chosen)]) == rows
+            np.testing.assert_array_equal(lowers[j, :, : len(chosen)], obstacles.lower[chosen].T)
+            np.testing.assert_array_equal(uppers[j, :, : len(chosen)], obstacles.upper[chosen].T)
+        assert counts.sum(axis=1).max() == len(SCENE)  # the hand reaches it all, not `far`
 
 
 @pytest.mark.parametrize("robot", ROBOTS)

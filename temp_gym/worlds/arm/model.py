@@ -18,6 +18,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import os
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -276,6 +277,21 @@ def _load(path: Path, stamp: tuple, require_derived: bool) -> ArmModel:
     return ArmModel(description, chain, geometry, derived)
 
 
+def resolved_path(path: str | Path) -> Path:
+    """``path`` made absolute with its links resolved, as `Path.resolve` does.
+
+    Remembered per path (and working directory, for a relative one): a checker is built for
+    every plan, and resolving walks every folder of the path.
+    """
+    path = os.path.expanduser(os.fspath(path))
+    return _resolved(path, "" if os.path.isabs(path) else os.getcwd())
+
+
+@functools.lru_cache(maxsize=256)
+def _resolved(path: str, cwd: str) -> Path:
+    return Path(cwd, path).resolve()
+
+
 def load_arm(path: str | Path, require_derived: bool = True) -> ArmModel:
     """The arm described at ``path``, cached per file and content (module docstring).
 
@@ -283,7 +299,7 @@ def load_arm(path: str | Path, require_derived: bool = True) -> ArmModel:
         DescriptionError, UrdfError: a bad description or URDF (one line).
         ArmDataError: the derived data is missing or stale (``require_derived``).
     """
-    path = Path(path).expanduser().resolve()
+    path = resolved_path(path)
     stat = path.stat() if path.is_file() else None
     derived = path.with_name(path.stem + ".derived.json")
     derived_stat = derived.stat() if derived.is_file() else None

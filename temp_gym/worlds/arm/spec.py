@@ -136,9 +136,10 @@ def ensure_registered(path: str | Path) -> RobotSpec:
     A worker process that receives an arm's problem registers the arm on first use (its env
     is registered by `temp_gym.register_robot_file`, in the package's face).
     """
+    from temp_gym.worlds.arm.model import resolved_path
     from temp_gym.worlds.robots import register_robot, robot_specs
 
-    resolved = Path(path).expanduser().resolve()
+    resolved = resolved_path(path)
     for spec in robot_specs():
         if spec.description is not None and Path(spec.description) == resolved:
             return spec

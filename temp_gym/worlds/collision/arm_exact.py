@@ -112,13 +112,15 @@ def _body_bounds(arm: ArmModel) -> tuple[np.ndarray, np.ndarray]:
     return arm._arrays[key]
 
 
-def obstacle_objects(obstacles: ArmObstacles) -> list[fcl.CollisionObject]:
-    """Each obstacle as a posed fcl object: a box, a cylinder or a sphere.
+def obstacle_objects(obstacles: ArmObstacles,
+                     which: np.ndarray | None = None) -> list[fcl.CollisionObject]:  # fmt: skip
+    """Each obstacle (or those of the indices ``which``) as a posed fcl object.
 
-    fcl's cylinder lies along its local z with its full length, as a workspace's does.
+    A box, a cylinder or a sphere; fcl's cylinder lies along its local z with its full length,
+    as a workspace's does.
     """
     objects = []
-    for b in range(len(obstacles)):
+    for b in range(len(obstacles)) if which is None else which:
         center, half, kind = obstacles.centers[b], obstacles.half_extents[b], obstacles.kinds[b]
         if kind == BOX:
             shape = fcl.Box(*(2 * half))
@@ -134,12 +136,58 @@ def obstacle_objects(obstacles: ArmObstacles) -> list[fcl.CollisionObject]:
     return objects
 
 
+def _element_bounds(arm: ArmModel, body: int) -> np.ndarray:
+    """``(2, 3)``: a box around body ``body``'s collision elements, in its frame (cached).
+
+    Meshes by their vertices; primitives by their exact shape (a cylinder by its box), not by
+    the polytopes that stand in for them elsewhere.
+    """
+    key = f"element_bounds_{body}"
+    if key not in arm._arrays:
+        geometry = arm.geometry[body]
+        points = [np.zeros((0, 3))]
+        for (vertices, _), primitive in zip(geometry.meshes, geometry.primitives):
+            if primitive is None:
+                points.append(np.asarray(vertices, dtype=np.float64).reshape(-1, 3))
+                continue
+            kind, size, pose = primitive
+            pose = np.asarray(pose, dtype=np.float64)
+            if kind == "sphere":
+                corners = np.zeros((1, 3)) + np.array([[-1.0], [1.0]]) * float(size[0])
+            else:
+                half = (np.asarray(size[:3], dtype=np.float64) / 2 if kind == "box" else
+                        np.array([size[0], size[0], size[1] / 2], dtype=np.float64))  # fmt: skip
+                signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+                corners = (signs * half) @ pose[:3, :3].T
+            points.append(corners + pose[:3, 3])
+        points = np.concatenate(points)
+        bounds = (np.stack([points.min(axis=0), points.max(axis=0)]) if len(points)
+                  else np.full((2, 3), np.nan))  # fmt: skip
+        bounds.setflags(write=False)
+        arm._arrays[key] = bounds
+    return arm._arrays[key]
+
+
+BASE_SCREEN_MARGIN = 1e-6
+"""Slack (m) of the bounding-box screen before fcl tests the base against an obstacle."""
+
+
 def base_collides(arm: ArmModel, obstacles: ArmObstacles) -> bool:
-    """Whether the base body (at the origin) touches an obstacle."""
+    """Whether the base body (at the origin) touches an obstacle.
+
+    fcl tests only the obstacles whose bounding box meets the base's (`_element_bounds`).
+    """
+    bounds = _element_bounds(arm, 0)
+    if np.isnan(bounds).any() or not len(obstacles):
+        return False
+    meets = np.all((obstacles.lower <= bounds[1] + BASE_SCREEN_MARGIN)
+                   & (obstacles.upper >= bounds[0] - BASE_SCREEN_MARGIN), axis=1)  # fmt: skip
+    if not meets.any():
+        return False
     request = fcl.CollisionRequest()
     objects = [fcl.CollisionObject(shape, transform(pose))
                for shape, pose in element_models(arm)[0]]  # fmt: skip
-    for obstacle in obstacle_objects(obstacles):
+    for obstacle in obstacle_objects(obstacles, np.flatnonzero(meets)):
         for obj in objects:
             if fcl.collide(obj, obstacle, request, fcl.CollisionResult()) > 0:
                 return True

@@ -155,6 +155,34 @@ def _self_fields(arm: ArmModel, enabled: bool) -> tuple[np.ndarray, np.ndarray]:
     return arm._arrays[key]
 
 
+def _body_reaches(arm: ArmModel) -> tuple[np.ndarray, np.ndarray]:
+    """The first joint's origin (which never moves) and how far from it each body reaches.
+
+    A body's reach is the joint offsets before it, its prismatic joints' longest slides and its
+    root sphere's farthest point; -inf for a body without spheres (the base, one never checked).
+    Depends on the arm alone: cached on it, since a checker is built for every plan.
+    """
+    key = "body_reaches"
+    if key not in arm._arrays:
+        trees = sphere_trees(arm)
+        anchor = arm.chain.joint_origins[0, :3, 3].copy()
+        shift = arm.chain.joint_origins[:, :3, 3]
+        slides = np.where(arm.chain.joint_types == 1, np.abs(arm.chain.joint_limits).max(axis=0),
+                          0.0)  # fmt: skip
+        reaches = np.full(arm.num_bodies, -np.inf)
+        for j in range(1, arm.num_bodies):
+            root = trees.body_start[j]
+            if root == trees.body_start[j + 1]:
+                continue
+            extent = float(np.linalg.norm(trees.node_centers[root]) + trees.node_radii[root])
+            reaches[j] = (float(np.linalg.norm(shift[1:j], axis=1).sum())
+                          + float(slides[:j].sum()) + extent)  # fmt: skip
+        for array in (anchor, reaches):
+            array.setflags(write=False)
+        arm._arrays[key] = (anchor, reaches)
+    return arm._arrays[key]
+
+
 class ArmSphereChecker:
     """Fast, conservative arm checker: sphere trees against obstacles and each other.
 
@@ -216,7 +244,7 @@ class ArmSphereChecker:
         from temp_gym.worlds.collision.arm_exact import base_collides
 
         self.base_free = not base_collides(arm, obstacles)
-        self._obstacle_arrays = (obstacle_tables(obstacles), *self._candidates(trees, obstacles),
+        self._obstacle_arrays = (obstacle_tables(obstacles), *self._candidates(obstacles),
                                  hull_arrays(arm, near_surfaces))  # fmt: skip
         self.description = (
             f"{arm.name} sphere model ({len(trees.radii)} spheres), {obstacles.summary()}, "
@@ -224,7 +252,7 @@ class ArmSphereChecker:
             f"{self.resolution} m" + ("" if self.base_free else ", base link in collision")
         )
 
-    def _candidates(self, trees: SphereTrees, obstacles: ArmObstacles) -> tuple[np.ndarray, ...]:
+    def _candidates(self, obstacles: ArmObstacles) -> tuple[np.ndarray, ...]:
         """Per body, the obstacles it can reach: ``(lists, counts, lowers, uppers)``.
 
         Those whose world bounding box is within the body's reach of the first joint's origin
@@ -232,12 +260,8 @@ class ArmSphereChecker:
         body's list holds ``counts[j, 0]`` rows of the box table, then ``counts[j, 1]`` rows of
         the other obstacles' table (`obstacle_tables`).
         """
-        arm = self.arm
-        bodies = arm.num_bodies
-        anchor = arm.chain.joint_origins[0, :3, 3]
-        shift = arm.chain.joint_origins[:, :3, 3]
-        slides = np.where(arm.chain.joint_types == 1, np.abs(arm.chain.joint_limits).max(axis=0),
-                          0.0)  # fmt: skip
+        anchor, reaches = _body_reaches(self.arm)
+        bodies = len(reaches)
         lower, upper = obstacles.lower, obstacles.upper
         center, half = (lower + upper) / 2, (upper - lower) / 2
         gaps = np.linalg.norm(np.maximum(np.abs(anchor - center) - half, 0.0), axis=1)
@@ -246,21 +270,15 @@ class ArmSphereChecker:
         body_lower = np.zeros((bodies, 3, body_lists.shape[1]))
         body_upper = np.zeros((bodies, 3, body_lists.shape[1]))
         aligned = obstacles.axis_aligned
-        # Each obstacle's row in its own table.
+        # Each obstacle's row in its own table; a body lists the boxes first, then the others.
         rank = np.where(aligned, np.cumsum(aligned) - 1, np.cumsum(~aligned) - 1)
-        for j in range(1, bodies):
-            root = trees.body_start[j]
-            if root == trees.body_start[j + 1]:
-                continue
-            extent = float(np.linalg.norm(trees.node_centers[root]) + trees.node_radii[root])
-            reach = (float(np.linalg.norm(shift[1:j], axis=1).sum()) + float(slides[:j].sum())
-                     + extent)  # fmt: skip
-            near = gaps <= reach + self.resolution / 2 + 1e-9
-            boxes = np.flatnonzero(near & aligned)
-            others = np.flatnonzero(near & ~aligned)
-            chosen = np.concatenate([boxes, others])
+        order = np.concatenate([np.flatnonzero(aligned), np.flatnonzero(~aligned)])
+        near = gaps[order] <= reaches[:, None] + self.resolution / 2 + 1e-9  # (bodies, M)
+        counts[:, 0] = near[:, : int(aligned.sum())].sum(axis=1)
+        counts[:, 1] = near.sum(axis=1) - counts[:, 0]
+        for j in np.flatnonzero(counts.sum(axis=1)):
+            chosen = order[near[j]]
             body_lists[j, : len(chosen)] = rank[chosen]
-            counts[j] = len(boxes), len(others)
             body_lower[j, :, : len(chosen)] = lower[chosen].T
             body_upper[j, :, : len(chosen)] = upper[chosen].T
         return body_lists, counts, body_lower, body_upper
