@@ -219,6 +219,17 @@ def test_stall_sequence_times_both_sides_on_stalling_tasks(capsys):
         stall_sequence.main(["--tasks", "0"])
 
 
+def test_checker_setup_times_each_build_per_arm(capsys):
+    checker_setup = _benchmark("checker_setup")
+    medians = checker_setup.main(["--robots", "franka_panda", "--problems", "2"])
+    assert set(medians) == {"franka_panda, generated"}
+    assert set(medians["franka_panda, generated"]) == {"fast checker", "exact checker", "tree"}
+    assert all(seconds > 0 for seconds in medians["franka_panda, generated"].values())
+    assert "| franka_panda, generated (2) |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        checker_setup.main(["--problems", "0"])
+
+
 def test_plan_setup_times_every_planner_on_one_motion_problems(capsys):
     from temp_gym.worlds.checkers import make_checker
 
