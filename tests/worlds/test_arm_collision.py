@@ -124,6 +124,86 @@ def test_invalid_states_are_not_free(arm, checkers):
         checkers[0].states_free(np.zeros((2, arm.dim + 1)))
 
 
+def test_body_clearances_skip_only_elements_that_cannot_lower_them(arm, checkers):
+    """Near an obstacle the exact checker measures a body's elements (fcl's mesh distance)
+    nearest convex piece first and skips those whose piece is farther than the nearest element
+    measured: every clearance equals the one that measures every element."""
+    import fcl
+
+    from temp_gym.worlds.collision.arm_exact import MESH_DISTANCE_BELOW
+
+    _, exact = checkers
+    reference = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    measured = {"skipping": 0, "every": 0}
+
+    def every_element(j, b, piece_distances, best):
+        measured["every"] += len(reference._elements[j])
+        return min(
+            fcl.distance(obj, reference._obstacles[b], fcl.DistanceRequest(), fcl.DistanceResult())
+            for obj, _ in reference._elements[j]
+        )
+
+    skipping = exact._element_distance
+
+    def counted(j, b, piece_distances, best):
+        before = fcl.distance
+        calls = [0]
+
+        def counting(*args):
+            calls[0] += 1
+            return before(*args)
+
+        fcl.distance = counting
+        try:
+            return skipping(j, b, piece_distances, best)
+        finally:
+            fcl.distance = before
+            measured["skipping"] += calls[0]
+
+    reference._element_distance = every_element
+    exact._element_distance = counted
+    several = [j for j in range(1, arm.num_bodies) if len(exact._elements[j]) > 1]
+    assert several  # the fixture's arm has bodies of several elements
+    compared = 0
+    try:
+        for poses in arm.forward_kinematics(random_configs(arm, 3000, seed=8)):
+            gaps = exact._aabb_gaps(poses)
+            for j in several:
+                if gaps[j].min() < MESH_DISTANCE_BELOW:
+                    got = exact._body_clearance(poses, j, gaps[j])
+                    assert got == reference._body_clearance(poses, j, gaps[j])
+                    compared += 1
+    finally:
+        del exact._element_distance
+    assert compared > 100
+    assert 0 < measured["skipping"] < measured["every"]
+
+
+def test_element_distance_is_the_nearest_element_whatever_the_bounds_given(arm, checkers):
+    """`_element_distance` returns the least of every element's fcl distance when its piece
+    distances are any lower bounds, so that the order it measures in never changes the answer.
+    """
+    import fcl
+
+    _, exact = checkers
+    rng = np.random.default_rng(9)
+    several = [j for j in range(1, arm.num_bodies) if len(exact._elements[j]) > 1]
+    compared = 0
+    for poses in arm.forward_kinematics(random_configs(arm, 400, seed=10)):
+        for j in several:
+            exact._pose_body(poses, j)
+            for b in range(len(exact._obstacles)):
+                each = np.array([
+                    fcl.distance(obj, exact._obstacles[b], fcl.DistanceRequest(),
+                                 fcl.DistanceResult())
+                    for obj, _ in exact._elements[j]
+                ])  # fmt: skip
+                for bounds in (np.zeros(len(each)), rng.uniform(0, 1, len(each)) * each):
+                    assert exact._element_distance(j, b, list(bounds), np.inf) == each.min()
+                    compared += 1
+    assert compared > 500
+
+
 def test_self_collisions_are_found_by_both_and_named(arm, checkers):
     fast, exact = checkers
     found = 0
