@@ -90,7 +90,9 @@ def shipped_checkpoint(name: str) -> Path:
 def _not_shipped(spec: RobotSpec, path: Path) -> FileNotFoundError:
     return FileNotFoundError(
         f"no pretrained policy for {spec.env_id} ships with this build ({path} is missing); "
-        "train one with trainers/bc.py and pass it as policy=TEMPPolicy.from_checkpoint(...)"
+        "train one with trainers/bc.py and pass it (policy=TEMPPolicy.from_checkpoint(PATH) in "
+        "Python, --checkpoint PATH to temp-plan), or plan without one "
+        "(planner='informed_rrt_star', or 'rrt_connect')"
     )
 
 

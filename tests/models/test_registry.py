@@ -93,8 +93,11 @@ def test_a_missing_shipped_checkpoint_says_how_to_get_one(monkeypatch, tmp_path)
     registry.clear_cache()
     with pytest.raises(FileNotFoundError, match="no pretrained policy for TEMP-2D-v0"):
         load_policy("point2d")
-    with pytest.raises(FileNotFoundError, match="no pretrained policy for TEMP-2D-v0"):
+    with pytest.raises(FileNotFoundError, match="no pretrained policy for TEMP-2D-v0") as error:
         registry.shipped_checkpoint("TEMP-2D-v0")
+    # Both ways to pass a trained one, and a planner that needs none.
+    for advice in ("trainers/bc.py", "TEMPPolicy.from_checkpoint", "--checkpoint", "rrt_connect"):
+        assert advice in str(error.value)
 
 
 def test_a_relative_path_and_its_absolute_twin_share_one_load(count_reads, tmp_path, monkeypatch):
