@@ -452,7 +452,8 @@ def test_lazy_step_equals_measuring_every_body_and_pair(arms, workspaces, robot)
             if len(moving) + len(moving_pairs) == 0:
                 continue
             poses = arm.forward_kinematics(start)[0]
-            advance, closest = exact._advance(poses, moving, sweep, moving_pairs, pair_sweep)
+            advance, closest, _, _ = exact._advance(poses, moving, sweep, moving_pairs,
+                                                    pair_sweep, None)  # fmt: skip
             gaps = exact._aabb_gaps(poses)
             bodies = np.array([exact._body_clearance(poses, j, gaps[j]) for j in moving])
             spheres = exact._hulls.sphere_gaps(poses) - SELF_COLLISION_GAP

@@ -204,6 +204,68 @@ def test_element_distance_is_the_nearest_element_whatever_the_bounds_given(arm, 
     assert compared > 500
 
 
+def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checkers):
+    """A motion's certification carries each body's and pair's clearance bound from one pose
+    to the next, less its rate times the step, and measures only what could limit the step:
+    the same verdicts as a certifier that starts every pose from the cheap bounds alone."""
+    _, exact = checkers
+    reference = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    measure_all = reference._advance
+    reference._advance = lambda *args: measure_all(*args[:-1], None)
+    rng = np.random.default_rng(11)
+    starts = random_configs(arm, 600, seed=12)
+    starts = starts[exact.states_free(starts)][:150]
+    direction = rng.normal(size=starts.shape)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    ends = np.clip(starts + rng.uniform(0.1, 0.8, (len(starts), 1)) * direction,
+                   *arm.joint_limits())  # fmt: skip
+    verdicts = exact.edges_free(starts, ends)
+    assert 0.1 < verdicts.mean() < 0.9
+    np.testing.assert_array_equal(verdicts, reference.edges_free(starts, ends))
+
+
+def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checkers):
+    """Every bound a motion's certification carries to a pose is at most the clearance measured
+    there afresh, for each moving body (to the obstacles) and each moving pair."""
+    import fcl
+
+    from temp_gym.worlds.collision.arm_self import SELF_COLLISION_GAP
+
+    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    advance = exact._advance
+    checked = [0, 0]
+
+    def clearance(poses, j):
+        """fcl's distance from body ``j``'s elements to the nearest obstacle (0 if touching)."""
+        exact._pose_body(poses, j)
+        nearest = min(
+            fcl.distance(obj, obstacle, fcl.DistanceRequest(), fcl.DistanceResult())
+            for obj, _ in exact._elements[j]
+            for obstacle in exact._obstacles
+        )
+        return max(nearest, 0.0)
+
+    def checking(poses, moving, sweep, moving_pairs, pair_sweep, carried):
+        if carried is not None:
+            fresh = [clearance(poses, j) for j in moving]
+            fresh += [exact._hulls.distance(poses, *exact._hulls.pairs[p]) - SELF_COLLISION_GAP
+                      for p in moving_pairs]  # fmt: skip
+            assert np.all(carried <= np.asarray(fresh) + 1e-9)
+            checked[0] += len(fresh)
+            checked[1] += int(np.sum(carried > 0))
+        return advance(poses, moving, sweep, moving_pairs, pair_sweep, carried)
+
+    exact._advance = checking
+    rng = np.random.default_rng(13)
+    starts = random_configs(arm, 400, seed=14)
+    starts = starts[exact.states_free(starts)][:60]
+    direction = rng.normal(size=starts.shape)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    ends = np.clip(starts + 0.6 * direction, *arm.joint_limits())
+    exact.edges_free(starts, ends)
+    assert checked[0] > 1000 and checked[1] > 500
+
+
 def test_self_collisions_are_found_by_both_and_named(arm, checkers):
     fast, exact = checkers
     found = 0

@@ -24,7 +24,9 @@ less than ``d_j / W_j``; likewise for body pairs with their relative motion. The
 the segment with steps of `STEP_SAFETY` times the smallest of these; ``d_j`` is fcl's element
 distance where the body is within `MESH_DISTANCE_BELOW` of an obstacle, and otherwise a
 cheaper, smaller bound (the distance from its convex pieces, or, farther than
-`EXACT_DISTANCE_BELOW`, from its oriented bounding box). It gives up, returning *not free*,
+`EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one pose, less its
+rate times the step, still holds at the next, so a body or pair far from limiting the step is
+measured only when its carried bound could. It gives up, returning *not free*,
 when a clearance drops to `MIN_CLEARANCE` or after ``max_steps`` steps: the answer is then
 "not certified", which is what a certifier must say when unsure.
 """
@@ -389,12 +391,20 @@ class ArmExactChecker:
             nearest = min(nearest, found)
         return nearest
 
-    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep) -> tuple[float, float]:
-        """``(advance, closest)`` at one pose of a segment.
+    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep,
+                 carried) -> tuple[float, float, np.ndarray, np.ndarray]:  # fmt: skip
+        """``(advance, closest, known, rates)`` at one pose of a segment.
 
         The largest safe step in ``t`` and the smallest clearance measured (bodies and pairs
         are measured only when their cheap lower bound could still lower the step or reach
-        `MIN_CLEARANCE`).
+        `MIN_CLEARANCE`). ``carried`` (None at a segment's start) holds lower bounds on the
+        moving bodies' clearances, then the moving pairs', brought from the pose before; each
+        item's cheap bound is the larger of it and the bounding boxes' or spheres' gap.
+        ``known`` returns each item's best lower bound here (measured, else cheap) and
+        ``rates`` how fast each can shrink per unit of ``t``. The step is the least measured
+        clearance over its rate, and every item left unmeasured has a bound of at least that
+        step times its rate, so the step stays safe; an item far from limiting the step keeps
+        its carried bound for several poses instead of being measured at each.
         """
         bounds, rates, which = [], [], []
         gaps = None
@@ -410,6 +420,8 @@ class ArmExactChecker:
             rates.extend(pair_sweep[moving_pairs])
             which.extend(-1 - k for k in range(len(moving_pairs)))
         bounds, rates = np.asarray(bounds), np.asarray(rates)
+        if carried is not None:
+            bounds = np.maximum(bounds, carried)
         advance = closest = np.inf
         for k in np.argsort(bounds / rates, kind="stable"):
             if bounds[k] > MIN_CLEARANCE and bounds[k] / rates[k] >= advance:
@@ -420,9 +432,10 @@ class ArmExactChecker:
                 pair = -1 - which[k]
                 value = self._hulls.pair_clearance(poses, moving_pairs[pair], spheres[pair],
                                                    EXACT_DISTANCE_BELOW)  # fmt: skip
+            bounds[k] = max(bounds[k], value)
             closest = min(closest, value)
             advance = min(advance, value / rates[k])
-        return float(advance), float(closest)
+        return float(advance), float(closest), bounds, rates
 
     # ------------------------------------------------------------------ protocol
     def states_free(self, states: np.ndarray) -> np.ndarray:
@@ -507,14 +520,20 @@ class ArmExactChecker:
         if len(moving) == 0 and len(moving_pairs) == 0:
             return True
         t = 0.0
+        carried = None
         for _ in range(self.max_steps):
             poses = self.arm.forward_kinematics(start + t * delta)[0]
-            advance, closest = self._advance(poses, moving, sweep, moving_pairs, pair_sweep)
+            advance, closest, known, rates = self._advance(
+                poses, moving, sweep, moving_pairs, pair_sweep, carried
+            )
             if closest <= MIN_CLEARANCE:
                 return False
-            t += STEP_SAFETY * advance
+            step = STEP_SAFETY * advance
+            t += step
             if t >= 1.0:
                 return True
+            # Nothing comes nearer than its rate times the step: bounds for the next pose.
+            carried = known - rates * step
         return False
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
