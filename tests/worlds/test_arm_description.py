@@ -82,6 +82,11 @@ def test_a_bad_key_or_value_is_named_in_one_line(tmp_path, text, field):
             "joint_limits: {no_such_joint: [0, 1]}\n",
             "no joint 'no_such_joint'",
         ),
+        (
+            "base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+            "joint_limits: {lbr_iiwa_joint_4: [0.5, 0.5]}\n",
+            "leave a joint of the chain no motion",
+        ),
     ],
 )
 def test_a_chain_the_urdf_cannot_give_is_refused_in_one_line(tmp_path, extra, fragment):

@@ -325,7 +325,14 @@ def read_chain(
                     names.append(name)
                     types.append(PRISMATIC if kind == "prismatic" else REVOLUTE)
                     origins.append(origin @ turn)
-                    limits.append(limits_of(joint))
+                    lower, upper = limits_of(joint)
+                    if not lower < upper:
+                        raise UrdfError(
+                            f"{where}: its limits [{lower}, {upper}] leave a joint of the chain "
+                            "no motion; planning needs lower < upper (override them with "
+                            "joint_limits, or end the chain before it)"
+                        )
+                    limits.append((lower, upper))
                     bodies.append(child)
                     link_bodies[child] = len(bodies) - 1
                     # The child's URDF frame in its canonical body frame: turn^-1.
