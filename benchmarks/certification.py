@@ -1,6 +1,7 @@
-"""What certifying a returned 7D path costs: the exact checker on planners' paths, per path.
+"""What certifying a returned arm path costs: the exact checker on planners' paths, per path.
 
-    python benchmarks/certification.py [--tasks 60] [--paths paths.npz] [--repeats 3]
+    python benchmarks/certification.py [--tasks 60] [--paths paths.json] [--repeats 3]
+    python benchmarks/certification.py --mbm problems.tar.bz2 [--per-scene 6] [--paths ...]
 
 `temp_gym.plan` certifies every path it returns with the exact checker (fcl on the iiwa's
 meshes and hulls, `temp_gym.worlds.collision.arm_exact`); on the arm that certification can
@@ -9,6 +10,10 @@ TEMP (the shipped policy) and Informed RRT* up to their first solutions, then ti
 `certify_path` on each returned path (a new exact checker per call, as `plan` makes one; best
 of ``--repeats``) and reports per planner the mean and median milliseconds per path, the
 edges per path, and the mean whole `plan` call for scale.
+
+``--mbm ARCHIVE`` plans MotionBenchMaker's Panda problems instead (the first ``--per-scene`` of
+each scene whose start and goal are valid; `temp_gym.benchmarks.motionbenchmaker`), with TEMP
+and RRT-Connect; ``--planners`` picks other planners for either set.
 
 ``--paths FILE`` stores the problems and paths the first time and reads them afterwards, so
 that two checkouts (say, before and after a change to the checker, run alternately) certify
@@ -30,16 +35,38 @@ from temp_gym.problem import Problem
 from temp_gym.worlds.checkers import certify_path
 
 PLANNERS = ("temp", "informed_rrt_star")
+MBM_PLANNERS = ("temp", "rrt_connect")
 
 
-def _planned(tasks: int, max_nodes: int) -> list[dict]:
-    """``[{planner, problem, path, plan_s}]`` for the validation tasks each planner solved."""
+def _validation_problems(tasks: int) -> list[Problem]:
     config = load_config("configs/7d.yaml")
-    problems = training.draw_problems(config, "val", tasks, config.train_eval.seed + 20_000)
-    plan(problems[0], planner="temp", seed=0, max_nodes=50)  # load kernels and the policy
+    return training.draw_problems(config, "val", tasks, config.train_eval.seed + 20_000)
+
+
+def _mbm_problems(archive: Path, per_scene: int) -> list[Problem]:
+    """The first ``per_scene`` problems of each MotionBenchMaker scene whose start and goal are
+    free (`motionbenchmaker.invalid` lists the others)."""
+    from temp_gym.benchmarks import motionbenchmaker
+
+    named = motionbenchmaker.load(archive)
+    refused = set(motionbenchmaker.invalid(named))
+    taken: dict[str, int] = {}
+    problems = []
+    for name, problem in named:
+        scene = name.split("/")[0]
+        if name not in refused and taken.get(scene, 0) < per_scene:
+            taken[scene] = taken.get(scene, 0) + 1
+            problems.append(problem)
+    return problems
+
+
+def _planned(problems: list[Problem], planners: tuple[str, ...], max_nodes: int) -> list[dict]:
+    """``[{planner, problem, path, plan_s}]`` for the problems each planner solved."""
+    for planner in planners:  # load kernels and the policy
+        plan(problems[0], planner=planner, seed=0, max_nodes=50)
     runs = []
     for seed, problem in enumerate(problems):
-        for planner in PLANNERS:
+        for planner in planners:
             result = plan(problem, planner=planner, seed=seed, max_nodes=max_nodes,
                           stop_at_first=True)  # fmt: skip
             if result.success:
@@ -66,19 +93,36 @@ def _load(path: Path) -> list[dict]:
     ]  # fmt: skip
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
+    """Run the benchmark; returns per planner its paths and mean and median milliseconds."""
     parser = script_parser(__doc__.splitlines()[0])
     parser.add_argument("--tasks", type=int, default=60, help="7D validation tasks")
     parser.add_argument("--max-nodes", type=int, default=10_000, help="node budget per plan")
     parser.add_argument("--paths", type=Path, default=None, help="store or reuse the paths")
     parser.add_argument("--repeats", type=int, default=3, help="timed certifications per path")
+    parser.add_argument(
+        "--mbm", type=Path, default=None, help="MotionBenchMaker's archive, instead of 7D tasks"
+    )
+    parser.add_argument("--per-scene", type=int, default=6, help="--mbm: problems per scene")
+    parser.add_argument("--planners", nargs="+", default=None,
+                        help=f"planners (default: {' '.join(PLANNERS)}; with --mbm "
+                             f"{' '.join(MBM_PLANNERS)})")  # fmt: skip
     args = parse_args(parser, argv)
+    planners = tuple(args.planners or (MBM_PLANNERS if args.mbm else PLANNERS))
     if args.paths is not None and args.paths.exists():
         runs = _load(args.paths)
     else:
-        runs = _planned(args.tasks, args.max_nodes)
+        if args.mbm is not None:
+            problems = _mbm_problems(args.mbm, args.per_scene)
+        else:
+            problems = _validation_problems(args.tasks)
+        if not problems:
+            raise SystemExit("no problems to plan")
+        runs = _planned(problems, planners, args.max_nodes)
         if args.paths is not None:
             _save(runs, args.paths)
+    if not runs:
+        raise SystemExit("no planner solved a problem: no path to certify")
     certify_path(runs[0]["problem"], runs[0]["path"])  # geometry and kernels loaded
     seconds = [np.inf] * len(runs)
     for _ in range(args.repeats):
@@ -90,7 +134,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{len(runs)} paths, certification best of {args.repeats}\n")
     print("| planner | paths | edges per path | certify mean / median (ms) | plan() mean (ms) |")
     print("|---|---:|---:|---:|---:|")
-    for planner in PLANNERS:
+    table = {}
+    for planner in dict.fromkeys(run["planner"] for run in runs):
         mine = [k for k, run in enumerate(runs) if run["planner"] == planner]
         if not mine:
             continue
@@ -99,6 +144,9 @@ def main(argv: list[str] | None = None) -> None:
         whole = statistics.mean(1e3 * runs[k]["plan_s"] for k in mine)
         print(f"| {planner} | {len(mine)} | {edges:.1f} | {statistics.mean(ms):.2f} / "
               f"{statistics.median(ms):.2f} | {whole:.1f} |")  # fmt: skip
+        table[planner] = {"paths": len(mine), "mean_ms": statistics.mean(ms),
+                          "median_ms": statistics.median(ms)}  # fmt: skip
+    return table
 
 
 if __name__ == "__main__":

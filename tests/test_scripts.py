@@ -230,6 +230,25 @@ def test_checker_setup_times_each_build_per_arm(capsys):
         checker_setup.main(["--problems", "0"])
 
 
+def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):
+    sys.path.insert(0, str(ROOT / "tests" / "benchmarks"))
+    try:
+        from test_motionbenchmaker import write_archive
+    finally:
+        sys.path.remove(str(ROOT / "tests" / "benchmarks"))
+    certification = _benchmark("certification")
+    archive = write_archive(tmp_path)
+    paths = tmp_path / "paths.json"
+    argv = ["--mbm", str(archive), "--per-scene", "1", "--planners", "rrt_connect",
+            "--repeats", "1", "--paths", str(paths)]  # fmt: skip
+    table = certification.main(argv)
+    assert set(table) == {"rrt_connect"} and table["rrt_connect"]["paths"] == 2  # one a scene
+    assert table["rrt_connect"]["median_ms"] > 0
+    assert "| rrt_connect | 2 |" in capsys.readouterr().out
+    again = certification.main(argv)  # the stored paths, certified again
+    assert again["rrt_connect"]["paths"] == 2
+
+
 def test_plan_setup_times_every_planner_on_one_motion_problems(capsys):
     from temp_gym.worlds.checkers import make_checker
 
