@@ -39,6 +39,21 @@ def test_building_again_changes_nothing(built):
     assert any("up to date" in line for line in lines)
 
 
+def test_a_body_of_very_many_spheres_gets_a_hint_to_raise_the_tolerance(built, monkeypatch):
+    from temp_gym.worlds.arm import build as build_module
+
+    arm = load_arm(built)
+    counts = [len(body["radii"]) for body in arm.derived_data()["spheres"]["bodies"]]
+    quiet = []
+    build_module.fit_spheres(arm, log=quiet.append)
+    assert not any("builds and checks faster" in line for line in quiet)  # none is that large
+    monkeypatch.setattr(build_module, "MANY_SPHERES", sorted(counts)[-2])
+    hinted = []
+    build_module.fit_spheres(arm, log=hinted.append)
+    hints = [line for line in hinted if "spheres: {tolerance: 0.006}" in line]
+    assert len(hints) == 1 and arm.body_names[counts.index(max(counts))] in hints[0]
+
+
 def test_data_of_other_sources_is_refused_with_the_command_that_rebuilds_it(built, tmp_path):
     copy = tmp_path / "test_arm.yaml"
     copy.write_text(built.read_text().replace("tolerance: 0.006", "tolerance: 0.007")

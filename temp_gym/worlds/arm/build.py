@@ -29,6 +29,10 @@ import numpy as np
 from temp_gym.worlds.arm.model import DERIVED_FORMAT, ArmModel, load_arm, source_digest
 
 _DECIMALS = 7
+MANY_SPHERES = 10_000
+"""A body with more covering spheres than this gets a hint to raise the tolerance: the built-in
+arms have at most about 6,000 a body; a link a metre long at 1 mm gets tens of thousands,
+which cost minutes to build and microseconds a state near a surface."""
 BASE_TOLERANCE_FACTOR = 4
 """The base's spheres bulge this many times the robot's tolerance (4 mm at least): the base
 never moves, so boxes are tested against its meshes once, by the exact checker, and its
@@ -66,6 +70,10 @@ def fit_spheres(arm: ArmModel, log=print) -> list[dict]:
             "bulge": round(bulge + slack, 6),
         })  # fmt: skip
         log(f"  {arm.body_names[body]}: {len(radii)} spheres, bulge {bulge * 1000:.2f} mm")
+        if len(radii) > MANY_SPHERES:
+            log(f"  ({arm.body_names[body]} is large for a {tolerance * 1000:g} mm tolerance: "
+                "spheres: {tolerance: 0.006} in the description builds and checks faster, and "
+                "the convex pieces still decide near surfaces)")  # fmt: skip
     return bodies
 
 
