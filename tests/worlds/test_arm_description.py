@@ -95,6 +95,17 @@ def test_a_chain_the_urdf_cannot_give_is_refused_in_one_line(tmp_path, extra, fr
         load_arm(path, require_derived=False)
 
 
+def test_a_xacro_file_is_refused_with_the_command_that_expands_it(tmp_path):
+    urdf = tmp_path / "arm.urdf.xacro"
+    urdf.write_text(
+        '<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:property name="l" value="0.3"/><link name="base"/></robot>'
+    )
+    path = _description(tmp_path, "name: a\nurdf: arm.urdf.xacro\nbase_link: base\ntip_link: b\n")
+    with pytest.raises(UrdfError, match=r"a xacro file .*xacro arm.urdf.xacro > robot.urdf"):
+        load_arm(path, require_derived=False)
+
+
 def test_the_chain_folds_fixed_joints_and_holds_joints_off_it(test_arm_path):
     arm = load_arm(test_arm_path, require_derived=False)
     chain = arm.chain

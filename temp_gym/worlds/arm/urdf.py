@@ -153,6 +153,10 @@ def axis_frame(axis: np.ndarray) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
+XACRO_NAMESPACE = "{http://www.ros.org/wiki/xacro}"
+"""Elements of this namespace make a file xacro, a macro language over URDF, not URDF."""
+
+
 def _parse(urdf: Path) -> ElementTree.Element:
     if not urdf.is_file():
         raise UrdfError(f"urdf: no such file: {urdf}")
@@ -164,6 +168,9 @@ def _parse(urdf: Path) -> ElementTree.Element:
         raise UrdfError(f"{urdf.name}: not valid XML ({error})") from None
     if root.tag != "robot":
         raise UrdfError(f"{urdf.name}: the root element is <{root.tag}>, not <robot>")
+    if any(element.tag.startswith(XACRO_NAMESPACE) for element in root.iter()):
+        raise UrdfError(f"{urdf.name}: a xacro file (it has xacro: elements); expand it to a "
+                        f"URDF first, e.g. xacro {urdf.name} > robot.urdf")  # fmt: skip
     return root
 
 
