@@ -180,7 +180,7 @@ def base_collides(arm: ArmModel, obstacles: ArmObstacles) -> bool:
     fcl tests only the obstacles whose bounding box meets the base's (`_element_bounds`).
     """
     bounds = _element_bounds(arm, 0)
-    if np.isnan(bounds).any() or not len(obstacles):
+    if np.isnan(bounds).any():  # a base without collision geometry
         return False
     meets = np.all((obstacles.lower <= bounds[1] + BASE_SCREEN_MARGIN)
                    & (obstacles.upper >= bounds[0] - BASE_SCREEN_MARGIN), axis=1)  # fmt: skip
