@@ -99,3 +99,12 @@ def random_configs(arm, count: int, seed: int = 0) -> np.ndarray:
     """``(count, dim)`` configurations drawn uniformly in the arm's limits."""
     limits = arm.joint_limits()
     return np.random.default_rng(seed).uniform(limits[0], limits[1], size=(count, arm.dim))
+
+
+def motions_from(arm, starts: np.ndarray, rng: np.random.Generator, lengths) -> np.ndarray:
+    """Ends of straight motions from ``starts`` in random directions, ``lengths`` long (one
+    number, or one per start) and clipped to the arm's limits."""
+    direction = rng.normal(size=starts.shape)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    limits = arm.joint_limits()
+    return np.clip(starts + np.reshape(lengths, (-1, 1)) * direction, limits[0], limits[1])

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from arm_fixtures import random_configs, write_test_arm
+from arm_fixtures import motions_from, random_configs, write_test_arm
 
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.arm.build import build
@@ -215,10 +215,7 @@ def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checke
     rng = np.random.default_rng(11)
     starts = random_configs(arm, 600, seed=12)
     starts = starts[exact.states_free(starts)][:150]
-    direction = rng.normal(size=starts.shape)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    ends = np.clip(starts + rng.uniform(0.1, 0.8, (len(starts), 1)) * direction,
-                   *arm.joint_limits())  # fmt: skip
+    ends = motions_from(arm, starts, rng, rng.uniform(0.1, 0.8, len(starts)))
     verdicts = exact.edges_free(starts, ends)
     assert 0.1 < verdicts.mean() < 0.9
     np.testing.assert_array_equal(verdicts, reference.edges_free(starts, ends))
@@ -259,9 +256,7 @@ def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checke
     rng = np.random.default_rng(13)
     starts = random_configs(arm, 400, seed=14)
     starts = starts[exact.states_free(starts)][:60]
-    direction = rng.normal(size=starts.shape)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    ends = np.clip(starts + 0.6 * direction, *arm.joint_limits())
+    ends = motions_from(arm, starts, rng, 0.6)
     exact.edges_free(starts, ends)
     assert checked[0] > 1000 and checked[1] > 500
 
