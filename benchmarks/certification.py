@@ -38,12 +38,12 @@ PLANNERS = ("temp", "informed_rrt_star")
 MBM_PLANNERS = ("temp", "rrt_connect")
 
 
-def _validation_problems(tasks: int) -> list[Problem]:
+def validation_problems(tasks: int) -> list[Problem]:
     config = load_config("configs/7d.yaml")
     return training.draw_problems(config, "val", tasks, config.train_eval.seed + 20_000)
 
 
-def _mbm_problems(archive: Path, per_scene: int) -> list[Problem]:
+def mbm_problems(archive: Path, per_scene: int) -> list[Problem]:
     """The first ``per_scene`` problems of each MotionBenchMaker scene whose start and goal are
     free (`motionbenchmaker.invalid` lists the others; only the problems looked at are tested).
     """
@@ -112,9 +112,9 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         runs = _load(args.paths)
     else:
         if args.mbm is not None:
-            problems = _mbm_problems(args.mbm, args.per_scene)
+            problems = mbm_problems(args.mbm, args.per_scene)
         else:
-            problems = _validation_problems(args.tasks)
+            problems = validation_problems(args.tasks)
         if not problems:
             raise SystemExit("no problems to plan")
         runs = _planned(problems, planners, args.max_nodes)

@@ -163,6 +163,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--stop-at-first", action="store_true", help="stop at the first solution")
     parser.add_argument(
+        "--simplify",
+        action="store_true",
+        help="shorten the found path by vertex reduction and random shortcuts, certified again "
+        "(temp_gym.planning.simplify)",
+    )
+    parser.add_argument(
         "--set",
         dest="settings",
         action="append",
@@ -362,7 +368,7 @@ def _solve(path: str, args: argparse.Namespace, settings):
         from temp_gym.planning.policy import check_compatible
 
         check_compatible(policy.robot, policy.dim, problem.robot, problem.dim, args.checkpoint)
-    return plan(problem, args.planner, settings)
+    return plan(problem, args.planner, settings, simplify=args.simplify)
 
 
 def _check_view(args: argparse.Namespace) -> None:

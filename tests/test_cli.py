@@ -64,6 +64,20 @@ def test_cli_main_in_process(tmp_path, capsys):
     assert "rrt_star seed=1" in capsys.readouterr().out
 
 
+def test_simplify_writes_the_shorter_path_and_the_planners_cost(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    out = tmp_path / "result.json"
+    flags = ["--planner", "rrt_star", "--max-nodes", "800", "--stop-at-first", "--out", str(out)]
+    assert main([str(problem), *flags, "--simplify"]) == 0
+    assert "simplified from cost" in capsys.readouterr().out
+    result = json.loads(out.read_text())
+    assert result["cost"] < result["simplification"]["cost"]
+    assert result["path"][0] == [2.0, 2.0] and len(result["path"]) >= 2
+
+
 # ---------------------------------------------------------------------- hostile input
 HUGE = "1" + "0" * 400  # an integer beyond float range
 

@@ -249,6 +249,21 @@ def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, ca
     assert again["rrt_connect"]["paths"] == 2
 
 
+def test_simplify_shortens_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):
+    sys.path.insert(0, str(ROOT / "tests" / "benchmarks"))
+    try:
+        from test_motionbenchmaker import write_archive
+    finally:
+        sys.path.remove(str(ROOT / "tests" / "benchmarks"))
+    simplify = _benchmark("simplify")
+    archive = write_archive(tmp_path)
+    table = simplify.main(["--mbm", str(archive), "--per-scene", "1", "--planners", "rrt_connect"])
+    row = table["rrt_connect"]
+    assert row["paths"] == 2 and row["after"] <= row["before"] and 0 < row["ratio"] <= 1
+    assert row["time"] > 0 and row["call"] >= row["time"]
+    assert "| rrt_connect | 2 |" in capsys.readouterr().out
+
+
 def test_plan_setup_times_every_planner_on_one_motion_problems(capsys):
     from temp_gym.worlds.checkers import make_checker
 

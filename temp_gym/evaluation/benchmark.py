@@ -7,8 +7,8 @@ appends each record, as it arrives, to ``{out}/runs.jsonl`` (one JSON object per
 flushed and fsynced), so a killed benchmark loses at most the runs in flight. The same
 command again skips every stored run and duplicates none; a line cut short by the kill is
 dropped. ``{out}/benchmark.json`` holds the settings every run shares (time limit, node
-budget, seed, ``stop_at_first``): a rerun with others stops with an error instead of mixing
-runs. Planners and runs per problem may grow between reruns.
+budget, seed, ``stop_at_first``, ``simplify``): a rerun with others stops with an error instead
+of mixing runs. Planners and runs per problem may grow between reruns.
 
 A run counts as solved only when its path passes the exact checker here, whatever the planner
 reported: it starts at the start, ends in the goal region, and `certify_path` (the exact
@@ -74,6 +74,10 @@ class BenchmarkSettings:
     """Node budget per run."""
     stop_at_first: bool = False
     """End each run at its first solution (for time to a first solution), not the time limit."""
+    simplify: bool = False
+    """Simplify each solved run's path (`temp_gym.planning.simplify`), as OMPL's Benchmark does
+    when asked: the run's time, cost and path states stay the planner's, and the record adds
+    the simplified path's length, states and the simplification's time."""
 
     def __post_init__(self) -> None:
         from temp_gym.planning.plan import PLANNERS  # the built-in planners registered
@@ -102,13 +106,15 @@ class BenchmarkSettings:
         object.__setattr__(self, "seed", seed_value(self.seed))
         object.__setattr__(self, "max_nodes", count(self.max_nodes, "max_nodes"))
         object.__setattr__(self, "stop_at_first", flag(self.stop_at_first, "stop_at_first"))
+        object.__setattr__(self, "simplify", flag(self.simplify, "simplify"))
 
     def manifest(self) -> dict[str, Any]:
         """What ``benchmark.json`` holds: the settings a stored run depends on."""
         shared = asdict(self)
         del shared["planners"], shared["runs"]  # may grow between reruns
-        if not self.stop_at_first:  # as benchmarks stored before the setting existed
-            del shared["stop_at_first"]
+        for name in ("stop_at_first", "simplify"):  # off: as stored before the setting existed
+            if not shared[name]:
+                del shared[name]
         return {"format": FORMAT, "record_version": RECORD_VERSION, **shared}
 
 
@@ -142,8 +148,8 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
     started = time.perf_counter()
     try:
         result = plan(problem, planner, seed=seed, time_limit=settings.time_limit,
-                      max_nodes=settings.max_nodes,
-                      stop_at_first=settings.stop_at_first)  # fmt: skip
+                      max_nodes=settings.max_nodes, stop_at_first=settings.stop_at_first,
+                      simplify=settings.simplify)  # fmt: skip
     except Exception as error:  # recorded as OMPL's Benchmark records a crash; rerun later
         return {**record, "status": "crash", "solved": False, "error": one_line(error),
                 "time": time.perf_counter() - started, "finished": time.time()}  # fmt: skip
@@ -153,16 +159,21 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
         and certify_path(problem, path)
     )  # fmt: skip
     history = {key: np.asarray(value).tolist() for key, value in result.history.items()}
+    simplified = certified and result.simplification is not None
+    if simplified:  # the planner's own figures stay the run's, as OMPL's Benchmark keeps them
+        own = result.simplification
+        record.update(simplified_cost=float(result.cost), simplified_states=len(path),
+                      simplification_time=float(own["time"]))  # fmt: skip
     first = certified and result.time_to_first_solution is not None and history.get("best_cost")
     record.update(
         status="solved" if certified else ("uncertified" if result.success else "unsolved"),
         solved=certified,
-        time=float(result.wall_time),
+        time=float(result.wall_time - (own["time"] if simplified else 0.0)),
         first_time=float(result.time_to_first_solution) if first else None,
         first_cost=float(history["best_cost"][0]) if first else None,
         first_nodes=result.nodes_to_first_solution if first else None,
-        cost=float(result.cost) if certified else None,
-        path_states=len(path) if certified else None,
+        cost=(float(own["cost"]) if simplified else float(result.cost)) if certified else None,
+        path_states=(int(own["waypoints"]) if simplified else len(path)) if certified else None,
         nodes=int(result.nodes),
         samples=int(result.samples),
         collision_checks=int(result.collision_checks),

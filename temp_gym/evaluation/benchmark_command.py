@@ -78,6 +78,12 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
                         help="end each run at its first solution instead of the time limit "
                         "(what a time to a first solution needs of anytime planners)")  # fmt: skip
     parser.add_argument(
+        "--simplify",
+        action="store_true",
+        help="simplify each solved run's path (temp_gym.planning.simplify) and report its "
+        "length beside the planner's, as OMPL's Benchmark does",
+    )
+    parser.add_argument(
         "--limit",
         type=count(1),
         default=None,
@@ -99,7 +105,7 @@ def _settings(args: argparse.Namespace):
         return BenchmarkSettings(
             planners=tuple(args.planners), time_limit=args.time_limit, runs=args.runs,
             seed=args.seed, max_nodes=args.max_nodes or DEFAULT_MAX_NODES,
-            stop_at_first=args.stop_at_first,
+            stop_at_first=args.stop_at_first, simplify=args.simplify,
         )  # fmt: skip
     except ValueError as error:
         field, _, reason = str(error).partition(":")

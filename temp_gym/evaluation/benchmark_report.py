@@ -63,6 +63,7 @@ SUMMARY_COLUMNS = (
     "median_first_time",
     "mean_first_time",
     "median_first_cost",
+    "median_simplified_cost",
 )
 """The columns of ``summary.csv`` (shares in [0, 1], times in seconds, empty: no solved run)."""
 
@@ -112,6 +113,13 @@ def _run_properties(record: dict[str, Any], index: int) -> dict[str, str]:
             "first solution time REAL": real(record["first_time"]),
             "first solution cost REAL": real(record["first_cost"]),
             "first solution nodes INTEGER": _int(record["first_nodes"]),
+        })  # fmt: skip
+    if solved and "simplified_cost" in record:  # the names OMPL's Benchmark writes
+        run.update({
+            "simplification time REAL": real(record["simplification_time"]),
+            "simplified solution length REAL": real(record["simplified_cost"]),
+            "simplified solution segments INTEGER": _int(record["simplified_states"] - 1),
+            "simplified correct solution BOOLEAN": boolean(True),
         })  # fmt: skip
     return run
 
@@ -203,6 +211,8 @@ def summary_rows(
             runs = [r for r in records if r["problem"] in names and r["planner"] == planner]
             times = np.array([r["first_time"] for r in runs if r.get("solved")], dtype=float)
             costs = np.array([r["first_cost"] for r in runs if r.get("solved")], dtype=float)
+            simplified = [r for r in runs if r.get("solved") and "simplified_cost" in r]
+            shorter = np.array([r["simplified_cost"] for r in simplified], dtype=float)
             total = max(len(runs), 1)
             rows.append({
                 "experiment": experiment,
@@ -213,6 +223,7 @@ def summary_rows(
                 "median_first_time": float(np.median(times)) if len(times) else None,
                 "mean_first_time": float(np.mean(times)) if len(times) else None,
                 "median_first_cost": float(np.median(costs)) if len(costs) else None,
+                "median_simplified_cost": float(np.median(shorter)) if len(shorter) else None,
             })  # fmt: skip
     return rows
 
@@ -231,7 +242,12 @@ def summary_markdown(
         "",
         f"{settings.runs} runs per planner and problem, {limit} s per run, seed {settings.seed}."
         " Solved: a path the exact checker certified. Times and costs: the first solution, "
-        "over the solved runs.",
+        "over the solved runs."
+        + (
+            " Simplified cost: the length of the run's last path after simplification."
+            if settings.simplify
+            else ""
+        ),
     ]
     for experiment in dict.fromkeys(row["experiment"] for row in rows):
         lines += [
@@ -239,8 +255,9 @@ def summary_markdown(
             f"## {experiment}",
             "",
             f"| planner | runs | solved within {SOLVED_WITHIN:g} s | solved (limit {limit} s) | "
-            "median time (s) | mean time (s) | median first cost |",
-            "|---|---:|---:|---:|---:|---:|---:|",
+            "median time (s) | mean time (s) | median first cost |"
+            + (" median simplified cost |" if settings.simplify else ""),
+            "|---|---:|---:|---:|---:|---:|---:|" + ("---:|" if settings.simplify else ""),
         ]
         for row in rows:
             if row["experiment"] == experiment:
@@ -248,6 +265,7 @@ def summary_markdown(
                     f"| {row['planner']} | {row['runs']} | {100 * row['solved_within_1s']:.0f}% "
                     f"| {100 * row['solved']:.0f}% | {_cell(row['median_first_time'])} "
                     f"| {_cell(row['mean_first_time'])} | {_cell(row['median_first_cost'])} |"
+                    + (f" {_cell(row['median_simplified_cost'])} |" if settings.simplify else "")
                 )
     lines += ["", f"## Skipped problems ({len(skipped)})", ""]
     lines += [f"- `{name}`: {reason}" for name, reason in skipped] or ["None."]

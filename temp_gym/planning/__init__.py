@@ -36,6 +36,7 @@ _HOMES = {
     "default_step_size": "tree",
     "plan": "plan",
     "register_planner": "registry",
+    "simplify_path": "simplify",
 }
 """Public name -> the module of this package that defines it."""
 

@@ -9,6 +9,7 @@ Example:
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from temp_gym.planning.ompl_planners import (
@@ -26,7 +27,8 @@ from temp_gym.planning.planners import (
 from temp_gym.planning.registry import PLANNERS, planner_of, register_planner, settings_for
 from temp_gym.planning.result import PlanResult
 from temp_gym.planning.rrt_connect import RRTConnectSettings, rrt_connect
-from temp_gym.planning.settings import PlanSettings
+from temp_gym.planning.settings import PlanSettings, flag
+from temp_gym.planning.simplify import path_length, shorter_path
 from temp_gym.planning.temp_planner import temp
 from temp_gym.planning.temp_settings import TEMPSettings
 from temp_gym.planning.warmup import warm_up
@@ -64,6 +66,7 @@ def plan(
     problem: Problem,
     planner: str | None = None,
     settings: PlanSettings | None = None,
+    simplify: bool = False,
     **options: Any,
 ) -> PlanResult:
     """Solve ``problem`` with a registered planner and return a certified `PlanResult`.
@@ -100,6 +103,12 @@ def plan(
     TEMP's settings left None take the policy's own (a shipped policy carries those it was
     tuned with), else the planner's defaults (`TEMPSettings` says which).
 
+    ``simplify=True`` shortens a found path as MoveIt does after planning
+    (`temp_gym.planning.simplify`: vertex reduction and random shortcuts, seeded by ``seed``),
+    certified again by the exact checker. ``path`` and ``cost`` are then the simplified path's,
+    ``simplification`` keeps the planner's own cost and waypoints and the time it took, and
+    ``wall_time`` includes it. The anytime ``history`` stays the planner's.
+
     Args:
         problem: The query.
         planner: A key of `PLANNERS`: ``temp`` (TEMP, with the policy shipped for the robot
@@ -109,6 +118,7 @@ def plan(
             ``temp``.
         settings: The planner's settings (its class, or a plain `PlanSettings` whose common
             fields it takes); None: every field's default.
+        simplify: Shorten the found path (above).
         **options: Fields of the planner's settings class, applied over ``settings``. A field
             of another planner's is refused, naming the form to use (None is let through:
             not set).
@@ -121,6 +131,16 @@ def plan(
         raise ValueError(f"problem: expected a Problem, got {type(problem).__name__}")
     if planner is None:
         planner = planner_of(settings) or DEFAULT_PLANNER
+    simplify = flag(simplify, "simplify")
     chosen = settings_for(planner, settings, **options)
     warm_up(problem, planner, chosen, PLANNERS)  # compile before the clock starts
-    return PLANNERS[planner].function(problem, chosen)
+    result = PLANNERS[planner].function(problem, chosen)
+    if simplify and result.success:
+        started = time.perf_counter()
+        shorter = shorter_path(problem, result.path, seed=chosen.seed)
+        took = time.perf_counter() - started
+        result.simplification = {"cost": result.cost, "waypoints": len(result.path), "time": took}
+        if shorter is not None:
+            result.path, result.cost = shorter, path_length(shorter)
+        result.wall_time += took
+    return result

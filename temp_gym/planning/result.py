@@ -79,6 +79,10 @@ class PlanResult:
     reports for TEMP), ``policy_calls``, ``stop`` (why it ended,
     `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled), all of
     the first phase; and ``resumes``, how many times the phase resumed after a stall."""
+    simplification: dict[str, float] | None = None
+    """With ``plan(..., simplify=True)`` and a solution: the planner's own path's ``cost`` and
+    ``waypoints``, and the ``time`` simplification took (`temp_gym.planning.simplify`, counted
+    in ``wall_time``); ``path`` and ``cost`` are then the simplified path's."""
     tree: PlanTree | None = field(default=None, repr=False, compare=False)
     """The tree grown from the start (None: a planner that does not expose one, as OMPL's);
     not part of `to_dict`, so result files stay small."""
@@ -113,6 +117,11 @@ class PlanResult:
             "attention": None
             if self.attention is None
             else {k: number(v) if isinstance(v, float) else v for k, v in self.attention.items()},
+            "simplification": None
+            if self.simplification is None
+            else {
+                k: number(v) if isinstance(v, float) else v for k, v in self.simplification.items()
+            },
         }
 
     def summary(self) -> str:
@@ -128,6 +137,9 @@ class PlanResult:
             stop = phase.get("stop", "solved" if phase["solved"] else "attention_budget")
             outcome = f"cost {phase['cost']:.4f}" if phase["solved"] else f"{stop}, no solution"
             line += f"; attention phase: {outcome} at {phase['nodes']} nodes, {phase['time']:.3f} s"
+        if self.simplification is not None:
+            before = self.simplification
+            line += f"; simplified from cost {before['cost']:.4f} in {before['time']:.3f} s"
         return line
 
 

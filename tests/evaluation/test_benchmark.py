@@ -216,3 +216,37 @@ def test_limit_keeps_the_first_problems_of_each_scene_and_stop_at_first_ends_run
     assert json.loads((out / "benchmark.json").read_text())["stop_at_first"] is True
     # A benchmark run without the flag keeps the manifest it always had.
     assert "stop_at_first" not in json.loads((stored / "benchmark.json").read_text())
+
+
+def test_simplify_records_the_shorter_path_beside_the_planners_and_ompl_reads_it(bench, tmp_path):
+    problems, stored = bench
+    out = tmp_path / "simplified"
+    argv = command(problems, out, "--stop-at-first", "--simplify")
+    assert main(argv) == 0
+    records = [r for r in read_records(out / "runs.jsonl") if r["solved"]]
+    assert records
+    for record in records:  # the planner's own figures stay the run's
+        assert record["cost"] == pytest.approx(record["first_cost"])
+        assert record["simplified_cost"] <= record["cost"] and record["simplification_time"] > 0
+        assert 2 <= record["simplified_states"]
+    assert any(r["simplified_cost"] < r["cost"] for r in records)
+    manifest = json.loads((out / "benchmark.json").read_text())
+    assert manifest["simplify"] is True
+    assert "simplify" not in json.loads((stored / "benchmark.json").read_text())
+    assert main(command(problems, out, "--stop-at-first")) == 2  # it would mix runs
+    with sqlite3.connect(out / "benchmark.db") as connection:
+        lengths = connection.execute(
+            "SELECT simplified_solution_length, simplification_time FROM runs "
+            "WHERE solved = 1 ORDER BY id"
+        ).fetchall()
+    assert sorted(length for length, _ in lengths) == sorted(r["simplified_cost"] for r in records)
+    summary = (out / "summary.md").read_text()
+    assert "median simplified cost" in summary
+    tools = pytest.importorskip("ompl.tools")
+    logs = sorted(str(path) for path in (out / "logs").glob("*.log"))
+    tools.readBenchmarkLog(str(tmp_path / "ompl.db"), logs, False)
+    with sqlite3.connect(tmp_path / "ompl.db") as theirs:
+        query = "SELECT simplified_solution_length FROM runs WHERE solved = 1"
+        assert sorted(theirs.execute(query).fetchall()) == sorted(
+            (length,) for length, _ in lengths
+        )
