@@ -13,6 +13,8 @@ that the problem's fast checker certifies free:
    different segments) are joined by a straight motion when it is free and shorter; a point
    lies on a segment of the path, so the pieces it cuts off stay free. The pass stops early
    after ``patience`` tries in a row that shortened nothing.
+3. **vertex reduction again**, when a shortcut was kept: the waypoints a shortcut adds often
+   line up with their neighbours, and a jump past them is shorter still.
 
 The fast checker is conservative: what it calls free, the exact checker calls free too, but for
 rare disagreements. The simplified path is therefore certified by the exact checker at the end
@@ -143,9 +145,9 @@ def simplify_path(
 ) -> np.ndarray:
     """A shorter path from ``path``'s first state to its last, certified by the exact checker.
 
-    Vertex reduction, then random shortcuts (the module docstring says how), each motion
-    checked by the problem's fast checker; the result is certified by the exact checker. It
-    is never longer than ``path`` and keeps its two ends exactly.
+    Vertex reduction, random shortcuts and vertex reduction again (the module docstring says
+    how), each motion checked by the problem's fast checker; the result is certified by the
+    exact checker. It is never longer than ``path`` and keeps its two ends exactly.
 
     Args:
         problem: The problem the path belongs to (its workspace and robot).
@@ -200,8 +202,10 @@ def shorter_path(
     def motion_free(a: np.ndarray, b: np.ndarray) -> bool:
         return bool(checker.edge_free(a, b))
 
-    shorter = reduce_vertices(given, motion_free)
-    shorter = shortcut(shorter, motion_free, np.random.default_rng(seed), steps, patience)
+    reduced = reduce_vertices(given, motion_free)
+    shorter = shortcut(reduced, motion_free, np.random.default_rng(seed), steps, patience)
+    if shorter.shape != reduced.shape or not np.array_equal(shorter, reduced):
+        shorter = reduce_vertices(shorter, motion_free)
     if path_length(shorter) < path_length(given) and certify_path(problem, shorter):
         return shorter
     return None

@@ -88,6 +88,12 @@ def test_the_same_seed_gives_the_same_path_and_steps_zero_only_reduces_vertices(
         np.testing.assert_array_equal(only_reduced, reduced)
     runs = [simplify_path(problem, path, seed=s) for s in (7, 7)]
     np.testing.assert_array_equal(runs[0], runs[1])
+    # The three passes as documented: reduce, shortcut with the seed's generator, reduce again.
+    cut = shortcut(reduced, lambda a, b: bool(checker.edge_free(a, b)), np.random.default_rng(7))
+    assert not np.array_equal(cut, reduced)  # the premise: a shortcut was kept
+    np.testing.assert_array_equal(
+        runs[0], reduce_vertices(cut, lambda a, b: bool(checker.edge_free(a, b)))
+    )
 
 
 def _panda_problem() -> Problem:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
+from arm_fixtures import motions_from
 
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_world import generate_arm_workspace
@@ -90,13 +91,6 @@ def test_fields_are_built_for_the_bodies_asked_only(arms):
     assert np.all(values <= FIELD_CAP)
 
 
-def _edges(rng, limits, count, length):
-    starts = rng.uniform(limits[0], limits[1], size=(count, limits.shape[1]))
-    direction = rng.normal(size=starts.shape)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return starts, np.clip(starts + length * direction, limits[0], limits[1])
-
-
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_fields_change_no_verdict(arms, robot):
     """States, states with clearance, edges short and long, and the colliding pairs named:
@@ -117,7 +111,8 @@ def test_fields_change_no_verdict(arms, robot):
         np.testing.assert_array_equal(fields.states_free(states, clearance=0.004),
                                       walk.states_free(states, clearance=0.004))  # fmt: skip
         for length in (0.1, 0.6):
-            starts, ends = _edges(rng, limits, 1500, length)
+            starts = rng.uniform(limits[0], limits[1], size=(1500, arm.dim))
+            ends = motions_from(arm, starts, rng, length)
             np.testing.assert_array_equal(fields.edges_free(starts, ends),
                                           walk.edges_free(starts, ends))  # fmt: skip
     blocked = states[~free][:200]  # among no obstacles: self-collisions
