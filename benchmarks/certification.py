@@ -59,6 +59,15 @@ def mbm_problems(archive: Path, per_scene: int) -> list[Problem]:
     return problems
 
 
+def chosen_problems(mbm: str | Path | None, per_scene: int, tasks: int) -> list[Problem]:
+    """MotionBenchMaker's problems (`mbm_problems`) when an archive is given, else ``tasks``
+    7D validation tasks; no problem at all is a `SystemExit`."""
+    problems = mbm_problems(mbm, per_scene) if mbm is not None else validation_problems(tasks)
+    if not problems:
+        raise SystemExit("no problems to plan")
+    return problems
+
+
 def _planned(problems: list[Problem], planners: tuple[str, ...], max_nodes: int) -> list[dict]:
     """``[{planner, problem, path, plan_s}]`` for the problems each planner solved."""
     for planner in planners:  # load kernels and the policy
@@ -111,12 +120,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     if args.paths is not None and args.paths.exists():
         runs = _load(args.paths)
     else:
-        if args.mbm is not None:
-            problems = mbm_problems(args.mbm, args.per_scene)
-        else:
-            problems = validation_problems(args.tasks)
-        if not problems:
-            raise SystemExit("no problems to plan")
+        problems = chosen_problems(args.mbm, args.per_scene, args.tasks)
         runs = _planned(problems, planners, args.max_nodes)
         if args.paths is not None:
             _save(runs, args.paths)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import statistics
 
-from certification import mbm_problems, validation_problems  # benchmarks/certification.py
+from certification import chosen_problems  # benchmarks/certification.py
 
 from temp_gym import plan
 from temp_gym.config import parse_args, script_parser
@@ -33,12 +33,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
     parser.add_argument("--per-scene", type=int, default=10, help="--mbm: problems per scene")
     parser.add_argument("--planners", nargs="+", default=list(PLANNERS), help="planners")
     args = parse_args(parser, argv)
-    if args.mbm is not None:
-        problems = mbm_problems(args.mbm, args.per_scene)
-    else:
-        problems = validation_problems(args.tasks)
-    if not problems:
-        raise SystemExit("no problems to plan")
+    problems = chosen_problems(args.mbm, args.per_scene, args.tasks)
     for planner in args.planners:  # load kernels and the policy
         plan(problems[0], planner=planner, seed=0, max_nodes=50, simplify=True)
     rows: dict[str, list[dict[str, float]]] = {planner: [] for planner in args.planners}

@@ -230,14 +230,19 @@ def test_checker_setup_times_each_build_per_arm(capsys):
         checker_setup.main(["--problems", "0"])
 
 
-def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):
+def _mbm_archive(folder: Path) -> Path:
+    """A small MotionBenchMaker archive (`tests/benchmarks/test_motionbenchmaker.py` writes it)."""
     sys.path.insert(0, str(ROOT / "tests" / "benchmarks"))
     try:
         from test_motionbenchmaker import write_archive
     finally:
         sys.path.remove(str(ROOT / "tests" / "benchmarks"))
+    return write_archive(folder)
+
+
+def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):
     certification = _benchmark("certification")
-    archive = write_archive(tmp_path)
+    archive = _mbm_archive(tmp_path)
     paths = tmp_path / "paths.json"
     argv = ["--mbm", str(archive), "--per-scene", "1", "--planners", "rrt_connect",
             "--repeats", "1", "--paths", str(paths)]  # fmt: skip
@@ -250,13 +255,8 @@ def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, ca
 
 
 def test_simplify_shortens_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):
-    sys.path.insert(0, str(ROOT / "tests" / "benchmarks"))
-    try:
-        from test_motionbenchmaker import write_archive
-    finally:
-        sys.path.remove(str(ROOT / "tests" / "benchmarks"))
     simplify = _benchmark("simplify")
-    archive = write_archive(tmp_path)
+    archive = _mbm_archive(tmp_path)
     table = simplify.main(["--mbm", str(archive), "--per-scene", "1", "--planners", "rrt_connect"])
     row = table["rrt_connect"]
     assert row["paths"] == 2 and row["after"] <= row["before"] and 0 < row["ratio"] <= 1
