@@ -85,8 +85,8 @@ def plan(
     the search. Not covered: the first call in a process for each robot and planner first
     plans the same problem briefly, untimed, to compile the numba kernels
     (`temp_gym.planning.warmup`; seconds with an empty numba cache, milliseconds otherwise);
-    loading a shipped policy; and certifying the returned path, which ``wall_time`` includes
-    but the limit does not stop.
+    loading a shipped policy; and certifying the returned path (and simplifying it), which
+    ``wall_time`` includes but the limit does not stop.
 
     Settings: each planner has its own settings class (`PLANNERS[name].settings`), which
     extends the common `PlanSettings` (``seed``, ``max_nodes``, ``time_limit``,
