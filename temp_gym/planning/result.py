@@ -79,7 +79,7 @@ class PlanResult:
     reports for TEMP), ``policy_calls``, ``stop`` (why it ended,
     `temp_gym.planning.attention.STOPS`) and ``compiled`` (whether it ran compiled), all of
     the first phase; and ``resumes``, how many times the phase resumed after a stall."""
-    simplification: dict[str, float] | None = None
+    simplification: dict[str, Any] | None = None
     """With ``plan(..., simplify=True)`` and a solution: the planner's own path's ``cost`` and
     ``waypoints``, and the ``time`` simplification took (`temp_gym.planning.simplify`, counted
     in ``wall_time``); ``path`` and ``cost`` are then the simplified path's."""

@@ -1,10 +1,10 @@
 """Path simplification: a shorter certified path with the same ends, as MoveIt and VAMP give.
 
 A sampling-based planner's first path zig-zags: it follows the tree's random edges. MoveIt
-runs OMPL's path simplifier after every plan, and VAMP's planners return simplified paths;
-`simplify_path` (or ``plan(problem, simplify=True)``) does the same here, for any planner's
-path. Two passes, each of which only ever replaces a part of the path by one straight motion
-that the problem's fast checker certifies free:
+runs OMPL's path simplifier after every plan, and VAMP ships a simplifier beside its
+planners; `simplify_path` (or ``plan(problem, simplify=True)``) does the same here, for any
+planner's path. Three passes, each of which only ever replaces a part of the path by one
+straight motion that the problem's fast checker certifies free:
 
 1. **vertex reduction**: from each kept waypoint, the farthest later waypoint that a free
    straight motion reaches. Tried farthest first, then halfway back, and so on down to the
@@ -33,7 +33,7 @@ from temp_gym.planning.settings import count, seed_value
 from temp_gym.problem import Problem
 
 DEFAULT_STEPS = 200
-"""Shortcut attempts at most (OMPL's simplifier tries about as many on a short path)."""
+"""Shortcut attempts at most."""
 DEFAULT_PATIENCE = 50
 """Shortcut attempts in a row without a gain that end the pass early."""
 _GAIN = 1e-9
