@@ -159,21 +159,22 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
         and certify_path(problem, path)
     )  # fmt: skip
     history = {key: np.asarray(value).tolist() for key, value in result.history.items()}
-    simplified = certified and result.simplification is not None
-    if simplified:  # the planner's own figures stay the run's, as OMPL's Benchmark keeps them
-        own = result.simplification
+    # With simplification the planner's own figures stay the run's, as OMPL's Benchmark keeps
+    # them, and the simplified path's are added.
+    own = result.simplification
+    if certified and own is not None:
         record.update(simplified_cost=float(result.cost), simplified_states=len(path),
                       simplification_time=float(own["time"]))  # fmt: skip
     first = certified and result.time_to_first_solution is not None and history.get("best_cost")
     record.update(
         status="solved" if certified else ("uncertified" if result.success else "unsolved"),
         solved=certified,
-        time=float(result.wall_time - (own["time"] if simplified else 0.0)),
+        time=float(result.wall_time - (own["time"] if own else 0.0)),
         first_time=float(result.time_to_first_solution) if first else None,
         first_cost=float(history["best_cost"][0]) if first else None,
         first_nodes=result.nodes_to_first_solution if first else None,
-        cost=(float(own["cost"]) if simplified else float(result.cost)) if certified else None,
-        path_states=(int(own["waypoints"]) if simplified else len(path)) if certified else None,
+        cost=float(own["cost"] if own else result.cost) if certified else None,
+        path_states=int(own["waypoints"] if own else len(path)) if certified else None,
         nodes=int(result.nodes),
         samples=int(result.samples),
         collision_checks=int(result.collision_checks),
