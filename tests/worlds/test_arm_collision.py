@@ -211,7 +211,7 @@ def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checke
     _, exact = checkers
     reference = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
     measure_all = reference._advance
-    reference._advance = lambda *args: measure_all(*args[:-1], None)
+    reference._advance = lambda *args, **cheap: measure_all(*args[:-1], None, **cheap)
     rng = np.random.default_rng(11)
     starts = random_configs(arm, 600, seed=12)
     starts = starts[exact.states_free(starts)][:150]
@@ -242,7 +242,7 @@ def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checke
         )
         return max(nearest, 0.0)
 
-    def checking(poses, moving, sweep, moving_pairs, pair_sweep, carried):
+    def checking(poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap=None):
         if carried is not None:
             fresh = [clearance(poses, j) for j in moving]
             fresh += [exact._hulls.distance(poses, *exact._hulls.pairs[p]) - SELF_COLLISION_GAP
@@ -250,7 +250,7 @@ def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checke
             assert np.all(carried <= np.asarray(fresh) + 1e-9)
             checked[0] += len(fresh)
             checked[1] += int(np.sum(carried > 0))
-        return advance(poses, moving, sweep, moving_pairs, pair_sweep, carried)
+        return advance(poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap)
 
     exact._advance = checking
     rng = np.random.default_rng(13)

@@ -37,13 +37,16 @@ import fcl
 import numpy as np
 
 from temp_gym.problem.obstacles import BOX, CYLINDER
+from temp_gym.worlds.arm.kinematics import identity_poses
 from temp_gym.worlds.arm.model import ArmModel
+from temp_gym.worlds.collision.arm_exact_bounds import pose_bounds
 from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.arm_self import (
     DISTANCE_TOLERANCE,
     SELF_COLLISION_GAP,
     BodyHulls,
+    bounding_spheres,
     piece_models,
     transform,
 )
@@ -244,6 +247,10 @@ class ArmExactChecker:
             [(fcl.CollisionObject(shape, fcl.Transform()), pose) for shape, pose in body]
             for body in element_models(arm)
         ]
+        # Elements placed at their body's frame take the body's transform as it is.
+        self._element_at_frame = [
+            [bool(np.array_equal(pose, np.eye(4))) for _, pose in body] for body in self._elements
+        ]
         self._pieces = [
             [fcl.CollisionObject(model, fcl.Transform()) for model, _ in body]
             for body in piece_models(arm)
@@ -255,6 +262,8 @@ class ArmExactChecker:
             for half in self._local_half
         ]
         self._pair_motion = arm.relative_motion_radii(self._hulls.pairs)
+        self._kinematics = arm.kinematic_arrays()
+        self._sphere_centers, self._sphere_radii = bounding_spheres(arm)
         self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
         self.base_free = not base_collides(arm, self.obstacles)
         self.description = (
@@ -264,9 +273,15 @@ class ArmExactChecker:
         )
 
     # ------------------------------------------------------------------ helpers
-    def _pose_body(self, poses: np.ndarray, j: int) -> None:
-        for obj, pose in self._elements[j]:
-            obj.setTransform(transform(poses[j] @ pose))
+    def _pose_body(self, poses: np.ndarray, j: int, body: fcl.Transform | None = None) -> None:
+        """Pose body ``j``'s elements; ``body`` is ``transform(poses[j])`` when known."""
+        for (obj, pose), at_frame in zip(self._elements[j], self._element_at_frame[j]):
+            if at_frame:
+                if body is None:
+                    body = transform(poses[j])
+                obj.setTransform(body)
+            else:
+                obj.setTransform(transform(poses[j] @ pose))
 
     def _body_touches(self, j: int, obstacle: int) -> bool:
         request = fcl.CollisionRequest()
@@ -317,10 +332,9 @@ class ArmExactChecker:
         its elements), obstacles visited nearest first and the visit stopped once no obstacle
         left can lower it.
         """
-        box_pose = poses[j].copy()
-        box_pose[:3, 3] += box_pose[:3, :3] @ self._local_center[j]
         request = fcl.DistanceRequest()
         posed = [False, False, False]
+        body = None  # transform(poses[j]), made once
         best = np.inf
         for b in np.argsort(gaps, kind="stable"):
             if gaps[b] - DISTANCE_TOLERANCE >= best:
@@ -330,17 +344,21 @@ class ArmExactChecker:
                 if tier == 0:
                     objects, tolerance, enough = [self._body_boxes[j]], 0.0, EXACT_DISTANCE_BELOW
                     if not posed[0]:
-                        self._body_boxes[j].setTransform(transform(box_pose))
+                        rotation = np.ascontiguousarray(poses[j, :3, :3])
+                        shift = poses[j, :3, 3] + rotation @ self._local_center[j]
+                        self._body_boxes[j].setTransform(fcl.Transform(rotation, shift))
                 elif tier == 1:
                     objects, tolerance, enough = self._pieces[j], DISTANCE_TOLERANCE, \
                         MESH_DISTANCE_BELOW  # fmt: skip
                     if not posed[1]:
+                        body = transform(poses[j]) if body is None else body
                         for obj in objects:
-                            obj.setTransform(transform(poses[j]))
+                            obj.setTransform(body)
                 else:
                     tolerance, enough = 0.0, 0.0
                     if not posed[2]:
-                        self._pose_body(poses, j)
+                        body = transform(poses[j]) if body is None else body
+                        self._pose_body(poses, j, body)
                 posed[tier] = True
                 if tier == 2:
                     found = self._element_distance(j, b, piece_distances, best)
@@ -391,8 +409,8 @@ class ArmExactChecker:
             nearest = min(nearest, found)
         return nearest
 
-    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep,
-                 carried) -> tuple[float, float, np.ndarray, np.ndarray]:  # fmt: skip
+    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep, carried,
+                 cheap=None) -> tuple[float, float, np.ndarray, np.ndarray]:  # fmt: skip
         """``(advance, closest, known, rates)`` at one pose of a segment.
 
         The largest safe step in ``t`` and the smallest clearance measured (bodies and pairs
@@ -404,37 +422,44 @@ class ArmExactChecker:
         ``rates`` how fast each can shrink per unit of ``t``. The step is the least measured
         clearance over its rate, and every item left unmeasured has a bound of at least that
         step times its rate, so the step stays safe; an item far from limiting the step keeps
-        its carried bound for several poses instead of being measured at each.
+        its carried bound for several poses instead of being measured at each. ``cheap`` is
+        ``(AABB gaps, sphere gaps)`` at this pose when already computed (`pose_bounds`).
         """
-        bounds, rates, which = [], [], []
-        gaps = None
+        gaps, all_spheres = (None, None) if cheap is None else cheap
+        parts, rate_parts = [], []
         if len(moving):
-            gaps = self._aabb_gaps(poses)
-            bounds.extend(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
-            rates.extend(sweep[moving])
-            which.extend(int(j) for j in moving)
+            if gaps is None:
+                gaps = self._aabb_gaps(poses)
+            parts.append(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
+            rate_parts.append(sweep[moving])
         spheres = None
         if len(moving_pairs):
-            spheres = self._hulls.sphere_gaps(poses)[moving_pairs] - SELF_COLLISION_GAP
-            bounds.extend(spheres - DISTANCE_TOLERANCE)
-            rates.extend(pair_sweep[moving_pairs])
-            which.extend(-1 - k for k in range(len(moving_pairs)))
-        bounds, rates = np.asarray(bounds), np.asarray(rates)
+            if all_spheres is None:
+                all_spheres = self._hulls.sphere_gaps(poses)
+            spheres = all_spheres[moving_pairs] - SELF_COLLISION_GAP
+            parts.append(spheres - DISTANCE_TOLERANCE)
+            rate_parts.append(pair_sweep[moving_pairs])
+        bounds, rates = np.concatenate(parts), np.concatenate(rate_parts)
         if carried is not None:
             bounds = np.maximum(bounds, carried)
+        bodies = len(moving)
         advance = closest = np.inf
-        for k in np.argsort(bounds / rates, kind="stable"):
-            if bounds[k] > MIN_CLEARANCE and bounds[k] / rates[k] >= advance:
+        # Python floats: indexing arrays item by item costs more than the tests.
+        bound_list, rate_list = bounds.tolist(), rates.tolist()
+        for k in np.argsort(bounds / rates, kind="stable").tolist():
+            bound, rate = bound_list[k], rate_list[k]
+            if bound > MIN_CLEARANCE and bound / rate >= advance:
                 continue
-            if which[k] >= 0:
-                value = self._body_clearance(poses, which[k], gaps[which[k]])
+            if k < bodies:
+                j = moving[k]
+                value = self._body_clearance(poses, j, gaps[j])
             else:
-                pair = -1 - which[k]
+                pair = k - bodies
                 value = self._hulls.pair_clearance(poses, moving_pairs[pair], spheres[pair],
                                                    EXACT_DISTANCE_BELOW)  # fmt: skip
-            bounds[k] = max(bounds[k], value)
+            bounds[k] = max(bound, value)
             closest = min(closest, value)
-            advance = min(advance, value / rates[k])
+            advance = min(advance, value / rate)
         return float(advance), float(closest), bounds, rates
 
     # ------------------------------------------------------------------ protocol
@@ -519,12 +544,18 @@ class ArmExactChecker:
         moving_pairs = np.flatnonzero(pair_sweep > 0)
         if len(moving) == 0 and len(moving_pairs) == 0:
             return True
+        poses = identity_poses(self.arm.num_bodies)
+        gaps = np.empty((self.arm.num_bodies, len(self._obstacles)))
+        spheres = np.empty(len(self._hulls.pairs))
         t = 0.0
         carried = None
         for _ in range(self.max_steps):
-            poses = self.arm.forward_kinematics(start + t * delta)[0]
+            pose_bounds(start + t * delta, *self._kinematics, self._local_center,
+                        self._local_half, self._aabb_center, self._aabb_half,
+                        self._sphere_centers, self._sphere_radii, self._hulls.pairs, poses, gaps,
+                        spheres)  # fmt: skip
             advance, closest, known, rates = self._advance(
-                poses, moving, sweep, moving_pairs, pair_sweep, carried
+                poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap=(gaps, spheres)
             )
             if closest <= MIN_CLEARANCE:
                 return False

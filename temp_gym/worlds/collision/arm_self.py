@@ -108,10 +108,10 @@ class BodyHulls:
 
         ``poses`` are the bodies' world poses in one configuration.
         """
-        for obj in self._objects[a]:
-            obj.setTransform(transform(poses[a]))
-        for obj in self._objects[b]:
-            obj.setTransform(transform(poses[b]))
+        for body in (a, b):
+            posed = transform(poses[body])
+            for obj in self._objects[body]:
+                obj.setTransform(posed)
         best = np.inf
         for first in self._objects[a]:
             for second in self._objects[b]:
