@@ -20,6 +20,7 @@ from temp_gym.worlds.collision.arm_exact import (
     EXACT_DISTANCE_BELOW,
     MESH_DISTANCE_BELOW,
     MIN_CLEARANCE,
+    STEP_SAFETY,
     ArmExactChecker,
 )
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker, sphere_trees
@@ -435,11 +436,13 @@ def test_body_clearances_are_the_tiered_minimum_over_every_box_and_bound_the_mes
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
-def test_lazy_step_equals_measuring_every_body_and_pair(arms, workspaces, robot):
-    """`_advance` measures few bodies and pairs but returns what measuring all of them gives."""
+def test_lazy_cover_equals_measuring_every_body_and_pair(arms, workspaces, robot):
+    """`_cover` measures few bodies and pairs but certifies a motion as far as measuring all
+    of them does, from a motion's start and from a pose ahead of what is certified, and finds
+    the same contacts and the same spans that fall short."""
     arm = arms[robot]
     rng = np.random.default_rng(8)
-    checked = blocked = 0
+    checked = blocked = short = 0
     for workspace in workspaces[robot][:2]:
         _, exact = _checkers(arm, workspace)
         for _ in range(40):
@@ -451,24 +454,36 @@ def test_lazy_step_equals_measuring_every_body_and_pair(arms, workspaces, robot)
             moving_pairs = np.flatnonzero(pair_sweep > 0)
             if len(moving) + len(moving_pairs) == 0:
                 continue
+            rates = np.concatenate([sweep[moving], pair_sweep[moving_pairs]])
             poses = arm.forward_kinematics(start)[0]
-            advance, closest, _, _ = exact._advance(poses, moving, sweep, moving_pairs,
-                                                    pair_sweep, None)  # fmt: skip
             gaps = exact._aabb_gaps(poses)
-            bodies = np.array([exact._body_clearance(poses, j, gaps[j]) for j in moving])
             spheres = exact._hulls.sphere_gaps(poses) - SELF_COLLISION_GAP
-            pairs = np.array([
-                exact._hulls.pair_clearance(poses, p, spheres[p], EXACT_DISTANCE_BELOW)
-                for p in moving_pairs
+            measured = np.concatenate([
+                [exact._body_clearance(poses, j, gaps[j]) for j in moving],
+                [exact._hulls.pair_clearance(poses, p, spheres[p], EXACT_DISTANCE_BELOW)
+                 for p in moving_pairs],
             ])  # fmt: skip
-            every = min(bodies.min(initial=np.inf), pairs.min(initial=np.inf))
-            assert (closest <= MIN_CLEARANCE) == (every <= MIN_CLEARANCE)
-            if every <= MIN_CLEARANCE:
-                blocked += 1
-                continue
-            assert advance == min(
-                np.min(bodies / sweep[moving], initial=np.inf),
-                np.min(pairs / pair_sweep[moving_pairs], initial=np.inf),
-            )
-            checked += 1
-    assert checked > 20 and blocked > 10, (checked, blocked)
+            cheap = np.concatenate([gaps[moving].min(axis=1), spheres[moving_pairs]])
+            every = np.maximum(cheap - DISTANCE_TOLERANCE, measured)
+            # A motion's start, then a pose ahead of where some items are certified (rates
+            # scaled up so that some spans fall short of them).
+            scenes = [(0.0, np.zeros(len(rates)), rates)]
+            scenes.append((0.5, rng.uniform(0.2, 0.7, len(rates)), rates * 10))
+            for t, frontier, scaled in scenes:
+                span = STEP_SAFETY * every / scaled
+                got, closest, _, joined = exact._cover(poses, t, frontier, scaled, None, moving,
+                                                       moving_pairs)  # fmt: skip
+                if t == 0.0:
+                    assert (closest <= MIN_CLEARANCE) == (measured.min() <= MIN_CLEARANCE)
+                if measured.min() <= MIN_CLEARANCE:
+                    blocked += t == 0.0
+                    continue
+                meets = t - span <= frontier
+                assert joined == meets.all()
+                if joined:
+                    whole = np.where(meets, np.maximum(frontier, t + span), frontier)
+                    assert got.min() == whole.min()
+                    checked += 1
+                else:
+                    short += 1
+    assert checked > 20 and blocked > 10 and short > 5, (checked, blocked, short)

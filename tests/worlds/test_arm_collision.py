@@ -205,13 +205,16 @@ def test_element_distance_is_the_nearest_element_whatever_the_bounds_given(arm, 
 
 
 def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checkers):
-    """A motion's certification carries each body's and pair's clearance bound from one pose
-    to the next, less its rate times the step, and measures only what could limit the step:
-    the same verdicts as a certifier that starts every pose from the cheap bounds alone."""
+    """A motion's certification carries each body's and pair's clearance bound from the poses
+    measured before, less its rate times the distance in ``t``, and measures only what could
+    limit how far the motion is certified: the same verdicts as a certifier that starts every
+    pose from the cheap bounds alone."""
     _, exact = checkers
     reference = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
-    measure_all = reference._advance
-    reference._advance = lambda *args, **cheap: measure_all(*args[:-1], None, **cheap)
+    cover = reference._cover
+    reference._cover = lambda poses, t, frontier, rates, carried, *args, **cheap: cover(
+        poses, t, frontier, rates, None, *args, **cheap
+    )
     rng = np.random.default_rng(11)
     starts = random_configs(arm, 600, seed=12)
     starts = starts[exact.states_free(starts)][:150]
@@ -221,44 +224,92 @@ def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checke
     np.testing.assert_array_equal(verdicts, reference.edges_free(starts, ends))
 
 
-def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checkers):
-    """Every bound a motion's certification carries to a pose is at most the clearance measured
-    there afresh, for each moving body (to the obstacles) and each moving pair."""
+def _fresh_clearances(exact, poses, moving, moving_pairs):
+    """fcl's clearance of each moving body (to the nearest obstacle, 0 if touching) and each
+    moving pair (padded, less the gap), measured afresh and in full at one pose."""
     import fcl
 
     from temp_gym.worlds.collision.arm_self import SELF_COLLISION_GAP
 
-    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
-    advance = exact._advance
-    checked = [0, 0]
-
-    def clearance(poses, j):
-        """fcl's distance from body ``j``'s elements to the nearest obstacle (0 if touching)."""
+    fresh = []
+    for j in moving:
         exact._pose_body(poses, j)
         nearest = min(
             fcl.distance(obj, obstacle, fcl.DistanceRequest(), fcl.DistanceResult())
             for obj, _ in exact._elements[j]
             for obstacle in exact._obstacles
         )
-        return max(nearest, 0.0)
+        fresh.append(max(nearest, 0.0))
+    fresh += [exact._hulls.distance(poses, *exact._hulls.pairs[p]) - SELF_COLLISION_GAP
+              for p in moving_pairs]  # fmt: skip
+    return np.asarray(fresh)
 
-    def checking(poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap=None):
+
+def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checkers):
+    """Every bound a motion's certification carries to a pose is at most the clearance measured
+    there afresh, for each moving body (to the obstacles) and each moving pair."""
+    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    cover = exact._cover
+    checked = [0, 0]
+
+    def checking(poses, t, frontier, rates, carried, moving, moving_pairs, cheap=None):
         if carried is not None:
-            fresh = [clearance(poses, j) for j in moving]
-            fresh += [exact._hulls.distance(poses, *exact._hulls.pairs[p]) - SELF_COLLISION_GAP
-                      for p in moving_pairs]  # fmt: skip
-            assert np.all(carried <= np.asarray(fresh) + 1e-9)
+            fresh = _fresh_clearances(exact, poses, moving, moving_pairs)
+            assert np.all(carried <= fresh + 1e-9)
             checked[0] += len(fresh)
             checked[1] += int(np.sum(carried > 0))
-        return advance(poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap)
+        return cover(poses, t, frontier, rates, carried, moving, moving_pairs, cheap)
 
-    exact._advance = checking
+    exact._cover = checking
     rng = np.random.default_rng(13)
     starts = random_configs(arm, 400, seed=14)
     starts = starts[exact.states_free(starts)][:60]
     ends = motions_from(arm, starts, rng, 0.6)
     exact.edges_free(starts, ends)
     assert checked[0] > 1000 and checked[1] > 500
+
+
+def test_a_certified_motion_is_covered_by_the_spans_of_the_poses_measured(arm, checkers):
+    """Recorded independently of the certifier's own bookkeeping: for every motion it calls
+    free, each moving body and pair has, at every ``t`` in [0, 1], a measured pose whose
+    clearance bound (at most fcl's fresh clearance there) over its rate keeps it clear, with
+    `STEP_SAFETY` to spare; and the poses measured past what was certified are used."""
+    from temp_gym.worlds.collision.arm_exact import STEP_SAFETY
+
+    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    cover = exact._cover
+    records = []
+
+    def recording(poses, t, frontier, rates, carried, moving, moving_pairs, cheap=None):
+        answer = cover(poses, t, frontier, rates, carried, moving, moving_pairs, cheap)
+        fresh = _fresh_clearances(exact, poses, moving, moving_pairs)
+        assert np.all(answer[2] <= fresh + 1e-9)  # the bounds kept are lower bounds
+        records.append((t, answer[2].copy(), rates, frontier.min()))
+        return answer
+
+    exact._cover = recording
+    rng = np.random.default_rng(15)
+    starts = random_configs(arm, 400, seed=16)
+    starts = starts[exact.states_free(starts)][:60]
+    ends = motions_from(arm, starts, rng, 0.6)
+    certified = ahead = 0
+    for start, end in zip(starts, ends):
+        records.clear()
+        if not exact.edge_free(start, end) or not records:
+            continue
+        certified += 1
+        ahead += sum(t > behind for t, _, _, behind in records)
+        spans = np.array([STEP_SAFETY * known / rates for _, known, rates, _ in records])
+        times = np.array([t for t, _, _, _ in records])
+        for item in range(spans.shape[1]):
+            low, high = times - spans[:, item], times + spans[:, item]
+            reached = 0.0  # [0, reached] is covered: extend it with any span that meets it
+            for k in np.argsort(low):
+                if low[k] > reached:
+                    break
+                reached = max(reached, high[k])
+            assert reached >= 1.0, (item, reached)
+    assert certified > 20 and ahead > certified, (certified, ahead)
 
 
 def test_self_collisions_are_found_by_both_and_named(arm, checkers):

@@ -19,16 +19,22 @@ than a link.
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
 point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
 ``W_j = sum_i |b_i - a_i| R[i, j]`` (`ArmModel.motion_radii`). If ``d_j`` is a lower bound on
-body ``j``'s distance to every obstacle at ``q(t)``, nothing can touch while ``t`` advances by
-less than ``d_j / W_j``; likewise for body pairs with their relative motion. The checker walks
-the segment with steps of `STEP_SAFETY` times the smallest of these; ``d_j`` is fcl's element
-distance where the body is within `MESH_DISTANCE_BELOW` of an obstacle, and otherwise a
-cheaper, smaller bound (the distance from its convex pieces, or, farther than
-`EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one pose, less its
-rate times the step, still holds at the next, so a body or pair far from limiting the step is
-measured only when its carried bound could. It gives up, returning *not free*,
-when a clearance drops to `MIN_CLEARANCE` or after ``max_steps`` steps: the answer is then
-"not certified", which is what a certifier must say when unsure.
+body ``j``'s distance to every obstacle at ``q(t)``, nothing can touch while ``t`` stays within
+``d_j / W_j`` of it, on either side; likewise for body pairs with their relative motion. The
+checker keeps, per body and pair, how far from ``t = 0`` the motion is certified, and measures
+poses until every one reaches ``t = 1``, using `STEP_SAFETY` of each span. It measures the next
+pose past that frontier (`LOOK_AHEAD`), so that its span covers the gap backwards as well as
+the way on: about half the poses of stepping to the frontier, where clearances change slowly.
+When a span falls short of its frontier, the next pose is the frontier itself, which always
+moves it on. ``d_j`` is fcl's element distance where the body is within `MESH_DISTANCE_BELOW`
+of an obstacle, and otherwise a cheaper, smaller bound (the distance from its convex pieces,
+or, farther than `EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one
+pose, less its rate times the distance in ``t``, still holds at the next, so a body or pair far
+from limiting the frontier is measured only when its carried bound could. The poses, the
+bounding-box gaps and the bounding-sphere gaps at each pose come from one compiled call
+(`temp_gym.worlds.collision.arm_exact_bounds`). It gives up, returning *not free*, when a
+clearance drops to `MIN_CLEARANCE` or after ``max_steps`` poses: the answer is then "not
+certified", which is what a certifier must say when unsure.
 """
 
 from __future__ import annotations
@@ -58,7 +64,15 @@ EXACT_DISTANCE_BELOW = 0.1
 MESH_DISTANCE_BELOW = 0.01
 """Piece clearances (m) below this are refined with fcl's element distance."""
 STEP_SAFETY = 0.9
-"""Fraction of the provably safe step taken, so that the motion never reaches an obstacle."""
+"""Fraction of the provably safe span used, so that the motion never reaches an obstacle."""
+LOOK_AHEAD = 0.75
+"""How far past the certified part of a motion the next pose is measured, at most, as a fraction
+of how far the last pose's span reached past that pose (the next pose's span covers the gap
+backwards). The fraction shrinks by `AHEAD_SHRINK` when a span falls short and grows back by
+`AHEAD_GROWTH` when the spans meet; these three were chosen on planners' paths in
+MotionBenchMaker's scenes and on random motions in generated workspaces."""
+AHEAD_GROWTH = 1.5
+AHEAD_SHRINK = 0.5
 
 
 def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
@@ -209,7 +223,7 @@ class ArmExactChecker:
         box_lower: ``(M, 3)`` lower corners of axis-aligned boxes in the world frame (base at
             the origin, z up); or None with ``obstacles``.
         box_upper: ``(M, 3)`` upper box corners.
-        max_steps: largest number of certification steps per edge before giving up.
+        max_steps: most poses measured per edge before giving up.
         self_collision: test the enabled body pairs against each other. Only switched off to
             measure what self-collision costs; `certify_path` always tests it.
         obstacles: obstacles of every kind (`arm_obstacles` of a workspace), instead of
@@ -409,47 +423,45 @@ class ArmExactChecker:
             nearest = min(nearest, found)
         return nearest
 
-    def _advance(self, poses, moving, sweep, moving_pairs, pair_sweep, carried,
-                 cheap=None) -> tuple[float, float, np.ndarray, np.ndarray]:  # fmt: skip
-        """``(advance, closest, known, rates)`` at one pose of a segment.
+    def _cover(self, poses, t, frontier, rates, carried, moving, moving_pairs,
+               cheap=None) -> tuple[np.ndarray, float, np.ndarray, bool]:  # fmt: skip
+        """``(frontier, closest, known, joined)`` after measuring at the pose ``q(t)``.
 
-        The largest safe step in ``t`` and the smallest clearance measured (bodies and pairs
-        are measured only when their cheap lower bound could still lower the step or reach
-        `MIN_CLEARANCE`). ``carried`` (None at a segment's start) holds lower bounds on the
-        moving bodies' clearances, then the moving pairs', brought from the pose before; each
-        item's cheap bound is the larger of it and the bounding boxes' or spheres' gap.
-        ``known`` returns each item's best lower bound here (measured, else cheap) and
-        ``rates`` how fast each can shrink per unit of ``t``. The step is the least measured
-        clearance over its rate, and every item left unmeasured has a bound of at least that
-        step times its rate, so the step stays safe; an item far from limiting the step keeps
-        its carried bound for several poses instead of being measured at each. ``cheap`` is
-        ``(AABB gaps, sphere gaps)`` at this pose when already computed (`pose_bounds`).
+        Items are the moving bodies (to the obstacles), then the moving pairs. Item ``i`` is
+        certified on ``[0, frontier[i]]``; a lower bound ``K`` on its clearance at ``q(t)``
+        certifies it on ``t +- STEP_SAFETY * K / rates[i]`` too, which extends its frontier when
+        the two meet. ``carried`` holds lower bounds brought from poses measured before (or
+        None); each item's cheap bound is the larger of it and the bounding boxes' or spheres'
+        gap. Items are measured (fcl) lowest new frontier first, and only while one could
+        still be the least: every item left unmeasured already reaches at least as far. The
+        new frontiers return with the smallest clearance measured, ``known`` (each item's best
+        lower bound here) and ``joined``: False when a measured item's span at ``t`` still
+        leaves a gap after its frontier (then measuring stops: ``t`` was too far ahead).
+        ``cheap`` is ``(AABB gaps, sphere gaps)`` at this pose when already computed
+        (`pose_bounds`).
         """
         gaps, all_spheres = (None, None) if cheap is None else cheap
-        parts, rate_parts = [], []
+        parts = []
         if len(moving):
             if gaps is None:
                 gaps = self._aabb_gaps(poses)
             parts.append(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
-            rate_parts.append(sweep[moving])
         spheres = None
         if len(moving_pairs):
             if all_spheres is None:
                 all_spheres = self._hulls.sphere_gaps(poses)
             spheres = all_spheres[moving_pairs] - SELF_COLLISION_GAP
             parts.append(spheres - DISTANCE_TOLERANCE)
-            rate_parts.append(pair_sweep[moving_pairs])
-        bounds, rates = np.concatenate(parts), np.concatenate(rate_parts)
+        bounds = np.concatenate(parts)
         if carried is not None:
             bounds = np.maximum(bounds, carried)
+        reach = STEP_SAFETY * bounds / rates
+        frontier = np.where(t - reach <= frontier, np.maximum(frontier, t + reach), frontier)
         bodies = len(moving)
-        advance = closest = np.inf
-        # Python floats: indexing arrays item by item costs more than the tests.
-        bound_list, rate_list = bounds.tolist(), rates.tolist()
-        for k in np.argsort(bounds / rates, kind="stable").tolist():
-            bound, rate = bound_list[k], rate_list[k]
-            if bound > MIN_CLEARANCE and bound / rate >= advance:
-                continue
+        closest = least = np.inf
+        for k in np.argsort(frontier, kind="stable").tolist():
+            if frontier[k] >= least:
+                break  # sorted: every item left reaches at least as far
             if k < bodies:
                 j = moving[k]
                 value = self._body_clearance(poses, j, gaps[j])
@@ -457,10 +469,16 @@ class ArmExactChecker:
                 pair = k - bodies
                 value = self._hulls.pair_clearance(poses, moving_pairs[pair], spheres[pair],
                                                    EXACT_DISTANCE_BELOW)  # fmt: skip
-            bounds[k] = max(bound, value)
             closest = min(closest, value)
-            advance = min(advance, value / rate)
-        return float(advance), float(closest), bounds, rates
+            if value <= MIN_CLEARANCE:
+                return frontier, closest, bounds, False
+            bounds[k] = max(bounds[k], value)
+            span = STEP_SAFETY * bounds[k] / rates[k]
+            if t - span > frontier[k]:
+                return frontier, closest, bounds, False
+            frontier[k] = max(frontier[k], t + span)
+            least = min(least, frontier[k])
+        return frontier, closest, bounds, True
 
     # ------------------------------------------------------------------ protocol
     def states_free(self, states: np.ndarray) -> np.ndarray:
@@ -534,8 +552,12 @@ class ArmExactChecker:
         """Certify the straight joint-space motion ``start -> end`` (module docstring)."""
         start = as_state(start, "start", self.dim)
         end = as_state(end, "end", self.dim)
-        if not np.all(self.states_free(np.stack([start, end]))):
-            return False
+        return bool(np.all(self.states_free(np.stack([start, end])))) and self._motion_free(
+            start, end
+        )
+
+    def _motion_free(self, start: np.ndarray, end: np.ndarray) -> bool:
+        """`edge_free` for a motion whose ends are known to be free."""
         delta = end - start
         sweep = np.abs(delta) @ self._motion_radii
         moving = (np.flatnonzero((sweep > 0) & self._has_geometry) if self._obstacles
@@ -544,27 +566,49 @@ class ArmExactChecker:
         moving_pairs = np.flatnonzero(pair_sweep > 0)
         if len(moving) == 0 and len(moving_pairs) == 0:
             return True
+        rates = np.concatenate([sweep[moving], pair_sweep[moving_pairs]])
         poses = identity_poses(self.arm.num_bodies)
         gaps = np.empty((self.arm.num_bodies, len(self._obstacles)))
         spheres = np.empty(len(self._hulls.pairs))
-        t = 0.0
-        carried = None
+        frontier = np.zeros(len(rates))
+        measured: list[tuple[float, np.ndarray]] = []  # the last two poses' (t, known)
+        pending = None  # (t, spans) of a pose ahead whose spans fell short of the frontier
+        t, ahead = 0.0, LOOK_AHEAD
         for _ in range(self.max_steps):
             pose_bounds(start + t * delta, *self._kinematics, self._local_center,
                         self._local_half, self._aabb_center, self._aabb_half,
                         self._sphere_centers, self._sphere_radii, self._hulls.pairs, poses, gaps,
                         spheres)  # fmt: skip
-            advance, closest, known, rates = self._advance(
-                poses, moving, sweep, moving_pairs, pair_sweep, carried, cheap=(gaps, spheres)
+            # Nothing comes nearer than its rate times the distance in t: bounds carried here.
+            carried = None
+            for when, known in measured:
+                brought = known - rates * abs(t - when)
+                carried = brought if carried is None else np.maximum(carried, brought)
+            frontier, closest, known, joined = self._cover(
+                poses, t, frontier, rates, carried, moving, moving_pairs, cheap=(gaps, spheres)
             )
             if closest <= MIN_CLEARANCE:
                 return False
-            step = STEP_SAFETY * advance
-            t += step
-            if t >= 1.0:
+            measured = [(t, known)] + measured[:1]
+            if pending is not None:  # the frontier may now meet that pose's spans
+                when, spans = pending
+                meets = when - spans <= frontier
+                frontier = np.where(meets, np.maximum(frontier, when + spans), frontier)
+                pending = None if meets.all() else pending
+            if not joined:
+                pending = (t, STEP_SAFETY * known / rates)
+            reached = frontier.min()
+            if reached >= 1.0:
                 return True
-            # Nothing comes nearer than its rate times the step: bounds for the next pose.
-            carried = known - rates * step
+            # The next pose: past the frontier by `ahead` times how far this pose's span reached
+            # past this pose, so that its span may meet the frontier from beyond. When a span
+            # fell short, the next pose is the frontier itself, which always moves it on.
+            if joined:
+                ahead = min(LOOK_AHEAD, AHEAD_GROWTH * ahead)
+                t = min(1.0, reached + ahead * max(reached - t, 0.0))
+            else:
+                ahead *= AHEAD_SHRINK
+                t = reached
         return False
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
@@ -573,7 +617,10 @@ class ArmExactChecker:
         ends = as_states(ends, self.dim, "ends")
         if starts.shape != ends.shape:
             raise ValueError(f"starts, ends: shapes {starts.shape} and {ends.shape} do not match")
-        return np.array([self.edge_free(a, b) for a, b in zip(starts, ends)], dtype=bool)
+        # Each end checked once, in one call.
+        ends_free = self.states_free(np.concatenate([starts, ends])).reshape(2, -1).all(axis=0)
+        return np.array([free and self._motion_free(a, b)
+                         for a, b, free in zip(starts, ends, ends_free)], dtype=bool)  # fmt: skip
 
     def path_free(self, path: np.ndarray) -> bool:
         """Certify every edge of the polyline ``path`` (K x dim); one state: that state."""
@@ -582,7 +629,10 @@ class ArmExactChecker:
             raise ValueError("path: expected at least one state")
         if len(path) == 1:
             return bool(self.states_free(path)[0])
-        return all(self.edge_free(a, b) for a, b in zip(path[:-1], path[1:]))
+        # Each waypoint checked once, in one call.
+        return bool(self.states_free(path).all()) and all(
+            self._motion_free(a, b) for a, b in zip(path[:-1], path[1:])
+        )
 
 
 __all__ = [
