@@ -9,7 +9,8 @@ be most of a plan call. This plans ``--tasks`` validation tasks of ``configs/7d.
 TEMP (the shipped policy) and Informed RRT* up to their first solutions, then times
 `certify_path` on each returned path (a new exact checker per call, as `plan` makes one; best
 of ``--repeats``) and reports per planner the mean and median milliseconds per path, the
-edges per path, and the mean whole `plan` call for scale.
+edges per path, the poses the exact checker measures per edge (deterministic, so comparable
+across machines and runs), and the mean whole `plan` call for scale.
 
 ``--mbm ARCHIVE`` plans MotionBenchMaker's Panda problems instead (the first ``--per-scene`` of
 each scene whose start and goal are valid; `temp_gym.benchmarks.motionbenchmaker`), with TEMP
@@ -32,7 +33,7 @@ import numpy as np
 from temp_gym import plan, training
 from temp_gym.config import load_config, parse_args, script_parser
 from temp_gym.problem import Problem
-from temp_gym.worlds.checkers import certify_path
+from temp_gym.worlds.checkers import certify_path, make_checker
 
 PLANNERS = ("temp", "informed_rrt_star")
 MBM_PLANNERS = ("temp", "rrt_connect")
@@ -134,9 +135,15 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
             if not certify_path(run["problem"], run["path"]):
                 raise SystemExit(f"path {k} ({run['planner']}) is no longer certified")
             seconds[k] = min(seconds[k], time.perf_counter() - started)
+    poses = []  # motion poses the exact checker measures per path: deterministic, unlike time
+    for run in runs:
+        checker = make_checker(run["problem"], exact=True)
+        checker.path_free(run["path"])
+        poses.append(checker.poses_measured)
     print(f"{len(runs)} paths, certification best of {args.repeats}\n")
-    print("| planner | paths | edges per path | certify mean / median (ms) | plan() mean (ms) |")
-    print("|---|---:|---:|---:|---:|")
+    print("| planner | paths | edges per path | poses per edge | certify mean / median (ms) "
+          "| plan() mean (ms) |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|")
     table = {}
     for planner in dict.fromkeys(run["planner"] for run in runs):
         mine = [k for k, run in enumerate(runs) if run["planner"] == planner]
@@ -145,10 +152,12 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         ms = [1e3 * seconds[k] for k in mine]
         edges = statistics.mean(len(runs[k]["path"]) - 1 for k in mine)
         whole = statistics.mean(1e3 * runs[k]["plan_s"] for k in mine)
-        print(f"| {planner} | {len(mine)} | {edges:.1f} | {statistics.mean(ms):.2f} / "
-              f"{statistics.median(ms):.2f} | {whole:.1f} |")  # fmt: skip
-        table[planner] = {"paths": len(mine), "mean_ms": statistics.mean(ms),
-                          "median_ms": statistics.median(ms)}  # fmt: skip
+        per_edge = sum(poses[k] for k in mine) / sum(len(runs[k]["path"]) - 1 for k in mine)
+        mean, median = statistics.mean(ms), statistics.median(ms)
+        print(f"| {planner} | {len(mine)} | {edges:.1f} | {per_edge:.1f} | {mean:.2f} / "
+              f"{median:.2f} | {whole:.1f} |")  # fmt: skip
+        table[planner] = {"paths": len(mine), "mean_ms": mean, "median_ms": median,
+                          "poses_per_edge": per_edge}  # fmt: skip
     return table
 
 

@@ -252,6 +252,8 @@ def test_certification_times_the_paths_of_motionbenchmaker_problems(tmp_path, ca
     assert "| rrt_connect | 2 |" in capsys.readouterr().out
     again = certification.main(argv)  # the stored paths, certified again
     assert again["rrt_connect"]["paths"] == 2
+    # Poses measured are deterministic: the same paths, the same count.
+    assert again["rrt_connect"]["poses_per_edge"] == table["rrt_connect"]["poses_per_edge"] >= 1
 
 
 def test_simplify_shortens_the_paths_of_motionbenchmaker_problems(tmp_path, capsys):

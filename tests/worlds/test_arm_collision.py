@@ -292,8 +292,10 @@ def test_a_certified_motion_is_covered_by_the_spans_of_the_poses_measured(arm, c
     starts = random_configs(arm, 400, seed=16)
     starts = starts[exact.states_free(starts)][:60]
     ends = motions_from(arm, starts, rng, 0.6)
-    certified = ahead = 0
+    certified = ahead = measured = 0
+    assert exact.poses_measured == 0
     for start, end in zip(starts, ends):
+        measured += len(records)
         records.clear()
         if not exact.edge_free(start, end) or not records:
             continue
@@ -310,6 +312,7 @@ def test_a_certified_motion_is_covered_by_the_spans_of_the_poses_measured(arm, c
                 reached = max(reached, high[k])
             assert reached >= 1.0, (item, reached)
     assert certified > 20 and ahead > certified, (certified, ahead)
+    assert exact.poses_measured == measured + len(records)  # the diagnostic counts every pose
 
 
 def test_self_collisions_are_found_by_both_and_named(arm, checkers):

@@ -280,6 +280,8 @@ class ArmExactChecker:
         self._sphere_centers, self._sphere_radii = bounding_spheres(arm)
         self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
         self.base_free = not base_collides(arm, self.obstacles)
+        self.poses_measured = 0
+        """Poses of motions measured so far (a diagnostic: what certification costs)."""
         self.description = (
             f"fcl on the {arm.name} collision geometry, {self.obstacles.summary()}, self-collision "
             f"of {len(self._hulls.pairs)} body pairs (padded convex pieces), certified motions"
@@ -587,6 +589,7 @@ class ArmExactChecker:
             frontier, closest, known, joined = self._cover(
                 poses, t, frontier, rates, carried, moving, moving_pairs, cheap=(gaps, spheres)
             )
+            self.poses_measured += 1
             if closest <= MIN_CLEARANCE:
                 return False
             measured = [(t, known)] + measured[:1]
