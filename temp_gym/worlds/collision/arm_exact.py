@@ -24,11 +24,11 @@ body ``j``'s distance to every obstacle at ``q(t)``, nothing can touch while ``t
 checker keeps, per body and pair, how far from ``t = 0`` the motion is certified, and measures
 poses until every one reaches ``t = 1``, using `STEP_SAFETY` of each span. It measures the next
 pose past that frontier (`LOOK_AHEAD`), so that its span covers the gap backwards as well as
-the way on: about half the poses of stepping to the frontier, where clearances change slowly.
-When a span falls short of its frontier, the next pose is the frontier itself, which always
-moves it on. ``d_j`` is fcl's element distance where the body is within `MESH_DISTANCE_BELOW`
-of an obstacle, and otherwise a cheaper, smaller bound (the distance from its convex pieces,
-or, farther than `EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one
+the way on: fewer poses than stepping to the frontier each time. When a span falls short of
+its frontier, the next pose is the frontier itself, which always moves it on. ``d_j`` is
+fcl's element distance where the body is within `MESH_DISTANCE_BELOW` of an obstacle, and
+otherwise a cheaper, smaller bound (the distance from its convex pieces, or, farther than
+`EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one
 pose, less its rate times the distance in ``t``, still holds at the next, so a body or pair far
 from limiting the frontier is measured only when its carried bound could. The poses, the
 bounding-box gaps and the bounding-sphere gaps at each pose come from one compiled call
