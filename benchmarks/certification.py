@@ -7,10 +7,11 @@
 meshes and hulls, `temp_gym.worlds.collision.arm_exact`); on the arm that certification can
 be most of a plan call. This plans ``--tasks`` validation tasks of ``configs/7d.yaml`` with
 TEMP (the shipped policy) and Informed RRT* up to their first solutions, then times
-`certify_path` on each returned path (a new exact checker per call, as `plan` makes one; best
-of ``--repeats``) and reports per planner the mean and median milliseconds per path, the
-edges per path, the poses the exact checker measures per edge (deterministic, so comparable
-across machines and runs), and the mean whole `plan` call for scale.
+`certify_path`'s work on each returned path (a new exact checker and its ``path_free``, as
+`plan` certifies; best of ``--repeats``) and reports per planner the mean and median
+milliseconds per path, the edges per path, the poses the exact checker measures per edge
+(deterministic, so comparable across machines and runs), and the mean whole `plan` call for
+scale.
 
 ``--mbm ARCHIVE`` plans MotionBenchMaker's Panda problems instead (the first ``--per-scene`` of
 each scene whose start and goal are valid; `temp_gym.benchmarks.motionbenchmaker`), with TEMP
@@ -129,17 +130,15 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, float]]:
         raise SystemExit("no planner solved a problem: no path to certify")
     certify_path(runs[0]["problem"], runs[0]["path"])  # geometry and kernels loaded
     seconds = [np.inf] * len(runs)
+    poses = [0] * len(runs)  # motion poses measured per path: deterministic, unlike time
     for _ in range(args.repeats):
         for k, run in enumerate(runs):
             started = time.perf_counter()
-            if not certify_path(run["problem"], run["path"]):
+            checker = make_checker(run["problem"], exact=True)  # as certify_path does
+            if not checker.path_free(run["path"]):
                 raise SystemExit(f"path {k} ({run['planner']}) is no longer certified")
             seconds[k] = min(seconds[k], time.perf_counter() - started)
-    poses = []  # motion poses the exact checker measures per path: deterministic, unlike time
-    for run in runs:
-        checker = make_checker(run["problem"], exact=True)
-        checker.path_free(run["path"])
-        poses.append(checker.poses_measured)
+            poses[k] = checker.poses_measured
     print(f"{len(runs)} paths, certification best of {args.repeats}\n")
     print("| planner | paths | edges per path | poses per edge | certify mean / median (ms) "
           "| plan() mean (ms) |")  # fmt: skip

@@ -457,7 +457,8 @@ def test_lazy_cover_equals_measuring_every_body_and_pair(arms, workspaces, robot
             rates = np.concatenate([sweep[moving], pair_sweep[moving_pairs]])
             poses = arm.forward_kinematics(start)[0]
             gaps = exact._aabb_gaps(poses)
-            spheres = exact._hulls.sphere_gaps(poses) - SELF_COLLISION_GAP
+            all_spheres = exact._hulls.sphere_gaps(poses)
+            spheres = all_spheres - SELF_COLLISION_GAP
             measured = np.concatenate([
                 [exact._body_clearance(poses, j, gaps[j]) for j in moving],
                 [exact._hulls.pair_clearance(poses, p, spheres[p], EXACT_DISTANCE_BELOW)
@@ -472,7 +473,7 @@ def test_lazy_cover_equals_measuring_every_body_and_pair(arms, workspaces, robot
             for t, frontier, scaled in scenes:
                 span = STEP_SAFETY * every / scaled
                 got, closest, _, joined = exact._cover(poses, t, frontier, scaled, None, moving,
-                                                       moving_pairs)  # fmt: skip
+                                                       moving_pairs, gaps, all_spheres)  # fmt: skip
                 if t == 0.0:
                     assert (closest <= MIN_CLEARANCE) == (measured.min() <= MIN_CLEARANCE)
                 if measured.min() <= MIN_CLEARANCE:

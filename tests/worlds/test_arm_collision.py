@@ -204,6 +204,30 @@ def test_element_distance_is_the_nearest_element_whatever_the_bounds_given(arm, 
     assert compared > 500
 
 
+def test_compiled_pose_bounds_are_the_checkers_own(arm):
+    """`pose_bounds` gives, for one configuration, the poses `forward_kinematics` gives, the
+    bodies' AABB gaps `_aabb_gaps` gives on them, and the pairs' bounding-sphere gaps
+    `BodyHulls.sphere_gaps` gives (numpy, up to the order of roundings)."""
+    from temp_gym.worlds.arm.kinematics import identity_poses
+    from temp_gym.worlds.collision.arm_exact_bounds import pose_bounds
+
+    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    poses = identity_poses(arm.num_bodies)
+    gaps = np.empty((arm.num_bodies, len(exact._obstacles)))
+    spheres = np.empty(len(exact._hulls.pairs))
+    touching = 0
+    for q in random_configs(arm, 200, seed=17):
+        pose_bounds(q, *exact._kinematics, exact._local_center, exact._local_half,
+                    exact._aabb_center, exact._aabb_half, exact._sphere_centers,
+                    exact._sphere_radii, exact._hulls.pairs, poses, gaps, spheres)  # fmt: skip
+        full = arm.forward_kinematics(q)[0]
+        np.testing.assert_array_equal(poses, full[:, :3, :])
+        np.testing.assert_array_equal(gaps, exact._aabb_gaps(full))
+        np.testing.assert_allclose(spheres, exact._hulls.sphere_gaps(full), rtol=0, atol=1e-12)
+        touching += int(np.sum(gaps == 0.0))
+    assert len(exact._hulls.pairs) and touching  # pairs and overlapping boxes were compared
+
+
 def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checkers):
     """A motion's certification carries each body's and pair's clearance bound from the poses
     measured before, less its rate times the distance in ``t``, and measures only what could
@@ -212,8 +236,8 @@ def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checke
     _, exact = checkers
     reference = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
     cover = reference._cover
-    reference._cover = lambda poses, t, frontier, rates, carried, *args, **cheap: cover(
-        poses, t, frontier, rates, None, *args, **cheap
+    reference._cover = lambda poses, t, frontier, rates, carried, *args: cover(
+        poses, t, frontier, rates, None, *args
     )
     rng = np.random.default_rng(11)
     starts = random_configs(arm, 600, seed=12)
@@ -252,13 +276,13 @@ def test_bounds_carried_to_a_pose_are_lower_bounds_on_its_clearances(arm, checke
     cover = exact._cover
     checked = [0, 0]
 
-    def checking(poses, t, frontier, rates, carried, moving, moving_pairs, cheap=None):
+    def checking(poses, t, frontier, rates, carried, moving, moving_pairs, *cheap):
         if carried is not None:
             fresh = _fresh_clearances(exact, poses, moving, moving_pairs)
             assert np.all(carried <= fresh + 1e-9)
             checked[0] += len(fresh)
             checked[1] += int(np.sum(carried > 0))
-        return cover(poses, t, frontier, rates, carried, moving, moving_pairs, cheap)
+        return cover(poses, t, frontier, rates, carried, moving, moving_pairs, *cheap)
 
     exact._cover = checking
     rng = np.random.default_rng(13)
@@ -280,8 +304,8 @@ def test_a_certified_motion_is_covered_by_the_spans_of_the_poses_measured(arm, c
     cover = exact._cover
     records = []
 
-    def recording(poses, t, frontier, rates, carried, moving, moving_pairs, cheap=None):
-        answer = cover(poses, t, frontier, rates, carried, moving, moving_pairs, cheap)
+    def recording(poses, t, frontier, rates, carried, moving, moving_pairs, *cheap):
+        answer = cover(poses, t, frontier, rates, carried, moving, moving_pairs, *cheap)
         fresh = _fresh_clearances(exact, poses, moving, moving_pairs)
         assert np.all(answer[2] <= fresh + 1e-9)  # the bounds kept are lower bounds
         records.append((t, answer[2].copy(), rates, frontier.min()))

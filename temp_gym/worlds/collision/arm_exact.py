@@ -45,7 +45,7 @@ import numpy as np
 from temp_gym.problem.obstacles import BOX, CYLINDER
 from temp_gym.worlds.arm.kinematics import identity_poses
 from temp_gym.worlds.arm.model import ArmModel
-from temp_gym.worlds.collision.arm_exact_bounds import pose_bounds
+from temp_gym.worlds.collision.arm_exact_bounds import aabb_gaps_into, pose_bounds
 from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.arm_self import (
@@ -333,12 +333,10 @@ class ArmExactChecker:
 
     def _aabb_gaps(self, poses: np.ndarray) -> np.ndarray:
         """``(B, M)`` distances from each body's world AABB to each obstacle's: lower bounds."""
-        rotations = poses[:, :3, :3]
-        centers = np.einsum("jik,jk->ji", rotations, self._local_center) + poses[:, :3, 3]
-        halves = np.einsum("jik,jk->ji", np.abs(rotations), self._local_half)
-        gap = np.abs(centers[:, None, :] - self._aabb_center) - halves[:, None, :]
-        gap = np.maximum(gap - self._aabb_half, 0.0)
-        return np.sqrt(np.einsum("jbk,jbk->jb", gap, gap))
+        gaps = np.empty((len(poses), len(self._obstacles)))
+        aabb_gaps_into(poses, self._local_center, self._local_half, self._aabb_center,
+                       self._aabb_half, gaps)  # fmt: skip
+        return gaps
 
     def _body_clearance(self, poses: np.ndarray, j: int, gaps: np.ndarray) -> float:
         """A lower bound on body ``j``'s distance to the nearest obstacle.
@@ -425,8 +423,8 @@ class ArmExactChecker:
             nearest = min(nearest, found)
         return nearest
 
-    def _cover(self, poses, t, frontier, rates, carried, moving, moving_pairs,
-               cheap=None) -> tuple[np.ndarray, float, np.ndarray, bool]:  # fmt: skip
+    def _cover(self, poses, t, frontier, rates, carried, moving, moving_pairs, gaps,
+               all_spheres) -> tuple[np.ndarray, float, np.ndarray, bool]:  # fmt: skip
         """``(frontier, closest, known, joined)`` after measuring at the pose ``q(t)``.
 
         Items are the moving bodies (to the obstacles), then the moving pairs. Item ``i`` is
@@ -439,19 +437,14 @@ class ArmExactChecker:
         new frontiers return with the smallest clearance measured, ``known`` (each item's best
         lower bound here) and ``joined``: False when a measured item's span at ``t`` still
         leaves a gap after its frontier (then measuring stops: ``t`` was too far ahead).
-        ``cheap`` is ``(AABB gaps, sphere gaps)`` at this pose when already computed
-        (`pose_bounds`).
+        ``gaps`` and ``all_spheres`` are this pose's AABB gaps (B, M) and the pairs'
+        bounding-sphere gaps (P,) (`pose_bounds`).
         """
-        gaps, all_spheres = (None, None) if cheap is None else cheap
         parts = []
         if len(moving):
-            if gaps is None:
-                gaps = self._aabb_gaps(poses)
             parts.append(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
         spheres = None
         if len(moving_pairs):
-            if all_spheres is None:
-                all_spheres = self._hulls.sphere_gaps(poses)
             spheres = all_spheres[moving_pairs] - SELF_COLLISION_GAP
             parts.append(spheres - DISTANCE_TOLERANCE)
         bounds = np.concatenate(parts)
@@ -587,7 +580,7 @@ class ArmExactChecker:
                 brought = known - rates * abs(t - when)
                 carried = brought if carried is None else np.maximum(carried, brought)
             frontier, closest, known, joined = self._cover(
-                poses, t, frontier, rates, carried, moving, moving_pairs, cheap=(gaps, spheres)
+                poses, t, frontier, rates, carried, moving, moving_pairs, gaps, spheres
             )
             self.poses_measured += 1
             if closest <= MIN_CLEARANCE:
