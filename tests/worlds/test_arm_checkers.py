@@ -23,6 +23,7 @@ from temp_gym.worlds.collision.arm_exact import (
     STEP_SAFETY,
     ArmExactChecker,
 )
+from temp_gym.worlds.collision.arm_exact_bounds import box_center
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker, sphere_trees
 from temp_gym.worlds.collision.arm_self import DISTANCE_TOLERANCE, SELF_COLLISION_GAP, transform
 from temp_gym.worlds.collision.pybullet_reference import PybulletArm
@@ -389,7 +390,7 @@ def _tier_distances(exact, poses, j):
     tolerance) and its elements, fcl on each, no pruning: ``(3, M)``."""
     request = fcl.DistanceRequest()
     box_pose = poses[j].copy()
-    box_pose[:3, 3] += box_pose[:3, :3] @ exact._local_center[j]
+    box_pose[:3, 3] = box_center(poses, j, exact._local_center)  # as the checker places it
     exact._body_boxes[j].setTransform(transform(box_pose))
     for obj in exact._pieces[j]:
         obj.setTransform(transform(poses[j]))

@@ -205,27 +205,121 @@ def test_element_distance_is_the_nearest_element_whatever_the_bounds_given(arm, 
 
 
 def test_compiled_pose_bounds_are_the_checkers_own(arm):
-    """`pose_bounds` gives, for one configuration, the poses `forward_kinematics` gives, the
+    """`pose_bounds` gives, for one pose of a motion, the poses `forward_kinematics` gives, the
     bodies' AABB gaps `_aabb_gaps` gives on them, and the pairs' bounding-sphere gaps
-    `BodyHulls.sphere_gaps` gives (numpy, up to the order of roundings)."""
+    `BodyHulls.sphere_gaps` gives (numpy, up to the order of roundings); `box_center` places
+    the bodies' bounding boxes where numpy does, up to the same."""
     from temp_gym.worlds.arm.kinematics import identity_poses
-    from temp_gym.worlds.collision.arm_exact_bounds import pose_bounds
+    from temp_gym.worlds.collision.arm_exact_bounds import box_center, pose_bounds
 
     exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
     poses = identity_poses(arm.num_bodies)
     gaps = np.empty((arm.num_bodies, len(exact._obstacles)))
     spheres = np.empty(len(exact._hulls.pairs))
     touching = 0
-    for q in random_configs(arm, 200, seed=17):
-        pose_bounds(q, *exact._kinematics, exact._local_center, exact._local_half,
-                    exact._aabb_center, exact._aabb_half, exact._sphere_centers,
-                    exact._sphere_radii, exact._hulls.pairs, poses, gaps, spheres)  # fmt: skip
-        full = arm.forward_kinematics(q)[0]
+    rng = np.random.default_rng(18)
+    for start in random_configs(arm, 200, seed=17):
+        # The pose at t along a motion, as the certifier measures it.
+        delta, t = rng.normal(0, 0.3, arm.dim), float(rng.uniform())
+        pose_bounds(start, delta, t, *exact._kinematics, exact._local_center,
+                    exact._local_half, exact._aabb_center, exact._aabb_half,
+                    exact._sphere_centers, exact._sphere_radii, exact._hulls.pairs, poses, gaps,
+                    spheres)  # fmt: skip
+        full = arm.forward_kinematics(start + t * delta)[0]
         np.testing.assert_array_equal(poses, full[:, :3, :])
+        for j in range(arm.num_bodies):
+            expected = full[j, :3, :3] @ exact._local_center[j] + full[j, :3, 3]
+            np.testing.assert_allclose(box_center(poses, j, exact._local_center), expected,
+                                       rtol=0, atol=1e-15)  # fmt: skip
         np.testing.assert_array_equal(gaps, exact._aabb_gaps(full))
         np.testing.assert_allclose(spheres, exact._hulls.sphere_gaps(full), rtol=0, atol=1e-12)
         touching += int(np.sum(gaps == 0.0))
     assert len(exact._hulls.pairs) and touching  # pairs and overlapping boxes were compared
+
+
+def test_compiled_cover_bounds_are_numpys_arithmetic():
+    """`carried_bounds` and `cover_bounds` give, bit for bit, what the numpy formulas give:
+    the bounds carried from the last poses, each item's cheap bound, the new frontier where
+    each span meets the old one, and a stable order of it (ties in index order)."""
+    from temp_gym.worlds.collision.arm_exact import STEP_SAFETY
+    from temp_gym.worlds.collision.arm_exact_bounds import carried_bounds, cover_bounds
+    from temp_gym.worlds.collision.arm_self import DISTANCE_TOLERANCE, SELF_COLLISION_GAP
+
+    rng = np.random.default_rng(23)
+    met = fell_short = 0
+    for _ in range(300):
+        # Up to 40 items: a short sort may be stable by chance.
+        bodies, obstacles, pairs = rng.integers(0, 21), rng.integers(1, 5), rng.integers(0, 21)
+        moving = np.sort(rng.choice(24, bodies, replace=False))
+        moving_pairs = np.sort(rng.choice(24, pairs, replace=False))
+        if bodies + pairs == 0:
+            continue
+        gaps = rng.uniform(0, 0.3, (24, obstacles)) * (rng.random((24, obstacles)) < 0.8)
+        sphere_gaps = rng.uniform(-0.1, 0.3, 24)
+        rates = rng.uniform(0.05, 3.0, bodies + pairs)
+        # Frontiers with ties (equal entries), behind and ahead of t.
+        frontier = rng.choice([0.0, 0.2, 0.35, 0.5], bodies + pairs)
+        t = float(rng.choice([0.0, 0.3, 0.6]))
+        history_t = rng.uniform(0, 1, 2)
+        history = rng.uniform(-0.05, 0.3, (2, bodies + pairs))
+        count = int(rng.integers(0, 3))
+
+        carried = None
+        for when, known in list(zip(history_t, history))[:count]:
+            brought = known - rates * abs(t - when)
+            carried = brought if carried is None else np.maximum(carried, brought)
+        if count:
+            before = history[1] if count == 2 else np.empty(0)
+            got = carried_bounds(t, rates, history_t[0], history[0], history_t[1], before)
+            np.testing.assert_array_equal(got, carried)
+
+        spheres = sphere_gaps[moving_pairs] - SELF_COLLISION_GAP
+        bounds = np.concatenate([gaps[moving].min(axis=1) - DISTANCE_TOLERANCE,
+                                 spheres - DISTANCE_TOLERANCE])  # fmt: skip
+        if carried is not None:
+            bounds = np.maximum(bounds, carried)
+        reach = STEP_SAFETY * bounds / rates
+        expected = np.where(t - reach <= frontier, np.maximum(frontier, t + reach), frontier)
+        got = cover_bounds(t, frontier, rates, np.empty(0) if carried is None else carried,
+                           moving, moving_pairs, gaps, sphere_gaps, DISTANCE_TOLERANCE,
+                           SELF_COLLISION_GAP, STEP_SAFETY)  # fmt: skip
+        np.testing.assert_array_equal(got[0], bounds)
+        np.testing.assert_array_equal(got[1], spheres)
+        np.testing.assert_array_equal(got[2], expected)
+        np.testing.assert_array_equal(got[3], np.argsort(expected, kind="stable"))
+        met += int(np.sum(t - reach <= frontier))
+        fell_short += int(np.sum(t - reach > frontier))
+    assert met > 100 and fell_short > 100  # both cases of the frontier update were compared
+
+
+def test_fcl_distance_is_fcls_and_leaves_its_result_alone(arm):
+    """`fcl_distance` returns what `fcl.distance` returns with a fresh result (-1 for shapes
+    that intersect), for meshes, convex pieces and boxes, and its shared result is never
+    written."""
+    import fcl
+
+    from temp_gym.worlds.collision import arm_self
+
+    exact = ArmExactChecker(arm, arm.joint_limits(), *BOXES)
+    request = fcl.DistanceRequest()
+    compared = touching = 0
+    for q in random_configs(arm, 40, seed=29):
+        poses = arm.forward_kinematics(q)[0]
+        for j in range(1, arm.num_bodies):
+            exact._pose_body(poses, j)
+            posed = arm_self.transform(poses[j])
+            for piece in exact._pieces[j]:
+                piece.setTransform(posed)
+            objects = [obj for obj, _ in exact._elements[j]] + exact._pieces[j]
+            for obj in objects:
+                for obstacle in exact._obstacles:
+                    expected = fcl.distance(obj, obstacle, request, fcl.DistanceResult())
+                    assert arm_self.fcl_distance(obj, obstacle, request) == expected
+                    compared += 1
+                    touching += expected < 0
+    assert compared > 1000 and touching > 10
+    assert arm_self._UNWRITTEN.min_distance == -np.inf
+    assert arm_self._UNWRITTEN.nearest_points == [None, None]
 
 
 def test_carried_bounds_give_the_verdicts_of_measuring_at_every_pose(arm, checkers):

@@ -45,7 +45,13 @@ import numpy as np
 from temp_gym.problem.obstacles import BOX, CYLINDER
 from temp_gym.worlds.arm.kinematics import identity_poses
 from temp_gym.worlds.arm.model import ArmModel
-from temp_gym.worlds.collision.arm_exact_bounds import aabb_gaps_into, pose_bounds
+from temp_gym.worlds.collision.arm_exact_bounds import (
+    aabb_gaps_into,
+    box_center,
+    carried_bounds,
+    cover_bounds,
+    pose_bounds,
+)
 from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.arm_self import (
@@ -53,6 +59,7 @@ from temp_gym.worlds.collision.arm_self import (
     SELF_COLLISION_GAP,
     BodyHulls,
     bounding_spheres,
+    fcl_distance,
     piece_models,
     transform,
 )
@@ -73,6 +80,8 @@ backwards). The fraction shrinks by `AHEAD_SHRINK` when a span falls short and g
 MotionBenchMaker's scenes and on random motions in generated workspaces."""
 AHEAD_GROWTH = 1.5
 AHEAD_SHRINK = 0.5
+_NONE_CARRIED = np.empty(0)
+"""`cover_bounds`'s ``carried`` when nothing is carried."""
 
 
 def _mesh_model(vertices: np.ndarray, faces: np.ndarray) -> fcl.BVHModel:
@@ -257,6 +266,7 @@ class ArmExactChecker:
         self._obstacles = obstacle_objects(self.obstacles)
         # fcl measures curved and turned obstacles by GJK: their distances get its tolerance.
         self._tolerance = np.where(self.obstacles.axis_aligned, 0.0, DISTANCE_TOLERANCE)
+        self._gjk_tolerance = self._tolerance.tolist()
         self._elements = [
             [(fcl.CollisionObject(shape, fcl.Transform()), pose) for shape, pose in body]
             for body in element_models(arm)
@@ -280,6 +290,7 @@ class ArmExactChecker:
         self._sphere_centers, self._sphere_radii = bounding_spheres(arm)
         self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
         self.base_free = not base_collides(arm, self.obstacles)
+        self._request = fcl.DistanceRequest()
         self.poses_measured = 0
         """Poses of motions measured so far (a diagnostic: what certification costs)."""
         self.description = (
@@ -346,21 +357,21 @@ class ArmExactChecker:
         its elements), obstacles visited nearest first and the visit stopped once no obstacle
         left can lower it.
         """
-        request = fcl.DistanceRequest()
+        request = self._request
         posed = [False, False, False]
         body = None  # transform(poses[j]), made once
         best = np.inf
-        for b in np.argsort(gaps, kind="stable"):
-            if gaps[b] - DISTANCE_TOLERANCE >= best:
+        gap = gaps.tolist()  # Python floats and ints: faster to read one by one
+        for b in np.argsort(gaps, kind="stable").tolist():
+            if gap[b] - DISTANCE_TOLERANCE >= best:
                 break
             piece_distances: list[float] = []  # tier 1's, per piece, which tier 2 reads
             for tier in range(3):
                 if tier == 0:
                     objects, tolerance, enough = [self._body_boxes[j]], 0.0, EXACT_DISTANCE_BELOW
                     if not posed[0]:
-                        rotation = np.ascontiguousarray(poses[j, :3, :3])
-                        shift = poses[j, :3, 3] + rotation @ self._local_center[j]
-                        self._body_boxes[j].setTransform(fcl.Transform(rotation, shift))
+                        self._body_boxes[j].setRotation(poses[j, :3, :3])
+                        self._body_boxes[j].setTranslation(box_center(poses, j, self._local_center))
                 elif tier == 1:
                     objects, tolerance, enough = self._pieces[j], DISTANCE_TOLERANCE, \
                         MESH_DISTANCE_BELOW  # fmt: skip
@@ -377,15 +388,12 @@ class ArmExactChecker:
                 if tier == 2:
                     found = self._element_distance(j, b, piece_distances, best)
                 else:
-                    distances = [
-                        fcl.distance(obj, self._obstacles[b], request, fcl.DistanceResult())
-                        for obj in objects
-                    ]
+                    distances = [fcl_distance(obj, self._obstacles[b], request) for obj in objects]
                     found = min(distances)
                     if tier == 1:
                         piece_distances = distances
                 # fcl reports -1 for intersecting shapes.
-                bound = max(found - tolerance - self._tolerance[b], 0.0)
+                bound = max(found - tolerance - self._gjk_tolerance[b], 0.0)
                 if bound >= best:
                     break
                 if bound >= enough:
@@ -413,13 +421,12 @@ class ArmExactChecker:
             lower = np.maximum(
                 np.asarray(piece_distances) - 2 * DISTANCE_TOLERANCE - self._tolerance[b], 0.0
             )
-        request = fcl.DistanceRequest()
+        request = self._request
         nearest = np.inf
         for e in np.argsort(lower, kind="stable"):
             if lower[e] >= nearest or min(nearest, lower[e]) - self._tolerance[b] >= best:
                 break
-            found = fcl.distance(elements[e][0], self._obstacles[b], request,
-                                 fcl.DistanceResult())  # fmt: skip
+            found = fcl_distance(elements[e][0], self._obstacles[b], request)
             nearest = min(nearest, found)
         return nearest
 
@@ -440,21 +447,13 @@ class ArmExactChecker:
         ``gaps`` and ``all_spheres`` are this pose's AABB gaps (B, M) and the pairs'
         bounding-sphere gaps (P,) (`pose_bounds`).
         """
-        parts = []
-        if len(moving):
-            parts.append(gaps[moving].min(axis=1) - DISTANCE_TOLERANCE)
-        spheres = None
-        if len(moving_pairs):
-            spheres = all_spheres[moving_pairs] - SELF_COLLISION_GAP
-            parts.append(spheres - DISTANCE_TOLERANCE)
-        bounds = np.concatenate(parts)
-        if carried is not None:
-            bounds = np.maximum(bounds, carried)
-        reach = STEP_SAFETY * bounds / rates
-        frontier = np.where(t - reach <= frontier, np.maximum(frontier, t + reach), frontier)
+        bounds, spheres, frontier, order = cover_bounds(
+            t, frontier, rates, _NONE_CARRIED if carried is None else carried, moving,
+            moving_pairs, gaps, all_spheres, DISTANCE_TOLERANCE, SELF_COLLISION_GAP, STEP_SAFETY
+        )  # fmt: skip
         bodies = len(moving)
         closest = least = np.inf
-        for k in np.argsort(frontier, kind="stable").tolist():
+        for k in order.tolist():
             if frontier[k] >= least:
                 break  # sorted: every item left reaches at least as far
             if k < bodies:
@@ -566,26 +565,24 @@ class ArmExactChecker:
         gaps = np.empty((self.arm.num_bodies, len(self._obstacles)))
         spheres = np.empty(len(self._hulls.pairs))
         frontier = np.zeros(len(rates))
-        measured: list[tuple[float, np.ndarray]] = []  # the last two poses' (t, known)
+        # (t, known) of the last pose measured and of the one before (none: empty bounds).
+        last, before = None, (0.0, _NONE_CARRIED)
         pending = None  # (t, spans) of a pose ahead whose spans fell short of the frontier
         t, ahead = 0.0, LOOK_AHEAD
         for _ in range(self.max_steps):
-            pose_bounds(start + t * delta, *self._kinematics, self._local_center,
+            pose_bounds(start, delta, t, *self._kinematics, self._local_center,
                         self._local_half, self._aabb_center, self._aabb_half,
                         self._sphere_centers, self._sphere_radii, self._hulls.pairs, poses, gaps,
                         spheres)  # fmt: skip
             # Nothing comes nearer than its rate times the distance in t: bounds carried here.
-            carried = None
-            for when, known in measured:
-                brought = known - rates * abs(t - when)
-                carried = brought if carried is None else np.maximum(carried, brought)
+            carried = None if last is None else carried_bounds(t, rates, *last, *before)
             frontier, closest, known, joined = self._cover(
                 poses, t, frontier, rates, carried, moving, moving_pairs, gaps, spheres
             )
             self.poses_measured += 1
             if closest <= MIN_CLEARANCE:
                 return False
-            measured = [(t, known)] + measured[:1]
+            before, last = last or before, (t, known)
             if pending is not None:  # the frontier may now meet that pose's spans
                 when, spans = pending
                 meets = when - spans <= frontier

@@ -31,9 +31,25 @@ SELF_COLLISION_GAP = 2 * COLLISION_PADDING
 """Two bodies whose pieces are this close (m) or closer are in collision."""
 
 
+_UNWRITTEN = fcl.DistanceResult(-np.inf)
+"""A result `fcl_distance` hands to fcl, which python-fcl never writes to (module docstring)."""
+
+
+def fcl_distance(first: fcl.CollisionObject, second: fcl.CollisionObject,
+                 request: fcl.DistanceRequest) -> float:  # fmt: skip
+    """The distance fcl measures between two collision objects (-1 when they intersect).
+
+    python-fcl copies the nearest points and the two geometries into the result object it is
+    given whenever the distance beats the result's, and that copy costs more than a box's
+    distance itself. A result whose distance is already -inf is never written; the distance
+    fcl returns is the same.
+    """
+    return fcl.distance(first, second, request, _UNWRITTEN)
+
+
 def transform(pose: np.ndarray) -> fcl.Transform:
     """An fcl transform of a 4x4 (or 3x4) pose."""
-    return fcl.Transform(np.ascontiguousarray(pose[:3, :3]), np.ascontiguousarray(pose[:3, 3]))
+    return fcl.Transform(pose[:3, :3], pose[:3, 3])  # it copies them into contiguous arrays
 
 
 def convex_model(vertices: np.ndarray) -> tuple[fcl.Convex, np.ndarray]:
@@ -115,7 +131,7 @@ class BodyHulls:
         best = np.inf
         for first in self._objects[a]:
             for second in self._objects[b]:
-                found = fcl.distance(first, second, self._request, fcl.DistanceResult())
+                found = fcl_distance(first, second, self._request)
                 best = min(best, max(found - DISTANCE_TOLERANCE, 0.0))
                 if best == 0.0:
                     return 0.0
@@ -149,6 +165,7 @@ __all__ = [
     "BodyHulls",
     "bounding_spheres",
     "convex_model",
+    "fcl_distance",
     "piece_models",
     "transform",
 ]
