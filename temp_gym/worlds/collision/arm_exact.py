@@ -31,10 +31,12 @@ otherwise a cheaper, smaller bound (the distance from its convex pieces, or, far
 `EXACT_DISTANCE_BELOW`, from its oriented bounding box). A bound found at one
 pose, less its rate times the distance in ``t``, still holds at the next, so a body or pair far
 from limiting the frontier is measured only when its carried bound could. The poses, the
-bounding-box gaps and the bounding-sphere gaps at each pose come from one compiled call
-(`temp_gym.worlds.collision.arm_exact_bounds`). It gives up, returning *not free*, when a
-clearance drops to `MIN_CLEARANCE` or after ``max_steps`` poses: the answer is then "not
-certified", which is what a certifier must say when unsure.
+bounding-box gaps and the bounding-sphere gaps at each pose come from one compiled call, and
+so do the carried bounds, the new frontier and the order of measuring
+(`temp_gym.worlds.collision.arm_exact_bounds`); Python is left with the loops that call fcl.
+It gives up, returning *not free*, when a clearance drops to `MIN_CLEARANCE` or after
+``max_steps`` poses: the answer is then "not certified", which is what a certifier must say
+when unsure.
 """
 
 from __future__ import annotations

@@ -7,6 +7,12 @@ Computed with numpy, these three cost more than the fcl calls they save; `pose_b
 them in one compiled call. The bounding-box gaps are `aabb_gaps_into`'s, which
 `ArmExactChecker._aabb_gaps` calls too; the sphere gaps are `BodyHulls.sphere_gaps`'s arithmetic
 for one pose (that method keeps numpy for batches of poses), up to the order of a few roundings.
+
+The bookkeeping between those bounds and fcl is compiled too, for the same reason: the bounds
+carried from the last two poses (`carried_bounds`), each body's and pair's cheap bound, the new
+frontier and the order in which to measure (`cover_bounds`), and where a body's bounding box
+stands (`box_center`). These repeat numpy's arithmetic element by element, so the certifier
+measures the same poses and gives the same verdicts as when numpy did them.
 """
 
 from __future__ import annotations

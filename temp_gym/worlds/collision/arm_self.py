@@ -32,7 +32,7 @@ SELF_COLLISION_GAP = 2 * COLLISION_PADDING
 
 
 _UNWRITTEN = fcl.DistanceResult(-np.inf)
-"""A result `fcl_distance` hands to fcl, which python-fcl never writes to (module docstring)."""
+"""The result `fcl_distance` hands to fcl: python-fcl never writes to it (`fcl_distance`)."""
 
 
 def fcl_distance(first: fcl.CollisionObject, second: fcl.CollisionObject,
