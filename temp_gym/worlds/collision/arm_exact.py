@@ -267,8 +267,8 @@ class ArmExactChecker:
         self._aabb_half = (upper - lower) / 2
         self._obstacles = obstacle_objects(self.obstacles)
         # fcl measures curved and turned obstacles by GJK: their distances get its tolerance.
-        self._tolerance = np.where(self.obstacles.axis_aligned, 0.0, DISTANCE_TOLERANCE)
-        self._gjk_tolerance = self._tolerance.tolist()
+        # A list: read one obstacle at a time, Python floats are faster than numpy scalars.
+        self._tolerance = np.where(self.obstacles.axis_aligned, 0.0, DISTANCE_TOLERANCE).tolist()
         self._elements = [
             [(fcl.CollisionObject(shape, fcl.Transform()), pose) for shape, pose in body]
             for body in element_models(arm)
@@ -395,7 +395,7 @@ class ArmExactChecker:
                     if tier == 1:
                         piece_distances = distances
                 # fcl reports -1 for intersecting shapes.
-                bound = max(found - tolerance - self._gjk_tolerance[b], 0.0)
+                bound = max(found - tolerance - self._tolerance[b], 0.0)
                 if bound >= best:
                     break
                 if bound >= enough:

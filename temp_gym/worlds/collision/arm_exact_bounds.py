@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from temp_gym.worlds.arm.kinematics import chain_into
+from temp_gym.worlds.arm.kinematics import chain_into, place
 
 
 @numba.njit(cache=True, nogil=True)
@@ -36,9 +36,8 @@ def aabb_gaps_into(poses, local_center, local_half, aabb_center, aabb_half, gaps
     center = np.empty(3)
     half = np.empty(3)
     for j in range(bodies):
+        center[0], center[1], center[2] = place(poses, j, local_center, j)
         for i in range(3):
-            center[i] = (poses[j, i, 0] * local_center[j, 0] + poses[j, i, 1] * local_center[j, 1]
-                         + poses[j, i, 2] * local_center[j, 2]) + poses[j, i, 3]  # fmt: skip
             half[i] = (abs(poses[j, i, 0]) * local_half[j, 0]
                        + abs(poses[j, i, 1]) * local_half[j, 1]
                        + abs(poses[j, i, 2]) * local_half[j, 2])  # fmt: skip
@@ -72,10 +71,7 @@ def pose_bounds(start, delta, t, kind, rotation, shift, local_center, local_half
     bodies = gaps.shape[0]
     world = np.empty((bodies, 3))
     for j in range(bodies):
-        for i in range(3):
-            world[j, i] = (poses[j, i, 0] * sphere_centers[j, 0]
-                           + poses[j, i, 1] * sphere_centers[j, 1]
-                           + poses[j, i, 2] * sphere_centers[j, 2]) + poses[j, i, 3]  # fmt: skip
+        world[j, 0], world[j, 1], world[j, 2] = place(poses, j, sphere_centers, j)
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
         dx = world[a, 0] - world[b, 0]
@@ -88,9 +84,7 @@ def pose_bounds(start, delta, t, kind, rotation, shift, local_center, local_half
 def box_center(poses, j, local_center):
     """World center ``(3,)`` of body ``j``'s bounding box (``local_center[j]`` in its frame)."""
     center = np.empty(3)
-    for i in range(3):
-        center[i] = (poses[j, i, 0] * local_center[j, 0] + poses[j, i, 1] * local_center[j, 1]
-                     + poses[j, i, 2] * local_center[j, 2]) + poses[j, i, 3]  # fmt: skip
+    center[0], center[1], center[2] = place(poses, j, local_center, j)
     return center
 
 
