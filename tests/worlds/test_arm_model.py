@@ -91,3 +91,49 @@ def test_a_model_copies_and_pickles_as_its_description(arms):
     assert again is arm  # the process's cached model
     np.testing.assert_array_equal(again.forward_kinematics(np.zeros((1, arm.dim))),
                                   arm.forward_kinematics(np.zeros((1, arm.dim))))  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["test_arm", "xarm6", "kuka_iiwa14", "franka_panda"])
+def test_segment_levers_bound_how_far_points_get_from_each_axis(arms, name):
+    """Along a motion, every point of a body stays within its lever arm of each joint's axis,
+    so it moves at most ``sum_i |dq_i| lever[i, j]`` per unit of the motion's parameter; and
+    the lever arms of one motion are often shorter than the arm's bound for all motions."""
+    from temp_gym.worlds.arm.kinematics import identity_poses, segment_levers_into
+
+    arm = arms[name]
+    kind, rotation, shift = arm.kinematic_arrays()
+    radii = arm.motion_radii()
+    points = [np.concatenate(g.pieces) if g.pieces else np.zeros((0, 3)) for g in arm.geometry]
+    # One root sphere per body with pieces, holding them all.
+    counts = [1 if len(p) else 0 for p in points]
+    body_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    node_centers = np.array([p.mean(axis=0) for p in points if len(p)])
+    node_radii = np.array([np.linalg.norm(p - p.mean(axis=0), axis=1).max() for p in points
+                           if len(p)])  # fmt: skip
+    rng = np.random.default_rng(4)
+    starts = random_configs(arm, 30, seed=5)
+    ends = np.clip(starts + rng.normal(0, 0.4, size=starts.shape), *arm.joint_limits())
+    lever = np.empty(radii.shape)
+    shorter = 0
+    for e in range(len(starts)):
+        segment_levers_into(starts, ends, e, kind, rotation, shift, radii, body_start,
+                            node_centers, node_radii, identity_poses(arm.num_bodies),
+                            np.empty(arm.dim), np.empty(arm.dim), np.empty(arm.dim),
+                            lever)  # fmt: skip
+        assert (lever <= radii).all()
+        shorter += int((lever < radii - 1e-3).sum())
+        t = np.linspace(0.0, 1.0, 101)
+        poses = arm.forward_kinematics(starts[e] + t[:, None] * (ends[e] - starts[e]))
+        speed = np.abs(ends[e] - starts[e]) @ lever
+        for j, body_points in enumerate(points):
+            if len(body_points) == 0:
+                continue
+            world = body_points @ poses[:, j, :3, :3].transpose(0, 2, 1) + poses[:, j, None, :3, 3]
+            for i in np.flatnonzero((kind == 0) & (np.arange(arm.dim) < j)):
+                offset = world - poses[:, i + 1, None, :3, 3]
+                axis = poses[:, i + 1, None, :3, 2]
+                away = np.linalg.norm(np.cross(offset, axis), axis=2)
+                assert away.max() <= lever[i, j] + 1e-9, (name, e, i, j)
+            step = np.linalg.norm(np.diff(world, axis=0), axis=2).max()
+            assert step <= speed[j] * (t[1] - t[0]) + 1e-9, (name, e, j)
+    assert shorter > 0, name

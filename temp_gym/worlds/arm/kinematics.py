@@ -137,6 +137,77 @@ def place(poses, j, centers, k):
     return place_point(poses, j, centers[k, 0], centers[k, 1], centers[k, 2])
 
 
+LEVER_SLACK = 1e-6
+"""Added (m) to every lever arm `segment_levers_into` measures: it covers `FAST_FK_MARGIN`
+and rounding many times over."""
+
+
+@hot_inline
+def _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, first) -> None:
+    """How far each body's root sphere reaches from each revolute joint's axis that moves it.
+
+    Body ``j`` from joint ``i``'s axis in ``poses``: into ``lever[i, j]`` (``first``) or added.
+    """
+    bodies = poses.shape[0]
+    for j in range(1, bodies):
+        root = body_start[j]
+        if root == body_start[j + 1]:
+            continue
+        cx, cy, cz = place(poses, j, node_centers, root)
+        for i in range(j):
+            if kind[i] != 0:
+                continue
+            # Joint i turns about the z axis of body i + 1's frame, through its origin.
+            vx = cx - poses[i + 1, 0, 3]
+            vy = cy - poses[i + 1, 1, 3]
+            vz = cz - poses[i + 1, 2, 3]
+            zx, zy, zz = poses[i + 1, 0, 2], poses[i + 1, 1, 2], poses[i + 1, 2, 2]
+            wx, wy, wz = vy * zz - vz * zy, vz * zx - vx * zz, vx * zy - vy * zx
+            reach = (wx * wx + wy * wy + wz * wz) ** 0.5 + node_radii[root]
+            lever[i, j] = reach if first else lever[i, j] + reach
+
+
+@hot_inline
+def segment_levers_into(starts, ends, e, kind, rotation, shift, motion, body_start,
+                        node_centers, node_radii, poses, q, sines, cosines,
+                        lever) -> None:  # fmt: skip
+    """Lever arms of one motion: how far any point of each body gets from each joint's axis.
+
+    ``lever[i, j]`` bounds how far from joint ``i``'s axis any point of body ``j``'s root
+    sphere gets along the straight motion ``starts[e] -> ends[e]``; at most ``motion[i, j]``.
+
+    ``motion`` (`ArmModel.motion_radii`) bounds it over every configuration. Along one motion
+    it is smaller for a folded arm: the distance ``D`` at either end, measured, grows by at
+    most ``S = sum over the joints k between i and j of |dq_k| motion[k, j]`` (they move body
+    ``j`` relative to the axis) over the motion, so ``D(t) <= min(D(0) + t S, D(1) + (1 - t)
+    S) <= (D(0) + D(1) + S) / 2``. A point of body ``j`` then moves at most
+    ``sum_i |dq_i| lever[i, j]`` per unit of the motion's parameter, anywhere along it. For a
+    prismatic joint, a body without spheres and joints that do not move a body it is
+    ``motion``. ``poses``, ``q``, ``sines`` and ``cosines`` are scratch.
+    """
+    dim = kind.shape[0]
+    for i in range(dim):
+        q[i] = starts[e, i]
+    sincos_into(q, 0, dim, sines, cosines)
+    chain_into(poses, kind, rotation, shift, cosines, sines, 0, q, 0)
+    _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, True)
+    for i in range(dim):
+        q[i] = ends[e, i]
+    sincos_into(q, 0, dim, sines, cosines)
+    chain_into(poses, kind, rotation, shift, cosines, sines, 0, q, 0)
+    _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, False)
+    for j in range(poses.shape[0]):
+        spheres = body_start[j] < body_start[j + 1]
+        for i in range(dim):
+            if not (spheres and kind[i] == 0 and i < j):
+                lever[i, j] = motion[i, j]
+                continue
+            between = 0.0
+            for k in range(i + 1, j):
+                between += abs(ends[e, k] - starts[e, k]) * motion[k, j]
+            lever[i, j] = min(motion[i, j], 0.5 * (lever[i, j] + between) + LEVER_SLACK)
+
+
 @numba.njit(cache=True, nogil=True)
 def identity_poses(count):
     """``(count, 3, 4)`` poses, the first the identity (the base), the rest zero."""
@@ -162,6 +233,8 @@ def fk_batch(configs, kind, rotation, shift):
 
 __all__ = [
     "FAST_FK_MARGIN",
+    "LEVER_SLACK",
+    "segment_levers_into",
     "place",
     "place_point",
     "fk_batch",

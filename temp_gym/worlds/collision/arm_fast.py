@@ -27,15 +27,20 @@ shaped input raises `ValueError`.
 
 **Motion validity (resolution), adaptive near surfaces.** An edge is the straight joint-space
 segment. Moving joint ``i`` by ``dq_i`` moves any point of body ``j`` by at most
-``|dq_i| R[i, j]`` (`ArmModel.motion_radii`), so along the edge body ``j`` moves at most
-``W_j = sum_i |dq_i| R[i, j]``. The edge is cut into ``n = ceil(max_j W_j / resolution)``
+``|dq_i| L[i, j]``, where the lever arm ``L[i, j]`` bounds how far the point gets from the
+joint's axis along this edge: the distances measured at the two ends, plus what the joints in
+between can add (`temp_gym.worlds.arm.kinematics.segment_levers_into`), and never more than
+the arm's bound over all configurations (`ArmModel.motion_radii`). So along the edge body
+``j`` moves at most
+``W_j = sum_i |dq_i| L[i, j]``. The edge is cut into ``n = ceil(max_j W_j / resolution)``
 intervals; an interval of half-width ``h`` (in the edge's parameter) is certified by the state
-at its middle with body ``j``'s spheres grown by ``W_j h``: every pose of the interval is
-within that of the checked one. An interval whose grown check fails while its middle state is
-free is split in two, and so on until the growth is below `GROWTH_FLOOR`: an edge that runs a
-few millimetres from a surface is certified with small steps there and large ones elsewhere,
-so a start or goal near a surface can be left and reached. The same grown spheres certify the
-relative motion of every enabled body pair (`arm_fast_self`).
+at its middle with body ``j``'s spheres grown by ``W_j h`` against obstacles: every pose of the
+interval is within that of the checked one. An interval whose grown check fails while its
+middle state is free is split in two, and so on until the growth is below `GROWTH_FLOOR`: an
+edge that runs a few millimetres from a surface is certified with small steps there and large
+ones elsewhere, so a start or goal near a surface can be left and reached. A body pair is
+certified by its relative motion instead, which only the joints between its two bodies make
+(`arm_fast_self`): a sweep of the shoulder moves the forearm and the hand as one.
 """
 
 from __future__ import annotations
@@ -335,7 +340,8 @@ class ArmSphereChecker:
         steps = max(1, int(math.ceil(float(np.max(self._motion_radii.sum(axis=0))) * 2.0
                                      / self.resolution)))  # fmt: skip
         work = (np.empty((1, dim)), np.empty((1, dim)),
-                *_edge_work(dim, bodies, len(self._self_model[1]), steps))  # fmt: skip
+                *_edge_work(dim, bodies, len(self._self_model[1]), len(self._self_model[0]),
+                            steps))  # fmt: skip
         work[3][0] = self._trees[0][self._trees[5][0]] if self._trees[5][1] > 0 else 0.0
         settings = np.array([1.0 if self.base_free else 0.0, self.resolution])
         context = (settings, self._bounds, self._kinematics, self._trees, self._obstacle_arrays,

@@ -18,7 +18,12 @@ import math
 import numba
 import numpy as np
 
-from temp_gym.worlds.arm.kinematics import chain_into, identity_poses, sincos_into
+from temp_gym.worlds.arm.kinematics import (
+    chain_into,
+    identity_poses,
+    segment_levers_into,
+    sincos_into,
+)
 from temp_gym.worlds.collision.arm_fast_obstacles import (
     CERTAIN,
     FREE,
@@ -110,6 +115,16 @@ def _pose_free(sines, cosines, base, values, value_base, kind, rotation, shift,
     return FREE
 
 
+@numba.njit(cache=True, nogil=True)
+def _state_pair_growth(pairs, inflation):
+    """``(P, 2)``: each sphere pair's two bodies grown by their state-check inflation."""
+    growth = np.empty((pairs.shape[0], 2))
+    for p in range(pairs.shape[0]):
+        growth[p, 0] = inflation[pairs[p, 0]]
+        growth[p, 1] = inflation[pairs[p, 1]]
+    return growth
+
+
 _BLOCK = 256
 """States per block: sines and cosines are computed a block at a time, vectorized."""
 
@@ -132,8 +147,9 @@ def states_free_kernel(states, bounds, kinematics, trees, boxes, self_model, cle
     inflation = np.full(bodies, clearance)
     inflation[0] = 0.0
     work = (identity_poses(bodies), root_world, inflation,
-            np.full(self_model[1].shape[0], clearance), np.empty(_BLOCK * dim),
-            np.empty(_BLOCK * dim), scratch)  # fmt: skip
+            np.full(self_model[1].shape[0], clearance), _state_pair_growth(self_model[0],
+                                                                           inflation),
+            np.empty(_BLOCK * dim), np.empty(_BLOCK * dim), scratch)  # fmt: skip
     _states_loop(states, states.reshape(-1), bounds, kinematics, trees, boxes, self_model,
                  work, out)  # fmt: skip
     return out
@@ -148,7 +164,7 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
     box_params, body_boxes, body_box_count, body_lower, body_upper, hulls = boxes
     (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
      field_layout) = self_model  # fmt: skip
-    poses, root_world, inflation, table_growth, sines, cosines, scratch = work
+    poses, root_world, inflation, table_growth, pair_growth, sines, cosines, scratch = work
     num, dim = states.shape
     for first in range(0, num, _BLOCK):
         last = min(first + _BLOCK, num)
@@ -168,12 +184,12 @@ def _states_loop(states, flat, bounds, kinematics, trees, boxes, self_model, wor
             ) == FREE  # fmt: skip
             # Most poses keep every pair's root spheres apart: no tree walk.
             out[i] = obstacles_free and (
-                roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
+                roots_apart(root_world, sphere_pairs, node_radii, body_start, pair_growth,
                             FAST_SELF_GAP)
                 or pairs_free(poses, sphere_pairs, node_centers, node_radii, node_skip,
                               node_first, node_count, body_start, centers, radii,
                               inner_centers, inner_radii, inner_start, capsules,
-                              field_values, field_layout, inflation, FAST_SELF_GAP, scratch)
+                              field_values, field_layout, pair_growth, FAST_SELF_GAP, scratch)
             )  # fmt: skip
 
 
@@ -182,12 +198,13 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                 node_skip, node_first, node_count, body_start, centers, radii, inner_centers,
                 inner_radii, inner_start, capsules, box_params, body_boxes, body_box_count,
                 body_lower, body_upper, hulls, sphere_pairs, field_values, field_layout,
-                table_grid, table_bounds, inflation, table_growth, poses, root_world, sines,
-                cosines, scratch) -> int:  # fmt: skip
+                table_grid, table_bounds, inflation, table_growth, pair_growth, poses, root_world,
+                sines, cosines, scratch) -> int:  # fmt: skip
     """`_pose_free`'s answer for the one state ``q``, self-collision included.
 
-    Spheres are grown by ``inflation``; no bounds check (an edge's states lie between its
-    checked ends).
+    Spheres are grown by ``inflation`` against obstacles, the sphere pairs by ``pair_growth``
+    (`arm_fast_self`) and the table pairs by ``table_growth``; no bounds check (an edge's
+    states lie between its checked ends).
     """
     if not tables_free(q, 0, table_grid, table_bounds, table_growth, TABLE_MARGIN):
         return HIT
@@ -199,11 +216,11 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
                         poses, root_world)  # fmt: skip
     if answer != FREE:
         return answer
-    if roots_apart(root_world, sphere_pairs, node_radii, body_start, inflation,
+    if roots_apart(root_world, sphere_pairs, node_radii, body_start, pair_growth,
                    FAST_SELF_GAP) or pairs_free(
             poses, sphere_pairs, node_centers, node_radii, node_skip, node_first, node_count,
             body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-            field_values, field_layout, inflation, FAST_SELF_GAP, scratch):  # fmt: skip
+            field_values, field_layout, pair_growth, FAST_SELF_GAP, scratch):  # fmt: skip
         return FREE
     return HIT
 
@@ -214,19 +231,28 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
                body_box_count, body_lower, body_upper, hulls, sphere_pairs, field_values,
                field_layout, table_grid, table_bounds, table_motion, motion, resolution, poses,
-               root_world,
-               sweep, inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
-               stack_high, scratch) -> bool:  # fmt: skip
-    """Whether edge ``starts[e] -> ends[e]`` is free (`arm_fast`'s adaptive intervals)."""
+               root_world, sweep, inflation, table_sweep, table_growth, pair_sweep,
+               pair_growth, lever, q, sines, cosines, stack_low, stack_high,
+               scratch) -> bool:  # fmt: skip
+    """Whether edge ``starts[e] -> ends[e]`` is free (`arm_fast`'s adaptive intervals).
+
+    Against obstacles body ``j`` grows by its own motion, bounded with this motion's lever arms
+    (`segment_levers_into`); a sphere pair's second body by its motion relative to the first,
+    which only the joints between them make; a table pair by the same, with the arm's
+    lever-arm bounds (`arm_fast_self`).
+    """
     # The configuration space is a box: a segment with both ends in bounds stays in bounds.
     if not (_in_bounds(starts, e, bounds) and _in_bounds(ends, e, bounds)):
         return False
     dim = starts.shape[1]
+    segment_levers_into(starts, ends, e, kind, rotation, shift, motion, body_start,
+                        node_centers, node_radii, poses, q, sines, cosines,
+                        lever)  # fmt: skip
     worst = 0.0
     for j in range(sweep.shape[0]):
         total = 0.0
         for i in range(dim):
-            total += abs(ends[e, i] - starts[e, i]) * motion[i, j]
+            total += abs(ends[e, i] - starts[e, i]) * lever[i, j]
         sweep[j] = total
         worst = max(worst, total)
     for p in range(table_sweep.shape[0]):
@@ -234,6 +260,11 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
         for i in range(dim):
             total += abs(ends[e, i] - starts[e, i]) * table_motion[p, i]
         table_sweep[p] = total
+    for p in range(pair_sweep.shape[0]):
+        total = 0.0
+        for i in range(sphere_pairs[p, 0], sphere_pairs[p, 1]):
+            total += abs(ends[e, i] - starts[e, i]) * lever[i, sphere_pairs[p, 1]]
+        pair_sweep[p] = total
     steps = max(1, int(math.ceil(worst / resolution)))
     # The intervals [k / steps, (k + 1) / steps], pushed so that the one at the end comes out
     # first, then the one at the start, then the middle ones in bisection order (coarsest
@@ -268,13 +299,15 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
             inflation[j] = sweep[j] * half
         for p in range(table_sweep.shape[0]):
             table_growth[p] = table_sweep[p] * half
+        for p in range(pair_sweep.shape[0]):
+            pair_growth[p, 1] = pair_sweep[p] * half
         answer = _state_free(q, kind, rotation, shift, node_centers,
                              node_radii, node_skip, node_first, node_count, body_start, centers,
                              radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                              body_boxes, body_box_count, body_lower, body_upper, hulls,
                              sphere_pairs,
                              field_values, field_layout, table_grid, table_bounds, inflation,
-                             table_growth, poses, root_world, sines, cosines,
+                             table_growth, pair_growth, poses, root_world, sines, cosines,
                              scratch)  # fmt: skip
         if answer == FREE:
             continue
@@ -285,12 +318,14 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
             inflation[j] = 0.0
         for p in range(table_sweep.shape[0]):
             table_growth[p] = 0.0
+        for p in range(pair_sweep.shape[0]):
+            pair_growth[p, 1] = 0.0
         if _state_free(q, kind, rotation, shift, node_centers, node_radii,
                        node_skip, node_first, node_count, body_start, centers, radii,
                        inner_centers, inner_radii, inner_start, capsules, box_params, body_boxes,
                        body_box_count, body_lower, body_upper, hulls, sphere_pairs,
                        field_values, field_layout, table_grid, table_bounds, inflation,
-                       table_growth, poses, root_world, sines, cosines,
+                       table_growth, pair_growth, poses, root_world, sines, cosines,
                        scratch) != FREE:  # fmt: skip
             return False
         stack_low[top], stack_high[top] = t, high
@@ -305,10 +340,14 @@ _STACK_DEPTH = 96
 
 
 @numba.njit(cache=True, nogil=True)
-def _edge_work(dim, bodies, tables, steps_hint):
-    """Scratch for `_edge_free`: poses, root centers, sweeps, a state, sines, the stack."""
+def _edge_work(dim, bodies, tables, pairs, steps_hint):
+    """Scratch for `_edge_free`: poses, centers, sweeps, growths, levers, a state, the stack.
+
+    A sphere pair's first body never grows (`arm_fast_self`): its column stays 0.
+    """
     return (identity_poses(bodies), np.zeros((bodies, 3)), np.empty(bodies), np.empty(bodies),
-            np.empty(tables), np.empty(tables), np.empty(dim), np.empty(dim), np.empty(dim),
+            np.empty(tables), np.empty(tables), np.empty(pairs), np.zeros((pairs, 2)),
+            np.empty((dim, bodies)), np.empty(dim), np.empty(dim), np.empty(dim),
             np.empty(steps_hint + _STACK_DEPTH), np.empty(steps_hint + _STACK_DEPTH))  # fmt: skip
 
 
@@ -335,8 +374,10 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
             worst = max(worst, total)
         if worst < 1e9:  # not NaN or inf: such an edge fails its bounds check
             most = max(most, int(math.ceil(worst / resolution)))
-    (poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines, cosines,
-     stack_low, stack_high) = _edge_work(dim, bodies, table_grid.shape[0], most)  # fmt: skip
+    (poses, root_world, sweep, inflation, table_sweep, table_growth, pair_sweep, pair_growth,
+     lever, q, sines, cosines, stack_low, stack_high) = _edge_work(dim, bodies, table_grid.shape[0],
+                                                         sphere_pairs.shape[0],
+                                                         most)  # fmt: skip
     if body_start[0] < body_start[1]:
         for k in range(3):
             root_world[0, k] = node_centers[body_start[0], k]
@@ -346,11 +387,10 @@ def edges_free_kernel(starts, ends, bounds, kinematics, trees, boxes, self_model
                             body_start, centers, radii, inner_centers, inner_radii,
                             inner_start, capsules, box_params, body_boxes, body_box_count,
                             body_lower, body_upper, hulls, sphere_pairs, field_values,
-                            field_layout,
-                            table_grid, table_bounds, table_motion, motion, resolution, poses,
-                            root_world, sweep,
-                            inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
-                            stack_high, scratch)  # fmt: skip
+                            field_layout, table_grid, table_bounds, table_motion, motion,
+                            resolution, poses, root_world, sweep, inflation, table_sweep,
+                            table_growth, pair_sweep, pair_growth, lever, q, sines, cosines,
+                            stack_low, stack_high, scratch)  # fmt: skip
     return out
 
 
@@ -370,8 +410,8 @@ def motion_free_kernel(context, start, end) -> bool:
     box_params, body_boxes, body_box_count, body_lower, body_upper, hulls = boxes
     (sphere_pairs, table_grid, table_bounds, table_motion, field_values,
      field_layout) = self_model  # fmt: skip
-    (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, q, sines,
-     cosines, stack_low, stack_high) = work  # fmt: skip
+    (starts, ends, poses, root_world, sweep, inflation, table_sweep, table_growth, pair_sweep,
+     pair_growth, lever, q, sines, cosines, stack_low, stack_high) = work  # fmt: skip
     for i in range(start.shape[0]):
         starts[0, i] = start[i]
         ends[0, i] = end[i]
@@ -389,9 +429,9 @@ def motion_free_kernel(context, start, end) -> bool:
                       centers, radii, inner_centers, inner_radii, inner_start, capsules, box_params,
                       body_boxes, body_box_count, body_lower,
                       body_upper, hulls, sphere_pairs, field_values, field_layout, table_grid,
-                      table_bounds, table_motion, motion, settings[1], poses, root_world, sweep,
-                      inflation, table_sweep, table_growth, q, sines, cosines, stack_low,
-                      stack_high, scratch)  # fmt: skip
+                      table_bounds, table_motion, motion, settings[1], poses, root_world,
+                      sweep, inflation, table_sweep, table_growth, pair_sweep, pair_growth,
+                      lever, q, sines, cosines, stack_low, stack_high, scratch)  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True)
@@ -404,7 +444,6 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
      field_layout) = self_model  # fmt: skip
     dim = state.shape[0]
     poses = identity_poses(dim + 1)
-    inflation = np.zeros(dim + 1)
     chain_into(poses, kind, rotation, shift, np.cos(state), np.sin(state), 0, state, 0)
     spheres_hit = np.zeros(sphere_pairs.shape[0], dtype=np.bool_)
     for p in range(sphere_pairs.shape[0]):
@@ -412,7 +451,8 @@ def colliding_pairs_kernel(state, kinematics, trees, self_model, scratch):
                                        node_centers, node_radii, node_skip, node_first,
                                        node_count, body_start, centers, radii, inner_centers,
                                        inner_radii, inner_start, capsules, field_values,
-                                       field_layout, inflation, FAST_SELF_GAP, scratch)  # fmt: skip
+                                       field_layout, 0.0, 0.0, FAST_SELF_GAP,
+                                       scratch)  # fmt: skip
     tables_hit = np.zeros(table_grid.shape[0], dtype=np.bool_)
     for p in range(table_grid.shape[0]):
         tables_hit[p] = not tables_free(state, 0, table_grid[p : p + 1], table_bounds[p : p + 1],

@@ -22,10 +22,13 @@ leaf ``(c_a, r_a)`` holds ``x`` and some ``(c_b, r_b)`` holds ``y``, and ``|c_a 
 padded distance from below over its whole cell, so a pose the table calls free has true
 distance above the gap plus ``2 * DISTANCE_TOLERANCE``.
 
-**Motions.** In an edge check body ``j``'s spheres are grown by ``g_j`` (the distance any of
-its points moves between a checked pose and the poses it stands for; see `arm_fast`), and a
-pair is tested with both grown radii; a table pair's bound must exceed the pair's relative
-motion over the same span. So the test certifies the relative motion of the pair.
+**Motions.** A pair is tested with its own growth, ``growth[p] = (g_a, g_b)``, added to the
+two bodies' radii. In an edge check that is the pair's *relative* motion: in body ``a``'s frame
+only the joints between the two bodies move body ``b``, so ``g_a = 0`` and ``g_b`` bounds how
+far a point of ``b`` moves relative to ``a`` between a checked pose and the poses it stands
+for (`ArmModel.relative_motion_radii`; the shoulder's large sweep, which carries both bodies
+as one, does not count). A table pair's bound must exceed the same relative motion. In a state
+check with a clearance both bodies grow by it.
 """
 
 from __future__ import annotations
@@ -97,8 +100,10 @@ def _segments_apart(poses, a, b, capsules, reach) -> bool:
 @hot_inline
 def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node_count,
               body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-              field_values, field_layout, inflation, gap, stack) -> bool:  # fmt: skip
-    """Whether the grown leaves of bodies ``a`` and ``b`` stay more than ``gap`` apart.
+              field_values, field_layout, grow_a, grow_b, gap, stack) -> bool:  # fmt: skip
+    """Whether the leaves of ``a`` and ``b``, grown by ``grow_a`` and ``grow_b``, stay apart.
+
+    Apart: more than ``gap``.
 
     A walk of both trees at once: a pair of nodes whose spheres are apart is dropped, else the
     larger inner node of the two is split, and two leaf nodes compare their leaf spheres. Two
@@ -112,7 +117,6 @@ def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node
     root_a, root_b = body_start[a], body_start[b]
     if root_a == body_start[a + 1] or root_b == body_start[b + 1]:
         return True
-    grow_a, grow_b = inflation[a], inflation[b]
     ax, ay, az = place(poses, a, node_centers, root_a)
     bx, by, bz = place(poses, b, node_centers, root_b)
     if not _near(ax, ay, az, bx, by, bz,
@@ -162,15 +166,16 @@ def pair_free(poses, a, b, node_centers, node_radii, node_skip, node_first, node
 
 
 @hot_inline
-def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bool:
+def roots_apart(root_world, pairs, node_radii, body_start, growth, gap) -> bool:
     """Whether every pair's grown root spheres are more than ``gap`` apart (broad phase).
 
-    ``root_world`` (B, 3) holds the roots' world centers.
+    ``root_world`` (B, 3) holds the roots' world centers, ``growth[p]`` (P, 2) pair ``p``'s
+    growth of its two bodies.
     """
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
-        reach = (node_radii[body_start[a]] + inflation[a] + node_radii[body_start[b]]
-                 + inflation[b] + gap)  # fmt: skip
+        reach = (node_radii[body_start[a]] + growth[p, 0] + node_radii[body_start[b]]
+                 + growth[p, 1] + gap)  # fmt: skip
         if _near(root_world[a, 0], root_world[a, 1], root_world[a, 2], root_world[b, 0],
                  root_world[b, 1], root_world[b, 2], reach):  # fmt: skip
             return False
@@ -180,13 +185,16 @@ def roots_apart(root_world, pairs, node_radii, body_start, inflation, gap) -> bo
 @hot_inline
 def pairs_free(poses, pairs, node_centers, node_radii, node_skip, node_first, node_count,
                body_start, centers, radii, inner_centers, inner_radii, inner_start, capsules,
-               field_values, field_layout, inflation, gap, stack) -> bool:  # fmt: skip
-    """Whether every enabled pair is free (`pair_free`), stopping at the first collision."""
+               field_values, field_layout, growth, gap, stack) -> bool:  # fmt: skip
+    """Whether every enabled pair is free (`pair_free`), stopping at the first collision.
+
+    ``growth[p]`` (P, 2) is pair ``p``'s growth of its two bodies (module docstring).
+    """
     for p in range(pairs.shape[0]):
         if not pair_free(poses, pairs[p, 0], pairs[p, 1], node_centers, node_radii, node_skip,
                          node_first, node_count, body_start, centers, radii, inner_centers,
                          inner_radii, inner_start, capsules, field_values, field_layout,
-                         inflation, gap, stack):  # fmt: skip
+                         growth[p, 0], growth[p, 1], gap, stack):  # fmt: skip
             return False
     return True
 
