@@ -143,13 +143,19 @@ and rounding many times over."""
 
 
 @hot_inline
-def _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, first) -> None:
+def _measure_levers(rows, e, kind, rotation, shift, body_start, node_centers, node_radii, poses,
+                    q, sines, cosines, lever, first) -> None:  # fmt: skip
     """How far each body's root sphere reaches from each revolute joint's axis that moves it.
 
-    Body ``j`` from joint ``i``'s axis in ``poses``: into ``lever[i, j]`` (``first``) or added.
+    At the configuration ``rows[e]``: body ``j`` from joint ``i``'s axis, into ``lever[i, j]``
+    (``first``) or added to it. ``poses``, ``q``, ``sines`` and ``cosines`` are scratch.
     """
-    bodies = poses.shape[0]
-    for j in range(1, bodies):
+    dim = kind.shape[0]
+    for i in range(dim):
+        q[i] = rows[e, i]
+    sincos_into(q, 0, dim, sines, cosines)
+    chain_into(poses, kind, rotation, shift, cosines, sines, 0, q, 0)
+    for j in range(1, poses.shape[0]):
         root = body_start[j]
         if root == body_start[j + 1]:
             continue
@@ -185,17 +191,11 @@ def segment_levers_into(starts, ends, e, kind, rotation, shift, motion, body_sta
     prismatic joint, a body without spheres and joints that do not move a body it is
     ``motion``. ``poses``, ``q``, ``sines`` and ``cosines`` are scratch.
     """
+    _measure_levers(starts, e, kind, rotation, shift, body_start, node_centers, node_radii,
+                    poses, q, sines, cosines, lever, True)  # fmt: skip
+    _measure_levers(ends, e, kind, rotation, shift, body_start, node_centers, node_radii,
+                    poses, q, sines, cosines, lever, False)  # fmt: skip
     dim = kind.shape[0]
-    for i in range(dim):
-        q[i] = starts[e, i]
-    sincos_into(q, 0, dim, sines, cosines)
-    chain_into(poses, kind, rotation, shift, cosines, sines, 0, q, 0)
-    _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, True)
-    for i in range(dim):
-        q[i] = ends[e, i]
-    sincos_into(q, 0, dim, sines, cosines)
-    chain_into(poses, kind, rotation, shift, cosines, sines, 0, q, 0)
-    _measure_levers(poses, kind, body_start, node_centers, node_radii, lever, False)
     for j in range(poses.shape[0]):
         spheres = body_start[j] < body_start[j + 1]
         for i in range(dim):

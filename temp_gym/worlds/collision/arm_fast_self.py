@@ -26,9 +26,11 @@ distance above the gap plus ``2 * DISTANCE_TOLERANCE``.
 two bodies' radii. In an edge check that is the pair's *relative* motion: in body ``a``'s frame
 only the joints between the two bodies move body ``b``, so ``g_a = 0`` and ``g_b`` bounds how
 far a point of ``b`` moves relative to ``a`` between a checked pose and the poses it stands
-for (`ArmModel.relative_motion_radii`; the shoulder's large sweep, which carries both bodies
-as one, does not count). A table pair's bound must exceed the same relative motion. In a state
-check with a clearance both bodies grow by it.
+for: those joints' motions times their lever arms to ``b`` along the edge
+(`temp_gym.worlds.arm.kinematics.segment_levers_into`); the shoulder's large sweep, which
+carries both bodies as one, does not count. A table pair's bound must exceed the same relative
+motion, with the arm's lever arms for every configuration (`ArmModel.relative_motion_radii`).
+In a state check with a clearance both bodies grow by it.
 """
 
 from __future__ import annotations
