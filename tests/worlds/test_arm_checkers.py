@@ -449,9 +449,8 @@ def test_lazy_cover_equals_measuring_every_body_and_pair(arms, workspaces, robot
         for _ in range(40):
             start = rng.uniform(*arm.joint_limits())
             delta = rng.normal(0, 0.3, size=arm.dim) * (rng.random(arm.dim) < 0.7)
-            sweep = np.abs(delta) @ exact._motion_radii
+            sweep, pair_sweep = exact._motion_rates(start, start + delta)
             moving = np.flatnonzero((sweep > 0) & exact._has_geometry)
-            pair_sweep = exact._pair_motion @ np.abs(delta)
             moving_pairs = np.flatnonzero(pair_sweep > 0)
             if len(moving) + len(moving_pairs) == 0:
                 continue
@@ -489,3 +488,38 @@ def test_lazy_cover_equals_measuring_every_body_and_pair(arms, workspaces, robot
                 else:
                     short += 1
     assert checked > 20 and blocked > 10 and short > 5, (checked, blocked, short)
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_motions_rates_bound_how_fast_its_bodies_move(arms, robot):
+    """Along a motion, no point of a body's pieces moves faster than the exact checker's rate
+    for it, nor a point of a pair's second body relative to the first faster than the pair's
+    rate; and the rates, from the motion's lever arms, are often below the arm's bound."""
+    arm = arms[robot]
+    exact = ArmExactChecker(arm, arm.joint_limits(), *NO_BOXES)
+    pairs = exact._hulls.pairs
+    points = [np.concatenate(g.pieces) if g.pieces else np.zeros((0, 3)) for g in arm.geometry]
+    rng = np.random.default_rng(21)
+    starts = _uniform(arm, 25, seed=22)
+    ends = np.clip(starts + rng.normal(0, 0.4, size=starts.shape), *arm.joint_limits())
+    t = np.linspace(0.0, 1.0, 201)
+    slower = 0
+    for start, end in zip(starts, ends):
+        sweep, pair_sweep = exact._motion_rates(start, end)
+        bound = np.abs(end - start) @ arm.motion_radii()
+        assert (sweep <= bound + 1e-12).all()
+        slower += int((sweep < 0.9 * bound).sum())
+        poses = arm.forward_kinematics(start + t[:, None] * (end - start))
+        world = [p @ poses[:, j, :3, :3].transpose(0, 2, 1) + poses[:, j, None, :3, 3]
+                 for j, p in enumerate(points)]  # fmt: skip
+        for j, body in enumerate(world):
+            if len(points[j]):
+                step = np.linalg.norm(np.diff(body, axis=0), axis=2).max()
+                assert step <= sweep[j] * (t[1] - t[0]) + 1e-9, (start, end, j)
+        for p, (a, b) in enumerate(pairs):
+            # Body b's points in body a's frame.
+            relative = np.einsum("tji,tkj->tki", poses[:, a, :3, :3],
+                                 world[b] - poses[:, a, None, :3, 3])  # fmt: skip
+            step = np.linalg.norm(np.diff(relative, axis=0), axis=2).max()
+            assert step <= pair_sweep[p] * (t[1] - t[0]) + 1e-9, (start, end, a, b)
+    assert slower > 0

@@ -18,9 +18,14 @@ than a link.
 
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
 point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
-``W_j = sum_i |b_i - a_i| R[i, j]`` (`ArmModel.motion_radii`). If ``d_j`` is a lower bound on
+``W_j = sum_i |b_i - a_i| L[i, j]`` and ``L[i, j]`` bounds how far body ``j`` gets from joint
+``i``'s axis along this segment: measured at both ends on a sphere around the body's pieces,
+plus what the joints in between can add, and never more than the arm's bound for every
+configuration, ``R[i, j]`` (`temp_gym.worlds.arm.kinematics.segment_levers_into`, as the fast
+checker bounds its edges; `ArmModel.motion_radii`). If ``d_j`` is a lower bound on
 body ``j``'s distance to every obstacle at ``q(t)``, nothing can touch while ``t`` stays within
-``d_j / W_j`` of it, on either side; likewise for body pairs with their relative motion. The
+``d_j / W_j`` of it, on either side; likewise for a body pair ``(a, b)`` at the rate of
+their relative motion, ``sum over a <= i < b of |b_i - a_i| L[i, b]``. The
 checker keeps, per body and pair, how far from ``t = 0`` the motion is certified, and measures
 poses until every one reaches ``t = 1``, using `STEP_SAFETY` of each span. It measures the next
 pose past that frontier (`LOOK_AHEAD`), so that its span covers the gap backwards as well as
@@ -45,8 +50,9 @@ import fcl
 import numpy as np
 
 from temp_gym.problem.obstacles import BOX, CYLINDER
-from temp_gym.worlds.arm.kinematics import identity_poses
+from temp_gym.worlds.arm.kinematics import identity_poses, segment_levers_into
 from temp_gym.worlds.arm.model import ArmModel
+from temp_gym.worlds.arm.sphere_tree import enclosing_sphere
 from temp_gym.worlds.collision.arm_exact_bounds import (
     aabb_gaps_into,
     box_center,
@@ -136,6 +142,32 @@ def _body_bounds(arm: ArmModel) -> tuple[np.ndarray, np.ndarray]:
                 highs.append(np.zeros(3))
         lows, highs = np.array(lows), np.array(highs)
         arrays = ((lows + highs) / 2, (highs - lows) / 2)
+        for array in arrays:
+            array.setflags(write=False)
+        arm._arrays[key] = arrays
+    return arm._arrays[key]
+
+
+def lever_spheres(arm: ArmModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A sphere around each body's convex pieces, in `segment_levers_into`'s layout (cached).
+
+    Returns ``(body_start, centers, radii)``: body ``j``'s sphere is row ``body_start[j]``
+    when ``body_start[j] < body_start[j + 1]``, and a body without pieces has none. The pieces
+    hold the body's collision elements, so every point of the body lies in its sphere.
+    """
+    key = "lever_spheres"
+    if key not in arm._arrays:
+        centers, radii, counts = [], [], []
+        for geometry in arm.geometry:
+            counts.append(1 if geometry.pieces else 0)
+            if geometry.pieces:
+                points = np.concatenate(geometry.pieces)
+                center, radius = enclosing_sphere(points, np.zeros(len(points)))
+                centers.append(center)
+                radii.append(radius)
+        arrays = (np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+                  np.array(centers, dtype=np.float64).reshape(-1, 3),
+                  np.array(radii, dtype=np.float64))  # fmt: skip
         for array in arrays:
             array.setflags(write=False)
         arm._arrays[key] = arrays
@@ -287,7 +319,14 @@ class ArmExactChecker:
             fcl.CollisionObject(fcl.Box(*np.maximum(2 * half, 1e-9)), fcl.Transform())
             for half in self._local_half
         ]
-        self._pair_motion = arm.relative_motion_radii(self._hulls.pairs)
+        # Joints i that move a pair's second body relative to its first (a <= i < b).
+        joints = np.arange(arm.dim)
+        self._pair_joints = ((joints >= self._hulls.pairs[:, :1])
+                             & (joints < self._hulls.pairs[:, 1:])).astype(np.float64)  # fmt: skip
+        self._lever_spheres = lever_spheres(arm)
+        self._lever = np.empty(self._motion_radii.shape)
+        self._lever_scratch = (identity_poses(arm.num_bodies), np.empty(arm.dim),
+                               np.empty(arm.dim), np.empty(arm.dim))  # fmt: skip
         self._kinematics = arm.kinematic_arrays()
         self._sphere_centers, self._sphere_radii = bounding_spheres(arm)
         self._has_geometry = np.array([bool(g.pieces) for g in arm.geometry])
@@ -552,13 +591,30 @@ class ArmExactChecker:
             start, end
         )
 
+    def _motion_rates(self, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """How fast the motion ``start -> end`` moves things, per unit of ``t``.
+
+        Returns ``(bodies,)``: how far a point of each body moves at most, and ``(P,)``: how
+        far a point of each enabled pair's second body moves at most relative to the first.
+        Both from the motion's lever arms (module docstring).
+        """
+        body_start, centers, radii = self._lever_spheres
+        poses, q, sines, cosines = self._lever_scratch
+        kind, rotation, shift = self._kinematics
+        lever = self._lever
+        segment_levers_into(np.ascontiguousarray(start).reshape(1, -1),
+                            np.ascontiguousarray(end).reshape(1, -1), 0, kind, rotation, shift,
+                            self._motion_radii, body_start, centers, radii, poses, q, sines,
+                            cosines, lever)  # fmt: skip
+        speed = np.abs(end - start)
+        return speed @ lever, (self._pair_joints * lever[:, self._hulls.pairs[:, 1]].T) @ speed
+
     def _motion_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """`edge_free` for a motion whose ends are known to be free."""
         delta = end - start
-        sweep = np.abs(delta) @ self._motion_radii
+        sweep, pair_sweep = self._motion_rates(start, end)
         moving = (np.flatnonzero((sweep > 0) & self._has_geometry) if self._obstacles
                   else np.zeros(0, dtype=np.int64))  # fmt: skip
-        pair_sweep = self._pair_motion @ np.abs(delta)
         moving_pairs = np.flatnonzero(pair_sweep > 0)
         if len(moving) == 0 and len(moving_pairs) == 0:
             return True

@@ -12,8 +12,8 @@ distance; fcl reports ``-1`` for intersecting pieces, which reads as collision. 
 bodies' bounding spheres are farther apart than the gap needs no GJK call (the broad phase).
 
 **Motions.** Along a joint-space segment the distance between bodies ``a < b`` shrinks at most
-at the rate of their relative motion (`ArmModel.relative_motion_radii`; piece points are
-convex combinations of mesh vertices, which the motion radii bound), so `BodyHulls.clearances`
+at the rate of their relative motion, which only the joints ``a <= i < b`` make (bounded by the
+segment's lever arms, at most `ArmModel.relative_motion_radii`), so `BodyHulls.clearances`
 gives the lower bounds that `temp_gym.worlds.collision.arm_exact` turns into certified steps.
 """
 
