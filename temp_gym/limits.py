@@ -68,6 +68,15 @@ MAX_CONFIG_DEPTH = 32
 """Deepest nesting of mappings and lists in a YAML config or an override's value. YAML
 anchors and aliases are refused outright, so a small file cannot expand into a huge value."""
 
+MAX_YAML_NODES = 10_000_000
+"""Most mappings, lists and values a robot description or MoveIt scene (YAML) may expand to,
+aliases expanded: a few aliases nested can stand for billions of values, which no reader would
+finish walking. A file of `MAX_PROBLEM_BYTES` holds a few million without aliases."""
+
+MAX_YAML_DEPTH = 100
+"""Deepest nesting, through aliases, of a robot description or MoveIt scene (MoveIt's messages
+nest about ten deep)."""
+
 MAX_TASKS_PER_WORKSPACE = 100_000
 """Most start-goal pairs per workspace of a dataset (``data.tasks_per_workspace``; the paper's
 is 200)."""

@@ -34,6 +34,7 @@ SUPPORT = {
     "tensorboard_summaries",
     "limits",
     "hooks",
+    "yaml_input",
 }
 """Job-support modules: they import no layer, and any layer may import them."""
 TOP = {"__init__", "cli"}

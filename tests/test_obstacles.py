@@ -223,6 +223,31 @@ def test_invalid_obstacles_name_the_field_and_the_reason(obstacle, field, reason
     assert "\n" not in message
 
 
+@pytest.mark.parametrize(
+    "obstacles, message",
+    [
+        ([Box((1, 2), (1, 1, 1))], r"^obstacles\[0\].center: expected 3 numbers, got 2$"),
+        ([Sphere((5, 5, 5), 1), Box("abc", (1, 1, 1))], r"^obstacles\[1\].center: expected a list"),
+        ([Cylinder((5, 5, 5), 0, 1)], r"^obstacles\[0\].radius: must be positive"),
+        ([Sphere((5, 5, 5), -1)], r"^obstacles\[0\].radius: must be positive"),
+        ([Sphere((5, 5, 5), [1])], r"^obstacles\[0\].radius: expected a number"),
+        ([Cylinder((5, 5, 5), None, 1)], r"^obstacles\[0\].radius: expected a number"),
+        ([Box((5, 5, 5), (1, 1, 1), (0, 0, 0, 0))], r"^obstacles\[0\].orientation: "),
+        ([(5, 5, 5)], r"^obstacles\[0\]: expected a Box, Cylinder or Sphere, got tuple$"),
+        (Box((5, 5, 5), (1, 1, 1)), r"^obstacles: expected a list of Box, Cylinder or Sphere"),
+    ],
+)
+def test_obstacle_objects_are_checked_as_file_entries_are(obstacles, message):
+    with pytest.raises(ValueError, match=message):
+        Workspace.from_obstacles("point3d", BOUNDS_3D, obstacles)
+
+
+def test_obstacle_objects_may_hold_numpy_arrays():
+    turned = Workspace.from_obstacles("point3d", BOUNDS_3D, [
+        Box(np.array([5.0, 5, 5]), np.array([1.0, 2, 3]), np.array(TURN_Z_45))])  # fmt: skip
+    assert turned.obstacles == [Box((5.0, 5.0, 5.0), (1.0, 2.0, 3.0), TURN_Z_45)]
+
+
 def test_cylinders_need_a_3d_workspace_and_versions_are_checked():
     flat = {**BASE, "robot": "point2d", "bounds": [[0, 0], [10, 10]], "start": [1, 1],
             "goal": [9, 9]}  # fmt: skip

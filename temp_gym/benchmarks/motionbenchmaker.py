@@ -22,19 +22,21 @@ Example:
 from __future__ import annotations
 
 import functools
+import lzma
 import re
 import tarfile
+import zlib
 from collections.abc import Iterable
 from pathlib import Path, PurePosixPath
 
 import numpy as np
-import yaml
 
 from temp_gym.limits import MAX_PROBLEM_BYTES
 from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.robots.spec import refusal
+from temp_gym.yaml_input import load_yaml
 
 from .moveit import MoveItFile, request_joints, scene_obstacles
 
@@ -49,9 +51,8 @@ WORLD_FRAMES = {"", "world"}
 FILE_NAME = re.compile(r"(scene|request)(\d+)\.yaml")
 """A problem's two files: ``sceneNNNN.yaml`` and ``requestNNNN.yaml``."""
 
-SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-"""``yaml.safe_load``'s loader, in libyaml's build where PyYAML has it (ten times faster: the
-set's 1,400 files take seconds instead of most of a minute); it builds plain values only."""
+_DAMAGED = (tarfile.TarError, OSError, EOFError, zlib.error, lzma.LZMAError)
+"""What reading a damaged or truncated archive raises (bz2 reports its errors as `OSError`)."""
 
 Files = dict[tuple[str, str], dict[str, tuple[str, bytes]]]
 """``(scene folder, number) -> {"scene" | "request": (file name for errors, bytes)}``."""
@@ -141,13 +142,7 @@ def _order(item: tuple[tuple[str, str], dict]) -> tuple[str, int]:
 
 
 def _yaml(name: str, data: bytes) -> object:
-    try:
-        return yaml.load(data, Loader=SAFE_LOADER)  # noqa: S506  (a safe loader)
-    except yaml.YAMLError as error:
-        problem = getattr(error, "problem", None) or type(error).__name__
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise ValueError(f"{name}: not valid YAML{where}: {problem}") from None
+    return load_yaml(data, name)
 
 
 def _problem_files(path: Path) -> Files:
@@ -183,15 +178,21 @@ def _archive_entries(path: Path) -> list:
     """``(folder, file name, size, read)`` of each regular file of a tar archive."""
     try:
         archive = tarfile.open(path, "r:*")
-    except (tarfile.TarError, OSError) as error:
-        raise ValueError(f"path: {path} is neither a folder nor a tar archive ({error})") from None
-    entries = []
-    with archive:
-        for member in archive:
-            parts = PurePosixPath(member.name).parts
-            if member.isfile() and len(parts) >= 2 and FILE_NAME.fullmatch(parts[-1]):
-                data = archive.extractfile(member).read(MAX_PROBLEM_BYTES + 1)  # type: ignore[union-attr]
-                entries.append((parts[-2], parts[-1], len(data), lambda data=data: data))
+        entries = []
+        with archive:
+            for member in archive:
+                parts = PurePosixPath(member.name).parts
+                if member.isfile() and len(parts) >= 2 and FILE_NAME.fullmatch(parts[-1]):
+                    data = archive.extractfile(member).read(MAX_PROBLEM_BYTES + 1)  # type: ignore[union-attr]
+                    entries.append((parts[-2], parts[-1], len(data), lambda data=data: data))
+    except _DAMAGED as error:
+        # tarfile's own messages run over several lines, one per compression it tried.
+        reason = ("not a tar archive, plain or compressed"
+                  if isinstance(error, tarfile.ReadError) else
+                  f"{type(error).__name__}: {' '.join(str(error).split())}")  # fmt: skip
+        raise ValueError(
+            f"path: {path} is neither a folder nor a readable tar archive ({reason})"
+        ) from None
     return entries
 
 

@@ -82,9 +82,13 @@ class MoveItFile:
         """A finite number."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(field, f"expected a number, got {_short(value)}")
-        if not math.isfinite(value):
-            raise self.error(field, f"must be finite, got {value}")
-        return float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # an integer past float's range
+            raise self.error(field, f"must be finite, got {_short(value)}") from None
+        if not math.isfinite(number):
+            raise self.error(field, f"must be finite, got {number}")
+        return number
 
     def vector(self, value: Any, field: str, size: int) -> np.ndarray:
         """A list of ``size`` finite numbers."""
@@ -134,11 +138,24 @@ def _short(value: Any, most: int = 40) -> str:
 
 
 def _is_empty(value: Any) -> bool:
-    if value is None or value == "" or value == [] or value == {}:
-        return True
-    if isinstance(value, Mapping):
-        return all(_is_empty(v) for k, v in value.items() if k not in ("name", "header"))
-    return False
+    """Whether ``value`` is absent or holds nothing but empty values (names and headers aside).
+
+    Walked without recursion: a YAML document may nest as deep as its parser allows.
+    """
+    stack = [value]
+    while stack:
+        value = stack.pop()
+        if isinstance(value, Mapping):
+            stack.extend(v for k, v in value.items() if k not in ("name", "header"))
+        elif not (value is None or (isinstance(value, (str, list)) and len(value) == 0)):
+            return False
+    return True
+
+
+def _check_name(source: MoveItFile, name: Any, field: str) -> None:
+    """Refuse a link, joint or object name that is not a string."""
+    if not isinstance(name, str):
+        raise source.error(field, f"expected a name, got {_short(name)}")
 
 
 def _is_identity(q: np.ndarray) -> bool:
@@ -281,7 +298,9 @@ def _object_obstacles(
         where = f"{field}.primitives[{k}]"
         primitive = source.mapping(primitive, where, {"type", "dimensions"})
         kind = primitive.get("type")
-        name = PRIMITIVE_TYPES.get(kind.lower() if isinstance(kind, str) else kind)
+        # A name or the message's number; True == 1 in Python, but it is no type.
+        name = (PRIMITIVE_TYPES.get(kind.lower()) if isinstance(kind, str) else
+                PRIMITIVE_TYPES.get(kind) if type(kind) is int else None)  # fmt: skip
         if name is None:
             raise source.error(
                 f"{where}.type", f"{_short(kind)} is not supported (box, cylinder or sphere only)"
@@ -312,6 +331,7 @@ def _check_allowed(source: MoveItFile, matrix: Any, objects: set[str]) -> None:
     names = source.listing(matrix.get("entry_names"), f"{field}.entry_names")
     rows = source.listing(matrix.get("entry_values"), f"{field}.entry_values")
     for i, name in enumerate(names):
+        _check_name(source, name, f"{field}.entry_names[{i}]")
         if name in objects and i < len(rows):
             row = rows[i].get("enabled", []) if isinstance(rows[i], Mapping) else rows[i]
             if any(v is True for v in source.listing(row, f"{field}.entry_values[{i}]")):
@@ -319,7 +339,8 @@ def _check_allowed(source: MoveItFile, matrix: Any, objects: set[str]) -> None:
                                    "allowed contacts with objects are not supported")  # fmt: skip
     defaults = source.listing(matrix.get("default_entry_names"), f"{field}.default_entry_names")
     values = source.listing(matrix.get("default_entry_values"), f"{field}.default_entry_values")
-    for name, value in zip(defaults, values):
+    for i, (name, value) in enumerate(zip(defaults, values)):
+        _check_name(source, name, f"{field}.default_entry_names[{i}]")
         if name in objects and value is True:
             raise source.error(
                 field,
@@ -381,7 +402,8 @@ def _configuration(
 ) -> np.ndarray:
     """``(joint name, position)`` pairs as a configuration in ``joints`` order."""
     values: dict[str, float] = {}
-    for name, position in pairs:
+    for i, (name, position) in enumerate(pairs):
+        _check_name(source, name, f"{field}[{i}] name")
         if name in values:
             raise source.error(field, f"joint {_short(name)} is given twice")
         if name not in joints and name not in held:

@@ -287,6 +287,8 @@ class PlanningEnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Start a new planning query (see Starting State)."""
+        if isinstance(seed, np.integer):  # as plan() takes them; gymnasium wants an int
+            seed = int(seed)
         super().reset(seed=seed)
         if options is not None and not isinstance(options, dict):
             raise ValueError(

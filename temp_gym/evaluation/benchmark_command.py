@@ -146,7 +146,9 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
         raise ValueError(f"unexpected argument {args.overrides[0]!r}")
     settings = _settings(args)
     out = Path(args.out)
-    _check_out(out, [args.source] if source is not None else [args.problems or ""])
+    # A generated split reads no folder: any --out will do.
+    inputs = [args.source] if source is not None else [args.problems]
+    _check_out(out, [given for given in inputs if given is not None])
     from temp_gym.evaluation.benchmark import check_manifest, run_benchmark
 
     check_manifest(out, settings)  # before the problems load: a wrong folder is found at once

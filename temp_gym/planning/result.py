@@ -125,7 +125,7 @@ class PlanResult:
         }
 
     def summary(self) -> str:
-        """One line: planner, success, cost, nodes, time."""
+        """One line: planner, success, cost, nodes, time (a hint if it never left its start)."""
         status = f"cost {self.cost:.4f}" if self.success else "no solution"
         line = (
             f"{self.planner} seed={self.seed}: {status}, {self.nodes} nodes, "
@@ -140,6 +140,10 @@ class PlanResult:
         if self.simplification is not None:
             before = self.simplification
             line += f"; simplified from cost {before['cost']:.4f} in {before['time']:.3f} s"
+        grown = len(self.tree.positions) if self.tree is not None else self.nodes
+        if not self.success and grown <= 1 and self.samples > 0:
+            line += ("; no motion out of the start was certified (is the start walled in, or "
+                     "nearer a surface than the fast checker can leave?)")  # fmt: skip
         return line
 
 

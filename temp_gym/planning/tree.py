@@ -483,9 +483,7 @@ class Tree:
             coincided with its nearest node), in which case the tree is unchanged.
         """
         if type(sample) is not np.ndarray or sample.dtype != np.float64:
-            if np.iscomplexobj(sample):  # float64 conversion would drop the imaginary part
-                raise ValueError(f"{'action' if normalized else 'sample'}: must be real")
-            sample = np.asarray(sample, dtype=np.float64)
+            sample = self._as_point(sample, "action" if normalized else "sample")
         if sample.shape != (self.dim,):
             name = "action" if normalized else "sample"
             raise ValueError(f"{name}: expected shape ({self.dim},), got {sample.shape}")
@@ -632,6 +630,22 @@ class Tree:
             node, nearest, False, self.num_goal_nodes > goal_nodes, self.best_cost < best_before,
             rewired, 1, 0, checks,
         )  # fmt: skip
+
+    def _as_point(self, value: object, name: str) -> np.ndarray:
+        """``value`` as a float64 array, refusing what is not real numbers (strings, objects).
+
+        numpy would read ``"0.5"`` as a number and drop a complex number's imaginary part.
+        """
+        try:
+            array = np.asarray(value)
+        except (TypeError, ValueError):  # ragged nesting
+            raise ValueError(f"{name}: expected {self.dim} numbers") from None
+        if array.dtype.kind == "c":
+            raise ValueError(f"{name}: must be real")
+        if array.dtype.kind not in "fiu":
+            raise ValueError(f"{name}: expected {self.dim} numbers, got values of type "
+                             f"{array.dtype}")  # fmt: skip
+        return array.astype(np.float64)
 
     def extend_with_fallback(
         self,

@@ -177,26 +177,31 @@ def as_obstacle(
     return Sphere(center_tuple, float(half[0]))
 
 
-def obstacle_row(obstacle: Obstacle, workspace_dim: int) -> tuple[int, list, list, list]:
-    """``(kind, center, half_extents, orientation)`` of one `Box`, `Cylinder` or `Sphere`."""
-    identity = identity_orientations(1, workspace_dim)[0].tolist()
+def obstacle_entry(obstacle: Obstacle, where: str) -> dict:
+    """One `Box`, `Cylinder` or `Sphere` as a problem-format entry, its values as given.
 
-    def turned(orientation) -> list:
-        if orientation is None:
-            return identity
-        return [orientation] if np.ndim(orientation) == 0 else list(orientation)
+    `Workspace.from_obstacles` reads the entries as a problem file's, so that a bad value is
+    refused with the same message naming its field (``where``, e.g. ``obstacles[2]``).
+    """
+
+    def plain(value):  # numpy arrays as lists, as a file would hold them
+        return value.tolist() if isinstance(value, np.ndarray) else value
 
     if isinstance(obstacle, Box):
-        return BOX, list(obstacle.center), list(obstacle.half_extents), turned(obstacle.orientation)
-    if isinstance(obstacle, Cylinder):
-        radius, half = obstacle.radius, 0.5 * obstacle.length
-        half_extents = [radius, radius, half] if workspace_dim == 3 else [radius, half]
-        return CYLINDER, list(obstacle.center), half_extents, turned(obstacle.orientation)
-    if isinstance(obstacle, Sphere):
-        return SPHERE, list(obstacle.center), [obstacle.radius] * workspace_dim, identity
-    raise ValueError(
-        f"obstacles: expected a Box, Cylinder or Sphere, got {type(obstacle).__name__}"
-    )
+        entry = {"type": "box", "center": plain(obstacle.center),
+                 "half_extents": plain(obstacle.half_extents)}  # fmt: skip
+    elif isinstance(obstacle, Cylinder):
+        entry = {"type": "cylinder", "center": plain(obstacle.center),
+                 "radius": plain(obstacle.radius), "length": plain(obstacle.length)}  # fmt: skip
+    elif isinstance(obstacle, Sphere):
+        return {"type": "sphere", "center": plain(obstacle.center),
+                "radius": plain(obstacle.radius)}  # fmt: skip
+    else:
+        raise ValueError(f"{where}: expected a Box, Cylinder or Sphere, got "
+                         f"{type(obstacle).__name__}")  # fmt: skip
+    if obstacle.orientation is not None:
+        entry["orientation"] = plain(obstacle.orientation)
+    return entry
 
 
 __all__ = [
@@ -211,6 +216,7 @@ __all__ = [
     "identity_orientations",
     "is_identity",
     "kind_volumes",
+    "obstacle_entry",
     "rotation_matrices",
     "world_half_extents",
 ]

@@ -240,7 +240,7 @@ class Problem:
                 f"bounds: missing required key (only a robot with joint limits may leave it "
                 f"out, not {robot.name})"
             )
-        centers, halves, kinds, orientations = _obstacles(data["obstacles"], wdim)
+        centers, halves, kinds, orientations = obstacle_arrays(data["obstacles"], wdim)
         start = float_vector(data["start"], "start", dim)
         goal = float_vector(data["goal"], "goal", dim)
         workspace = Workspace(robot.name, bounds, centers, halves, kinds, orientations)
@@ -347,7 +347,7 @@ def obstacle_dicts(workspace: Workspace) -> list[dict[str, Any]]:
     return entries
 
 
-def _obstacles(obstacles: Any, wdim: int) -> tuple[np.ndarray, ...]:
+def obstacle_arrays(obstacles: Any, wdim: int) -> tuple[np.ndarray, ...]:
     """The ``obstacles`` entry as ``(centers, half_extents, kinds, orientations)`` arrays."""
     if not isinstance(obstacles, (list, tuple)):
         raise ValueError("obstacles: expected a list of obstacles")

@@ -18,7 +18,7 @@ from temp_gym.problem.obstacles import (
     identity_orientations,
     is_identity,
     kind_volumes,
-    obstacle_row,
+    obstacle_entry,
     orientation_width,
     rotation_matrices,
     world_half_extents,
@@ -180,18 +180,21 @@ class Workspace:
 
     @classmethod
     def from_obstacles(cls, robot: str, bounds: np.ndarray, obstacles: list[Obstacle]) -> Workspace:
-        """A workspace of `Box`, `Cylinder` and `Sphere` objects (`Workspace.obstacles`)."""
+        """A workspace of `Box`, `Cylinder` and `Sphere` objects (`Workspace.obstacles`).
+
+        Each object is checked as a problem file's entry is: a bad value is refused with a
+        one-line `ValueError` naming it (``obstacles[2].radius: ...``).
+        """
+        from temp_gym.problem.query import obstacle_arrays
+
         wdim = robot_named(robot).workspace_dim
-        rows = [obstacle_row(obstacle, wdim) for obstacle in obstacles]
-        width = orientation_width(wdim)
-        return cls(
-            robot,
-            bounds,
-            np.array([row[1] for row in rows], dtype=np.float64).reshape(-1, wdim),
-            np.array([row[2] for row in rows], dtype=np.float64).reshape(-1, wdim),
-            np.array([row[0] for row in rows], dtype=np.int8),
-            np.array([row[3] for row in rows], dtype=np.float64).reshape(-1, width),
-        )
+        if not isinstance(obstacles, (list, tuple)):
+            raise ValueError(f"obstacles: expected a list of Box, Cylinder or Sphere objects, "
+                             f"got {type(obstacles).__name__}")  # fmt: skip
+        entries = [obstacle_entry(obstacle, f"obstacles[{i}]")
+                   for i, obstacle in enumerate(obstacles)]  # fmt: skip
+        centers, halves, kinds, orientations = obstacle_arrays(entries, wdim)
+        return cls(robot, bounds, centers, halves, kinds, orientations)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Workspace):

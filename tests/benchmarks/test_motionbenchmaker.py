@@ -234,6 +234,16 @@ REFUSED_SCENES = [
                "entry_values": [[False, True], [True, False]]}),
      r"allowed_collision_matrix: object 'box\[0.6, 0.0, 0.3\]' is allowed to touch the robot"),
     (_changed(["world", "surface"], []), r"world.surface: unknown key"),
+    # Values of the wrong type where a name or number goes: refused, never a TypeError.
+    (_changed(OBJECT + ["primitives", 0, "type"], ["box"]),
+     r"primitives\[0\].type: \['box'\] is not supported"),
+    (_changed(OBJECT + ["primitives", 0, "type"], True),
+     r"primitives\[0\].type: True is not supported"),
+    (_changed(OBJECT + ["primitive_poses", 0, "position"], [10**400, 0, 0]),
+     r"primitive_poses\[0\].position\[0\]: must be finite"),
+    (_changed(["allowed_collision_matrix"], {"entry_names": [["panda_hand"]],
+                                             "entry_values": [[False]]}),
+     r"allowed_collision_matrix.entry_names\[0\]: expected a name, got \['panda_hand'\]"),
 ]  # fmt: skip
 
 
@@ -274,6 +284,12 @@ REFUSED_REQUESTS = [
      r"path_constraints: path constraints are not supported"),
     (request(start=[3.5] + HOME[1:]),
      r"request0001.yaml: start: outside the bounds: joint 1 = 3.5 is above its limit 2.9671"),
+    (_request_changed(["start_state", "joint_state", "name", 0], ["panda_joint1"]),
+     r"start_state.joint_state\[0\] name: expected a name, got \['panda_joint1'\]"),
+    (_request_changed(GOAL_ENTRY + ["joint_constraints", 0, "joint_name"], ["panda_joint1"]),
+     r"joint_constraints\[0\] name: expected a name"),
+    (_request_changed(["start_state", "joint_state", "position", 0], 10**400),
+     r"start_state.joint_state \(panda_joint1\): must be finite"),
 ]  # fmt: skip
 
 
@@ -290,7 +306,7 @@ def test_bad_paths_and_sets_are_refused(tmp_path):
     with pytest.raises(ValueError, match=r"^path: .*missing does not exist$"):
         load(tmp_path / "missing")
     (tmp_path / "notes.txt").write_text("not an archive")
-    with pytest.raises(ValueError, match=r"^path: .*notes.txt is neither a folder nor a tar"):
+    with pytest.raises(ValueError, match=r"^path: .*notes.txt is neither a folder nor a readable"):
         load(tmp_path / "notes.txt")
     with pytest.raises(ValueError, match=r"^path: no MotionBenchMaker problems in "):
         load(tmp_path)
@@ -305,3 +321,34 @@ def test_bad_paths_and_sets_are_refused(tmp_path):
     (folder / "one_panda" / "scene0001.yaml").write_text("world: [unclosed\n")
     with pytest.raises(ValueError, match=r"one_panda/scene0001.yaml: not valid YAML at line"):
         load(folder)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("world: &a {collision_objects: [], octomap: *a}\n", r"an alias makes a value contain"),
+        # Nine levels of eight aliases each: 8 ** 9 values when expanded.
+        (
+            "a0: &a0 [0, 0, 0, 0, 0, 0, 0, 0]\n"
+            + "".join(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 8)}]\n" for i in range(1, 10)),
+            r"expands to more than",
+        ),
+    ],
+)
+def test_aliases_that_never_end_are_refused(tmp_path, text, message):
+    folder = write_folder(tmp_path, only(SHELF))
+    (folder / "one_panda" / "scene0001.yaml").write_text(text)
+    with pytest.raises(ValueError, match=r"^one_panda/scene0001.yaml: " + message):
+        load(folder)
+
+
+def test_a_damaged_archive_is_refused_in_one_line(tmp_path):
+    data = write_archive(tmp_path, FIXTURE).read_bytes()
+    for name, damaged in [("cut.tar.bz2", data[:-10]), ("half.tar.bz2", data[: len(data) // 2]),
+                          ("empty.tar.bz2", b"")]:  # fmt: skip
+        path = tmp_path / name
+        path.write_bytes(damaged)
+        with pytest.raises(ValueError, match=r"^path: .* is neither a folder nor a readable tar "
+                           r"archive \(.+\)$") as error:  # fmt: skip
+            load(path)
+        assert "\n" not in str(error.value)

@@ -49,6 +49,24 @@ def test_complex_actions_are_rejected_not_truncated():
     assert env.tree.num_nodes == 1 and env.tree.samples == 0
 
 
+def test_actions_that_are_not_numbers_are_rejected_not_converted():
+    env = gym.make("TEMP-2D-v0", fallback="none").unwrapped
+    env.reset(seed=0)
+    for action in (np.array(["0.5", "0.5"]), {"a": 1}, [True, False], [[0.5], [0.5, 0.1]]):
+        with pytest.raises(ValueError, match=r"^action: expected 2 numbers"):
+            env.step(action)
+    assert env.tree.num_nodes == 1 and env.tree.samples == 0
+    env.step(np.array([0.5, 0.5], dtype=np.float32))  # any real dtype is a number
+    assert env.tree.samples == 1
+
+
+def test_a_numpy_integer_seed_seeds_as_the_same_int():
+    env = gym.make("TEMP-2D-v0")
+    first, _ = env.reset(seed=np.int64(3))
+    again, _ = env.reset(seed=3)
+    assert all(np.array_equal(first[key], again[key]) for key in first)
+
+
 def test_explicit_valid_values_are_used_not_replaced():
     env = gym.make("TEMP-2D-v0", goal_radius=0.25, encoding_resolution=8, max_nodes=50).unwrapped
     observation, _ = env.reset(seed=0)

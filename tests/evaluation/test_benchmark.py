@@ -175,6 +175,15 @@ def test_bad_paths_are_one_line(bench, tmp_path, capsys):
         assert "\n" not in error
 
 
+def test_a_generated_split_writes_into_the_working_folder(tmp_path, monkeypatch):
+    """A split reads no folder, so ``--out`` may lie anywhere, the working folder included."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["--split", "point2d:easy:1", "--planners", "rrt_star", "--runs", "1",
+            "--time-limit", "1", "--max-nodes", "200", "--out", "out", "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    assert (tmp_path / "out" / "runs.jsonl").exists()
+
+
 def test_a_damaged_record_before_the_last_line_is_refused(tmp_path):
     path = tmp_path / "runs.jsonl"
     path.write_text('{"problem": "a"}\n{damaged\n{"problem": "b"}\n')

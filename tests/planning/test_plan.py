@@ -146,3 +146,24 @@ def test_a_patience_beyond_any_tree_means_never_stall_not_an_overflow(problem_2d
     policy = load_policy("TEMP-2D-v0").fresh(attention_patience=None)
     result = plan(problem_2d, planner="temp", max_nodes=60, policy=policy, **kwargs)
     assert result.nodes <= 60 and result.attention["stop"] != "stalled"
+
+
+@pytest.mark.parametrize("planner", ["rrt_star", "rrt_connect"])
+def test_a_plan_that_never_leaves_its_start_says_so(planner):
+    from temp_gym import Problem
+
+    # Four walls around the start, a millimetre from it on every side, meeting at the corners.
+    walls = [{"center": c, "half_extents": h} for c, h in [
+        ([2.0, 2.2505], [0.25, 0.2495]), ([2.0, 1.7495], [0.25, 0.2495]),
+        ([1.7495, 2.0], [0.2495, 0.25]), ([2.2505, 2.0], [0.2495, 0.25])]]  # fmt: skip
+    problem = Problem.from_dict({"robot": "point2d", "bounds": [[0, 0], [20, 20]],
+                                 "obstacles": walls, "start": [2, 2], "goal": [18, 18],
+                                 "goal_radius": 0.5})  # fmt: skip
+    result = plan(problem, planner=planner, seed=0, max_nodes=200, time_limit=0.5)
+    assert not result.success
+    assert "no motion out of the start was certified" in result.summary()
+    opened = Problem.from_dict({**problem.to_dict(), "obstacles": walls[1:3]})  # a corner
+    assert (
+        "no motion out of the start"
+        not in plan(opened, planner=planner, seed=0, max_nodes=200).summary()
+    )

@@ -58,6 +58,16 @@ def test_defaults_come_from_the_name(test_arm_path):
             "spheres.tolerance",
         ),
         ("&a name: a\n", "anchors"),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            f"joint_limits: {{j: [-1, {10**400}]}}\n",
+            "joint_limits.j",
+        ),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            "fixed_joints: {f: true}\n",
+            "fixed_joints.f",
+        ),
     ],
 )
 def test_a_bad_key_or_value_is_named_in_one_line(tmp_path, text, field):
@@ -103,6 +113,26 @@ def test_a_xacro_file_is_refused_with_the_command_that_expands_it(tmp_path):
     )
     path = _description(tmp_path, "name: a\nurdf: arm.urdf.xacro\nbase_link: base\ntip_link: b\n")
     with pytest.raises(UrdfError, match=r"a xacro file .*xacro arm.urdf.xacro > robot.urdf"):
+        load_arm(path, require_derived=False)
+
+
+def test_an_exponent_without_a_dot_is_a_number(tmp_path):
+    text = ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: lbr_iiwa_link_0\n"
+            "tip_link: lbr_iiwa_link_7\nspheres: {tolerance: 6e-3}\n")  # fmt: skip
+    assert load_description(_description(tmp_path, text)).sphere_tolerance == 0.006
+
+
+@pytest.mark.parametrize(
+    "field", ["fixed_joints: {j2_fixed: 0.1}", "joint_limits: {mount: [0, 1]}"]
+)
+def test_a_joint_the_urdf_fixes_cannot_be_set_or_limited(tmp_path, test_arm_path, field):
+    text = test_arm_path.read_text().replace(
+        "fixed_joints: {finger_a: 0.03}", f"fixed_joints: {{finger_a: 0.03}}\n{field}"
+    )
+    path = test_arm_path.parent / "fixed_named.yaml"
+    path.write_text(text)
+    name = field.split("{")[1].split(":")[0]
+    with pytest.raises(UrdfError, match=rf"{field.split(':')[0]}: '{name}' is a fixed joint"):
         load_arm(path, require_derived=False)
 
 

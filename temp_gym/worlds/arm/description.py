@@ -179,7 +179,13 @@ def resolve_file(path: Path, field_name: str, value: object) -> Path:
 
 
 def _number(path: Path, field_name: str, value: object, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _fail(path, field_name, f"expected a finite number, got {_short(value)}")
+    try:
+        value = float(value)
+    except OverflowError:  # an integer past float's range
+        value = math.inf
+    if not math.isfinite(value):
         raise _fail(path, field_name, f"expected a finite number, got {_short(value)}")
     if positive and value <= 0:
         raise _fail(path, field_name, f"must be positive, got {value}")
@@ -342,7 +348,7 @@ def load_description(path: str | Path) -> RobotDescription:
     Raises:
         DescriptionError: unreadable file, invalid YAML, or a bad key or value (one line).
     """
-    import yaml
+    from temp_gym.yaml_input import load_yaml
 
     path = Path(path).expanduser().resolve()
     if not path.is_file():
@@ -356,11 +362,9 @@ def load_description(path: str | Path) -> RobotDescription:
     if "&" in text and re.search(r"(^|[\s\[{,:])&[^\s]", text):
         raise DescriptionError(f"{path.name}: YAML anchors and aliases are not accepted")
     try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise DescriptionError(f"{path.name}: not valid YAML{where}") from None
+        data = load_yaml(text, path.name)  # reads 6e-3 as a number, as YAML 1.2 does
+    except ValueError as error:
+        raise DescriptionError(str(error)) from None
     return parse_description(path, data)
 
 

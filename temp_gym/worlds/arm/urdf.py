@@ -263,12 +263,14 @@ def read_chain(
         link = joint.find("parent").get("link")
     chain_joints.reverse()
     chain_names = {j.get("name") for j in chain_joints}
-    for name in overrides:
-        if name not in joints:
-            raise UrdfError(f"joint_limits: no joint {name!r} in {urdf.name}")
+    for field_name, names in (("joint_limits", overrides), ("fixed_joints", fixed_joints)):
+        for name in names:
+            if name not in joints:
+                raise UrdfError(f"{field_name}: no joint {name!r} in {urdf.name}")
+            if joints[name].get("type") == "fixed":
+                raise UrdfError(f"{field_name}: {name!r} is a fixed joint in {urdf.name}; it has "
+                                "no value to set or limit")  # fmt: skip
     for name in fixed_joints:
-        if name not in joints:
-            raise UrdfError(f"fixed_joints: no joint {name!r} in {urdf.name}")
         if name in chain_names and joints[name].get("type") in MOVABLE:
             raise UrdfError(f"fixed_joints: {name!r} is a joint of the chain; planning sets it")
 
