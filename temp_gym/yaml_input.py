@@ -4,6 +4,8 @@
   ``tolerance: 6e-3`` or a ROS tool's ``1e-05`` would come back as strings and be refused as
   "not a number". `load_yaml` reads them as the floats they are; nothing else changes
   (``'6e-3'`` in quotes stays a string).
+* **Keys once.** A key given twice in one mapping is refused (PyYAML would keep the last one
+  silently); keys a merge (``<<``) brings in may be overridden, as YAML intends.
 * **Bounded.** Aliases may share a node, but not make a node contain itself, nor expand into
   more than `MAX_YAML_NODES` nodes (a few aliases nested can stand for billions, which a
   reader walking the tree would never finish), nor nest a branch deeper than `MAX_YAML_DEPTH`
@@ -29,7 +31,29 @@ _BASE = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 class _Loader(_BASE):  # type: ignore[misc, valid-type]
-    """``yaml.safe_load``'s loader that also reads exponents without a dot as floats."""
+    """``yaml.safe_load``'s loader, reading YAML 1.2's numbers and refusing repeated keys.
+
+    PyYAML keeps the last of a key given twice in one mapping silently; YAML says keys are
+    unique.
+    """
+
+    def construct_mapping(self, node, deep=False):  # noqa: D102  (PyYAML's hook)
+        if isinstance(node, yaml.MappingNode):
+            seen = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":  # "<<": merged keys may repeat
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    repeated = key in seen
+                except TypeError:  # an unhashable key: PyYAML's own error follows
+                    continue
+                if repeated:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"found the key {key!r} twice", key_node.start_mark
+                    )
+                seen.add(key)
+        return super().construct_mapping(node, deep=deep)
 
 
 _Loader.add_implicit_resolver(

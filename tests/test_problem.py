@@ -325,3 +325,13 @@ def test_unchecked_keeps_a_start_in_collision_and_checks_the_rest():
         Problem.unchecked(workspace, [10, 10], [18, 18], 0.0)
     with pytest.raises(ValueError, match=r"^start: expected"):
         Problem.unchecked(workspace, [10, 10, 10], [18, 18], 0.5)
+
+
+def test_a_coordinate_a_hair_outside_is_printed_with_every_digit():
+    from temp_gym.problem.query import outside_bounds
+
+    bounds = np.array([[-2.96706, 0.0], [2.96706, 1.0]])
+    assert outside_bounds(np.array([-2.96706 - 1e-12, 3.2]), bounds, joints=True) == (
+        "outside the bounds: joint 1 = -2.967060000001 is below its limit -2.96706; "
+        "joint 2 = 3.2 is above its limit 1"
+    )

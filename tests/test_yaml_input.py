@@ -16,6 +16,11 @@ def test_exponents_without_a_dot_are_numbers_and_nothing_else_changes():
     assert load_yaml(b"a: 1e-05\n", "f.yaml") == {"a": 1e-05}
 
 
+def test_a_merge_may_override_the_keys_it_brings():
+    text = "base: &b {x: 1, y: 2}\nc:\n  <<: *b\n  x: 5\n"
+    assert load_yaml(text, "f.yaml")["c"] == {"x": 5, "y": 2}
+
+
 def test_aliases_may_share_values():
     document = load_yaml("a: &a [[[1]]]\nb: [*a, *a]\nc: {x: *a}\n", "f.yaml")
     assert document == {"a": [[[1]]], "b": [[[[1]]], [[[1]]]], "c": {"x": [[[1]]]}}
@@ -43,6 +48,7 @@ def test_aliases_may_share_values():
             f"nested more than {MAX_YAML_DEPTH} levels deep",
         ),
         ("a: [1, {b: 2}\n", "not valid YAML at line 2"),
+        ("name: a\nurdf: b\nname: c\n", "line 3: found the key 'name' twice"),
     ],
 )
 def test_documents_that_never_end_or_do_not_parse_are_refused_in_one_line(text, message):

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import lzma
+import math
 import re
 import tarfile
 import zlib
@@ -33,6 +34,7 @@ import numpy as np
 
 from temp_gym.limits import MAX_PROBLEM_BYTES
 from temp_gym.problem import Problem, Workspace
+from temp_gym.problem.parsing import as_float
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.robots.spec import refusal
@@ -76,7 +78,9 @@ def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, 
             opening, position or orientation goals, more than one goal.
     """
     spec = robot_spec(ROBOT)
-    radius = spec.goal_radius if goal_radius is None else goal_radius
+    radius = spec.goal_radius if goal_radius is None else as_float(goal_radius, "goal_radius")
+    if not (math.isfinite(radius) and radius > 0):
+        raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
     bounds = spec.joint_limits()
     joints, held, base = _panda()
     problems = []
@@ -167,9 +171,11 @@ def _problem_files(path: Path) -> Files:
             raise ValueError(f"{name}: found twice in {path}")
         pair[kind] = (name, read())
     if not files:
+        inside = path.is_dir() and any(FILE_NAME.fullmatch(p.name) for p in path.iterdir())
+        hint = f"; pass the folder that holds {path.name}" if inside else ""
         raise ValueError(
             f"path: no MotionBenchMaker problems in {path} (sceneNNNN.yaml and "
-            f"requestNNNN.yaml in <scene>{SCENE_SUFFIX} folders)"
+            f"requestNNNN.yaml in <scene>{SCENE_SUFFIX} folders){hint}"
         )
     return files
 

@@ -7,7 +7,9 @@ optionally an object-level ``pose`` that the primitive poses are relative to (ne
 writes both). A ``moveit_msgs/MotionPlanRequest`` holds the start state and goal
 constraints.
 
-Only what a `temp_gym.problem.Workspace` can hold is read: primitives in frames that coincide
+Points and quaternions may be lists (``[x, y, z]``, ``[x, y, z, w]``) or mappings of their
+fields (``{x: .., y: .., z: ..}``), as ROS tools write them. Only what a
+`temp_gym.problem.Workspace` can hold is read: primitives in frames that coincide
 with the robot's base, a robot base at the world origin, and one joint-space goal. Anything
 else (meshes, planes, cones, octomaps, attached objects, frames elsewhere, padded or scaled
 links, position or orientation goals, path constraints) is refused with a one-line
@@ -97,9 +99,24 @@ class MoveItFile:
             raise self.error(field, f"expected {size} numbers, got {len(items)}")
         return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(items)])
 
+    def point(self, value: Any, field: str, size: int = 3) -> np.ndarray:
+        """A point or vector ``[x, y, z]`` (or, with ``size`` 4, a quaternion ``[x, y, z, w]``).
+
+        Also as a mapping of its fields, ``{x, y, z}`` or ``{x, y, z, w}``, as ROS tools write
+        these messages.
+        """
+        if isinstance(value, Mapping):
+            names = ("x", "y", "z", "w")[:size]
+            fields = self.mapping(value, field, set(names))
+            missing = [name for name in names if name not in fields]
+            if missing:
+                raise self.error(f"{field}.{missing[0]}", "missing")
+            value = [fields[name] for name in names]
+        return self.vector(value, field, size)
+
     def quaternion(self, value: Any, field: str) -> np.ndarray:
-        """A unit quaternion ``[x, y, z, w]`` (within `UNIT_TOLERANCE`)."""
-        q = self.vector(value, field, 4)
+        """A unit quaternion ``[x, y, z, w]`` (within `UNIT_TOLERANCE`), or its mapping."""
+        q = self.point(value, field, 4)
         if abs(np.linalg.norm(q) - 1.0) > UNIT_TOLERANCE:
             raise self.error(field, f"not a unit quaternion [x, y, z, w]: {q.tolist()}")
         return q
@@ -108,16 +125,14 @@ class MoveItFile:
         """A ``geometry_msgs/Pose``: ``(position, orientation)``."""
         pose = self.mapping(value, field, {"position", "orientation"})
         return (
-            self.vector(pose.get("position", [0, 0, 0]), f"{field}.position", 3),
+            self.point(pose.get("position", [0, 0, 0]), f"{field}.position"),
             self.quaternion(pose.get("orientation", [0, 0, 0, 1]), f"{field}.orientation"),
         )
 
     def identity_transform(self, value: Any, field: str) -> None:
         """Refuse a ``geometry_msgs/Transform`` other than the identity."""
         transform = self.mapping(value, field, {"translation", "rotation"})
-        translation = self.vector(
-            transform.get("translation", [0, 0, 0]), f"{field}.translation", 3
-        )
+        translation = self.point(transform.get("translation", [0, 0, 0]), f"{field}.translation")
         rotation = self.quaternion(transform.get("rotation", [0, 0, 0, 1]), f"{field}.rotation")
         if np.any(translation != 0) or not _is_identity(rotation):
             raise self.error(

@@ -299,8 +299,14 @@ def outside_bounds(
     above = np.flatnonzero(point > bounds[1])
     name = (lambda i: f"joint {i + 1}") if joints else (lambda i: f"[{i}]")
     limit = "its limit" if joints else "the bound"
-    parts = [f"{name(i)} = {point[i]:.6g} is below {limit} {bounds[0, i]:.6g}" for i in below]
-    parts += [f"{name(i)} = {point[i]:.6g} is above {limit} {bounds[1, i]:.6g}" for i in above]
+
+    parts = []
+    for side, word, indices in ((0, "below", below), (1, "above", above)):
+        for i in indices:
+            value, bound = f"{point[i]:.6g}", f"{bounds[side, i]:.6g}"
+            if value == bound:  # a hair outside: print every digit, or the two read alike
+                value, bound = repr(float(point[i])), repr(float(bounds[side, i]))
+            parts.append(f"{name(i)} = {value} is {word} {limit} {bound}")
     more = f" and {len(parts) - most} more" if len(parts) > most else ""
     return f"outside the bounds: {'; '.join(parts[:most])}{more}"
 

@@ -181,6 +181,31 @@ def test_object_pose_composes_with_primitive_poses(tmp_path):
     )  # fmt: skip
 
 
+def _as_fields(data):
+    """``data`` with every point and quaternion written as a mapping, as ROS tools write them."""
+    if isinstance(data, dict):
+        out = {}
+        for key, value in data.items():
+            if key in ("position", "translation") and isinstance(value, list):
+                out[key] = dict(zip("xyz", value))
+            elif key in ("orientation", "rotation") and isinstance(value, list):
+                out[key] = dict(zip("xyzw", value))
+            else:
+                out[key] = _as_fields(value)
+        return out
+    return [_as_fields(item) for item in data] if isinstance(data, list) else data
+
+
+def test_points_and_quaternions_may_be_mappings_of_their_fields(tmp_path):
+    listed = load(write_folder(tmp_path / "lists", only(SHELF)))
+    fields = _as_fields(SHELF)
+    assert fields["world"]["collision_objects"][1]["primitive_poses"][0]["orientation"]["w"]
+    assert load(write_folder(tmp_path / "fields", only(fields))) == listed
+    del fields["world"]["collision_objects"][0]["primitive_poses"][0]["position"]["z"]
+    with pytest.raises(ValueError, match=r"primitive_poses\[0\].position.z: missing$"):
+        load(write_folder(tmp_path / "short", only(fields)))
+
+
 def test_invalid_names_problems_whose_start_collides(tmp_path):
     near_hand = primitive("box", [0.06, 0.06, 0.06], [0.31, 0.0, 0.55])
     far = primitive("box", [0.1, 0.1, 0.1], [-0.6, -0.6, 0.1])
@@ -317,6 +342,11 @@ def test_bad_paths_and_sets_are_refused(tmp_path):
     (folder / "one_panda" / "scene0001.yaml").unlink()
     with pytest.raises(ValueError, match=r"request0001.yaml: no scene0001.yaml beside it"):
         load(folder)
+    with pytest.raises(ValueError, match=r"; pass the folder that holds one_panda$"):
+        load(write_folder(tmp_path / "scene", only(SHELF)) / "one_panda")
+    for radius in (-1, 0, float("nan"), "0.1"):
+        with pytest.raises(ValueError, match=r"^goal_radius: "):
+            load(tmp_path / "scene", goal_radius=radius)
     folder = write_folder(tmp_path / "broken", only(SHELF))
     (folder / "one_panda" / "scene0001.yaml").write_text("world: [unclosed\n")
     with pytest.raises(ValueError, match=r"one_panda/scene0001.yaml: not valid YAML at line"):

@@ -123,16 +123,20 @@ def test_an_exponent_without_a_dot_is_a_number(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "field", ["fixed_joints: {j2_fixed: 0.1}", "joint_limits: {mount: [0, 1]}"]
-)
-def test_a_joint_the_urdf_fixes_cannot_be_set_or_limited(tmp_path, test_arm_path, field):
+    ("fixed", "limits", "message"),
+    [
+        ("{finger_a: 0.03, j2_fixed: 0.1}", "", "fixed_joints: 'j2_fixed' is a fixed joint"),
+        ("{finger_a: 0.03}", "joint_limits: {mount: [0, 1]}\n",
+         "joint_limits: 'mount' is a fixed joint"),
+    ],
+)  # fmt: skip
+def test_a_joint_the_urdf_fixes_cannot_be_set_or_limited(test_arm_path, fixed, limits, message):
     text = test_arm_path.read_text().replace(
-        "fixed_joints: {finger_a: 0.03}", f"fixed_joints: {{finger_a: 0.03}}\n{field}"
+        "fixed_joints: {finger_a: 0.03}\n", f"fixed_joints: {fixed}\n{limits}"
     )
     path = test_arm_path.parent / "fixed_named.yaml"
     path.write_text(text)
-    name = field.split("{")[1].split(":")[0]
-    with pytest.raises(UrdfError, match=rf"{field.split(':')[0]}: '{name}' is a fixed joint"):
+    with pytest.raises(UrdfError, match=message):
         load_arm(path, require_derived=False)
 
 

@@ -143,3 +143,20 @@ def test_a_robot_without_structured_families_draws_only_its_own(disc):
 def test_the_env_refuses_a_structured_family_for_a_robot_without_one(disc):
     with pytest.raises(ValueError, match="workspace_family: 'maze' needs structured families"):
         gymnasium.make(disc.env_id, workspace_family="maze")
+
+
+def test_a_name_another_robot_has_is_refused_naming_that_robot(disc):
+    import dataclasses
+
+    twin = dataclasses.replace(disc, env_id="TEMP-Twin-v0", short_name="twin", seed_code=77)
+    with pytest.raises(ValueError, match=r"^robot: name 'toy_disc' is taken by the registered "
+                       r"robot 'toy_disc'; give this one another name$"):  # fmt: skip
+        register_robot(twin)
+
+
+@pytest.mark.parametrize("path", [None, 3, ""])
+def test_a_robot_file_that_is_no_path_is_refused_in_one_line(path):
+    from temp_gym import register_robot_file
+
+    with pytest.raises(ValueError, match=r"^path: expected a robot description file \(YAML\)"):
+        register_robot_file(path)

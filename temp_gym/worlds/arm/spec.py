@@ -14,12 +14,13 @@ Example:
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from temp_gym.worlds.arm.description import load_description
+from temp_gym.worlds.arm.description import DescriptionError, load_description
 from temp_gym.worlds.arm.urdf import read_chain
 from temp_gym.worlds.robots.spec import RobotSpec
 
@@ -161,6 +162,9 @@ def register_robot_file(path: str | Path) -> RobotSpec:
     """
     from temp_gym.worlds.arm.model import load_arm
 
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise DescriptionError(f"path: expected a robot description file (YAML), got "
+                               f"{type(path).__name__} {path!r:.60}")  # fmt: skip
     load_arm(path)  # refuse a robot whose derived data is missing or stale, now
     return ensure_registered(path)
 

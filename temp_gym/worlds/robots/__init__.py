@@ -51,7 +51,9 @@ def register_robot(spec: RobotSpec) -> None:
             return
         for field in ("name", "env_id", "short_name", "seed_code"):
             if getattr(other, field) == getattr(spec, field):
-                raise ValueError(f"robot: {field} {getattr(spec, field)!r} is {other.name}'s")
+                raise ValueError(f"robot: {field} {getattr(spec, field)!r} is taken by the "
+                                 f"registered robot {other.name!r}; give this one another "
+                                 f"{field}")  # fmt: skip
     _register_in_problems(spec)
 
 
