@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,7 +14,10 @@ from temp_gym.problem.obstacles import (
     KIND_NAMES,
     SPHERE,
     UNIT_TOLERANCE,
+    Box,
+    Cylinder,
     Obstacle,
+    Sphere,
     as_obstacle,
     identity_orientations,
     is_identity,
@@ -179,7 +183,9 @@ class Workspace:
         return orientations
 
     @classmethod
-    def from_obstacles(cls, robot: str, bounds: np.ndarray, obstacles: list[Obstacle]) -> Workspace:
+    def from_obstacles(
+        cls, robot: str, bounds: np.ndarray, obstacles: Iterable[Obstacle]
+    ) -> Workspace:
         """A workspace of `Box`, `Cylinder` and `Sphere` objects (`Workspace.obstacles`).
 
         Each object is checked as a problem file's entry is: a bad value is refused with a
@@ -188,7 +194,9 @@ class Workspace:
         from temp_gym.problem.query import obstacle_arrays
 
         wdim = robot_named(robot).workspace_dim
-        if not isinstance(obstacles, (list, tuple)):
+        if isinstance(obstacles, (Box, Cylinder, Sphere, str, bytes, dict)) or not isinstance(
+            obstacles, Iterable
+        ):
             raise ValueError(f"obstacles: expected a list of Box, Cylinder or Sphere objects, "
                              f"got {type(obstacles).__name__}")  # fmt: skip
         entries = [obstacle_entry(obstacle, f"obstacles[{i}]")
