@@ -242,6 +242,14 @@ def test_obstacle_objects_are_checked_as_file_entries_are(obstacles, message):
         Workspace.from_obstacles("point3d", BOUNDS_3D, obstacles)
 
 
+def test_a_2d_angle_that_is_not_finite_is_named():
+    flat = {**BASE, "robot": "point2d", "bounds": [[0, 0], [10, 10]], "start": [1, 1],
+            "goal": [9, 9]}  # fmt: skip
+    box = {"center": [5, 5], "half_extents": [1, 1], "orientation": float("nan")}
+    with pytest.raises(ValueError, match=r"^obstacles\[0\].orientation: must be finite"):
+        Problem.from_dict({**flat, "obstacles": [box]})
+
+
 def test_obstacle_objects_may_hold_numpy_arrays():
     turned = Workspace.from_obstacles("point3d", BOUNDS_3D, [
         Box(np.array([5.0, 5, 5]), np.array([1.0, 2, 3]), np.array(TURN_Z_45))])  # fmt: skip

@@ -21,9 +21,10 @@ MIN_LENGTH = 1e-30
 
 
 def short(value: Any) -> str:
-    """``value`` as text, cut short when it is a very long number."""
+    """``value`` as text, cut short when it is long (a number of many digits, say)."""
     text = str(value)
-    return text if len(text) <= 24 else f"{text[:10]}...({len(text)} digits)"
+    unit = "digits" if isinstance(value, int) and not isinstance(value, bool) else "characters"
+    return text if len(text) <= 24 else f"{text[:10]}...({len(text)} {unit})"
 
 
 def as_float(value: Any, name: str) -> float:

@@ -431,7 +431,10 @@ def _orientation(value: Any, name: str, wdim: int) -> np.ndarray:
     if orientation_width(wdim) == 1:
         if isinstance(value, (list, tuple)):
             raise ValueError(f"{name}: in 2D an orientation is one angle (radians), got {value!r}")
-        return np.array([as_float(value, name)])
+        angle = as_float(value, name)
+        if not math.isfinite(angle):
+            raise ValueError(f"{name}: must be finite, got {value!r}")
+        return np.array([angle])
     if not isinstance(value, (list, tuple)):
         raise ValueError(f"{name}: expected a quaternion [x, y, z, w], got {_cut(repr(value))}")
     return float_vector(value, name, 4)
