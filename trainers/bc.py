@@ -150,6 +150,9 @@ def train(
 ) -> Path:
     """Train until the lr floor or ``train.max_epochs``; return the best checkpoint's path.
 
+    The run folder is locked while this runs (`temp_gym.files.DirectoryLock`): a second run
+    into it is refused with a one-line `temp_gym.files.LockedError` naming the first.
+
     Under ``torchrun`` (``dist.world > 1``) the model is wrapped in DistributedDataParallel,
     each rank reads its slice of every global batch (``train.batch_size`` stays the global
     size), and only rank 0 logs and writes checkpoints: the loss curve is the single-process
@@ -160,6 +163,18 @@ def train(
         TrainingDivergedError: a loss, gradient or weight became NaN or inf; ``last.pt``
             keeps the last epoch that ended finite, and ``best.pt`` is never such a model.
     """
+    from temp_gym.files import DirectoryLock
+
+    lock = DirectoryLock(run_dir, "training")
+    try:
+        return _train(config, run_dir, resume, progress, dist, lock)
+    finally:
+        lock.release()
+
+
+def _train(config: Config, run_dir: Path, resume: bool, progress: bool, dist: Any,
+           lock: Any) -> Path:  # fmt: skip
+    """`train`'s work; ``lock`` is taken once the folder exists."""
     import numpy as np
     import torch
     from tqdm import tqdm
@@ -178,14 +193,15 @@ def train(
     val_data = training.make_replay_buffer(config, "val")
     if dist.is_main:  # made once the data passed their checks: a refused run leaves no folder
         run_dir.mkdir(parents=True, exist_ok=True)
+        lock.acquire()
     model = training.make_model(config).to(device)
     loss_module = training.make_loss(config)
     optimizer, scheduler = training.make_optimizer(config, model)
-    logger = training.make_logger(config if dist.is_main else _no_logging(config), run_dir)
     last_path, best_path = run_dir / "last.pt", run_dir / "best.pt"
     max_epochs = train_config.max_epochs
     state = {"epoch": 0, "global_step": 0, "best_val": math.inf, "lr_floor": False, "history": []}
-    if resume and last_path.exists():
+    resumed = resume and last_path.exists()
+    if resumed:
         checkpoint = resume_checkpoint(last_path, config, model.robot)
         model.load_state_dict(checkpoint["state_dict"])
         optimizer.load_state_dict(checkpoint["optimizer"])
@@ -197,10 +213,14 @@ def train(
             seconds = [entry["seconds"] for entry in state["history"] if "seconds" in entry]
             if seconds and state["epoch"] < max_epochs and not state["lr_floor"]:
                 report(epoch_estimate(max_epochs - state["epoch"], seconds))
-    else:
-        if train_config.init_from:  # fine-tuning (after a correction round, say): these weights
-            source, _ = load_checkpoint(train_config.init_from, robot=model.robot)
-            model.load_state_dict(source.state_dict())
+    elif train_config.init_from:  # fine-tuning (after a correction round, say): these weights
+        source, _ = load_checkpoint(train_config.init_from, robot=model.robot)
+        model.load_state_dict(source.state_dict())
+    # A killed run may have logged part of the epoch it then lost: TensorBoard shows the
+    # rerun's events from that epoch on, and a new run's only.
+    logger = training.make_logger(config if dist.is_main else _no_logging(config), run_dir,
+                                  purge_step=state["epoch"] + 1 if resumed else 0)  # fmt: skip
+    if not resumed:
         logger.hparams(config)
     if dist.world > 1:
         from torch.nn.parallel import DistributedDataParallel

@@ -93,6 +93,7 @@ POSITIVE = {"env.step_size", "data.planner_step_size", "model.offset_scale", "op
 CHOICES: dict[str, tuple[str, ...]] = {
     "train.monitor": ("loss", "semantic", "recons"),
     "logger.backend": ("tensorboard", ""),
+    "train_eval.difficulty": ("mixed", "any", "easy", "challenging"),
 }
 """Dotted key -> the values it may take (the home of these choices: the trainer and the logger
 read them from here)."""

@@ -23,8 +23,9 @@ one line on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -170,10 +171,25 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     records = run_benchmark(problems, settings, out, workers=args.workers or 1,
                             backend=args.backend, address=args.ray_address,
                             progress=not args.no_progress)  # fmt: skip
-    text = write_outputs(experiments, records, settings, out, skipped)
+    # Another run of the same command may be writing them too: one at a time, each whole.
+    with _waiting_lock(out, "writing the benchmark's outputs"):
+        text = write_outputs(experiments, records, settings, out, skipped)
     print(text)
     report(f"logs: {out / 'logs'}; database: {out / 'benchmark.db'}; plots: {out / 'plots'}")
     return text
+
+
+@contextlib.contextmanager
+def _waiting_lock(out: Path, purpose: str) -> Iterator[None]:
+    """``out``'s `DirectoryLock`, waiting for another holder to finish."""
+    from temp_gym.files import DirectoryLock
+
+    lock = DirectoryLock(out, purpose)
+    lock.acquire(wait=True)
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def main(argv: Sequence[str] | None = None, source: ProblemSource | None = None) -> int:

@@ -97,13 +97,14 @@ class Logger:
     explains its charts.
     """
 
-    def __init__(self, backend: str, log_dir: Path) -> None:
+    def __init__(self, backend: str, log_dir: Path, purge_step: int | None = None) -> None:
         check_logger_backend(backend)
         self.writer = None
         if backend == "tensorboard":
             from torch.utils.tensorboard import SummaryWriter
 
-            self.writer = SummaryWriter(log_dir=str(log_dir))
+            # TensorBoard drops the folder's earlier events at steps >= purge_step.
+            self.writer = SummaryWriter(log_dir=str(log_dir), purge_step=purge_step)
         self.log_dir = log_dir
         self._described: set[str] = set()
 
@@ -138,6 +139,12 @@ class Logger:
             self.writer.close()
 
 
-def make_logger(config: Config, run_dir: Path) -> Logger:
-    """`Logger` for ``logger.backend`` writing into the run directory."""
-    return Logger(config.logger.backend, run_dir)
+def make_logger(config: Config, run_dir: Path, purge_step: int | None = None) -> Logger:
+    """`Logger` for ``logger.backend`` writing into the run directory.
+
+    ``purge_step``: TensorBoard hides the events written there before at this step and later
+    (a resumed run passes the first step it writes again; a new run 0). TensorBoard reads the
+    first such mark in a folder as a start, later ones as restarts: only a run that began
+    with one is purged on a rerun.
+    """
+    return Logger(config.logger.backend, run_dir, purge_step)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import torch
 
+from temp_gym.config.errors import ConfigError
+
 
 def launch_rank() -> int:
     """This process's rank in a ``torchrun`` launch (0 without one), before any process group."""
@@ -35,6 +37,9 @@ class Distributed:
         if device_name == "cuda" and self.world > 1:
             device_name = f"cuda:{local_rank}"
         self.device = torch.device(device_name)
+        if self.device.type == "cuda" and not torch.cuda.is_available():
+            raise ConfigError(f"train.device: {device_name!r}, but this PyTorch sees no CUDA "
+                              "device; use cpu or auto")  # fmt: skip
         if self.world > 1 and not dist.is_initialized():
             dist.init_process_group(backend="nccl" if self.device.type == "cuda" else "gloo")
         self.is_main = self.rank == 0

@@ -89,6 +89,7 @@ def test_a_number_of_thousands_of_digits_is_one_error():
         ("evaluation.time_limit=.inf", "evaluation.time_limit"),
         ("data.seed=-1", "data.seed"),
         ("train_eval.max_nodes=0", "train_eval.max_nodes"),
+        ("train_eval.difficulty=foo", "train_eval.difficulty"),
     ],
 )
 def test_every_size_and_rate_is_bounded(override, key):
@@ -119,3 +120,15 @@ def test_output_folders(tmp_path):
         with pytest.raises(ConfigError, match=reason):
             check_output_dir(path, "data.dir")
     assert not (tmp_path / "new").exists()  # nothing is created
+
+
+def test_a_cuda_device_this_pytorch_cannot_see_is_refused_in_one_line(monkeypatch):
+    import torch
+
+    from temp_gym.training.parallel import Distributed
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    for name in ("cuda", "cuda:7"):
+        with pytest.raises(ConfigError, match=rf"^train.device: '{name}', but this PyTorch"):
+            Distributed(name)
+    assert Distributed("auto").device.type == "cpu"

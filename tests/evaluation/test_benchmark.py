@@ -259,3 +259,21 @@ def test_simplify_records_the_shorter_path_beside_the_planners_and_ompl_reads_it
         assert sorted(theirs.execute(query).fetchall()) == sorted(
             (length,) for length, _ in lengths
         )
+
+
+def test_the_outputs_are_written_under_the_folders_lock(bench, monkeypatch):
+    """A second run of the same command may finish while the first writes its outputs: the
+    writing holds the folder's lock (waiting for the other's), so the two never interleave."""
+    import temp_gym.evaluation.benchmark_report as report
+    from temp_gym.files import DirectoryLock
+
+    problems, out = bench
+    write, held = report.write_outputs, []
+
+    def watched(*args, **kwargs):
+        held.append(DirectoryLock(out, "test").is_held_elsewhere())
+        return write(*args, **kwargs)
+
+    monkeypatch.setattr(report, "write_outputs", watched)
+    assert main(command(problems, out)) == 0
+    assert held == [True]

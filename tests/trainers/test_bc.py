@@ -66,6 +66,15 @@ def test_trains_evaluates_and_resumes(tmp_path):
     for key, value in last["state_dict"].items():
         assert torch.equal(straight["state_dict"][key], value), key
 
+    # A second run into a run folder in use is refused in one line, and writes nothing there.
+    from temp_gym.files import DirectoryLock
+
+    before = sorted(path.name for path in run_dir.iterdir())
+    with DirectoryLock(run_dir, "training"):
+        with pytest.raises(AssertionError, match="is in use by another run"):
+            run_bc(tmp_path, "train.max_epochs=3", flags=("--skip-eval",))
+    assert sorted(path.name for path in run_dir.iterdir()) == before
+
 
 def test_symmetry_augmentation_keeps_occupied_cells_occupied():
     from temp_gym import training
