@@ -17,6 +17,7 @@ import torch
 from tensordict import TensorDict
 
 from temp_gym.config import Config
+from temp_gym.config.errors import ConfigError
 
 BATCH_KEYS = ("start", "goal", "goal_radius", "path", "path_length", "target")
 
@@ -197,6 +198,11 @@ def make_replay_buffer(config: Config, split: str) -> SplitData:
     from temp_gym.data.correction import load_corrections
 
     buffer, workspaces = load_split(config.data.dir, split)
+    if len(buffer) == 0 or len(workspaces) == 0:
+        raise ConfigError(
+            f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no samples; "
+            "training needs at least one workspace in each split"
+        )
     chunk = config.model.chunk
     rounds = config.data.corrections if split == "train" else []
     return SplitData(buffer, workspaces, chunk, [load_corrections(path) for path in rounds])

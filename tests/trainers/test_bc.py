@@ -295,3 +295,15 @@ def test_divergence_and_a_tampered_dataset_stop_in_one_line(tmp_path):
     lines = refused.stderr.strip().splitlines()
     assert len(lines) == 1 and "target.npy: holds NaN or inf" in lines[0], refused.stderr
     assert not (tmp_path / "runs" / "TEMP-2D-v0__tampered__0").exists()
+
+
+def test_an_empty_split_is_refused_in_one_line(tmp_path):
+    command = [sys.executable, str(ROOT / "trainers" / "bc.py"), "--config",
+               str(ROOT / "configs" / "tiny.yaml"), "--no-progress", "--skip-eval",
+               f"data.dir={tmp_path / 'data'}", "data.workers=1",
+               f"logger.dir={tmp_path / 'runs'}", "data.workspaces={train: 0, val: 1}"]  # fmt: skip
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, OMP_NUM_THREADS="1"))  # fmt: skip
+    error = done.stderr.strip().splitlines()[-1]
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert "data.workspaces.train: the train split of" in error and "holds no samples" in error
