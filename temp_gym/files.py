@@ -162,11 +162,14 @@ class DirectoryLock:
     Args:
         directory: The directory to lock (created if missing).
         purpose: What the holder does there, for the other run's message.
+        wait: as a context manager, wait for another holder to finish instead of raising
+            `LockedError` (`acquire`'s ``wait``).
     """
 
-    def __init__(self, directory: str | Path, purpose: str) -> None:
+    def __init__(self, directory: str | Path, purpose: str, wait: bool = False) -> None:
         self.directory = Path(directory)
         self.purpose = purpose
+        self.wait = wait
         self._handle: IO | None = None
 
     @property
@@ -228,7 +231,7 @@ class DirectoryLock:
             self._handle = None
 
     def __enter__(self) -> DirectoryLock:
-        self.acquire()
+        self.acquire(wait=self.wait)
         return self
 
     def __exit__(self, *exc_info: object) -> None:

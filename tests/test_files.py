@@ -74,3 +74,30 @@ def test_read_json_names_the_file_and_the_remedy(tmp_path, content, problem):
         path.write_text(content)
     with pytest.raises(StoredFileError, match=rf"run\.json: {problem}.*; delete it"):
         read_json(path, "delete it")
+
+
+def test_a_waiting_lock_enters_once_the_holder_releases(tmp_path):
+    import threading
+    import time
+
+    from temp_gym.files import DirectoryLock, LockedError
+
+    holder = DirectoryLock(tmp_path, "the first run")
+    holder.acquire()
+    with pytest.raises(LockedError, match="the first run"), DirectoryLock(tmp_path, "second"):
+        pass
+    order = []
+
+    def release_later():
+        time.sleep(0.2)
+        order.append("released")
+        holder.release()
+
+    thread = threading.Thread(target=release_later)
+    thread.start()
+    with DirectoryLock(tmp_path, "second", wait=True) as waiting:
+        order.append("entered")
+        assert DirectoryLock(tmp_path, "test").is_held_elsewhere()
+        assert waiting.holder().endswith("second")
+    thread.join()
+    assert order == ["released", "entered"]

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import functools
 import lzma
-import math
 import re
 import tarfile
 import zlib
@@ -34,7 +33,7 @@ import numpy as np
 
 from temp_gym.limits import MAX_PROBLEM_BYTES
 from temp_gym.problem import Problem, Workspace
-from temp_gym.problem.parsing import as_float
+from temp_gym.problem.parsing import positive_length
 from temp_gym.worlds.checkers import make_checker
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.robots.spec import refusal
@@ -78,9 +77,8 @@ def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, 
             opening, position or orientation goals, more than one goal.
     """
     spec = robot_spec(ROBOT)
-    radius = spec.goal_radius if goal_radius is None else as_float(goal_radius, "goal_radius")
-    if not (math.isfinite(radius) and radius > 0):
-        raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
+    radius = (spec.goal_radius if goal_radius is None
+              else positive_length(goal_radius, "goal_radius"))  # fmt: skip
     bounds = spec.joint_limits()
     joints, held, base = _panda()
     problems = []
@@ -89,10 +87,12 @@ def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, 
             if kind not in pair:
                 other = next(iter(pair.values()))[0]
                 raise ValueError(f"{other}: no {kind}{number}.yaml beside it")
-        scene_file, request_file = MoveItFile(pair["scene"][0]), MoveItFile(pair["request"][0])
-        scene = _yaml(*pair["scene"])
+        (scene_name, scene_bytes), (request_name, request_bytes) = pair["scene"], pair["request"]
+        scene_file, request_file = MoveItFile(scene_name), MoveItFile(request_name)
+        scene = load_yaml(scene_bytes, scene_name)
         obstacles = scene_obstacles(scene_file, scene, MODEL_NAME, WORLD_FRAMES | {base})
-        start, goal = request_joints(request_file, _yaml(*pair["request"]), joints, held)
+        request = load_yaml(request_bytes, request_name)
+        start, goal = request_joints(request_file, request, joints, held)
         try:
             workspace = Workspace.from_obstacles(ROBOT, bounds, obstacles)
         except ValueError as error:
@@ -143,10 +143,6 @@ def _order(item: tuple[tuple[str, str], dict]) -> tuple[str, int]:
     """Problems sorted by scene name (without ``_panda``), then by number."""
     (folder, number), _ = item
     return folder.removesuffix(SCENE_SUFFIX), int(number)
-
-
-def _yaml(name: str, data: bytes) -> object:
-    return load_yaml(data, name)
 
 
 def _problem_files(path: Path) -> Files:

@@ -23,9 +23,8 @@ one line on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -155,6 +154,7 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     check_manifest(out, settings)  # before the problems load: a wrong folder is found at once
     from temp_gym.evaluation.benchmark_problems import group_experiments, select_problems
     from temp_gym.evaluation.benchmark_report import write_outputs
+    from temp_gym.files import DirectoryLock
 
     problems, skipped, whole = _load(args, source)
     problems, more = select_problems(problems)
@@ -172,24 +172,11 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
                             backend=args.backend, address=args.ray_address,
                             progress=not args.no_progress)  # fmt: skip
     # Another run of the same command may be writing them too: one at a time, each whole.
-    with _waiting_lock(out, "writing the benchmark's outputs"):
+    with DirectoryLock(out, "writing the benchmark's outputs", wait=True):
         text = write_outputs(experiments, records, settings, out, skipped)
     print(text)
     report(f"logs: {out / 'logs'}; database: {out / 'benchmark.db'}; plots: {out / 'plots'}")
     return text
-
-
-@contextlib.contextmanager
-def _waiting_lock(out: Path, purpose: str) -> Iterator[None]:
-    """``out``'s `DirectoryLock`, waiting for another holder to finish."""
-    from temp_gym.files import DirectoryLock
-
-    lock = DirectoryLock(out, purpose)
-    lock.acquire(wait=True)
-    try:
-        yield
-    finally:
-        lock.release()
 
 
 def main(argv: Sequence[str] | None = None, source: ProblemSource | None = None) -> int:

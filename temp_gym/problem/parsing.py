@@ -44,6 +44,16 @@ def as_float(value: Any, name: str) -> float:
     return number
 
 
+def positive_length(value: Any, name: str) -> float:
+    """A positive finite length, or a `ValueError` naming ``name``."""
+    number = as_float(value, name)
+    if not math.isfinite(number) or number <= 0:
+        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
+    if number < MIN_LENGTH:
+        raise ValueError(f"{name}: {number:g} is below {MIN_LENGTH:g}")
+    return number
+
+
 def float_vector(value: Any, name: str, length: int) -> np.ndarray:
     """Convert ``value`` to a finite float vector of ``length`` or raise a naming `ValueError`."""
     if isinstance(value, np.ndarray) and value.dtype.kind in "fiu":

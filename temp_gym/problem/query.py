@@ -60,6 +60,7 @@ from temp_gym.problem.parsing import (
     as_float,
     float_vector,
     parse_problem_json,
+    positive_length,
 )
 from temp_gym.problem.robots import robot_named
 from temp_gym.problem.workspace import Workspace
@@ -407,23 +408,13 @@ def obstacle_arrays(obstacles: Any, wdim: int) -> tuple[np.ndarray, ...]:
                 raise ValueError(f"{where}.half_extents: must be positive, got {half.tolist()}")
             halves[i] = half
         else:
-            radius = _positive(entry["radius"], f"{where}.radius")
+            radius = positive_length(entry["radius"], f"{where}.radius")
             halves[i] = radius
             if kind == CYLINDER:
-                halves[i, 2] = 0.5 * _positive(entry["length"], f"{where}.length")
+                halves[i, 2] = 0.5 * positive_length(entry["length"], f"{where}.length")
         if "orientation" in entry:
             orientations[i] = _orientation(entry["orientation"], f"{where}.orientation", wdim)
     return centers, halves, kinds, orientations
-
-
-def _positive(value: Any, name: str) -> float:
-    """A positive finite length, or a `ValueError` naming ``name``."""
-    number = as_float(value, name)
-    if not math.isfinite(number) or number <= 0:
-        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
-    if number < MIN_LENGTH:
-        raise ValueError(f"{name}: {number:g} is below {MIN_LENGTH:g}")
-    return number
 
 
 def _orientation(value: Any, name: str, wdim: int) -> np.ndarray:

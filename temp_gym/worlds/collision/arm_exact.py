@@ -153,7 +153,9 @@ def lever_spheres(arm: ArmModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     Returns ``(body_start, centers, radii)``: body ``j``'s sphere is row ``body_start[j]``
     when ``body_start[j] < body_start[j + 1]``, and a body without pieces has none. The pieces
-    hold the body's collision elements, so every point of the body lies in its sphere.
+    hold the body's collision elements, so every point of the body lies in its sphere. Smaller
+    than `arm_self.bounding_spheres` (a box's center and farthest corner), which the pair
+    screen uses: a lever arm grows with the radius.
     """
     key = "lever_spheres"
     if key not in arm._arrays:
