@@ -63,13 +63,19 @@ _Loader.add_implicit_resolver(
 )
 
 
-def load_yaml(data: str | bytes, name: str) -> object:
+def load_yaml(data: str | bytes, name: str, anchors: bool = True) -> object:
     """The document in ``data`` (module docstring); ``name`` names it in errors.
 
+    ``anchors=False`` refuses any anchor or alias, as the parser reads them: an ``&`` in a
+    comment or a quoted string is no anchor.
+
     Raises:
-        ValueError: invalid YAML, or a document that contains itself, expands too far or
-            nests too deep (one line: ``name: reason``).
+        ValueError: invalid YAML, an anchor or alias where ``anchors`` is False, or a document
+            that contains itself, expands too far or nests too deep (one line:
+            ``name: reason``).
     """
+    if not anchors:
+        _refuse_anchors(data, name)
     try:
         document = yaml.load(data, Loader=_Loader)  # noqa: S506  (a safe loader)
     except yaml.YAMLError as error:
@@ -84,6 +90,20 @@ def load_yaml(data: str | bytes, name: str) -> object:
     if ("&" if isinstance(data, str) else b"&") in data:
         check_tree(document, name)
     return document
+
+
+def _refuse_anchors(data: str | bytes, name: str) -> None:
+    """Raise a `ValueError` if the parser meets an anchor or an alias in ``data``."""
+    if ("&" if isinstance(data, str) else b"&") not in data:  # no anchor, so no alias either
+        return
+    try:
+        for event in yaml.parse(data, Loader=_BASE):
+            anchor = getattr(event, "anchor", None)
+            if anchor is not None:
+                raise ValueError(f"{name}: YAML anchors and aliases are not accepted "
+                                 f"(&{anchor} / *{anchor}); write the value out")  # fmt: skip
+    except yaml.YAMLError:
+        return  # `load_yaml` names the defect
 
 
 def check_tree(document: object, name: str) -> None:

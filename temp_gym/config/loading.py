@@ -229,8 +229,9 @@ def load_config(path: str | Path, overrides: Sequence[str] | None = None) -> Con
 def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
     """``config`` with its ``env.robot`` description file registered.
 
-    An ``env.robot`` that names a description file (``.yaml``/``.yml``) is replaced by the
-    arm's name (the file kept as ``env.description``).
+    An ``env.robot`` that names a description file (``.yaml``/``.yml``, a path with a folder, or an
+    existing file that no robot is named after) is replaced by the arm's name (the file kept as
+    ``env.description``); a file that is no description is refused with the loader's reason.
 
     ``env.id`` becomes the arm's env unless ``keep_id`` (it was given explicitly; then it must
     match, `check_config`). A config loaded again from a stored copy (``env.description`` set)
@@ -242,7 +243,7 @@ def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
     from temp_gym import hooks
 
     robot, description = config.env.robot, config.env.description
-    if str(robot).endswith((".yaml", ".yml")):
+    if _names_a_file(str(robot)):
         description = robot
     if description is None:
         return config
@@ -259,6 +260,21 @@ def resolve_robot_description(config: Config, keep_id: bool = False) -> Config:
         id=config.env.id if keep_id else spec.env_id,
     )
     return dataclasses.replace(config, env=env)
+
+
+def _names_a_file(robot: str) -> bool:
+    """Whether ``env.robot`` names a description file rather than a registered robot.
+
+    A ``.yaml``/``.yml`` name, a path with a folder in it, or an existing file that is not the
+    robot of a registered temp-gym env.
+    """
+    if robot.endswith((".yaml", ".yml")) or "/" in robot:
+        return True
+    from gymnasium.envs.registration import registry  # what `import temp_gym` registers in
+
+    robots = {spec.kwargs.get("robot") for spec in registry.values()
+              if str(spec.entry_point).startswith("temp_gym.")}  # fmt: skip
+    return robot not in robots and Path(robot).expanduser().is_file()
 
 
 def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:

@@ -268,11 +268,18 @@ class Problem:
     def load(cls, path: str | Path) -> Problem:
         """Read a problem from a UTF-8 JSON file; any defect raises a `ValueError` naming it.
 
+        A file that cannot be read raises the `OSError` that `open` raises, with one line
+        naming the file and the reason.
+
         A file beyond `MAX_PROBLEM_BYTES` (or a stream without end, such as ``/dev/zero``) is
         refused after reading that much, not read into memory whole.
         """
-        with open(path, "rb") as handle:
-            raw = handle.read(MAX_PROBLEM_BYTES + 1)
+        try:
+            with open(path, "rb") as handle:
+                raw = handle.read(MAX_PROBLEM_BYTES + 1)
+        except OSError as error:  # the same kind of error, with a line a user can read
+            reason = (error.strerror or type(error).__name__).lower()
+            raise type(error)(f"{path}: cannot read the problem file ({reason})") from None
         if len(raw) > MAX_PROBLEM_BYTES:
             raise ValueError(
                 f"{path}: larger than {MAX_PROBLEM_BYTES // 2**20} MB, too large to be a problem"

@@ -89,7 +89,17 @@ def test_the_time_limit_covers_the_search_at_the_supported_count(tmp_path):
 
 @pytest.mark.parametrize(
     "name",
-    ["oversized", "endless", "deep", "joint limits", "box key", "duplicate keys", "not utf-8"],
+    [
+        "oversized",
+        "endless",
+        "deep",
+        "joint limits",
+        "box key",
+        "duplicate keys",
+        "not utf-8",
+        "missing",
+        "folder",
+    ],
 )
 def test_a_hostile_problem_file_gets_one_line(tmp_path, name):
     problem = tmp_path / "problem.json"
@@ -115,6 +125,12 @@ def test_a_hostile_problem_file_gets_one_line(tmp_path, name):
     elif name == "duplicate keys":
         problem.write_text(json.dumps(EXAMPLE).replace('"robot"', '"robot": "x", "robot"', 1))
         words = ["duplicate key"]
+    elif name == "missing":
+        problem = tmp_path / "nope.json"
+        words = ["nope.json: cannot read the problem file (no such file or directory)"]
+    elif name == "folder":
+        problem = tmp_path
+        words = ["cannot read the problem file (is a directory)"]
     else:
         problem.write_bytes(json.dumps(EXAMPLE).encode("utf-16"))
         words = ["not UTF-8"]

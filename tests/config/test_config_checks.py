@@ -107,6 +107,20 @@ def test_an_env_id_must_be_registered_and_match_the_robot():
     assert refused("env.id=TEMP-3D-v0").startswith("env.robot: 'point2d' is not the robot")
 
 
+def test_a_robot_file_that_is_no_description_gets_the_loaders_reason(tmp_path, monkeypatch):
+    import temp_gym  # noqa: F401  (sets the description loader)
+
+    (tmp_path / "notes").write_text("# Notes\n\nSee: the *readme*: here\n")
+    (tmp_path / "point2d").write_text("a file named like a robot\n")
+    monkeypatch.chdir(tmp_path)
+    for robot in ("notes", str(tmp_path / "notes"), "notes.yaml"):
+        message = refused("env.id=TEMP-2D-v0", f"env.robot={robot}")
+        assert message.startswith("env.robot: ") and "robot of" not in message, message
+        assert "not valid YAML" in message or "no such robot description file" in message
+    # A registered robot's name stays a name, even beside a file of that name.
+    assert load_config(TINY, ["env.robot=point2d"]).env.robot == "point2d"
+
+
 def test_output_folders(tmp_path):
     (tmp_path / "file").write_text("x")
     assert check_output_dir(tmp_path / "new" / "deeper", "data.dir") == tmp_path / "new/deeper"

@@ -43,7 +43,10 @@ def test_bad_path_files_get_one_line_and_exit_2(tmp_path, problem_file, capsys, 
 
 def test_bad_problems_and_addresses_get_one_line_and_exit_2(tmp_path, problem_file, capsys):
     for argv, message in [
-        ([str(tmp_path / "missing.json")], "No such file"),
+        (
+            [str(tmp_path / "missing.json")],
+            "missing.json: cannot read the problem file (no such file",
+        ),
         ([str(problem_file), "--port", "70000"], "port: expected an integer in 0..65535"),
         ([str(problem_file), "--host", "no.such.host.invalid"], "host: cannot listen"),
     ]:

@@ -122,6 +122,15 @@ def test_an_exponent_without_a_dot_is_a_number(tmp_path):
     assert load_description(_description(tmp_path, text)).sphere_tolerance == 0.006
 
 
+def test_an_ampersand_that_is_no_anchor_is_read_as_text(tmp_path):
+    text = ("name: a  # R&D &b\nurdf: pybullet_data://kuka_iiwa/model.urdf\n"
+            "base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n"
+            "env_id: 'TEMP-A-v0'  # &c\n")  # fmt: skip
+    assert load_description(_description(tmp_path, text)).name == "a"
+    with pytest.raises(DescriptionError, match=r"anchors and aliases .*\(&l / \*l\)"):
+        load_description(_description(tmp_path, text.replace("urdf:", "urdf: &l")))
+
+
 @pytest.mark.parametrize(
     ("fixed", "limits", "message"),
     [
