@@ -57,14 +57,23 @@ def _load(path: str, setting: int) -> dict:
     settings, budget = data["settings"], data["max_nodes"]
     if not isinstance(settings, list) or not isinstance(budget, int) or budget < 1:
         raise JobError(f"{path}: not a tune_planner.py --per-task file (its settings or budget)")
-    if not -len(settings) <= setting < len(settings):
-        raise JobError(f"{path}: --setting {setting}, but the file holds {len(settings)}")
+    if not 0 <= setting < len(settings):
+        raise JobError(
+            f"{path}: --setting {setting}, but the file holds settings 0 to {len(settings) - 1}"
+        )
     runs = settings[setting]
     tasks = len(data["seeds"]) if isinstance(data["seeds"], list) else -1
     if not isinstance(runs, dict) or any(
         not isinstance(runs.get(key), list) or len(runs[key]) != tasks for key in RUN_KEYS
     ):
         raise JobError(f"{path}: setting {setting} does not list {RUN_KEYS} for its {tasks} tasks")
+    if not all(isinstance(value, bool) for value in runs["success"]) or not all(
+        isinstance(value, (int, float)) and not isinstance(value, bool) for value in runs["nodes"]
+    ):  # "12" or "false" would be read as a count or as True
+        raise JobError(
+            f"{path}: setting {setting} holds a success that is not true or false, or a node "
+            "count that is not a number"
+        )
     try:
         success = np.array(runs["success"], dtype=bool)
         nodes = np.where(success, np.array(runs["nodes"], dtype=np.float64), budget)

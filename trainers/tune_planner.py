@@ -428,6 +428,9 @@ def check_per_task_file(out: Path, inputs: list[Path]) -> None:
             raise ConfigError(f"--per-task: {out} is an input; choose another file")
     if out.is_dir():
         raise ConfigError(f"--per-task: {out} is a directory")
+    blocking = next((folder for folder in out.absolute().parents if folder.exists()), None)
+    if blocking is not None and not blocking.is_dir():  # checked now, not after the sweep
+        raise ConfigError(f"--per-task: {blocking} is a file, so {out} cannot be written")
     if out.exists():
         try:
             data = json.loads(out.read_text())

@@ -144,6 +144,9 @@ def _check_section(section: EvaluationConfig, robot: str) -> None:
         raise ConfigError(
             f"evaluation.baselines: unknown planner {unknown[0]!r}; expected some of {baselines}"
         )
+    repeated = [name for k, name in enumerate(section.baselines) if name in section.baselines[:k]]
+    if repeated:
+        raise ConfigError(f"evaluation.baselines: {repeated[0]!r} is listed twice")
     try:  # plan()'s own checks of the budgets and TEMP's settings
         PlanSettings(max_nodes=section.max_nodes, time_limit=section.time_limit)
     except ValueError as error:

@@ -373,7 +373,7 @@ def _evaluate_missing(jobs, targets, paths, workers, progress, backend, address)
 
 def attention_example(
     settings: EvaluationSettings, make_policy: Callable[[], Any], group: str | None = None
-) -> dict[str, Any]:
+) -> dict[str, Any] | None:
     """TEMP's attention along one example plan: task 0 of ``group`` (default: the first row).
 
     Plans with the policy's attention read-out on (``record_attention``) and returns the
@@ -384,6 +384,7 @@ def attention_example(
     The policy plans from the start only (no phase from the goal, so no rounds): the phase
     from the goal resets the policy to the swapped problem and back, and each reset starts
     its record afresh, so a plan joined from the goal would leave none of the phase shown.
+    None when the policy was never asked for a sample (a node budget of one, say).
     """
     from temp_gym.models.attention import GROUPS, normalized_group_attention
 
@@ -396,6 +397,8 @@ def attention_example(
         problem, "temp", settings.temp_settings(policy, stop_at_first=True, time_limit=None,
                                                 attention_from_goal=False, attention_rounds=0),
     )  # fmt: skip
+    if len(policy.attentions) == 0:
+        return None
     weights = normalized_group_attention(policy.attentions, policy.info.num_sei_tokens)
     return {
         "group": group,

@@ -200,6 +200,15 @@ def _untrained_temp_policy():
     return TEMPPolicy(model.eval())
 
 
+def test_no_attention_example_when_the_policy_never_sampled(tmp_path):
+    one_node = settings(groups={"2D easy": ("easy", 1)}, curve_tasks=0, max_nodes=1)
+    assert attention_example(one_node, _untrained_temp_policy) is None
+    records = run_evaluation(one_node, make_policy, tmp_path, workers=1, progress=False)
+    write_report(records, tmp_path / "report", tensorboard=False, attention=None)
+    assert (tmp_path / "report" / "results.md").exists()
+    assert not (tmp_path / "report" / "attention.png").exists()
+
+
 def test_attention_example_reads_one_plan_and_is_plotted(tmp_path):
     example = attention_example(settings(max_nodes=200), _untrained_temp_policy)
     steps = len(example["raw"]["SEI"])

@@ -80,8 +80,19 @@ def test_files_of_other_tasks_or_bad_arguments_are_refused(per_task, tmp_path, c
     broken.write_text(json.dumps({"settings": []}))
     with pytest.raises(JobError, match="not a tune_planner.py --per-task file"):
         compare_policies.main([str(per_task["plain"]), str(broken)])
-    with pytest.raises(JobError, match="--setting 1, but the file holds 1"):
-        compare_policies.main([str(per_task["plain"]), str(per_task["near"]), "--setting", "1"])
+    for setting in ("1", "-1"):  # -1 would be the last row by Python's indexing
+        with pytest.raises(JobError, match=f"--setting {setting}, but the file holds settings 0"):
+            compare_policies.main(
+                [str(per_task["plain"]), str(per_task["near"]), "--setting", setting]
+            )
+    stored = json.loads(per_task["near"].read_text())
+    for key, value in (("nodes", "12"), ("success", "false")):  # read as 12 and as True
+        copy = json.loads(json.dumps(stored))
+        copy["settings"][0][key][0] = value
+        typed = tmp_path / f"{key}.json"
+        typed.write_text(json.dumps(copy))
+        with pytest.raises(JobError, match="not true or false, or a node count that is not a"):
+            compare_policies.main([str(per_task["plain"]), str(typed)])
     with pytest.raises(SystemExit):
         compare_policies.main([str(per_task["plain"]), str(per_task["near"]), "--cap", "0"])
     assert "--cap: expected a finite positive number" in capsys.readouterr().err

@@ -76,6 +76,8 @@ def test_config_is_required_and_every_flag_shows_its_default(capsys):
      ("evaluation.time_limit=-1", "evaluation.time_limit: must be positive"),
      ("evaluation.max_nodes=0", "evaluation.max_nodes: must be at least 1"),
      ("evaluation.baselines=[foo]", "evaluation.baselines: unknown planner 'foo'"),
+     ("evaluation.baselines=[rrt_star,rrt_star]",
+      "evaluation.baselines: 'rrt_star' is listed twice"),  # ran, with one column
      ("evaluation.noise_std=-1", "evaluation.noise_std: must be at least 0"),
      ("evaluation.horizon=9", "evaluation.horizon: expected an integer in 1.."),
      ("evaluation.workspace_family=nope", "evaluation.workspace_family: expected one of"),

@@ -241,3 +241,15 @@ def test_the_baseline_is_left_out_under_either_name_of_the_flag(capsys, monkeypa
     assert "informed_rrt_star: not run (--no-baseline)" in out
     [row] = [line for line in out.splitlines() if line.startswith("| ") and line[2].isdigit()]
     assert row.rstrip().endswith("| - | - |")
+
+
+def test_a_per_task_file_that_cannot_be_written_is_refused_before_the_sweep(tmp_path):
+    from temp_gym.config import ConfigError
+
+    (tmp_path / "afile").write_text("x")
+    inputs = [Path("configs/2d.yaml")]
+    with pytest.raises(ConfigError, match=r"--per-task: .*afile is a file, so .*x\.json cannot"):
+        tune_planner.check_per_task_file(tmp_path / "afile" / "deeper" / "x.json", inputs)
+    with pytest.raises(ConfigError, match="is a directory"):
+        tune_planner.check_per_task_file(tmp_path, inputs)
+    tune_planner.check_per_task_file(tmp_path / "new" / "x.json", inputs)  # folders get made
