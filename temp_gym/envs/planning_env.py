@@ -317,6 +317,8 @@ class PlanningEnv(gym.Env):
             problem, self._encoding(problem), self.max_path_length, self.max_nodes
         )
         self._solved_before = self.tree.best_node >= 0
+        if self.render_mode == "human":  # as after every step: Gymnasium's convention
+            self.render()
         return self._observation(), self._info(added=False, collided=False, final=False)
 
     def step(self, action: np.ndarray):

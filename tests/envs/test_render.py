@@ -416,3 +416,18 @@ def test_camera_sees_the_goal_hand_before_the_most_of_the_arm(iiwa_problems, mon
         renderer.view = None
         renderer.render(shelved, width=32, height=32)
         assert sees[renderer.view]
+
+
+def test_human_mode_draws_at_reset_and_after_every_step(monkeypatch):
+    import gymnasium as gym
+
+    from temp_gym.envs.planning_env import PlanningEnv
+
+    shown = []
+    monkeypatch.setattr(PlanningEnv, "_show", lambda self, image: shown.append(image.shape))
+    env = gym.make("TEMP-2D-v0", render_mode="human")
+    env.reset(seed=0)
+    assert len(shown) == 1  # Gymnasium's convention: reset draws too
+    env.step(env.action_space.sample())
+    assert len(shown) == 2 and len(shown[0]) == 3
+    env.close()
