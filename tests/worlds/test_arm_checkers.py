@@ -25,6 +25,7 @@ from temp_gym.worlds.collision.arm_exact import (
 )
 from temp_gym.worlds.collision.arm_exact_bounds import box_center
 from temp_gym.worlds.collision.arm_fast import ArmSphereChecker, sphere_trees
+from temp_gym.worlds.collision.arm_fast_kernels import COARSE_INTERVALS, first_intervals
 from temp_gym.worlds.collision.arm_self import DISTANCE_TOLERANCE, SELF_COLLISION_GAP, transform
 from temp_gym.worlds.collision.pybullet_reference import PybulletArm
 from temp_gym.worlds.robots import robot_spec
@@ -523,3 +524,20 @@ def test_a_motions_rates_bound_how_fast_its_bodies_move(arms, robot):
             step = np.linalg.norm(np.diff(relative, axis=0), axis=2).max()
             assert step <= pair_sweep[p] * (t[1] - t[0]) + 1e-9, (start, end, a, b)
     assert slower > 0
+
+
+@pytest.mark.parametrize("steps", [1, 2, 3, 4, 5, 6, 7, 10, 31, 100])
+def test_an_edges_first_intervals_tile_it_end_first_then_start(steps):
+    low, high = np.full(steps + 2, np.nan), np.full(steps + 2, np.nan)
+    count = first_intervals(steps, low, high)
+    order = list(zip(low[:count][::-1], high[:count][::-1]))  # as they come off the stack
+    assert order[0] == ((steps - 1) / steps, 1.0)
+    if steps > 1:
+        assert order[1] == (0.0, 1.0 / steps)
+    middle = order[2:]
+    assert middle == sorted(middle)  # left to right
+    spans = sorted(order)
+    assert spans[0][0] == 0.0 and spans[-1][1] == 1.0
+    assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))  # no gap, no overlap
+    assert all(0 < b - a <= COARSE_INTERVALS / steps * (1 + 1e-12) for a, b in spans)
+    assert len(middle) == -(-max(steps - 2, 0) // COARSE_INTERVALS)

@@ -33,10 +33,15 @@ between can add (`temp_gym.worlds.arm.kinematics.segment_levers_into`), and neve
 the arm's bound over all configurations (`ArmModel.motion_radii`). So along the edge body
 ``j`` moves at most
 ``W_j = sum_i |dq_i| L[i, j]``. The edge is cut into ``n = ceil(max_j W_j / resolution)``
-intervals; an interval of half-width ``h`` (in the edge's parameter) is certified by the state
-at its middle with body ``j``'s spheres grown by ``W_j h`` against obstacles: every pose of the
-interval is within that of the checked one. An interval whose grown check fails while its
-middle state is free is split in two, and so on until the growth is below `GROWTH_FLOOR`: an
+intervals. The last and the first are checked first (an edge whose new end collides is refused
+at once), then the ones between in chunks of up to `COARSE_INTERVALS`. An interval of
+half-width ``h`` (in the edge's parameter) is certified by the state at its middle with body
+``j``'s spheres grown by ``W_j h`` against obstacles: every pose of the interval is within that
+of the checked one. (A chunk grows them past half the resolution, the margin of each body's
+obstacle list beyond the body's reach: an obstacle the list leaves out is beyond the body at
+every pose, so the certificate needs it no more than before.) An interval whose grown check
+fails while its middle state is free is split in two, and so on until the growth is below
+`GROWTH_FLOOR`: an
 edge that runs a few millimetres from a surface is certified with small steps there and large
 ones elsewhere, so a start or goal near a surface can be left and reached. A body pair is
 certified by its relative motion instead, which only the joints between its two bodies make
@@ -261,7 +266,8 @@ class ArmSphereChecker:
         """Per body, the obstacles it can reach: ``(lists, counts, lowers, uppers)``.
 
         Those whose world bounding box is within the body's reach of the first joint's origin
-        (which never moves), plus half the resolution (the most an edge check grows it). A
+        (which never moves), plus half the resolution (the most clearance a state check grows
+        it by; no pose of the body reaches the others, however an edge check grows it). A
         body's list holds ``counts[j, 0]`` rows of the box table, then ``counts[j, 1]`` rows of
         the other obstacles' table (`obstacle_tables`).
         """

@@ -44,6 +44,12 @@ from temp_gym.worlds.hot_path import hot_inline, hot_path
 
 GROWTH_FLOOR = 1e-4
 """An edge interval whose spheres would grow by at most this (m) and still touch is blocked."""
+COARSE_INTERVALS = 4
+"""Most resolution-wide intervals an edge's middle is first checked as one (`_edge_free`): its
+spheres grow by up to this many half resolutions, and a check that fails is split as any
+other: fewer checks on a free edge, a few more near a surface. 4 and 8 checked random edges
+from free states about as fast, 16 slower (the research notes on collision checking); the
+smaller keeps the growth, and the splits near a surface, smaller."""
 
 
 @hot_inline
@@ -225,6 +231,29 @@ def _state_free(q, kind, rotation, shift, node_centers, node_radii,
     return HIT
 
 
+@hot_inline
+def first_intervals(steps, stack_low, stack_high) -> int:
+    """Push an edge's first intervals onto the stack; returns how many.
+
+    Of the ``steps`` intervals ``[k / steps, (k + 1) / steps]`` the last comes out first, then
+    the first (an edge whose new end collides is refused at once), then the ones between in
+    chunks of up to `COARSE_INTERVALS`, left to right: pushed in the reverse of that order.
+    """
+    top = 0
+    if steps > 2:
+        inner = steps - 2
+        chunks = (inner + COARSE_INTERVALS - 1) // COARSE_INTERVALS
+        for c in range(chunks - 1, -1, -1):
+            stack_low[top] = (1 + (c * inner) // chunks) / steps
+            stack_high[top] = (1 + ((c + 1) * inner) // chunks) / steps
+            top += 1
+    if steps > 1:
+        stack_low[top], stack_high[top] = 0.0, 1.0 / steps
+        top += 1
+    stack_low[top], stack_high[top] = (steps - 1) / steps, 1.0
+    return top + 1
+
+
 @hot_path
 def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
                node_radii, node_skip, node_first, node_count, body_start, centers, radii,
@@ -266,28 +295,7 @@ def _edge_free(starts, ends, e, bounds, kind, rotation, shift, node_centers,
             total += abs(ends[e, i] - starts[e, i]) * lever[i, sphere_pairs[p, 1]]
         pair_sweep[p] = total
     steps = max(1, int(math.ceil(worst / resolution)))
-    # The intervals [k / steps, (k + 1) / steps], pushed so that the one at the end comes out
-    # first, then the one at the start, then the middle ones in bisection order (coarsest
-    # level first, left to right): pushed in the reverse of that order.
-    top = 0
-    levels = 0
-    while (1 << levels) < steps:
-        levels += 1
-    for level in range(levels, -1, -1):
-        width = (1 << levels) >> level
-        first = width
-        if first >= steps - 1:
-            continue
-        last = first + ((steps - 2 - first) // (2 * width)) * (2 * width)
-        for k in range(last, first - 1, -2 * width):
-            stack_low[top] = k / steps
-            stack_high[top] = (k + 1) / steps
-            top += 1
-    if steps > 1:
-        stack_low[top], stack_high[top] = 0.0, 1.0 / steps
-        top += 1
-    stack_low[top], stack_high[top] = (steps - 1) / steps, 1.0
-    top += 1
+    top = first_intervals(steps, stack_low, stack_high)
     while top > 0:
         top -= 1
         low, high = stack_low[top], stack_high[top]
