@@ -44,6 +44,24 @@ def main(argv: list[str] | None = None) -> None:
     card = read_card(root)
     summary = {"dir": str(root), "totals": card["totals"], "timing": card["timing"]}
     print(json.dumps(summary, indent=2))
+    for line in empty_split_warnings(card):
+        print(f"generate.py: warning: {line}", file=sys.stderr)
+
+
+def empty_split_warnings(card: dict) -> list[str]:
+    """A line for each split of the dataset card that stored no expert plan (bc.py refuses it)."""
+    lines = []
+    for split, figures in card["splits"].items():
+        if figures.get("plans_stored") == 0:
+            attempted, failed = figures.get("plans_attempted", 0), figures.get("plans_failed", 0)
+            count = figures.get("workspaces", 0)
+            lines.append(
+                f"the {split} split stored no expert plan ({failed} of {attempted} failed, in "
+                f"{count} workspace{'' if count == 1 else 's'}): bc.py cannot train on it; "
+                "give the expert more nodes (data.max_nodes) or the split more workspaces "
+                "(data.workspaces)"
+            )
+    return lines
 
 
 if __name__ == "__main__":
