@@ -82,6 +82,21 @@ def load_path(file: str | Path, dim: int) -> np.ndarray | None:
     return path
 
 
+def path_outside_bounds(path: np.ndarray, problem) -> str | None:
+    """Which state of ``path`` first leaves the problem's bounds, and how; None if none does."""
+    from temp_gym.problem.query import outside_bounds
+    from temp_gym.problem.robots import robot_named
+
+    bounds = problem.bounds
+    outside = np.flatnonzero(np.any((path < bounds[0]) | (path > bounds[1]), axis=1))
+    if len(outside) == 0:
+        return None
+    joints = robot_named(problem.robot).joint_limits is not None
+    first = int(outside[0])
+    return (f"states outside the problem's bounds: {len(outside)} of {len(path)}; the first, "
+            f"state {first}: {outside_bounds(path[first], bounds, joints)}")  # fmt: skip
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``temp-view``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -93,6 +108,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_address(args.host, args.port)
         problem = Problem.load(args.problem)
         path = None if args.path is None else load_path(args.path, problem.dim)
+        if path is not None:
+            warning = path_outside_bounds(path, problem)
+            if warning:  # shown all the same: the viewer is for looking at any path
+                print(f"{PROG}: warning: {args.path}: {warning}", file=sys.stderr)
         # Checked (the robot, the path) before anything is served.
         serve_plan(
             problem,

@@ -7,10 +7,11 @@ import sys
 import tempfile
 import urllib.request
 
+import numpy as np
 import pytest
 from viewer_cases import POINT2D
 
-from temp_gym.viewer.command import main
+from temp_gym.viewer.command import main, path_outside_bounds
 
 pytest.importorskip("viser", reason="the viewer needs temp-gym[view]")
 
@@ -122,3 +123,17 @@ def test_temp_plan_view_plans_then_serves_until_ctrl_c(problem_file):
     summary, announced = out.strip().splitlines()
     assert status == 0 and summary.startswith("rrt_star seed=0: cost")
     assert announced.startswith("temp-plan: viewer: http://127.0.0.1:")
+
+
+def test_a_path_that_leaves_the_bounds_is_named():
+    from temp_gym.problem import Problem
+
+    problem = Problem.from_dict(POINT2D)
+    low, high = problem.bounds
+    inside = np.array([low, (low + high) / 2, high])
+    assert path_outside_bounds(inside, problem) is None
+    outside = np.array([low, high + [500.0, 0.0], low - 1.0])
+    assert path_outside_bounds(outside, problem) == (
+        "states outside the problem's bounds: 2 of 3; the first, state 1: outside the bounds: "
+        f"[0] = {high[0] + 500:g} is above the bound {high[0]:g}"
+    )
