@@ -82,7 +82,8 @@ MAX_TASKS_PER_WORKSPACE = 100_000
 is 200)."""
 
 MAX_TASKS = 1_000_000
-"""Most tasks of an evaluation or a comparison (``train_eval.tasks``, ``evaluation.tasks``)."""
+"""Most tasks of an evaluation or a comparison (``train_eval.tasks``, ``evaluation.tasks``,
+``temp-benchmark --split``)."""
 
 MAX_WORKERS = 1024
 """Most worker processes of a job."""

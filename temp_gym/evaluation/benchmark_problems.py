@@ -21,6 +21,7 @@ import re
 from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 
+from temp_gym.limits import MAX_TASKS
 from temp_gym.problem import Problem
 
 GROUPINGS = ("scene", "one", "problem")
@@ -73,7 +74,8 @@ def split_problems(spec: str, seed: int = 0) -> list[NamedProblem]:
     seed)``, named ``{robot}-{difficulty}/{i:04d}``: unseen test workspaces, deterministic.
 
     Raises:
-        ValueError: a malformed spec, an unknown robot or difficulty, a count below 1.
+        ValueError: a malformed spec, an unknown robot or difficulty, a count below 1 or
+            above `MAX_TASKS`.
     """
     from temp_gym.evaluation.runner import _DIFFICULTY_CODES, evaluation_problem
     from temp_gym.worlds.robots import robot_spec
@@ -81,6 +83,8 @@ def split_problems(spec: str, seed: int = 0) -> list[NamedProblem]:
     robot, difficulty, count = (spec.split(":") + ["", "", ""])[:3]
     if spec.count(":") != 2 or not count.isdigit() or int(count) < 1:
         raise ValueError(f"split: expected ROBOT:DIFFICULTY:COUNT (COUNT >= 1), got {spec!r}")
+    if int(count) > MAX_TASKS:  # the evaluation's bound: a huge count would draw for days
+        raise ValueError(f"split: COUNT must be at most {MAX_TASKS:,}, got {int(count):,}")
     if difficulty not in _DIFFICULTY_CODES:
         raise ValueError(f"split: difficulty {difficulty!r} is none of {sorted(_DIFFICULTY_CODES)}")
     try:

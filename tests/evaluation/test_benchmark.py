@@ -184,6 +184,19 @@ def test_a_generated_split_writes_into_the_working_folder(tmp_path, monkeypatch)
     assert (tmp_path / "out" / "runs.jsonl").exists()
 
 
+@pytest.mark.parametrize(
+    "split, message",
+    [("point2d:easy:0", "COUNT >= 1"), ("point2d:easy:1000000000", "at most 1,000,000"),
+     ("point2d:hard:5", "difficulty 'hard'"), ("point9d:easy:5", "split: ")],
+)  # fmt: skip
+def test_a_bad_split_is_one_line_before_any_task_is_drawn(tmp_path, capsys, split, message):
+    argv = ["--split", split, "--planners", "rrt_star", "--out", str(tmp_path / "out")]
+    assert main(argv) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("temp-benchmark: error:") and message in error, error
+    assert "\n" not in error and not (tmp_path / "out").exists()
+
+
 def test_a_damaged_record_before_the_last_line_is_refused(tmp_path):
     path = tmp_path / "runs.jsonl"
     path.write_text('{"problem": "a"}\n{damaged\n{"problem": "b"}\n')
