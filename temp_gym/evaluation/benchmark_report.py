@@ -322,9 +322,16 @@ def write_outputs(
 ) -> str:
     """Write the logs, the database, the summary and the plots under ``out``.
 
-    Returns the summary's Markdown.
+    A log or plot of an experiment not in ``experiments`` (left by a run on other problems,
+    whose records ``runs.jsonl`` keeps) is removed: ``logs/*.log`` is then exactly the
+    database's content, as `ompl_benchmark_statistics` would read it. Returns the summary's
+    Markdown.
     """
     out = Path(out)
+    for folder, suffix in (("logs", ".log"), ("plots", ".png")):
+        for stale in sorted((out / folder).glob(f"*{suffix}")):
+            if stale.stem not in experiments:
+                stale.unlink()
     logs = []
     for name, problems in experiments.items():
         logs.append(write_log(experiment_log(name, problems, records, settings),

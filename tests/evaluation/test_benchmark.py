@@ -197,6 +197,22 @@ def test_a_bad_split_is_one_line_before_any_task_is_drawn(tmp_path, capsys, spli
     assert "\n" not in error and not (tmp_path / "out").exists()
 
 
+def test_a_run_on_other_problems_leaves_no_log_or_plot_of_the_earlier_ones(bench, tmp_path):
+    problems, _ = bench
+    out = tmp_path / "out"
+    assert main(command(problems, out, "--runs", "1")) == 0
+    assert sorted(p.name for p in (out / "logs").iterdir()) == ["open.log", "walls.log"]
+    only_open = tmp_path / "only_open"
+    (only_open / "open").mkdir(parents=True)
+    (only_open / "open" / "0000.json").write_text((problems / "open" / "0000.json").read_text())
+    (out / "plots" / "notes.txt").write_text("mine")  # not an experiment's: kept
+    assert main(command(only_open, out, "--runs", "1")) == 0
+    assert sorted(p.name for p in (out / "logs").iterdir()) == ["open.log"]
+    assert sorted(p.name for p in (out / "plots").iterdir()) == ["notes.txt", "open.png"]
+    with sqlite3.connect(out / "benchmark.db") as db:
+        assert db.execute("SELECT name FROM experiments").fetchall() == [("open",)]
+
+
 def test_a_damaged_record_before_the_last_line_is_refused(tmp_path):
     path = tmp_path / "runs.jsonl"
     path.write_text('{"problem": "a"}\n{damaged\n{"problem": "b"}\n')
