@@ -83,6 +83,29 @@ def test_a_field_bounds_the_distance_from_below_and_closely(arms, robot):
         assert loss.max() <= spacing * np.sqrt(3) + 1e-6, float(loss.max())
 
 
+def test_inside_a_cell_the_bound_is_the_best_of_its_corners(arms):
+    """Never below the nearest grid point's bound, and above it where another corner is
+    better: a bound from the nearest point alone prunes less of the other body's tree."""
+    trees = sphere_trees(arms["franka_panda"])
+    values, layout = _self_fields(arms["franka_panda"], True)
+    rng = np.random.default_rng(1)
+    for body in np.flatnonzero(layout[:, 0] >= 0):
+        offset, cells, spacing = int(layout[body, 0]), int(layout[body, 1]), layout[body, 2]
+        low = layout[body, 3:6]
+        grid = values[offset : offset + cells**3].reshape(cells, cells, cells).astype(np.float64)
+        points = low + rng.uniform(0.5, cells - 1.5, size=(3000, 3)) * spacing
+        root = trees.body_start[body]
+        bound = _bounds(values, layout, body, points, trees.node_centers[root],
+                        trees.node_radii[root])  # fmt: skip
+        index = np.rint((points - low) / spacing).astype(int)
+        nearest = grid[index[:, 0], index[:, 1], index[:, 2]] - np.linalg.norm(
+            points - (low + index * spacing), axis=1
+        )
+        assert np.all(bound >= nearest - 1e-9)
+        below_cap = nearest < FIELD_CAP - 2 * spacing  # where the corners' values differ
+        assert below_cap.sum() > 300 and np.mean(bound[below_cap] > nearest[below_cap] + 1e-4) > 0.5
+
+
 def test_fields_are_built_for_the_bodies_asked_only(arms):
     trees = sphere_trees(arms["franka_panda"])
     values, layout = body_fields(trees, [2])

@@ -130,13 +130,33 @@ def body_fields(trees, bodies) -> tuple[np.ndarray, np.ndarray]:
 def field_bound(values, layout, a, x, y, z, root_x, root_y, root_z, root_radius) -> float:
     """A lower bound on the distance from ``(x, y, z)`` (body ``a``'s frame) to ``a``'s leaves.
 
+    Each grid point ``v`` gives ``field(v) - |p - v|``; inside a cell the best of its eight
+    corners is taken, which is never below the nearest point's alone and prunes more of the
+    other body's tree (the research notes on collision checking).
     ``(root_x, root_y, root_z)`` and ``root_radius`` are ``a``'s root sphere, in its frame: the
     bound off the grid.
     """
     offset, cells, spacing = int(layout[a, 0]), int(layout[a, 1]), layout[a, 2]
-    fi = (x - layout[a, 3]) / spacing + 0.5
-    fj = (y - layout[a, 4]) / spacing + 0.5
-    fk = (z - layout[a, 5]) / spacing + 0.5
+    gi = (x - layout[a, 3]) / spacing
+    gj = (y - layout[a, 4]) / spacing
+    gk = (z - layout[a, 5]) / spacing
+    last = cells - 1
+    if gi >= 0.0 and gj >= 0.0 and gk >= 0.0 and gi < last and gj < last and gk < last:
+        # Inside a cell: the best of its eight corners' bounds (the nearest grid point is one).
+        i0, j0, k0 = int(gi), int(gj), int(gk)
+        best = -math.inf
+        for di in range(2):
+            dx = x - (layout[a, 3] + (i0 + di) * spacing)
+            for dj in range(2):
+                dy = y - (layout[a, 4] + (j0 + dj) * spacing)
+                row = offset + ((i0 + di) * cells + j0 + dj) * cells + k0
+                for dk in range(2):
+                    dz = z - (layout[a, 5] + (k0 + dk) * spacing)
+                    bound = values[row + dk] - math.sqrt(dx * dx + dy * dy + dz * dz)
+                    best = max(best, bound)
+        return best
+    # The grid's outer half cell: the nearest grid point alone.
+    fi, fj, fk = gi + 0.5, gj + 0.5, gk + 0.5
     if fi >= 0.0 and fj >= 0.0 and fk >= 0.0 and fi < cells and fj < cells and fk < cells:
         i, j, k = int(fi), int(fj), int(fk)
         dx = x - (layout[a, 3] + i * spacing)
