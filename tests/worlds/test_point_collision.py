@@ -195,3 +195,30 @@ def test_numpy_sum_written_out_equals_numpys_sum():
     for count in list(range(300)) + [1000, 4099]:
         values = rng.standard_normal(count) * rng.uniform(0.1, 100.0, count)
         assert _numpy_sum(values, 0, count) == float(np.sum(values))
+
+
+@pytest.mark.parametrize("kind", ["boxes", "shapes"])
+def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
+    from temp_gym.worlds.checkers import certify_path
+
+    data = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2],
+            "goal": [18, 18], "goal_radius": 0.5,
+            "obstacles": [{"center": [10, 10], "half_extents": [1, 1]}]}  # fmt: skip
+    if kind == "shapes":
+        data = {**data, "version": 2, "obstacles": [{"type": "sphere", "center": [10, 10],
+                                                     "radius": 1}]}  # fmt: skip
+    problem = Problem.from_dict(data)
+    nan = np.nan
+    for exact in (False, True):
+        checker = make_checker(problem.workspace, exact=exact)
+        # NaN beside a coordinate outside every obstacle's range used to pass as free.
+        free = checker.states_free([[nan, 0.5], [nan, nan], [1, 1]])
+        assert free.tolist() == [False, False, True]
+        assert not checker.edge_free([2, 2], [nan, nan])
+        assert checker.edges_free([[2, 2], [2, 2]], [[nan, 2], [3, 2]]).tolist() == [False, True]
+        assert not checker.path_free([[2, 2], [nan, nan], [3, 3]])
+        with pytest.raises(ValueError, match=r"start: expected shape \(2,\), got \(1,\)"):
+            checker.edge_free([2.0], [2.5])
+        with pytest.raises(ValueError, match=r"end: expected shape \(2,\), got \(3,\)"):
+            checker.edge_free([2, 2], [2.5, 2.5, 99])
+    assert not certify_path(problem, [[2, 2], [nan, nan], [18, 18]])

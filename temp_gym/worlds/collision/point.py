@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.cells import next_cell
-from temp_gym.worlds.collision.arm_inputs import as_states
+from temp_gym.worlds.collision.arm_inputs import as_state, as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
 
@@ -306,6 +306,14 @@ def _volume_floor(lower_bounds, upper_bounds, box_lower, box_upper) -> float:
     return total - boxes - 1e-9 * total
 
 
+def _finite_rows(states: np.ndarray) -> np.ndarray:
+    """``bool[N]``: the rows without NaN or inf.
+
+    A NaN passes the kernels' comparisons: it would count as inside the bounds and outside a box.
+    """
+    return np.isfinite(states).all(axis=1)
+
+
 class PointBoxChecker:
     """Fast *and* exact checker for a point robot among axis-aligned boxes.
 
@@ -361,14 +369,17 @@ class PointBoxChecker:
     def states_free(self, states: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: each state is inside the bounds and outside every box."""
         states = self._as_states(states)
-        return _states_free(
+        free = _states_free(
             states, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
         )
+        return free & _finite_rows(states)
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """Whether the closed segment ``start``-``end`` misses every box (exact)."""
-        start = np.ascontiguousarray(start, dtype=np.float64)
-        end = np.ascontiguousarray(end, dtype=np.float64)
+        start = as_state(start, "start", self.dim)
+        end = as_state(end, "end", self.dim)
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
+            return False  # NaN passes every comparison: never free
         return bool(
             _segment_free(
                 start, end, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
@@ -382,14 +393,15 @@ class PointBoxChecker:
         if starts.shape != ends.shape:
             starts, ends = np.broadcast_arrays(starts, ends)
             starts, ends = np.ascontiguousarray(starts), np.ascontiguousarray(ends)
-        return _edges_free(
+        free = _edges_free(
             starts, ends, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
         )
+        return free & _finite_rows(starts) & _finite_rows(ends)
 
     def path_free(self, path: np.ndarray) -> bool:
         """Whether every segment of the polyline ``path`` (K x d) is free."""
         path = self._as_states(path)
-        return bool(
+        return bool(_finite_rows(path).all()) and bool(
             _path_free(
                 path, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
             )

@@ -24,9 +24,14 @@ import numpy as np
 
 from temp_gym.problem import Workspace
 from temp_gym.problem.obstacles import KIND_NAMES
-from temp_gym.worlds.collision.arm_inputs import as_states
+from temp_gym.worlds.collision.arm_inputs import as_state, as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
-from temp_gym.worlds.collision.point import UNION_SAMPLES, PointBoxChecker, _segment_hits_box
+from temp_gym.worlds.collision.point import (
+    UNION_SAMPLES,
+    PointBoxChecker,
+    _finite_rows,
+    _segment_hits_box,
+)
 from temp_gym.worlds.collision.shape_geometry import (
     AXIS_BOX,
     ROTATED_BOX,
@@ -206,12 +211,15 @@ class PointShapeChecker:
 
     def states_free(self, states: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: each state is inside the bounds and outside every obstacle."""
-        return _states_free(self._as_states(states), *self._arrays())
+        states = self._as_states(states)
+        return _states_free(states, *self._arrays()) & _finite_rows(states)
 
     def edge_free(self, start: np.ndarray, end: np.ndarray) -> bool:
         """Whether the closed segment ``start``-``end`` misses every obstacle (exact)."""
-        start = np.ascontiguousarray(start, dtype=np.float64)
-        end = np.ascontiguousarray(end, dtype=np.float64)
+        start = as_state(start, "start", self.dim)
+        end = as_state(end, "end", self.dim)
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
+            return False  # NaN passes every comparison: never free
         return bool(_segment_free(start, end, *self._arrays()))
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
@@ -221,11 +229,13 @@ class PointShapeChecker:
         if starts.shape != ends.shape:
             starts, ends = np.broadcast_arrays(starts, ends)
             starts, ends = np.ascontiguousarray(starts), np.ascontiguousarray(ends)
-        return _edges_free(starts, ends, *self._arrays())
+        free = _edges_free(starts, ends, *self._arrays())
+        return free & _finite_rows(starts) & _finite_rows(ends)
 
     def path_free(self, path: np.ndarray) -> bool:
         """Whether every segment of the polyline ``path`` (K x d) is free."""
-        return bool(_path_free(self._as_states(path), *self._arrays()))
+        path = self._as_states(path)
+        return bool(_finite_rows(path).all()) and bool(_path_free(path, *self._arrays()))
 
 
 __all__ = ["PointShapeChecker", "point_checker"]
