@@ -109,8 +109,9 @@ def owners_of(name: str) -> list[Planner]:
 def settings_for(planner: str, settings: object = None, **options: Any) -> PlanSettings:
     """The settings object ``planner`` runs on: ``settings`` with ``options`` applied.
 
-    ``settings`` may be the planner's own settings class (or a subclass), a plain
-    `PlanSettings` (its common fields are kept, the planner's own take their defaults), or
+    ``settings`` may be the planner's own settings class (or a subclass), a base class that no
+    planner owns (a plain `PlanSettings`, or `OMPLSettings` for OMPL's RRT*s: its fields are
+    kept, the planner's others take their defaults), or
     None (every field's default). ``options`` are keyword shortcuts for fields of the
     planner's settings class, applied on top. A shortcut that belongs to another planner is
     refused naming it, unless it is None (not set), which older calls passed to every
@@ -122,8 +123,14 @@ def settings_for(planner: str, settings: object = None, **options: Any) -> PlanS
     """
     entry = planner_entry(planner)
     cls = entry.settings
-    if type(settings) is PlanSettings and cls is not PlanSettings:
-        settings = cls(**{name: getattr(settings, name) for name in field_names(PlanSettings)})
+    base = type(settings)
+    if (
+        settings is not None
+        and base is not cls
+        and issubclass(cls, base)
+        and (planner_of(settings) is None)
+    ):  # a shared base (`PlanSettings`, `OMPLSettings`): its fields kept, the others' defaults
+        settings = cls(**{name: getattr(settings, name) for name in field_names(base)})
     elif settings is not None and (
         not isinstance(settings, cls) or planner_of(settings) not in (None, entry.name)
     ):

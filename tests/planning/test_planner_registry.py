@@ -170,3 +170,17 @@ def test_a_planner_of_the_common_settings_alone_takes_no_one_elses(problem):
             plan(problem, "plain", TEMPSettings(max_nodes=100))
     finally:
         PLANNERS.pop("plain")
+
+
+def test_a_shared_base_of_a_planners_settings_is_taken_with_its_fields():
+    pytest.importorskip("ompl")
+    from temp_gym.planning.ompl_planners import OMPLRRTStarSettings, OMPLSettings
+    from temp_gym.planning.registry import settings_for
+
+    settings = settings_for("ompl_rrt_star", OMPLSettings(range=0.5, max_nodes=77))
+    assert type(settings) is OMPLRRTStarSettings
+    assert settings.range == 0.5 and settings.max_nodes == 77
+    with pytest.raises(ValueError, match="takes OMPLRRTStarSettings, got TEMPSettings"):
+        from temp_gym.planning.temp_settings import TEMPSettings
+
+        settings_for("ompl_rrt_star", TEMPSettings())
