@@ -184,15 +184,20 @@ def _number(value: float) -> str:
     return f"{value:g}"
 
 
-def _check_env_id(env_id: str, robot: str) -> None:
-    """``env.id`` is a registered temp-gym env, and ``env.robot`` is its robot."""
-    from gymnasium.envs.registration import registry  # what `import temp_gym` registers in
+def registered_env_robots() -> dict[str, str | None]:
+    """``{env id: robot}`` of every registered temp-gym env (what `import temp_gym` registers)."""
+    from gymnasium.envs.registration import registry
 
-    ours = {
+    return {
         name: spec.kwargs.get("robot")
         for name, spec in registry.items()
         if str(spec.entry_point).startswith("temp_gym.")
     }
+
+
+def _check_env_id(env_id: str, robot: str) -> None:
+    """``env.id`` is a registered temp-gym env, and ``env.robot`` is its robot."""
+    ours = registered_env_robots()
     if env_id not in ours:
         close = [name for name in ours if name.lower() == str(env_id).lower()]
         hint = f" (did you mean {close[0]}?)" if close else ""

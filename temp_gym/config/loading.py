@@ -28,7 +28,7 @@ from typing import Any
 
 import yaml
 
-from temp_gym.config.checks import check_config
+from temp_gym.config.checks import check_config, registered_env_robots
 from temp_gym.config.errors import ConfigError
 from temp_gym.config.sections import Config, TEMPConfig
 from temp_gym.config.typed import build, field_types, fill_defaults, replace_key
@@ -270,10 +270,7 @@ def _names_a_file(robot: str) -> bool:
     """
     if robot.endswith((".yaml", ".yml")) or "/" in robot:
         return True
-    from gymnasium.envs.registration import registry  # what `import temp_gym` registers in
-
-    robots = {spec.kwargs.get("robot") for spec in registry.values()
-              if str(spec.entry_point).startswith("temp_gym.")}  # fmt: skip
+    robots = set(registered_env_robots().values())
     return robot not in robots and Path(robot).expanduser().is_file()
 
 
