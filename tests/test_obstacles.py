@@ -298,3 +298,34 @@ def test_a_nearly_unit_quaternion_is_normalized_and_kept_as_written():
     rotation = problem.workspace.obstacle_rotations[0]
     assert np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-14)
     assert np.allclose(problem.workspace.obstacle_upper[0], [7, 6, 6])
+
+
+def test_obstacle_rows_of_another_width_are_refused_not_reshaped():
+    # Six numbers are three 2D centers or two 3D ones: reading either as the other would
+    # silently make different obstacles.
+    with pytest.raises(ValueError, match=r"^obstacles: center: expected one row of 2 numbers"):
+        Workspace("point2d", [[0, 0], [20, 20]], [[1, 2, 3], [4, 5, 6]], [[1, 1, 1], [1, 1, 1]])
+    with pytest.raises(ValueError, match=r"^obstacles: half_extents: .* got \(1, 2\)"):
+        Workspace("point3d", BOUNDS_3D, [[5.0, 5, 5]], [[1.0, 1]])
+    with pytest.raises(ValueError, match=r"got \(3,\)"):
+        Workspace("point3d", BOUNDS_3D, [5.0, 5, 5], [1.0, 1, 1])
+    with pytest.raises(ValueError, match=r"^obstacles: center: expected real numbers"):
+        Workspace("point2d", [[0, 0], [20, 20]], np.array([[True, True]]), [[1.0, 1]])
+    empty = Workspace("point3d", BOUNDS_3D, [], np.zeros((0, 3)))
+    assert empty.obstacle_centers.shape == empty.obstacle_half_extents.shape == (0, 3)
+
+
+@pytest.mark.parametrize(
+    "q",
+    [[0.0, 0.0, 0.0, -1.0], [0.0, 0.0, -0.3826834, -0.9238795], [0.6, -0.8, 0.0, 0.0]],
+)
+def test_a_quaternion_and_its_negative_make_one_workspace_and_round_trip(q):
+    def workspace(orientation):
+        return Workspace("point3d", BOUNDS_3D, [[5.0, 5, 5]], [[1.0, 2, 1]], np.array([BOX]),
+                         np.array([orientation]))  # fmt: skip
+
+    given, negated = workspace(q), workspace([-v for v in q])
+    assert given == negated and hash(given) == hash(negated)
+    np.testing.assert_array_equal(given.obstacle_rotations, negated.obstacle_rotations)
+    problem = Problem(given, [1, 1, 1], [9, 9, 9], 0.5)
+    assert Problem.from_dict(json.loads(json.dumps(problem.to_dict()))) == problem

@@ -19,7 +19,6 @@ are quaternions ``[x, y, z, w]``, the order of MoveIt and of the problem format.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -28,6 +27,7 @@ import numpy as np
 from temp_gym.limits import MAX_OBSTACLES
 from temp_gym.problem.obstacles import UNIT_TOLERANCE, Box, Cylinder, Obstacle, Sphere
 from temp_gym.problem.obstacles import rotation_matrices as _rotations
+from temp_gym.problem.parsing import finite_float
 
 PRIMITIVE_TYPES = {"box": "box", "sphere": "sphere", "cylinder": "cylinder", 1: "box",
                    2: "sphere", 3: "cylinder"}  # fmt: skip
@@ -81,16 +81,11 @@ class MoveItFile:
         return value
 
     def number(self, value: Any, field: str) -> float:
-        """A finite number."""
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(field, f"expected a number, got {_short(value)}")
+        """A finite number (`temp_gym.problem.parsing.finite_float`)."""
         try:
-            number = float(value)
-        except OverflowError:  # an integer past float's range
-            raise self.error(field, f"must be finite, got {_short(value)}") from None
-        if not math.isfinite(number):
-            raise self.error(field, f"must be finite, got {number}")
-        return number
+            return finite_float(value, field)
+        except ValueError as error:
+            raise ValueError(f"{self.name}: {error}") from None
 
     def vector(self, value: Any, field: str, size: int) -> np.ndarray:
         """A list of ``size`` finite numbers."""

@@ -156,7 +156,8 @@ _PLURALS = {bool: "booleans", int: "integers", float: "numbers", str: "strings"}
 def replace_key(config: T, key: str, value: Any, where: str = "") -> T:
     """A copy of the dataclass ``config`` with the dotted ``key`` set to ``value`` (converted).
 
-    A mapping given for a section replaces the whole section (absent keys take defaults).
+    A mapping given for a section is merged into it, key by key, as Hydra merges a mapping
+    override: ``data.workspaces={train: 5}`` keeps ``data.workspaces.val``.
 
     Raises:
         ConfigError: ``key`` names nothing ``config`` declares, or descends into a value, or
@@ -167,10 +168,16 @@ def replace_key(config: T, key: str, value: Any, where: str = "") -> T:
     declared = field_types(type(config))
     if name not in declared:
         raise ConfigError(unknown_key_message(here, list(declared)))
-    if not rest:
+    inner = getattr(config, name)
+    if not rest and dataclasses.is_dataclass(inner) and isinstance(value, Mapping):
+        new = inner
+        for key_inside, value_inside in value.items():
+            if not isinstance(key_inside, str):
+                raise ConfigError(f"{here}: keys must be names, got {key_inside!r}")
+            new = replace_key(new, key_inside, value_inside, here)
+    elif not rest:
         new = convert(value, declared[name], here)
     else:
-        inner = getattr(config, name)
         if not dataclasses.is_dataclass(inner):
             raise ConfigError(
                 f"unknown key {dotted(here, rest)} ({here} is a value, not a section)"

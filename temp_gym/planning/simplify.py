@@ -52,9 +52,12 @@ def _checked_path(problem: Problem, path: object) -> np.ndarray:
     if path is None:
         raise ValueError("path: expected a (K, d) array of numbers, got None")
     try:
-        array = np.array(path, dtype=np.float64)
+        raw = np.asarray(path)
+        array = np.array(raw, dtype=np.float64) if raw.dtype.kind not in "bc" else None
     except (TypeError, ValueError):
         raise ValueError("path: expected a (K, d) array of numbers") from None
+    if array is None:  # numpy would read True as 1 and drop imaginary parts
+        raise ValueError(f"path: expected a (K, d) array of real numbers, got {raw.dtype}")
     if array.ndim != 2 or array.shape[1] != problem.dim or len(array) < 2:
         raise ValueError(f"path: expected shape (K >= 2, {problem.dim}), got {array.shape}")
     if not np.isfinite(array).all():

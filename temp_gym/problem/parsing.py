@@ -30,7 +30,9 @@ def short(value: Any) -> str:
 def as_float(value: Any, name: str) -> float:
     """``float(value)`` for a real number, or a `ValueError` naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
-        raise ValueError(f"{name}: expected a number, got {value!r}")
+        text = repr(value)
+        brief = text if len(text) <= 40 else f"{text[:40]}...({len(text)} characters)"
+        raise ValueError(f"{name}: expected a number, got {brief}")
     if isinstance(value, (complex, np.complexfloating)):
         raise ValueError(f"{name}: expected a real number, got {value!r}")
     try:
@@ -41,6 +43,14 @@ def as_float(value: Any, name: str) -> float:
         ) from None
     if math.isfinite(number) and abs(number) > MAX_MAGNITUDE:
         raise ValueError(f"{name}: {number:g} is too large (at most {MAX_MAGNITUDE:g})")
+    return number
+
+
+def finite_float(value: Any, name: str) -> float:
+    """A finite real number (`as_float`, and neither NaN nor infinite), or a `ValueError`."""
+    number = as_float(value, name)
+    if not math.isfinite(number):
+        raise ValueError(f"{name}: must be finite, got {number}")
     return number
 
 
@@ -78,7 +88,7 @@ def float_array(value: Any, name: str, shape: tuple[int, ...] | None = None) -> 
         raise ValueError(f"{name}: a number is too large (at most {MAX_MAGNITUDE:g})") from None
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected numbers, got {short(value)}") from None
-    if np.iscomplexobj(value):
+    if np.iscomplexobj(value) or np.asarray(value).dtype.kind == "b":
         raise ValueError(f"{name}: expected real numbers")
     if shape is not None and array.shape != shape:
         raise ValueError(f"{name}: expected shape {shape}, got {array.shape}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -31,6 +32,36 @@ from temp_gym.problem.parsing import MIN_LENGTH, float_array
 from temp_gym.problem.robots import robot_named
 
 
+def _rows(value: object, name: str, width: int, robot: str) -> np.ndarray:
+    """``value`` as ``(M, width)`` float64 rows (nothing at all is zero rows).
+
+    A wrong width is refused rather than reshaped: rows of another robot's workspace would
+    otherwise be read as different obstacles.
+    """
+    array = float_array(value, name)
+    if array.size == 0:
+        return array.reshape(0, width)
+    if array.ndim != 2 or array.shape[1] != width:
+        raise ValueError(
+            f"{name}: expected one row of {width} numbers per obstacle ({robot}'s workspace is "
+            f"{width}D), shape (M, {width}), got {array.shape}"
+        )
+    return array
+
+
+def canonical_quaternions(quaternions: np.ndarray) -> np.ndarray:
+    """Each quaternion ``[x, y, z, w]`` as whichever of ``q`` and ``-q`` (one rotation) leads.
+
+    The one kept has its first nonzero component, read from ``w`` then ``x, y, z``, positive.
+    So one rotation is stored one way: workspaces equal as rotations compare and hash equal,
+    and a file written from one loads back equal.
+    """
+    order = quaternions[:, [3, 0, 1, 2]]
+    first = np.argmax(order != 0.0, axis=1)
+    negative = order[np.arange(len(order)), first] < 0.0
+    return np.where(negative[:, None], -quaternions, quaternions)
+
+
 @dataclass(frozen=True, eq=False)
 class Workspace:
     """A robot's configuration bounds and obstacles, without a task.
@@ -43,7 +74,8 @@ class Workspace:
     start-goal pairs per workspace); the occupancy encoding and other per-workspace work are
     done once per workspace. Every field is validated (a `ValueError` names the field) and
     stored as a read-only float64 array. Two workspaces are equal when their robot, bounds and
-    boxes are, and equal workspaces hash alike, so a workspace can key a cache.
+    obstacles are (a quaternion is stored as the one of ``q`` and ``-q`` with the first nonzero
+    of ``w, x, y, z`` positive), and equal workspaces hash alike, so a workspace can key a cache.
 
     Examples:
         >>> workspace = Workspace("point2d", [[0, 0], [20, 20]], [[10, 10]], [[1, 3]])
@@ -88,9 +120,8 @@ class Workspace:
                 f"[{bounds[0, joint]}, {bounds[1, joint]}] is not within "
                 f"[{limits[0, joint]}, {limits[1, joint]}] (the URDF's limits, radians)"
             )
-        centers = float_array(self.obstacle_centers, "obstacles: center").reshape(-1, wdim)
-        halves = float_array(self.obstacle_half_extents, "obstacles: half_extents")
-        halves = halves.reshape(-1, wdim)
+        centers = _rows(self.obstacle_centers, "obstacles: center", wdim, self.robot)
+        halves = _rows(self.obstacle_half_extents, "obstacles: half_extents", wdim, self.robot)
         if centers.shape != halves.shape:
             raise ValueError("obstacles: centers and half_extents differ in count")
         if len(centers) > MAX_OBSTACLES:
@@ -180,6 +211,7 @@ class Workspace:
                     f"obstacles[{b}].orientation: a quaternion [x, y, z, w] of unit length is "
                     f"expected, got {orientations[b].tolist()} (length {norms[b]:.6g})"
                 )
+            orientations = canonical_quaternions(orientations)
         return orientations
 
     @classmethod
@@ -242,10 +274,16 @@ class Workspace:
         """Each obstacle's rotation matrix, ``(M, w, w)``: its frame's axes as columns."""
         return self._rotations
 
-    @property
+    @functools.cached_property
     def obstacle_world_half_extents(self) -> np.ndarray:
-        """Half sides of each obstacle's axis-aligned bounding box, ``(M, workspace_dim)``."""
-        return world_half_extents(self.obstacle_kinds, self.obstacle_half_extents, self._rotations)
+        """Half sides of each obstacle's axis-aligned bounding box, ``(M, workspace_dim)``.
+
+        Computed once per workspace (read-only): the corners below and every checker read it.
+        """
+        extents = world_half_extents(self.obstacle_kinds, self.obstacle_half_extents,
+                                     self._rotations)  # fmt: skip
+        extents.setflags(write=False)
+        return extents
 
     @property
     def obstacle_lower(self) -> np.ndarray:

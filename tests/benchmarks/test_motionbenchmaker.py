@@ -265,7 +265,9 @@ REFUSED_SCENES = [
     (_changed(OBJECT + ["primitives", 0, "type"], True),
      r"primitives\[0\].type: True is not supported"),
     (_changed(OBJECT + ["primitive_poses", 0, "position"], [10**400, 0, 0]),
-     r"primitive_poses\[0\].position\[0\]: must be finite"),
+     r"primitive_poses\[0\].position\[0\]: 1000000000\.\.\.\(401 digits\) is too large"),
+    (_changed(OBJECT + ["primitive_poses", 0, "position"], [float("inf"), 0, 0]),
+     r"primitive_poses\[0\].position\[0\]: must be finite, got inf"),
     (_changed(["allowed_collision_matrix"], {"entry_names": [["panda_hand"]],
                                              "entry_values": [[False]]}),
      r"allowed_collision_matrix.entry_names\[0\]: expected a name, got \['panda_hand'\]"),
@@ -314,7 +316,9 @@ REFUSED_REQUESTS = [
     (_request_changed(GOAL_ENTRY + ["joint_constraints", 0, "joint_name"], ["panda_joint1"]),
      r"joint_constraints\[0\] name: expected a name"),
     (_request_changed(["start_state", "joint_state", "position", 0], 10**400),
-     r"start_state.joint_state \(panda_joint1\): must be finite"),
+     r"start_state.joint_state \(panda_joint1\): 1000000000\.\.\.\(401 digits\) is too large"),
+    (_request_changed(["start_state", "joint_state", "position", 0], float("nan")),
+     r"start_state.joint_state \(panda_joint1\): must be finite, got nan"),
 ]  # fmt: skip
 
 

@@ -45,6 +45,9 @@ def test_overrides_are_parsed_and_checked_against_the_types():
     config = apply_overrides(config, ["data.workspaces={train: 2, val: 1}", "logger.backend="])
     assert (config.data.workspaces.train, config.data.workspaces.val) == (2, 1)
     assert config.logger.backend == ""
+    # A mapping merges into its section: the keys it leaves out keep their values.
+    config = apply_overrides(config, ["data.workspaces={train: 5}"])
+    assert (config.data.workspaces.train, config.data.workspaces.val) == (5, 1)
     # Every declared key can be set, listed in the file or not; "+" is accepted and the same.
     assert "horizon" not in (ROOT / "configs" / "2d.yaml").read_text()
     assert apply_overrides(config, ["evaluation.horizon=2"]).evaluation.horizon == 2

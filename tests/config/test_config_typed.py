@@ -78,8 +78,13 @@ def test_replace_key_sets_one_dotted_key_with_the_same_checks():
     assert replace_key(base, "inner.count", 5).inner == Inner(5, ["a"])
     assert replace_key(base, "inner.count", None).inner.count is None
     assert replace_key(base, "rate", 1).rate == 1.0
-    # A mapping replaces the whole section; its absent keys take their defaults.
-    assert replace_key(base, "inner", {"count": 2}).inner == Inner(2, [])
+    # A mapping is merged into the section, key by key: its absent keys keep their values.
+    assert replace_key(base, "inner", {"count": 2}).inner == Inner(2, ["a"])
+    assert replace_key(base, "inner", {}).inner == Inner(1, ["a"])
+    with pytest.raises(ConfigError, match=r"unknown key inner.cont \(did you mean inner.count"):
+        replace_key(base, "inner", {"cont": 2})
+    with pytest.raises(ConfigError, match="inner.count: expected an integer or null, got 'a'"):
+        replace_key(base, "inner", {"count": "a"})
     assert base.inner == Inner(1, ["a"])  # frozen: the original is unchanged
     with pytest.raises(ConfigError, match=r"unknown key inner.cont \(did you mean inner.count"):
         replace_key(base, "inner.cont", 1)

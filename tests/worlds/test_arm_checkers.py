@@ -295,8 +295,14 @@ def test_bad_inputs_raise(arms, cls):
         checker.edge_free(np.zeros(6), np.zeros(7))
     with pytest.raises(ValueError, match="starts, ends"):
         checker.edges_free(np.zeros((3, 7)), np.zeros((2, 7)))
-    with pytest.raises(ValueError, match="path"):
+    with pytest.raises(ValueError, match="^path: expected at least one state$"):
         checker.path_free(np.zeros((0, 7)))
+    with pytest.raises(ValueError, match="^states: expected real numbers"):
+        checker.states_free("abc")
+    with pytest.raises(ValueError, match="^states: expected real numbers"):
+        checker.states_free(np.zeros((1, 7), dtype=complex))
+    # One state on either side is shared by every edge, in both checkers.
+    assert checker.edges_free(np.zeros((1, 7)), np.zeros((3, 7))).shape == (3,)
     with pytest.raises(ValueError, match="bounds"):
         cls(arm, np.zeros((2, 6)), *THIN_WALL)
     with pytest.raises(ValueError, match="box_lower"):

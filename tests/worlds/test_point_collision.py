@@ -222,3 +222,29 @@ def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
         with pytest.raises(ValueError, match=r"end: expected shape \(2,\), got \(3,\)"):
             checker.edge_free([2, 2], [2.5, 2.5, 99])
     assert not certify_path(problem, [[2, 2], [nan, nan], [18, 18]])
+
+
+@pytest.mark.parametrize("kind", ["boxes", "shapes"])
+@pytest.mark.parametrize("exact", [False, True])
+def test_malformed_inputs_are_refused_in_one_line(kind, exact):
+    data = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2],
+            "goal": [18, 18], "goal_radius": 0.5,
+            "obstacles": [{"center": [10, 10], "half_extents": [1, 1]}]}  # fmt: skip
+    if kind == "shapes":
+        data = {**data, "version": 2, "obstacles": [{"type": "sphere", "center": [10, 10],
+                                                     "radius": 1}]}  # fmt: skip
+    checker = make_checker(Problem.from_dict(data).workspace, exact=exact)
+    with pytest.raises(ValueError, match=r"^path: expected at least one state$"):
+        checker.path_free(np.zeros((0, 2)))
+    with pytest.raises(ValueError, match=r"^starts, ends: expected as many rows"):
+        checker.edges_free(np.ones((3, 2)), np.ones((2, 2)))
+    with pytest.raises(ValueError, match=r"^states: expected real numbers, got .*<U3"):
+        checker.states_free("abc")
+    with pytest.raises(ValueError, match=r"^states: expected real numbers, got .*complex128"):
+        checker.states_free(np.array([[2, 2]], dtype=complex))
+    with pytest.raises(ValueError, match=r"^start: expected real numbers, got .*bool"):
+        checker.edge_free([True, True], [2, 2])
+    with pytest.raises(ValueError, match=r"^path: expected an array of numbers, got ragged"):
+        checker.path_free([[2, 2], [3]])
+    # One state on either side is shared by every edge.
+    assert checker.edges_free([[2, 2]], [[3, 3], [10, 10]]).tolist() == [True, False]

@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from temp_gym.problem.parsing import finite_float
 
 PYBULLET_DATA = "pybullet_data://"
 """Prefix of a path inside pybullet's data folder (``pybullet_data.getDataPath()``)."""
@@ -179,17 +180,13 @@ def resolve_file(path: Path, field_name: str, value: object) -> Path:
 
 
 def _number(path: Path, field_name: str, value: object, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise _fail(path, field_name, f"expected a finite number, got {_short(value)}")
     try:
-        value = float(value)
-    except OverflowError:  # an integer past float's range
-        value = math.inf
-    if not math.isfinite(value):
-        raise _fail(path, field_name, f"expected a finite number, got {_short(value)}")
-    if positive and value <= 0:
-        raise _fail(path, field_name, f"must be positive, got {value}")
-    return float(value)
+        number = finite_float(value, field_name)
+    except ValueError as error:
+        raise DescriptionError(f"{path.name}: {error}") from None
+    if positive and number <= 0:
+        raise _fail(path, field_name, f"must be positive, got {number}")
+    return number
 
 
 def _integer(path: Path, field_name: str, value: object, low: int, high: int) -> int:

@@ -60,7 +60,7 @@ from temp_gym.worlds.collision.arm_exact_bounds import (
     cover_bounds,
     pose_bounds,
 )
-from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states
+from temp_gym.worlds.collision.arm_inputs import as_bounds, as_edges, as_path, as_state, as_states
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.arm_self import (
     DISTANCE_TOLERANCE,
@@ -666,10 +666,7 @@ class ArmExactChecker:
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: `edge_free` for each row pair of ``starts`` and ``ends``."""
-        starts = as_states(starts, self.dim, "starts")
-        ends = as_states(ends, self.dim, "ends")
-        if starts.shape != ends.shape:
-            raise ValueError(f"starts, ends: shapes {starts.shape} and {ends.shape} do not match")
+        starts, ends = as_edges(starts, ends, self.dim)
         # Each end checked once, in one call.
         ends_free = self.states_free(np.concatenate([starts, ends])).reshape(2, -1).all(axis=0)
         return np.array([free and self._motion_free(a, b)
@@ -677,9 +674,7 @@ class ArmExactChecker:
 
     def path_free(self, path: np.ndarray) -> bool:
         """Certify every edge of the polyline ``path`` (K x dim); one state: that state."""
-        path = as_states(path, self.dim, "path")
-        if len(path) == 0:
-            raise ValueError("path: expected at least one state")
+        path = as_path(path, self.dim)
         if len(path) == 1:
             return bool(self.states_free(path)[0])
         # Each waypoint checked once, in one call.

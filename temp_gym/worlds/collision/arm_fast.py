@@ -71,7 +71,14 @@ from temp_gym.worlds.collision.arm_fast_kernels import (
 )
 from temp_gym.worlds.collision.arm_fast_obstacles import obstacle_tables
 from temp_gym.worlds.collision.arm_fast_self import scratch_for
-from temp_gym.worlds.collision.arm_inputs import as_bounds, as_state, as_states, within_limits
+from temp_gym.worlds.collision.arm_inputs import (
+    as_bounds,
+    as_edges,
+    as_path,
+    as_state,
+    as_states,
+    within_limits,
+)
 from temp_gym.worlds.collision.arm_obstacles import ArmObstacles, resolve_obstacles
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
@@ -358,15 +365,7 @@ class ArmSphereChecker:
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: whether each segment ``starts[i] -> ends[i]`` is free."""
-        starts = as_states(starts, self.dim, "starts")
-        ends = as_states(ends, self.dim, "ends")
-        if starts.shape != ends.shape:
-            try:
-                starts, ends = (np.ascontiguousarray(a) for a in np.broadcast_arrays(starts, ends))
-            except ValueError:
-                raise ValueError(
-                    f"starts, ends: shapes {starts.shape} and {ends.shape} do not match"
-                ) from None
+        starts, ends = as_edges(starts, ends, self.dim)
         if not self.base_free:
             return np.zeros(len(starts), dtype=bool)
         return edges_free_kernel(starts, ends, self._bounds, self._kinematics, self._trees,
@@ -381,9 +380,7 @@ class ArmSphereChecker:
 
     def path_free(self, path: np.ndarray) -> bool:
         """Whether every edge of the polyline ``path`` (K x dim) is free (one state: that one)."""
-        path = as_states(path, self.dim, "path")
-        if len(path) == 0:
-            raise ValueError("path: expected at least one state")
+        path = as_path(path, self.dim)
         if len(path) == 1:
             return bool(self.states_free(path)[0])
         return bool(np.all(self.edges_free(path[:-1], path[1:])))

@@ -1,6 +1,6 @@
 """Validation of the checkers' inputs: one place for the shapes and the error messages.
 
-The arm checkers use all of it; the point checkers share `as_states`.
+The arm checkers use all of it; the point checkers share the states', edges' and paths'.
 """
 
 from __future__ import annotations
@@ -42,9 +42,33 @@ def within_limits(bounds: np.ndarray, limits: np.ndarray) -> np.ndarray:
     )
 
 
+def _real_array(value: object, name: str) -> np.ndarray:
+    """``value`` as a contiguous float64 array of real numbers, or a `ValueError` naming it.
+
+    Booleans, complex numbers and text are refused: numpy would turn them into numbers
+    silently (a complex state loses its imaginary part, ``True`` becomes 1).
+    """
+    try:
+        array = np.asarray(value)
+    except ValueError:  # ragged nested lists
+        raise ValueError(f"{name}: expected an array of numbers, got ragged rows") from None
+    if array.dtype.kind not in "iuf":
+        if array.dtype.kind != "O" or not _all_reals(array):
+            raise ValueError(f"{name}: expected real numbers, got an array of {array.dtype}")
+    return np.ascontiguousarray(array, dtype=np.float64)
+
+
+def _all_reals(array: np.ndarray) -> bool:
+    """Whether every entry of an object array is a real number (not a bool)."""
+    return all(
+        isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        for v in array.flat
+    )
+
+
 def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
     """``(N, dim)`` float64 states (one ``(dim,)`` state becomes ``(1, dim)``)."""
-    states = np.ascontiguousarray(states, dtype=np.float64)
+    states = _real_array(states, name)
     if states.ndim == 1:
         states = states.reshape(1, -1)
     if states.ndim != 2 or states.shape[1] != dim:
@@ -54,10 +78,32 @@ def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
 
 def as_state(state: np.ndarray, name: str, dim: int) -> np.ndarray:
     """One ``(dim,)`` float64 state; ``name`` is the field named in the error."""
-    state = np.ascontiguousarray(state, dtype=np.float64)
+    state = _real_array(state, name)
     if state.shape != (dim,):
         raise ValueError(f"{name}: expected shape ({dim},), got {state.shape}")
     return state
 
 
-__all__ = ["as_bounds", "as_boxes", "as_state", "as_states", "within_limits"]
+def as_edges(starts: np.ndarray, ends: np.ndarray, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(N, dim)`` starts and ends of N edges; one state on either side is shared by all."""
+    starts = as_states(starts, dim, "starts")
+    ends = as_states(ends, dim, "ends")
+    if starts.shape != ends.shape:
+        if len(starts) != 1 and len(ends) != 1:
+            raise ValueError(
+                f"starts, ends: expected as many rows, or one on either side, got "
+                f"{starts.shape} and {ends.shape}"
+            )
+        starts, ends = (np.ascontiguousarray(a) for a in np.broadcast_arrays(starts, ends))
+    return starts, ends
+
+
+def as_path(path: np.ndarray, dim: int) -> np.ndarray:
+    """A polyline's ``(K, dim)`` float64 states, K >= 1."""
+    path = as_states(path, dim, "path")
+    if len(path) == 0:
+        raise ValueError("path: expected at least one state")
+    return path
+
+
+__all__ = ["as_bounds", "as_boxes", "as_edges", "as_path", "as_state", "as_states", "within_limits"]

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from temp_gym.worlds.cells import next_cell
-from temp_gym.worlds.collision.arm_inputs import as_state, as_states
+from temp_gym.worlds.collision.arm_inputs import as_edges, as_path, as_state, as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 
 
@@ -388,19 +388,15 @@ class PointBoxChecker:
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: `edge_free` for each row pair of ``starts`` and ``ends``."""
-        starts = self._as_states(starts)
-        ends = self._as_states(ends)
-        if starts.shape != ends.shape:
-            starts, ends = np.broadcast_arrays(starts, ends)
-            starts, ends = np.ascontiguousarray(starts), np.ascontiguousarray(ends)
+        starts, ends = as_edges(starts, ends, self.dim)
         free = _edges_free(
             starts, ends, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper
         )
         return free & _finite_rows(starts) & _finite_rows(ends)
 
     def path_free(self, path: np.ndarray) -> bool:
-        """Whether every segment of the polyline ``path`` (K x d) is free."""
-        path = self._as_states(path)
+        """Whether every segment of the polyline ``path`` (K x d, K >= 1) is free."""
+        path = as_path(path, self.dim)
         return bool(_finite_rows(path).all()) and bool(
             _path_free(
                 path, self._lower_bounds, self._upper_bounds, self._box_lower, self._box_upper

@@ -24,7 +24,7 @@ import numpy as np
 
 from temp_gym.problem import Workspace
 from temp_gym.problem.obstacles import KIND_NAMES
-from temp_gym.worlds.collision.arm_inputs import as_state, as_states
+from temp_gym.worlds.collision.arm_inputs import as_edges, as_path, as_state, as_states
 from temp_gym.worlds.collision.compiled import register_motion_kernel
 from temp_gym.worlds.collision.point import (
     UNION_SAMPLES,
@@ -224,17 +224,13 @@ class PointShapeChecker:
 
     def edges_free(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """Return ``bool[N]``: `edge_free` for each row pair of ``starts`` and ``ends``."""
-        starts = self._as_states(starts)
-        ends = self._as_states(ends)
-        if starts.shape != ends.shape:
-            starts, ends = np.broadcast_arrays(starts, ends)
-            starts, ends = np.ascontiguousarray(starts), np.ascontiguousarray(ends)
+        starts, ends = as_edges(starts, ends, self.dim)
         free = _edges_free(starts, ends, *self._arrays())
         return free & _finite_rows(starts) & _finite_rows(ends)
 
     def path_free(self, path: np.ndarray) -> bool:
-        """Whether every segment of the polyline ``path`` (K x d) is free."""
-        path = self._as_states(path)
+        """Whether every segment of the polyline ``path`` (K x d, K >= 1) is free."""
+        path = as_path(path, self.dim)
         return bool(_finite_rows(path).all()) and bool(_path_free(path, *self._arrays()))
 
 
