@@ -46,6 +46,15 @@ def test_version_1_files_read_and_write_unchanged():
     assert Problem.from_dict({**data, "version": 1}) == problem
     typed = {**data, "obstacles": [{"type": "box", **data["obstacles"][0]}]}
     assert Problem.from_dict(typed) == problem
+    assert Problem.from_dict({**typed, "version": 1}) == problem
+    # A file that declares version 1 promises older readers axis-aligned boxes alone.
+    disc = {**data, "version": 1, "obstacles": [{"type": "sphere", "center": [5, 5], "radius": 1}]}
+    with pytest.raises(ValueError, match=r'^obstacles\[0\]: a sphere needs "version": 2'):
+        Problem.from_dict(disc)
+    turned = {**typed, "version": 1, "obstacles": [{**typed["obstacles"][0], "orientation": 0.5}]}
+    with pytest.raises(ValueError, match=r'^obstacles\[0\]: an oriented box needs "version": 2'):
+        Problem.from_dict(turned)
+    assert Problem.from_dict({**disc, "version": 2}).workspace.num_obstacles == 1
 
 
 def test_version_2_round_trips_exactly_through_json():

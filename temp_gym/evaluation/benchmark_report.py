@@ -79,6 +79,22 @@ def cpu_info() -> str:
     return f"{models[0]} ({len(models)} logical CPUs)\n" if models else ""
 
 
+def _first_time(record: dict[str, Any]) -> float:
+    """A solved run's seconds to its first solution.
+
+    A record without it (a time-limited run of an earlier version could drop the improvement
+    its last slice found) counts the run's whole time, an upper bound.
+    """
+    first = record.get("first_time")
+    return float(record["time"] if first is None else first)
+
+
+def _first_cost(record: dict[str, Any]) -> float:
+    """A solved run's first solution cost (its final cost when the record lacks it)."""
+    first = record.get("first_cost")
+    return float(record["cost"] if first is None else first)
+
+
 def _int(value: Any) -> str:
     return "" if value is None else str(int(value))
 
@@ -209,8 +225,8 @@ def summary_rows(
         names = {name for name, _ in problems}
         for planner in settings.planners:
             runs = [r for r in records if r["problem"] in names and r["planner"] == planner]
-            times = np.array([r["first_time"] for r in runs if r.get("solved")], dtype=float)
-            costs = np.array([r["first_cost"] for r in runs if r.get("solved")], dtype=float)
+            times = np.array([_first_time(r) for r in runs if r.get("solved")], dtype=float)
+            costs = np.array([_first_cost(r) for r in runs if r.get("solved")], dtype=float)
             simplified = [r for r in runs if r.get("solved") and "simplified_cost" in r]
             shorter = np.array([r["simplified_cost"] for r in simplified], dtype=float)
             total = max(len(runs), 1)
@@ -287,7 +303,7 @@ def plot_experiment(
         mine = [r for r in runs if r["planner"] == planner]
         if not mine:
             continue
-        first = np.array([r["first_time"] if r.get("solved") else np.inf for r in mine])
+        first = np.array([_first_time(r) if r.get("solved") else np.inf for r in mine])
         solved_axes.plot(grid, (first[None, :] <= grid[:, None]).mean(axis=1), label=planner)
         best = np.full((len(grid), len(mine)), np.inf)
         for column, run in enumerate(mine):

@@ -4,7 +4,9 @@ RRT* (uniform samples), Informed RRT* (informed samples once a solution exists) 
 classical phase (Informed RRT* on the tree its attention phase grew) are this one loop, run
 on the shared `temp_gym.planning.tree.Tree`. Stop rules, checked before every extension:
 
-* a solution exists and ``stop_at_first`` is set, or it costs at most ``target_cost``;
+* a solution exists and ``stop_at_first`` is set, or it costs at most ``target_cost`` (0
+  without one: a solution of cost 0, the start already in the goal region, cannot improve,
+  and OMPL's planners stop there too);
 * the tree has ``max_nodes`` nodes, or ``sample_limit`` samples were drawn;
 * ``time_limit`` seconds have passed since the planner started (its `AnytimeLog`'s clock).
 
@@ -13,7 +15,6 @@ Every improvement of the best cost is logged, and shrinks the informed set.
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -27,11 +28,14 @@ from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.tree import Tree
 from temp_gym.worlds.collision.compiled import compiled_context_of
 
+NO_TARGET = 0.0
+"""The cost a run without ``target_cost`` stops at: none is lower."""
+
 
 def finished(tree: Tree, settings: PlanSettings, deadline: float) -> bool:
     """Whether a stop rule of the module docstring fires (``deadline``: a perf_counter value)."""
     if tree.best_node >= 0:
-        target = -math.inf if settings.target_cost is None else settings.target_cost
+        target = NO_TARGET if settings.target_cost is None else settings.target_cost
         if settings.stop_at_first or tree.best_cost <= target:
             return True
     return (
@@ -105,7 +109,7 @@ def _grow_compiled(
          int(settings.stop_at_first)],
         dtype=np.int64,
     )  # fmt: skip
-    target = -math.inf if settings.target_cost is None else float(settings.target_cost)
+    target = NO_TARGET if settings.target_cost is None else float(settings.target_cost)
     rng_address = address(rng)  # `rng` stays alive here while the slices draw from it
     iterations = slice_length(deadline, time.perf_counter(), 0.0)
     while True:
@@ -116,6 +120,8 @@ def _grow_compiled(
             float(settings.goal_bias), batch, state, limits, target, iterations,
         )  # fmt: skip
         tree.load_compiled_state(counters, best_cost)
+        if status == compiled.IMPROVED:  # logged first: a slice may end past the deadline
+            log.record_tree(tree)
         now = time.perf_counter()
         if now >= deadline:
             return
@@ -125,7 +131,6 @@ def _grow_compiled(
             batch = base.draw_batch(rng)
             state[compiled.NEXT_ROW], state[compiled.ROWS] = 0, len(batch)
         elif status == compiled.IMPROVED:
-            log.record_tree(tree)
             if finished(tree, settings, deadline):  # the stop rule the next slice would fire
                 return
             if isinstance(base, InformedSampler) and base.best_cost != tree.best_cost:

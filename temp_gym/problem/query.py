@@ -8,7 +8,8 @@ The JSON format is versioned, because users and our own test sets are written ag
      "start": [2, 2], "goal": [18, 18], "goal_radius": 0.5}
 
 is version 1 (axis-aligned boxes), and still reads unchanged. Version 2 (``"version": 2``,
-optional when reading) adds obstacle kinds, each named by ``"type"`` (a missing ``"type"``
+optional when reading, though a file that declares ``"version": 1`` must hold only
+axis-aligned boxes) adds obstacle kinds, each named by ``"type"`` (a missing ``"type"``
 is ``"box"``)::
 
     {"type": "box", "center": [0.6, 0, 0.4], "half_extents": [0.3, 0.2, 0.02],
@@ -245,6 +246,14 @@ class Problem:
         start = float_vector(data["start"], "start", dim)
         goal = float_vector(data["goal"], "goal", dim)
         workspace = Workspace(robot.name, bounds, centers, halves, kinds, orientations)
+        if "version" in data and version == 1 and not workspace.axis_aligned:
+            b = int(np.argmax((workspace.obstacle_kinds != BOX) | ~workspace.unrotated))
+            what = ("an oriented box" if workspace.obstacle_kinds[b] == BOX
+                    else f"a {KIND_NAMES[workspace.obstacle_kinds[b]]}")  # fmt: skip
+            raise ValueError(
+                f'obstacles[{b}]: {what} needs "version": 2; the file declares version 1, '
+                "which has axis-aligned boxes only"
+            )
         return cls(workspace, start, goal, data["goal_radius"])
 
     def to_dict(self) -> dict[str, Any]:

@@ -199,13 +199,35 @@ def make_replay_buffer(config: Config, split: str) -> SplitData:
 
     buffer, workspaces = load_split(config.data.dir, split)
     if len(buffer) == 0 or len(workspaces) == 0:
+        plans = _plans_stored(config.data.dir, split)
+        if plans is None or plans[1] == 0:
+            raise ConfigError(
+                f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no "
+                "samples; training needs at least one workspace in each split"
+            )
         raise ConfigError(
-            f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no samples; "
-            "training needs at least one workspace in each split"
+            f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no samples: "
+            f"{plans[0]} of its {plans[1]} expert plans succeeded (within data.max_nodes = "
+            f"{config.data.max_nodes}); draw more tasks (data.tasks_per_workspace, "
+            f"data.workspaces.{split}), give the expert more nodes (data.max_nodes) or easier "
+            "tasks (data.difficulty=easy)"
         )
     chunk = config.model.chunk
     rounds = config.data.corrections if split == "train" else []
     return SplitData(buffer, workspaces, chunk, [load_corrections(path) for path in rounds])
+
+
+def _plans_stored(directory: str, split: str) -> tuple[int, int] | None:
+    """``(stored, attempted)`` expert plans of ``split`` from its dataset card (None: no card)."""
+    import json
+    from pathlib import Path
+
+    try:
+        card = json.loads((Path(directory) / "dataset_card.json").read_text())
+        counts = card["splits"][split]
+        return int(counts["plans_stored"]), int(counts["plans_attempted"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def iterate_batches(

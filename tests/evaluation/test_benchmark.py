@@ -127,6 +127,28 @@ def test_the_summary_lists_each_planner_and_the_skipped_problem_and_plots_exist(
         assert (out / "plots" / f"{experiment}.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_a_stored_solved_run_without_its_first_solution_is_still_reported(bench, tmp_path):
+    # Earlier versions could store one (an improvement dropped at the deadline); the report
+    # crashed on it at every resume, so its folder could never be summarised.
+    import shutil
+
+    problems, out = bench
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    records = read_records(copy / "runs.jsonl")
+    solved = next(r for r in records if r["solved"])
+    solved.update(first_time=None, first_cost=None, first_nodes=None, history={})
+    (copy / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    (copy / "summary.csv").unlink()
+    assert main(command(problems, copy)) == 0
+    with open(copy / "summary.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    experiment = solved["problem"].split("/")[0]
+    row = next(r for r in rows if (r["experiment"], r["planner"]) == (experiment,
+                                                                    solved["planner"]))  # fmt: skip
+    assert float(row["solved"]) > 0 and row["median_first_time"] not in ("", "nan")
+
+
 def test_a_path_through_an_obstacle_does_not_count_as_solved():
     def straight_line(problem, settings):
         path = np.stack([problem.start, problem.goal])

@@ -204,3 +204,51 @@ def test_derived_settings_equal_a_checked_replace_without_the_checks():
     assert settings.derived(max_nodes=10).sample_limit == 1000
     with pytest.raises(TypeError, match="unknown settings"):
         settings.derived(max_node=10)
+
+
+@pytest.mark.parametrize("planner", ["rrt_star", "informed_rrt_star"])
+def test_an_improvement_found_in_a_slice_that_ends_past_the_deadline_is_logged(
+    planner, monkeypatch
+):
+    # A slice sized by the pace so far can overrun the deadline when the process is preempted;
+    # its improvement used to be dropped: success with no first solution and no history.
+    import time
+
+    from temp_gym import Problem
+    from temp_gym.planning import _compiled_anytime
+
+    problem = Problem.from_dict(
+        {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2], "goal": [18, 18],
+         "goal_radius": 0.5, "obstacles": [{"center": [10, 10], "half_extents": [2, 2]}]}
+    )  # fmt: skip
+    plan(problem, planner=planner, max_nodes=50)  # compiled and warm before the clock runs
+    real = _compiled_anytime.anytime_slice
+    limit = 0.2
+
+    def preempted(*args):
+        status = real(*args)
+        if status == _compiled_anytime.IMPROVED:
+            time.sleep(limit)  # the slice that found it ends past the deadline
+        return status
+
+    monkeypatch.setattr(_compiled_anytime, "anytime_slice", preempted)
+    result = plan(problem, planner=planner, seed=3, time_limit=limit, max_nodes=100_000)
+    assert result.success
+    assert result.time_to_first_solution is not None and result.nodes_to_first_solution
+    assert len(result.history["best_cost"]) >= 1
+    assert result.history["best_cost"][-1] == pytest.approx(result.cost)
+
+
+@pytest.mark.parametrize("planner", ["rrt_star", "informed_rrt_star", "temp"])
+def test_a_start_in_the_goal_region_stops_at_once(planner):
+    # Cost 0 cannot improve: the planners spent their whole budget (OMPL's stop at once).
+    from temp_gym import Problem
+
+    problem = Problem.from_dict(
+        {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2], "goal": [2.2, 2],
+         "goal_radius": 0.5, "obstacles": [{"center": [10, 10], "half_extents": [2, 2]}]}
+    )  # fmt: skip
+    result = plan(problem, planner=planner, max_nodes=3000)
+    assert result.success and result.cost == 0.0 and result.nodes == 1
+    # A target below 0 is the caller's to set: no solution meets it, and the budget runs out.
+    assert plan(problem, planner=planner, max_nodes=300, target_cost=-1.0).nodes == 300

@@ -1,5 +1,6 @@
 """Smoke tests of trainers/bc.py: the real script in a subprocess, tiny budgets."""
 
+import json
 import os
 import subprocess
 import sys
@@ -261,8 +262,6 @@ def test_settings_that_would_train_or_compare_on_nothing_are_refused(tmp_path, o
 
 def test_divergence_and_a_tampered_dataset_stop_in_one_line(tmp_path):
     """optim.lr=1e30 makes the loss NaN: no checkpoint is kept. Edited columns are refused."""
-    import json
-
     import numpy as np
 
     from temp_gym.data.tables import file_digest as table_digest
@@ -307,3 +306,20 @@ def test_an_empty_split_is_refused_in_one_line(tmp_path):
     error = done.stderr.strip().splitlines()[-1]
     assert done.returncode == 2, done.stderr[-2000:]
     assert "data.workspaces.train: the train split of" in error and "holds no samples" in error
+
+
+def test_a_split_whose_expert_plans_all_failed_says_so(tmp_path, monkeypatch):
+    import temp_gym.data
+    from temp_gym.config import load_config
+    from temp_gym.config.errors import ConfigError
+    from temp_gym.training.batches import make_replay_buffer
+
+    config = load_config(ROOT / "configs" / "tiny.yaml", [f"data.dir={tmp_path}"])
+    monkeypatch.setattr(temp_gym.data, "load_split", lambda directory, split: ([], []))
+    card = {"splits": {"val": {"plans_attempted": 3, "plans_stored": 0}}}
+    (tmp_path / "dataset_card.json").write_text(json.dumps(card))
+    with pytest.raises(ConfigError, match=r"holds no samples: 0 of its 3 expert plans succeeded"):
+        make_replay_buffer(config, "val")
+    (tmp_path / "dataset_card.json").unlink()  # no card: no count to give
+    with pytest.raises(ConfigError, match=r"holds no samples; training needs at least one"):
+        make_replay_buffer(config, "val")

@@ -176,3 +176,122 @@ def test_axis_frames_turn_z_onto_the_axis(axis):
     frame = axis_frame(axis)
     assert np.allclose(frame @ [0, 0, 1], axis)
     assert np.allclose(frame.T @ frame, np.eye(3)) and np.isclose(np.linalg.det(frame), 1.0)
+
+
+_TREE_HEAD = """<?xml version="1.0"?><robot name="r">
+<link name="base"><collision><geometry><box size="0.2 0.2 0.1"/></geometry></collision></link>
+<link name="l1"><collision><geometry><box size="0.05 0.05 0.5"/></geometry></collision></link>
+<link name="l2"><collision><geometry><box size="0.05 0.05 0.2"/></geometry></collision></link>
+"""
+
+
+def _joint(name, parent, child, kind="revolute", inner=""):
+    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<axis xyz="0 0 1"/><limit lower="-1" upper="1"/>{inner}</joint>')  # fmt: skip
+
+
+_TREE = _joint("j1", "base", "l1") + _joint("j2", "l1", "l2")
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (_joint("jc", "l2", "base", "fixed"), r"the joints close a loop through link"),
+        ('<link name="l2"/>', r"link 'l2' is defined twice"),
+        ('<link name="l3"/>' + _joint("j2", "l2", "l3"), r"joint 'j2' is defined twice"),
+        ('<link name="l3"/>' + _joint("ja", "l2", "l3") + _joint("jb", "l1", "l3"),
+         r"link 'l3' is the child of two joints, 'ja' and 'jb'"),
+        ('<link name="l3"/>' + _joint("jx", "ghost", "l3"),
+         r"joint 'jx': its parent link 'ghost' is not a link"),
+        ("<link/>", r"a <link> without a name"),
+    ],
+)  # fmt: skip
+def test_a_urdf_whose_links_are_no_tree_is_refused_in_one_line(tmp_path, extra, message):
+    # A loop hung the walk of the tree; a repeated link silently lost its geometry.
+    (tmp_path / "r.urdf").write_text(_TREE_HEAD + _TREE + extra + "</robot>")
+    path = _description(tmp_path, "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l2\n")
+    with pytest.raises(UrdfError, match=message):
+        load_arm(path, require_derived=False)
+
+
+_MIMIC_OF_J1 = _joint("j1", "base", "l1") + _joint("j2", "l1", "l2", inner='<mimic joint="j1"/>')
+
+
+@pytest.mark.parametrize(
+    ("joints", "tip", "message"),
+    [
+        # In the chain, j2 would be planned as a joint of its own though it follows j1.
+        (_MIMIC_OF_J1, "l2", r"joint 'j2': a mimic joint \(of 'j1'\) in the chain"),
+        # Off the chain, following a joint of the chain: its link would not be rigid.
+        (_MIMIC_OF_J1, "l1", r"joint 'j2': mimics 'j1', a joint of the chain"),
+        (_MIMIC_OF_J1.replace('joint="j1"', 'joint="jz"'), "l1",
+         r"joint 'j2': mimics 'jz', which is not a joint"),
+    ],
+)  # fmt: skip
+def test_a_mimic_joint_the_arm_cannot_model_is_refused(tmp_path, joints, tip, message):
+    (tmp_path / "r.urdf").write_text(_TREE_HEAD + joints + "</robot>")
+    text = f"name: r\nurdf: r.urdf\nbase_link: base\ntip_link: {tip}\n"
+    with pytest.raises(UrdfError, match=message):
+        load_arm(_description(tmp_path, text), require_derived=False)
+
+
+def test_a_mimic_of_the_chain_held_by_the_description_is_accepted(tmp_path):
+    (tmp_path / "r.urdf").write_text(_TREE_HEAD + _MIMIC_OF_J1 + "</robot>")
+    text = "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l1\nfixed_joints: {j2: 0.5}\n"
+    assert load_arm(_description(tmp_path, text), require_derived=False).chain.fixed_values == {
+        "j2": 0.5
+    }
+
+
+def test_a_mesh_is_read_in_the_unit_its_file_declares_and_a_zero_scale_is_refused(tmp_path):
+    from temp_gym.worlds.arm.meshes import body_geometry
+
+    cube = (
+        "<float_array id='p' count='24'>"
+        + " ".join(f"{x} {y} {z}" for x in (-5, 5) for y in (-5, 5) for z in (-5, 5))
+        + "</float_array>"
+    )
+    triangles = "0 1 2 1 3 2 4 6 5 5 6 7 0 4 1 1 4 5 2 3 6 3 7 6 0 2 4 2 6 4 1 5 3 3 5 7"
+    dae = f"""<?xml version="1.0"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+<asset><unit meter="0.01" name="centimeter"/><up_axis>Z_UP</up_axis></asset>
+<library_geometries><geometry id="g"><mesh>
+<source id="s">{cube}<technique_common><accessor source="#p" count="8" stride="3">
+<param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+</accessor></technique_common></source>
+<vertices id="v"><input semantic="POSITION" source="#s"/></vertices>
+<triangles count="12"><input semantic="VERTEX" source="#v" offset="0"/><p>{triangles}</p>
+</triangles></mesh></geometry></library_geometries>
+<library_visual_scenes><visual_scene id="scene"><node id="n"><instance_geometry url="#g"/>
+</node></visual_scene></library_visual_scenes><scene><instance_visual_scene url="#scene"/>
+</scene></COLLADA>"""  # fmt: skip
+    (tmp_path / "cube.dae").write_text(dae)
+    mesh = '<mesh filename="cube.dae" scale="{}"/>'
+    urdf = ('<?xml version="1.0"?><robot name="r"><link name="base"/><link name="l1"><collision>'
+            f"<geometry>{mesh}</geometry></collision></link>"
+            + _joint("j1", "base", "l1") + "</robot>")  # fmt: skip
+    path = _description(tmp_path, "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l1\n")
+    (tmp_path / "r.urdf").write_text(urdf.format("1 1 1"))
+    arm = load_arm(path, require_derived=False)
+    vertices = body_geometry(arm.chain.elements[1], arm.chain.urdf).meshes[0][0]
+    # 10 units of a centimetre: 0.1 m, as pybullet, RViz and MoveIt read it (not 10 m).
+    np.testing.assert_allclose(np.ptp(vertices, axis=0), [0.1, 0.1, 0.1])
+    (tmp_path / "flat.urdf").write_text(urdf.format("0 1 1"))
+    flat = tmp_path / "flat.yaml"
+    flat.write_text(path.read_text().replace("r.urdf", "flat.urdf"))
+    with pytest.raises(UrdfError, match=r"link 'l1' collision 0: <mesh> scale must be nonzero"):
+        load_arm(flat, require_derived=False)
+
+
+def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path):
+    from temp_gym.worlds.arm.build import main
+
+    text = ("name: point2d\nurdf: pybullet_data://kuka_iiwa/model.urdf\n"
+            "base_link: lbr_iiwa_link_0\ntip_link: lbr_iiwa_link_7\n")  # fmt: skip
+    path = _description(tmp_path, text)
+    assert main(["build", str(path)]) == 2
+    assert not path.with_name("robot.derived.json").exists()  # refused before any work
+    with pytest.raises(DescriptionError, match=r"name: 'point2d' is taken by the built-in robot"):
+        from temp_gym.worlds.arm.build import build
+
+        build(path)

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from temp_gym.worlds.arm.description import DescriptionError, RobotDescription
 from temp_gym.worlds.arm.model import DERIVED_FORMAT, ArmModel, load_arm, source_digest
 
 _DECIMALS = 7
@@ -106,6 +107,26 @@ def compute_derived(arm: ArmModel, log=print) -> dict:
     }
 
 
+def refuse_built_in_names(description: RobotDescription) -> None:
+    """Refuse, before any work, a description whose name or ids a built-in robot holds.
+
+    Registering it would fail anyway (`temp_gym.worlds.robots.register_robot`), but only
+    after a build of minutes. The built-in arms' own descriptions pass.
+    """
+    from temp_gym.worlds.robots import BUILT_IN
+
+    for spec in BUILT_IN:
+        if spec.description is not None and spec.description == description.path.resolve():
+            continue
+        for field in ("name", "env_id", "short_name", "seed_code"):
+            if getattr(spec, field) == getattr(description, field):
+                value = getattr(description, field)
+                raise DescriptionError(
+                    f"{description.path.name}: {field}: {value!r} is taken by the built-in "
+                    f"robot {spec.name!r}; give this robot another {field}"
+                )
+
+
 def build(path: str | Path, force: bool = False, log=print) -> Path:
     """Write the derived data of the description at ``path``; returns the file.
 
@@ -114,6 +135,7 @@ def build(path: str | Path, force: bool = False, log=print) -> Path:
     from temp_gym.files import write_json_atomic
 
     arm = load_arm(path, require_derived=False)
+    refuse_built_in_names(arm.description)
     target = arm.description.derived_path
     if arm.derived is not None and not force:
         log(f"{arm.name}: {target.name} is up to date")
@@ -152,6 +174,7 @@ def main(argv: list[str] | None = None) -> int:
             build(args.description, force=args.force)
         else:
             arm = load_arm(args.description)
+            refuse_built_in_names(arm.description)
             enabled = len(arm.enabled_pairs())
             print(f"{arm.name}: {arm.dim} joints, {arm.num_bodies} bodies, {enabled} body pairs "
                   "checked for self-collision; derived data up to date")  # fmt: skip
@@ -161,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["build", "compute_derived", "fit_spheres", "main"]
+__all__ = ["build", "compute_derived", "fit_spheres", "main", "refuse_built_in_names"]
 
 
 if __name__ == "__main__":

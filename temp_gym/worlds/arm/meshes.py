@@ -10,11 +10,12 @@ Each ``<collision>`` element of a body (`temp_gym.worlds.arm.urdf.CollisionEleme
   the exact checker tests for self-collision, and what the fast checker's spheres cover. A
   body's pieces are never merged, so the gap between two fingers stays a gap.
 
-Mesh files are STL, OBJ, DAE or anything else trimesh reads; ``filename`` may be absolute,
-relative to the URDF, ``file://...`` or ``package://pkg/path``, which is looked up beside the
-URDF and in its ancestor folders (the folder named ``pkg``, or the path as it is). Boxes,
-cylinders and spheres are exact in the exact checker (fcl primitives) and, as pieces,
-polytopes that contain them (a cylinder's polygon circumscribes its circle).
+Mesh files are STL, OBJ, DAE or anything else trimesh reads, in metres unless the file
+declares its unit (a COLLADA file's ``<unit meter=..>``, which is applied); ``filename`` may
+be absolute, relative to the URDF, ``file://...`` or ``package://pkg/path``, which is looked
+up beside the URDF and in its ancestor folders (the folder named ``pkg``, or the path as it
+is). Boxes, cylinders and spheres are exact in the exact checker (fcl primitives) and, as
+pieces, polytopes that contain them (a cylinder's polygon circumscribes its circle).
 """
 
 from __future__ import annotations
@@ -91,6 +92,7 @@ def _load_objects(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
     except Exception as error:  # trimesh raises many types for unreadable files
         raise UrdfError(f"mesh {path.name}: cannot read ({type(error).__name__}: "
                         f"{str(error)[:80]})") from None  # fmt: skip
+    metres = _metres_per_unit(loaded, path)
     objects = []
     for node in loaded.graph.nodes_geometry:
         transform, name = loaded.graph[node]
@@ -100,10 +102,30 @@ def _load_objects(path: Path) -> list[tuple[np.ndarray, np.ndarray]]:
         if len(vertices) == 0 or len(faces) == 0:
             continue
         vertices = vertices @ np.asarray(transform)[:3, :3].T + np.asarray(transform)[:3, 3]
-        objects.append((vertices, faces.reshape(-1, 3)))
+        objects.append((vertices * metres, faces.reshape(-1, 3)))
     if not objects:
         raise UrdfError(f"mesh {path.name}: no triangles")
     return objects
+
+
+def _metres_per_unit(scene, path: Path) -> float:
+    """Metres per unit of a mesh file that declares its unit (COLLADA's ``<unit meter=..>``).
+
+    A URDF's meshes are in metres; a file in centimetres or inches is scaled as pybullet,
+    RViz and MoveIt scale it. STL and OBJ declare no unit and are read as metres.
+    """
+    from trimesh.units import unit_conversion
+
+    units = getattr(scene, "units", None)
+    if not units:
+        return 1.0
+    try:
+        factor = float(unit_conversion(units, "meters"))
+    except Exception:  # trimesh raises several types for a unit it does not know
+        raise UrdfError(f"mesh {path.name}: unknown unit {str(units)[:40]!r}") from None
+    if not (math.isfinite(factor) and factor > 0):
+        raise UrdfError(f"mesh {path.name}: unit {str(units)[:40]!r} is not a positive length")
+    return factor
 
 
 def box_vertices(size: np.ndarray) -> np.ndarray:

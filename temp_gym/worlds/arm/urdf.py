@@ -202,6 +202,9 @@ def _collision_elements(link: ElementTree.Element, name: str) -> list[tuple[str,
             if not filename:
                 raise UrdfError(f"{where}: <mesh> without a filename")
             scale = _floats(shape.get("scale"), 3, f"{where} scale", "1 1 1")
+            if np.any(scale == 0):
+                raise UrdfError(f"{where}: <mesh> scale must be nonzero on every axis (a "
+                                f"negative one mirrors), got {shape.get('scale')!r}")  # fmt: skip
             elements.append(("mesh", {"transform": transform, "mesh": filename, "scale": scale}))
         elif shape.tag == "box":
             size = _floats(shape.get("size"), 3, f"{where} size", "")
@@ -221,6 +224,110 @@ def _collision_elements(link: ElementTree.Element, name: str) -> list[tuple[str,
     return elements
 
 
+def _named(root: ElementTree.Element, tag: str, urdf: Path) -> dict[str, ElementTree.Element]:
+    """The ``<link>`` or ``<joint>`` elements by name; a missing or repeated name is refused."""
+    elements: dict[str, ElementTree.Element] = {}
+    for element in root.findall(tag):
+        name = element.get("name")
+        if not name:
+            raise UrdfError(f"{urdf.name}: a <{tag}> without a name")
+        if name in elements:
+            raise UrdfError(f"{urdf.name}: {tag} {name!r} is defined twice")
+        elements[name] = element
+    return elements
+
+
+def _tree(
+    links: dict[str, ElementTree.Element], joints: dict[str, ElementTree.Element], urdf: Path
+) -> tuple[dict[str, list[ElementTree.Element]], dict[str, ElementTree.Element]]:
+    """Each link's child joints and each link's parent joint, checked to form a tree.
+
+    As urdfdom checks: every joint joins two existing links, no link has two parents, and no
+    chain of joints leads back to where it started (which would hang a walk of the tree).
+    """
+    children: dict[str, list[ElementTree.Element]] = {}
+    parent_joint: dict[str, ElementTree.Element] = {}
+    for name, joint in joints.items():
+        parent, child = joint.find("parent"), joint.find("child")
+        if parent is None or child is None:
+            raise UrdfError(f"joint {name!r}: needs <parent> and <child>")
+        for role, element in (("parent", parent), ("child", child)):
+            if element.get("link") not in links:
+                raise UrdfError(f"joint {name!r}: its {role} link {element.get('link')!r} is "
+                                f"not a link of {urdf.name}")  # fmt: skip
+        if child.get("link") in parent_joint:
+            other = parent_joint[child.get("link")].get("name")
+            raise UrdfError(f"{urdf.name}: link {child.get('link')!r} is the child of two joints, "
+                            f"{other!r} and {name!r}; a URDF's links form a tree")  # fmt: skip
+        children.setdefault(parent.get("link"), []).append(joint)
+        parent_joint[child.get("link")] = joint
+    for start in parent_joint:
+        seen, link = {start}, start
+        while link in parent_joint:
+            link = parent_joint[link].find("parent").get("link")
+            if link in seen:
+                joint = parent_joint[link].get("name")
+                raise UrdfError(f"{urdf.name}: the joints close a loop through link {link!r} "
+                                f"(joint {joint!r}); a URDF's links form a tree")  # fmt: skip
+            seen.add(link)
+    return children, parent_joint
+
+
+def _mimic_terms(mimic: ElementTree.Element, where: str) -> tuple[float, float]:
+    """A ``<mimic>``'s ``(multiplier, offset)`` (defaults 1 and 0)."""
+    multiplier = _floats(mimic.get("multiplier"), 1, f"{where} multiplier", "1")[0]
+    offset = _floats(mimic.get("offset"), 1, f"{where} offset", "0")[0]
+    return float(multiplier), float(offset)
+
+
+def _check_mimics(
+    joints: dict[str, ElementTree.Element],
+    chain_names: set[str],
+    fixed_joints: dict[str, float],
+    urdf: Path,
+) -> None:
+    """Refuse the ``<mimic>`` joints the arm cannot model, naming them.
+
+    A mimic joint off the chain is held at its source's held value times the multiplier plus
+    the offset. One in the chain, or one that follows a joint of the chain, would move with
+    the planned joints: the arm's bodies are rigid between its planned joints, so its
+    geometry would be wrong. A mimic of a missing joint, and mimics that go round in a loop,
+    are errors in the URDF.
+    """
+    for name, joint in joints.items():
+        mimic = joint.find("mimic")
+        if mimic is None or joint.get("type") not in MOVABLE:
+            continue
+        where = f"joint {name!r}"
+        source = mimic.get("joint")
+        if source not in joints:
+            raise UrdfError(f"{where}: mimics {source!r}, which is not a joint of {urdf.name}")
+        if joints[source].get("type") not in MOVABLE:
+            raise UrdfError(f"{where}: mimics {source!r}, a {joints[source].get('type')} joint")
+        if name in chain_names:
+            raise UrdfError(f"{where}: a mimic joint (of {source!r}) in the chain is not "
+                            "supported; end the chain before it")  # fmt: skip
+        if name in fixed_joints:
+            continue  # held where the description says
+        seen, current = {name}, source
+        while True:
+            if current in chain_names:
+                raise UrdfError(f"{where}: mimics {current!r}, a joint of the chain, so its link "
+                                "moves with the arm, which is not supported; hold it with "
+                                "fixed_joints if it may stay put")  # fmt: skip
+            if current in seen:
+                raise UrdfError(f"{where}: its mimic joints go round in a loop")
+            seen.add(current)
+            if current in fixed_joints:
+                break
+            inner = joints[current].find("mimic")
+            if inner is None:
+                break
+            current = inner.get("joint")
+            if current not in joints:
+                break  # refused when that joint's own turn comes
+
+
 def read_chain(
     urdf: Path,
     base_link: str,
@@ -237,21 +344,14 @@ def read_chain(
     fixed_joints = dict(fixed_joints or {})
     overrides = dict(joint_limits or {})
     root = _parse(urdf)
-    links = {link.get("name"): link for link in root.findall("link")}
-    joints = {joint.get("name"): joint for joint in root.findall("joint")}
+    links = _named(root, "link", urdf)
+    joints = _named(root, "joint", urdf)
     for name in (base_link, tip_link):
         if name not in links:
             known = ", ".join(sorted(links)[:12])
             raise UrdfError(f"{urdf.name}: no link {name!r}; links: {known}")
-    children: dict[str, list[ElementTree.Element]] = {}
-    parent_joint: dict[str, ElementTree.Element] = {}
-    for name, joint in joints.items():
-        parent, child = joint.find("parent"), joint.find("child")
-        if parent is None or child is None:
-            raise UrdfError(f"joint {name!r}: needs <parent> and <child>")
-        children.setdefault(parent.get("link"), []).append(joint)
-        parent_joint[child.get("link")] = joint
-    # The chain: from the tip up to the base.
+    children, parent_joint = _tree(links, joints, urdf)
+    # The chain: from the tip up to the base (the links form a tree: no loop to go round).
     chain_joints: list[ElementTree.Element] = []
     link = tip_link
     while link != base_link:
@@ -273,6 +373,7 @@ def read_chain(
     for name in fixed_joints:
         if name in chain_names and joints[name].get("type") in MOVABLE:
             raise UrdfError(f"fixed_joints: {name!r} is a joint of the chain; planning sets it")
+    _check_mimics(joints, chain_names, fixed_joints, urdf)
 
     def limits_of(joint: ElementTree.Element) -> tuple[float, float]:
         name, kind = joint.get("name"), joint.get("type")
@@ -292,12 +393,10 @@ def read_chain(
                 )
             return value
         mimic = joint.find("mimic")
-        if mimic is not None and mimic.get("joint") in joints:
+        if mimic is not None:  # its source is off the chain (`_check_mimics`)
+            multiplier, offset = _mimic_terms(mimic, f"joint {name!r} mimic")
             source = joints[mimic.get("joint")]
-            if source.get("name") not in chain_names:
-                multiplier = float(mimic.get("multiplier", "1"))
-                offset = float(mimic.get("offset", "0"))
-                return float(np.clip(multiplier * fixed_value(source) + offset, lower, upper))
+            return float(np.clip(multiplier * fixed_value(source) + offset, lower, upper))
         return float(np.clip(0.0, lower, upper))
 
     names, types, origins, limits, bodies = [], [], [], [], [base_link]
