@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import os
 import sys
 import textwrap
@@ -222,15 +221,13 @@ def _settings(args: argparse.Namespace):
         ValueError: one line naming the flag (``--max-nodes``, ``--set KEY``) and the reason.
     """
     from temp_gym.planning import PLANNERS
-    from temp_gym.planning.registry import settings_for
+    from temp_gym.planning.registry import owners_of, planners_phrase, settings_for
 
     if args.planner not in PLANNERS:
         raise ValueError(f"--planner: unknown planner {brief(args.planner)}; expected one of "
                          f"{sorted(PLANNERS)}")  # fmt: skip
-    if args.time_limit is not None and not (
-        math.isfinite(args.time_limit) and args.time_limit >= 0
-    ):
-        raise ValueError(f"--time-limit: expected a finite number of seconds >= 0, got "
+    if args.time_limit is not None and not args.time_limit >= 0:  # inf: no limit, as plan()
+        raise ValueError(f"--time-limit: expected a number of seconds >= 0, got "
                          f"{args.time_limit}")  # fmt: skip
     given = {}
     for item in args.settings or ():
@@ -244,6 +241,16 @@ def _settings(args: argparse.Namespace):
              "stop_at_first": args.stop_at_first, "step_size": args.step_size}  # fmt: skip
     if args.attention_nodes is not None:
         flags["attention_nodes"] = args.attention_nodes
+    for key in given:  # two places for one value: which would win is no user's guess
+        if key in (*flags, "attention_nodes"):
+            flag = f"--{key.replace('_', '-')}"
+            raise ValueError(f"--set {key}: {key} has its own flag; give it as {flag}")
+        owners = owners_of(key)
+        if owners and args.planner not in [owner.name for owner in owners]:
+            takes = "takes" if len(owners) == 1 else "take"
+            use = f"--planner {owners[0].name} --set {key}=..."
+            raise ValueError(f"--set {key}: only {planners_phrase(owners)} {takes} it, not "
+                             f"{args.planner}; use {use}")  # fmt: skip
     try:
         return settings_for(args.planner, None, **{**flags, **given})
     except (TypeError, ValueError) as error:  # "max_nodes: ..." names the flag --max-nodes

@@ -380,7 +380,12 @@ def test_any_setting_of_the_planner_is_set_and_checked_before_planning(tmp_path,
     assert set_once["nodes"] == same.nodes and set_once["cost"] == pytest.approx(same.cost)
     for flags, words in [
         (["--set", "attention_patience=30", "--planner", "rrt_star"],
-         ("attention_patience: only the temp planner takes it", "TEMPSettings")),
+         ("attention_patience: only the temp planner takes it",
+          "use --planner temp --set attention_patience=...")),
+        # A flag's value given twice, as a flag and by --set: refused, not one silently kept.
+        (["--set", "max_nodes=300", "--max-nodes", "400"],
+         ("--set max_nodes: max_nodes has its own flag; give it as --max-nodes",)),
+        (["--set", "seed=1"], ("--set seed:", "--seed")),
         (["--set", "attention_patience=-1"], ("attention_patience: expected an integer",)),
         (["--set", "patience=3"], ("patience: not a setting of the temp planner",)),
         (["--set", "goal_bias"], ("--set 'goal_bias': expected KEY=VALUE",)),
@@ -434,3 +439,15 @@ def test_temp_plan_uses_the_settings_the_shipped_policy_carries(tmp_path, capsys
         result["attention_solved"] = result["attention"]["solved"]
     assert plan_of(results["card"]) == plan_of(results["default"])
     assert plan_of(results["other"]) != plan_of(results["default"])
+
+
+def test_an_infinite_time_limit_is_no_limit_as_in_plan_and_nan_is_refused(tmp_path, capsys):
+    from temp_gym.cli import main
+
+    problem = tmp_path / "problem.json"
+    problem.write_text(json.dumps(PROBLEM))
+    base = [str(problem), "--planner", "rrt_star", "--max-nodes", "300"]
+    assert main([*base, "--time-limit", "inf"]) in (0, 3)
+    assert "300 nodes" in capsys.readouterr().out
+    code = main([*base, "--time-limit", "nan"])
+    assert_one_line_error(code, capsys.readouterr().err, "--time-limit: expected a number")

@@ -63,20 +63,25 @@ def count(least: int = 0, most: int = MAX_COUNT) -> Callable[[str], int]:
     return parse
 
 
-def number(least: float = -math.inf, most: float = math.inf) -> Callable[[str], float]:
-    """An argparse ``type``: a finite number in ``[least, most]``, else a one-line error."""
+def number(
+    least: float = -math.inf, most: float = math.inf, above: bool = False
+) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in ``[least, most]``, else a one-line error.
+
+    With ``above`` the number must exceed ``least`` (a time limit of 0 is no run).
+    """
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected a number, got {brief(text)}") from None
-        if not (math.isfinite(value) and least <= value <= most):
-            bound = (
-                f"a finite number of at least {least:g}"
-                if math.isinf(most)
-                else f"a number in [{least:g}, {most:g}]"
-            )
+        low_ok = value > least if above else value >= least
+        if not (math.isfinite(value) and low_ok and value <= most):
+            if math.isinf(most):
+                bound = f"a finite number {'above' if above else 'of at least'} {least:g}"
+            else:
+                bound = f"a number in {'(' if above else '['}{least:g}, {most:g}]"
             raise argparse.ArgumentTypeError(f"expected {bound}, got {value}")
         return value
 

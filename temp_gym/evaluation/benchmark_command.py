@@ -65,7 +65,8 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
     parser.add_argument("--planners", nargs="+", required=True,
                         help="registered planner names (temp_gym.planning.PLANNERS)")  # fmt: skip
     parser.add_argument("--out", required=True, help="output folder (rerunning resumes in it)")
-    parser.add_argument("--time-limit", type=number(0.0), default=DEFAULTS["time_limit"],
+    parser.add_argument("--time-limit", type=number(0.0, above=True),
+                        default=DEFAULTS["time_limit"],
                         help="seconds per run")  # fmt: skip
     parser.add_argument("--runs", type=count(1), default=DEFAULTS["runs"],
                         help="runs per planner and problem")  # fmt: skip

@@ -164,7 +164,7 @@ def simplify_path(
 
     Raises:
         ValueError: A malformed argument; or ``path`` itself is refused by the exact checker
-            (a state or motion in collision, or outside the joint limits), so that no valid
+            (a state or motion in collision, or outside the bounds), so that no valid
             path between its ends is known. (A refused path whose shortening the exact
             checker certifies gives that shortening.)
     """
@@ -177,7 +177,7 @@ def simplify_path(
     if certify_path(problem, given):
         return given
     raise ValueError(
-        "path: the exact checker finds it in collision or outside the joint limits, so it "
+        "path: the exact checker finds it in collision or outside the bounds, so it "
         "cannot be simplified"
     )
 

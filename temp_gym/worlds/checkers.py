@@ -26,9 +26,11 @@ def certify_path(problem: Problem, path: np.ndarray) -> bool:
 
     For the iiwa that includes self-collision and the URDF joint limits at every waypoint.
     """
-    path = np.asarray(path, dtype=np.float64)
-    if path.ndim != 2 or path.shape[1] != problem.dim or len(path) == 0:
-        raise ValueError(f"path: expected shape (K, {problem.dim}), got {path.shape}")
+    from temp_gym.worlds.collision.arm_inputs import as_path
+
+    if not isinstance(problem, Problem):
+        raise ValueError(f"problem: expected a Problem, got {type(problem).__name__}")
+    path = as_path(path, problem.dim)
     return bool(make_checker(problem, exact=True).path_free(path))
 
 

@@ -227,15 +227,25 @@ def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
 @pytest.mark.parametrize("kind", ["boxes", "shapes"])
 @pytest.mark.parametrize("exact", [False, True])
 def test_malformed_inputs_are_refused_in_one_line(kind, exact):
+    from temp_gym.worlds.checkers import certify_path
+
     data = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2],
             "goal": [18, 18], "goal_radius": 0.5,
             "obstacles": [{"center": [10, 10], "half_extents": [1, 1]}]}  # fmt: skip
     if kind == "shapes":
         data = {**data, "version": 2, "obstacles": [{"type": "sphere", "center": [10, 10],
                                                      "radius": 1}]}  # fmt: skip
-    checker = make_checker(Problem.from_dict(data).workspace, exact=exact)
+    problem = Problem.from_dict(data)
+    checker = make_checker(problem.workspace, exact=exact)
     with pytest.raises(ValueError, match=r"^path: expected at least one state$"):
         checker.path_free(np.zeros((0, 2)))
+    with pytest.raises(ValueError, match=r"^path: expected at least one state$"):
+        certify_path(problem, [])
+    with pytest.raises(ValueError, match=r"^path: expected real numbers"):
+        certify_path(problem, "abc")
+    with pytest.raises(ValueError, match=r"^path: expected an array of numbers, got None"):
+        certify_path(problem, None)
+    assert checker.states_free([]).shape == (0,)  # no states at all
     with pytest.raises(ValueError, match=r"^starts, ends: expected as many rows"):
         checker.edges_free(np.ones((3, 2)), np.ones((2, 2)))
     with pytest.raises(ValueError, match=r"^states: expected real numbers, got .*<U3"):

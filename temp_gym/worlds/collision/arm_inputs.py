@@ -48,6 +48,8 @@ def _real_array(value: object, name: str) -> np.ndarray:
     Booleans, complex numbers and text are refused: numpy would turn them into numbers
     silently (a complex state loses its imaginary part, ``True`` becomes 1).
     """
+    if value is None:
+        raise ValueError(f"{name}: expected an array of numbers, got None")
     try:
         array = np.asarray(value)
     except ValueError:  # ragged nested lists
@@ -69,8 +71,8 @@ def _all_reals(array: np.ndarray) -> bool:
 def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
     """``(N, dim)`` float64 states (one ``(dim,)`` state becomes ``(1, dim)``)."""
     states = _real_array(states, name)
-    if states.ndim == 1:
-        states = states.reshape(1, -1)
+    if states.ndim == 1:  # one state, or none at all
+        states = states.reshape(1, -1) if states.size else states.reshape(0, dim)
     if states.ndim != 2 or states.shape[1] != dim:
         raise ValueError(f"{name}: expected shape (N, {dim}), got {states.shape}")
     return states
