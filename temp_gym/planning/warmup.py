@@ -36,6 +36,7 @@ ours too (OMPL seeds a process-wide stream at its first run, which must stay the
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
@@ -132,7 +133,7 @@ def _warm(
         max_samples=None,
         time_limit=None,
         stop_at_first=False,
-        target_cost=None,
+        target_cost=-math.inf,  # grows its nodes even from a start in the goal region (cost 0)
     )
     if isinstance(short, TEMPSettings):
         short = replace(short, attention_nodes=WARM_UP_NODES // 2, policy=policy)

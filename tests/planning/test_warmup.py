@@ -286,3 +286,19 @@ def test_a_workspace_of_other_obstacle_kinds_is_warmed_up_on_its_own(monkeypatch
     assert warmup.warm_up(disc, "rrt_star", PlanSettings(), planners)
     assert not warmup.warm_up(disc, "rrt_star", PlanSettings(), planners)
     assert disc.workspace in calls
+
+
+def test_a_start_in_the_goal_region_still_warms_up_a_tree(monkeypatch):
+    """A cost-0 solution stops a timed run at once; the warm-up grows its nodes regardless."""
+    from temp_gym import Problem
+    from temp_gym.planning import warmup
+    from temp_gym.planning.plan import PLANNERS
+    from temp_gym.planning.settings import PlanSettings
+
+    monkeypatch.setattr(warmup, "_WARMED", set())
+    trivial = Problem.from_dict(dict(PROBLEMS["point2d"], goal=PROBLEMS["point2d"]["start"]))
+    grown = []
+    run = PLANNERS["rrt_star"].function
+    planners = {"rrt_star": lambda problem, settings: grown.append(run(problem, settings).nodes)}
+    assert warmup.warm_up(trivial, "rrt_star", PlanSettings(), planners)
+    assert grown[0] == WARM_UP_NODES
