@@ -97,6 +97,26 @@ def path_outside_bounds(path: np.ndarray, problem) -> str | None:
             f"state {first}: {outside_bounds(path[first], bounds, joints)}")  # fmt: skip
 
 
+def path_warning(path: np.ndarray, problem) -> str | None:
+    """Why ``path`` is no solution of ``problem``, in one line; None when it is one.
+
+    The viewer shows any path all the same; the warning keeps a stored path of another
+    problem, or one in collision, from passing for a plan of this one.
+    """
+    from temp_gym.worlds.checkers import certify_path
+
+    outside = path_outside_bounds(path, problem)
+    if outside:
+        return outside
+    if not np.allclose(path[0], problem.start, rtol=0.0, atol=1e-9):
+        return f"it starts at {np.round(path[0], 6).tolist()}, not at the problem's start"
+    if np.linalg.norm(path[-1] - problem.goal) > problem.goal_radius + 1e-9:
+        return "its last state is outside the goal region"
+    if not certify_path(problem, path):
+        return "the exact collision checker refuses it (a state or motion in collision)"
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``temp-view``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -109,7 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         problem = Problem.load(args.problem)
         path = None if args.path is None else load_path(args.path, problem.dim)
         if path is not None:
-            warning = path_outside_bounds(path, problem)
+            warning = path_warning(path, problem)
             if warning:  # shown all the same: the viewer is for looking at any path
                 print(f"{PROG}: warning: {args.path}: {warning}", file=sys.stderr)
         # Checked (the robot, the path) before anything is served.

@@ -137,3 +137,22 @@ def test_a_path_that_leaves_the_bounds_is_named():
         "states outside the problem's bounds: 2 of 3; the first, state 1: outside the bounds: "
         f"[0] = {high[0] + 500:g} is above the bound {high[0]:g}"
     )
+
+
+def test_a_path_that_is_no_solution_of_the_problem_is_named():
+    from temp_gym.problem import Problem
+    from temp_gym.viewer.command import path_warning
+
+    problem = Problem.from_dict(POINT2D)
+    start, goal = np.asarray(problem.start), np.asarray(problem.goal)
+    around = np.array([start, [2.0, 18.0], goal])  # beside the box
+    assert path_warning(around, problem) is None
+    assert path_warning(np.array([start, goal]), problem) == (  # through the box
+        "the exact collision checker refuses it (a state or motion in collision)"
+    )
+    low, high = problem.bounds
+    assert path_warning(np.array([start, high + 1.0]), problem).startswith("states outside")
+    assert "not at the problem's start" in path_warning(np.array([goal, goal]), problem)
+    assert path_warning(np.array([start, start]), problem) == (
+        "its last state is outside the goal region"
+    )
