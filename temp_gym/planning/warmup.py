@@ -15,7 +15,11 @@ joins it (without it, the first such task of a process paid 20 ms of loading, or
 compiling with an empty cache, inside its time; ``rrt_connect`` plans that query too, for its
 first join); a fourth, on uniform samples with a stall patience of one node, stalls, so that
 the phases after a stall are loaded too (their compiled sequence cost the first stalled 2D
-plan of a process 66 ms of loading).
+plan of a process 66 ms of loading). A trivial first problem (the start at the goal, an
+empty world) reaches less, so the warm-up also grows a tree past its first capacity (a point
+robot's grid grows then), computes the free volume of its bounds with one box in them, and
+joins towards the first axis when the goal is the start: without them, a timed run on the
+next problem compiled those inside its limit (7 s of a 1 s limit with an empty cache).
 
 With an empty cache the compiling takes minutes (longest for the arm), so the first time a
 process meets a compilation it logs one line through the ``temp_gym`` logger at WARNING level,
@@ -46,8 +50,8 @@ from numba.core import event
 
 from temp_gym.planning.settings import PlanSettings
 from temp_gym.planning.temp_settings import TEMPSettings
-from temp_gym.planning.tree import default_step_size, workspace_free_volume
-from temp_gym.problem import Problem
+from temp_gym.planning.tree import Tree, default_step_size, workspace_free_volume
+from temp_gym.problem import Problem, Workspace
 from temp_gym.worlds.checkers import certify_path, make_checker
 from temp_gym.worlds.robots import robot_spec
 
@@ -167,6 +171,15 @@ def _warm(
     # to load that kernel: compute it here, untimed, through the per-workspace cache a tree
     # reads (for the iiwa's Monte Carlo estimate the plans above already filled it).
     workspace_free_volume(problem, checker)
+    grown = Tree(problem, checker)
+    grown.grow()  # past its first capacity a point robot's tree makes its grid,
+    grown.grow()  # and then grows it
+    if problem.workspace.num_obstacles == 0 and hasattr(checker, "free_volume"):
+        # An empty world's exact volume needs no union of boxes; the next world's may.
+        low, high = problem.bounds
+        one_box = Workspace(problem.robot, problem.bounds, ((low + high) / 2)[None],
+                            ((high - low) / 4)[None])  # fmt: skip
+        make_checker(one_box).free_volume()
 
 
 def _joinable_problem(problem: Problem, checker, step_size: float | None) -> Problem | None:
@@ -174,14 +187,14 @@ def _joinable_problem(problem: Problem, checker, step_size: float | None) -> Pro
 
     One attention node cannot reach that goal's region, so a plan stopped after one node has
     a goal tree, whose first join (the start to this goal) succeeds. Tried towards the goal and
-    then away from it; None when neither is free and inside the bounds (a best effort: the
-    warm-up never fails a plan).
+    then away from it (along the first axis when the goal is the start); None when neither is
+    free and inside the bounds (a best effort: the warm-up never fails a plan).
     """
     start = np.asarray(problem.start, dtype=np.float64)
     direction = np.asarray(problem.goal, dtype=np.float64) - start
     length = float(np.linalg.norm(direction))
-    if length == 0.0:
-        return None
+    if length == 0.0:  # the goal is the start: any direction will do
+        direction, length = np.eye(len(start))[0], 1.0
     step = default_step_size(problem) if step_size is None else float(step_size)
     distance = step + 2.0 * float(problem.goal_radius)
     for sign in (1.0, -1.0):

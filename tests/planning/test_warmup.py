@@ -302,3 +302,18 @@ def test_a_start_in_the_goal_region_still_warms_up_a_tree(monkeypatch):
     planners = {"rrt_star": lambda problem, settings: grown.append(run(problem, settings).nodes)}
     assert warmup.warm_up(trivial, "rrt_star", PlanSettings(), planners)
     assert grown[0] == WARM_UP_NODES
+
+
+def test_a_trivial_first_problem_leaves_nothing_to_compile_for_the_next():
+    """Start at the goal in an empty world: the warm-up still reaches what a real problem
+    needs (a grown tree's grid, the union of boxes' volume, a first join), which a timed run
+    on the next problem met first (7 s of a 1 s limit with an empty cache)."""
+    trivial = {"robot": "point2d", "bounds": [[0, 0], [10, 10]], "obstacles": [],
+               "start": [5, 5], "goal": [5, 5], "goal_radius": 0.5}  # fmt: skip
+    real = {**trivial, "obstacles": [{"center": [5, 5], "half_extents": [1, 1]}],
+            "start": [3, 5], "goal": [8, 8]}  # fmt: skip
+    planners = ["rrt_star", "informed_rrt_star", "rrt_connect", "temp"]
+    calls = _calls_in_a_fresh_process([trivial, real], planners)
+    timed = [call for call in calls if call[1] == 300]
+    assert [call[0] for call in timed] == planners * 2
+    assert all(call[2] == 0 for call in timed[len(planners) :]), timed
