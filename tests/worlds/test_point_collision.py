@@ -197,17 +197,22 @@ def test_numpy_sum_written_out_equals_numpys_sum():
         assert _numpy_sum(values, 0, count) == float(np.sum(values))
 
 
-@pytest.mark.parametrize("kind", ["boxes", "shapes"])
-def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
-    from temp_gym.worlds.checkers import certify_path
-
+def _one_obstacle(kind: str) -> Problem:
+    """A 2D problem with one obstacle at (10, 10): a box (``boxes``) or a disc (``shapes``)."""
     data = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2],
             "goal": [18, 18], "goal_radius": 0.5,
             "obstacles": [{"center": [10, 10], "half_extents": [1, 1]}]}  # fmt: skip
     if kind == "shapes":
         data = {**data, "version": 2, "obstacles": [{"type": "sphere", "center": [10, 10],
                                                      "radius": 1}]}  # fmt: skip
-    problem = Problem.from_dict(data)
+    return Problem.from_dict(data)
+
+
+@pytest.mark.parametrize("kind", ["boxes", "shapes"])
+def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
+    from temp_gym.worlds.checkers import certify_path
+
+    problem = _one_obstacle(kind)
     nan = np.nan
     for exact in (False, True):
         checker = make_checker(problem.workspace, exact=exact)
@@ -229,13 +234,7 @@ def test_a_nan_state_is_never_free_and_a_wrong_shape_is_named(kind):
 def test_malformed_inputs_are_refused_in_one_line(kind, exact):
     from temp_gym.worlds.checkers import certify_path
 
-    data = {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2],
-            "goal": [18, 18], "goal_radius": 0.5,
-            "obstacles": [{"center": [10, 10], "half_extents": [1, 1]}]}  # fmt: skip
-    if kind == "shapes":
-        data = {**data, "version": 2, "obstacles": [{"type": "sphere", "center": [10, 10],
-                                                     "radius": 1}]}  # fmt: skip
-    problem = Problem.from_dict(data)
+    problem = _one_obstacle(kind)
     checker = make_checker(problem.workspace, exact=exact)
     with pytest.raises(ValueError, match=r"^path: expected at least one state$"):
         checker.path_free(np.zeros((0, 2)))
