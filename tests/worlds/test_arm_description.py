@@ -295,3 +295,13 @@ def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path):
         from temp_gym.worlds.arm.build import build
 
         build(path)
+
+
+def test_a_mimic_above_the_base_is_no_part_of_the_arm(tmp_path):
+    above = '<link name="world"/>' + _joint("jw", "world", "base", inner='<mimic joint="jz"/>')
+    (tmp_path / "r.urdf").write_text(_TREE_HEAD + above + _TREE + "</robot>")
+    text = "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l2\n"
+    assert load_arm(_description(tmp_path, text), require_derived=False).joint_names == (
+        "j1",
+        "j2",
+    )

@@ -281,12 +281,13 @@ def _mimic_terms(mimic: ElementTree.Element, where: str) -> tuple[float, float]:
 
 
 def _check_mimics(
+    arm_joints: dict[str, ElementTree.Element],
     joints: dict[str, ElementTree.Element],
     chain_names: set[str],
     fixed_joints: dict[str, float],
     urdf: Path,
 ) -> None:
-    """Refuse the ``<mimic>`` joints the arm cannot model, naming them.
+    """Refuse the ``<mimic>`` joints of the arm (``arm_joints``) it cannot model, naming them.
 
     A mimic joint off the chain is held at its source's held value times the multiplier plus
     the offset. One in the chain, or one that follows a joint of the chain, would move with
@@ -294,7 +295,7 @@ def _check_mimics(
     geometry would be wrong. A mimic of a missing joint, and mimics that go round in a loop,
     are errors in the URDF.
     """
-    for name, joint in joints.items():
+    for name, joint in arm_joints.items():
         mimic = joint.find("mimic")
         if mimic is None or joint.get("type") not in MOVABLE:
             continue
@@ -373,7 +374,13 @@ def read_chain(
     for name in fixed_joints:
         if name in chain_names and joints[name].get("type") in MOVABLE:
             raise UrdfError(f"fixed_joints: {name!r} is a joint of the chain; planning sets it")
-    _check_mimics(joints, chain_names, fixed_joints, urdf)
+    below, pending = set(), [base_link]  # the arm's joints: those below the base
+    while pending:
+        for joint in children.get(pending.pop(), []):
+            below.add(joint.get("name"))
+            pending.append(joint.find("child").get("link"))
+    _check_mimics({name: joints[name] for name in below}, joints, chain_names, fixed_joints,
+                  urdf)  # fmt: skip
 
     def limits_of(joint: ElementTree.Element) -> tuple[float, float]:
         name, kind = joint.get("name"), joint.get("type")
