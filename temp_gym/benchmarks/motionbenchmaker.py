@@ -49,14 +49,14 @@ SCENE_SUFFIX = "_panda"
 """The suffix of MotionBenchMaker's Panda scene folders, left out of problem names."""
 WORLD_FRAMES = {"", "world"}
 """Frame names of the scenes' world, which is the Panda base's frame (checked per scene)."""
-FILE_NAME = re.compile(r"(scene|request)(\d+)\.yaml")
+FILE_NAME = re.compile(r"(scene|request)([0-9]+)\.yaml")
 """A problem's two files: ``sceneNNNN.yaml`` and ``requestNNNN.yaml``."""
 
 _DAMAGED = (tarfile.TarError, OSError, EOFError, zlib.error, lzma.LZMAError)
 """What reading a damaged or truncated archive raises (bz2 reports its errors as `OSError`)."""
 
 Files = dict[tuple[str, str], dict[str, tuple[str, bytes]]]
-"""``(scene folder, number) -> {"scene" | "request": (file name for errors, bytes)}``."""
+"""``(scene folder, number as written) -> {"scene" | "request": (file name for errors, bytes)}``."""
 
 
 def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, Problem]]:
@@ -89,6 +89,9 @@ def load(path: str | Path, goal_radius: float | None = None) -> list[tuple[str, 
                 raise ValueError(f"{other}: no {kind}{number}.yaml beside it")
         (scene_name, scene_bytes), (request_name, request_bytes) = pair["scene"], pair["request"]
         scene_file, request_file = MoveItFile(scene_name), MoveItFile(request_name)
+        for name, data in ((scene_name, scene_bytes), (request_name, request_bytes)):
+            if not data.strip():
+                raise ValueError(f"{name}: the file is empty")
         scene = load_yaml(scene_bytes, scene_name)
         obstacles = scene_obstacles(scene_file, scene, MODEL_NAME, WORLD_FRAMES | {base})
         request = load_yaml(request_bytes, request_name)
@@ -146,23 +149,44 @@ def _order(item: tuple[tuple[str, str], dict]) -> tuple[str, int]:
 
 
 def _problem_files(path: Path) -> Files:
-    """Every scene and request file under ``path`` (an archive or a folder), by problem."""
+    """Every scene and request file under ``path`` (an archive or a folder), by problem.
+
+    A scene and its request pair up within one folder, by the number in their names (ASCII
+    digits); a number written two ways (``scene1.yaml``, ``scene0001.yaml``) or a problem
+    found in two folders of one name is refused, never left to chance.
+    """
     if not path.exists():
         raise ValueError(f"path: {path} does not exist")
-    entries = _archive_entries(path) if path.is_file() else _folder_entries(path)
+    if path.is_file():
+        entries = _archive_entries(path)
+    elif path.is_dir():
+        entries = _folder_entries(path)
+    else:
+        raise ValueError(f"path: {path} is neither a folder nor a tar archive")
     files: Files = {}
-    for folder, file_name, size, read in entries:
+    numbers: dict[tuple[str, str, int], tuple[str, str]] = {}  # -> (digits, a file's name)
+    places: dict[tuple[str, str], str] = {}  # (folder, digits) -> its directory
+    for directory, folder, file_name, size, read in entries:
         match = FILE_NAME.fullmatch(file_name)
         if match is None:
             continue
         name = f"{folder}/{file_name}"
+        if not folder.isprintable():
+            raise ValueError(f"{name!r}: a folder name with control characters")
         if not folder.endswith(SCENE_SUFFIX):
             raise ValueError(f"{name}: not a Panda problem (its folder does not end in "
                              f"{SCENE_SUFFIX!r})")  # fmt: skip
         if size > MAX_PROBLEM_BYTES:
             raise ValueError(f"{name}: larger than {MAX_PROBLEM_BYTES // 2**20} MB")
-        kind, number = match.groups()
-        pair = files.setdefault((folder, number), {})
+        kind, digits = match.groups()
+        spelled, first = numbers.setdefault((directory, folder, int(digits)), (digits, name))
+        if spelled != digits:
+            raise ValueError(f"{name}: problem {int(digits)} is numbered {spelled} in {first}; "
+                             "number a problem's scene and request alike, once")  # fmt: skip
+        if places.setdefault((folder, digits), directory) != directory:
+            both = f"{places[(folder, digits)] or '.'} and {directory or '.'}"
+            raise ValueError(f"{name}: found in two folders named {folder} in {path} ({both})")
+        pair = files.setdefault((folder, digits), {})
         if kind in pair:
             raise ValueError(f"{name}: found twice in {path}")
         pair[kind] = (name, read())
@@ -177,19 +201,39 @@ def _problem_files(path: Path) -> Files:
 
 
 def _archive_entries(path: Path) -> list:
-    """``(folder, file name, size, read)`` of each regular file of a tar archive."""
+    """``(directory, folder, file name, size, read)`` of each problem file of a tar archive.
+
+    Regular files and links to them (tar stores a hard-linked file's second name as a link);
+    a member named outside the archive's own folders (absolute, or through ``..``) is
+    refused, though nothing is ever extracted.
+    """
     try:
         archive = tarfile.open(path, "r:*")
         entries = []
         with archive:
             for member in archive:
-                parts = PurePosixPath(member.name).parts
-                if member.isfile() and len(parts) >= 2 and FILE_NAME.fullmatch(parts[-1]):
-                    data = archive.extractfile(member).read(MAX_PROBLEM_BYTES + 1)  # type: ignore[union-attr]
-                    entries.append((parts[-2], parts[-1], len(data), lambda data=data: data))
+                name = PurePosixPath(member.name)
+                parts = name.parts
+                if len(parts) < 2 or not FILE_NAME.fullmatch(parts[-1]):
+                    continue
+                if name.is_absolute() or ".." in parts:
+                    raise ValueError(f"{member.name}: an archive member outside the archive "
+                                     "(absolute, or through '..'); not read")  # fmt: skip
+                if not (member.isfile() or member.islnk() or member.issym()):
+                    continue
+                try:
+                    handle = archive.extractfile(member)
+                except KeyError:
+                    handle = None
+                if handle is None:
+                    raise ValueError(f"{member.name}: a link to {member.linkname}, which the "
+                                     "archive does not hold as a file")  # fmt: skip
+                data = handle.read(MAX_PROBLEM_BYTES + 1)
+                entries.append((str(name.parent.parent), parts[-2], parts[-1], len(data),
+                                lambda data=data: data))  # fmt: skip
     except _DAMAGED as error:
         # tarfile's own messages run over several lines, one per compression it tried.
-        reason = ("not a tar archive, plain or compressed"
+        reason = ("not a tar archive, plain or compressed, or a damaged or truncated one"
                   if isinstance(error, tarfile.ReadError) else
                   f"{type(error).__name__}: {' '.join(str(error).split())}")  # fmt: skip
         raise ValueError(
@@ -199,13 +243,14 @@ def _archive_entries(path: Path) -> list:
 
 
 def _folder_entries(path: Path) -> list:
-    """``(folder, file name, size, read)`` of the files of each scene folder under ``path``."""
+    """``(directory, folder, file name, size, read)`` of the files of each scene folder."""
     root = path / "problems" if (path / "problems").is_dir() else path
     entries = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
         for file in sorted(folder.iterdir()):
             if file.is_file() and FILE_NAME.fullmatch(file.name):
-                entries.append((folder.name, file.name, file.stat().st_size, file.read_bytes))
+                entries.append((str(root), folder.name, file.name, file.stat().st_size,
+                                file.read_bytes))  # fmt: skip
     return entries
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import io
 import math
 import tarfile
 from pathlib import Path
@@ -386,3 +387,71 @@ def test_a_damaged_archive_is_refused_in_one_line(tmp_path):
                            r"archive \(.+\)$") as error:  # fmt: skip
             load(path)
         assert "\n" not in str(error.value)
+
+
+def test_an_archives_linked_members_load_as_its_folder_does(tmp_path):
+    # tar stores a hard-linked file's second name as a link member: it used to be dropped.
+    import os
+
+    folder = write_folder(tmp_path / "src", {"shelf_panda": {"0001": (SHELF, request())}})
+    for kind in ("scene", "request"):
+        os.link(folder / "shelf_panda" / f"{kind}0001.yaml",
+                folder / "shelf_panda" / f"{kind}0002.yaml")  # fmt: skip
+    archive = tmp_path / "linked.tar.bz2"
+    with tarfile.open(archive, "w:bz2") as tar:
+        tar.add(folder, arcname="problems")
+    with tarfile.open(archive) as tar:
+        assert any(member.islnk() for member in tar)
+    assert (
+        [name for name, _ in load(archive)]
+        == [name for name, _ in load(folder)]
+        == [
+            "shelf/0001",
+            "shelf/0002",
+        ]
+    )
+
+
+def _archive_of(tmp_path: Path, members: dict[str, dict]) -> Path:
+    archive = tmp_path / "made.tar"
+    with tarfile.open(archive, "w") as tar:
+        for name, data in members.items():
+            text = yaml.safe_dump(data, default_flow_style=None).encode()
+            info = tarfile.TarInfo(name)
+            info.size = len(text)
+            tar.addfile(info, io.BytesIO(text))
+    return archive
+
+
+@pytest.mark.parametrize(
+    ("members", "message"),
+    [
+        # One problem, numbered two ways: which pair is meant would be left to chance.
+        ({"p/shelf_panda/scene1.yaml": SHELF, "p/shelf_panda/request0001.yaml": request()},
+         r"request0001.yaml: problem 1 is numbered 1 in shelf_panda/scene1.yaml"),
+        # A scene and a request of two folders of one name: never paired.
+        ({"a/shelf_panda/scene0001.yaml": SHELF, "b/c/shelf_panda/request0001.yaml": request()},
+         r"found in two folders named shelf_panda .*\(a and b/c\)"),
+        ({"../shelf_panda/scene0001.yaml": SHELF},
+         r"\.\./shelf_panda/scene0001.yaml: an archive member outside the archive"),
+        ({"/abs/shelf_panda/scene0001.yaml": SHELF}, r"an archive member outside the archive"),
+    ],
+)  # fmt: skip
+def test_an_archive_that_pairs_files_by_chance_is_refused(tmp_path, members, message):
+    with pytest.raises(ValueError, match=message):
+        load(_archive_of(tmp_path, members))
+
+
+def test_digits_other_than_ascii_name_no_problem(tmp_path):
+    members = {"p/shelf_panda/scene0001.yaml": SHELF, "p/shelf_panda/request0001.yaml": request(),
+               "p/shelf_panda/scene\uff10\uff12.yaml": SHELF}  # fmt: skip
+    assert [name for name, _ in load(_archive_of(tmp_path, members))] == ["shelf/0001"]
+
+
+def test_an_empty_file_and_a_device_are_named_in_one_line(tmp_path):
+    folder = write_folder(tmp_path, only(SHELF))
+    (folder / "one_panda" / "scene0001.yaml").write_text("\n")
+    with pytest.raises(ValueError, match=r"^one_panda/scene0001.yaml: the file is empty$"):
+        load(folder)
+    with pytest.raises(ValueError, match=r"^path: /dev/null is neither a folder nor a tar"):
+        load("/dev/null")

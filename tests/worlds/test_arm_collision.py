@@ -449,3 +449,19 @@ def test_the_spec_makes_both_checkers(arm):
     workspace = Workspace(arm.name, arm.joint_limits(), np.zeros((0, 3)), np.zeros((0, 3)))
     assert isinstance(make_arm_checker(arm, workspace), ArmSphereChecker)
     assert isinstance(make_arm_checker(arm, workspace, exact=True), ArmExactChecker)
+
+
+def test_a_description_edited_after_registration_is_refused_not_half_read(arm):
+    from temp_gym.worlds.arm.description import DescriptionError
+
+    path = arm.description.path
+    text = path.read_text()
+    assert register_robot_file(path).name == arm.name  # the same file: the registered spec
+    try:
+        path.write_text(text + "# a comment changes nothing\n")
+        assert register_robot_file(path).name == arm.name
+        path.write_text(text + "planning: {goal_radius: 0.3}\n")
+        with pytest.raises(DescriptionError, match=r"changed since robot .* was registered"):
+            register_robot_file(path)
+    finally:
+        path.write_text(text)

@@ -135,18 +135,42 @@ def ensure_registered(path: str | Path) -> RobotSpec:
     """The spec of the arm at ``path``, registered if it was not yet.
 
     A worker process that receives an arm's problem registers the arm on first use (its env
-    is registered by `temp_gym.register_robot_file`, in the package's face).
+    is registered by `temp_gym.register_robot_file`, in the package's face). The same file
+    again gives the registered spec; the file edited since is refused (`DescriptionError`):
+    a registered robot cannot change under the objects that already use it.
     """
     from temp_gym.worlds.arm.model import resolved_path
     from temp_gym.worlds.robots import register_robot, robot_specs
 
     resolved = resolved_path(path)
+    content = _meaning(resolved)
     for spec in robot_specs():
         if spec.description is not None and Path(spec.description) == resolved:
+            if _REGISTERED.get(resolved, content) != content:
+                raise DescriptionError(
+                    f"{resolved.name}: changed since robot {spec.name!r} was registered from it "
+                    "in this process; the registered robot cannot change, so start a new "
+                    "process to use the edited description"
+                )
             return spec
     spec = arm_spec(resolved)
     register_robot(spec)
+    _REGISTERED[resolved] = content
     return spec
+
+
+_REGISTERED: dict[Path, str] = {}
+"""What each description file `ensure_registered` registered said then (`_meaning`)."""
+
+
+def _meaning(path: Path) -> str:
+    """A description's validated values as text: an edit of its comments or layout is none."""
+    import dataclasses
+    import json
+
+    values = dataclasses.asdict(load_description(path))
+    return json.dumps(values, sort_keys=True, default=lambda value: np.asarray(value).tolist()
+                      if isinstance(value, np.ndarray) else str(value))  # fmt: skip
 
 
 def register_robot_file(path: str | Path) -> RobotSpec:
