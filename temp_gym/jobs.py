@@ -1,8 +1,9 @@
 """What long jobs tell their user: estimates, resume state, and a clean exit on Ctrl-C.
 
 The long jobs (`trainers/generate.py`, `trainers/bc.py`, `trainers/evaluate.py`) are
-resumable, so an interruption is routine: `run_script` turns Ctrl-C into one line saying to
-rerun the same command, and a `JobError` (a damaged file, a locked directory, a run that
+resumable, so an interruption is routine: `run_script` turns Ctrl-C, and the SIGTERM that
+``kill``, Slurm, systemd and ``docker stop`` send, into one line saying to rerun the same
+command, and a `JobError` (a damaged file, a locked directory, a run that
 would mix settings) into one line naming the file or setting, instead of a traceback.
 `progress_line` and `estimate_line` are the lines they print before work starts: what is
 already done, and how long the rest should take from a measured per-unit cost.
@@ -11,7 +12,9 @@ already done, and how long the rest should take from a measured per-unit cost.
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -19,6 +22,8 @@ from temp_gym.limits import MAX_MESSAGE_LENGTH, MAX_MESSAGE_VALUE
 
 INTERRUPTED = 130
 """Exit status after Ctrl-C (the shell's 128 + SIGINT)."""
+TERMINATED = 143
+"""Exit status after SIGTERM (128 + SIGTERM)."""
 BAD_INPUT = 2
 """Exit status for a `JobError` (as argparse uses for a bad command line)."""
 
@@ -115,10 +120,12 @@ def estimate_line(
 def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None) -> int:
     """Run a script's ``main``; one line and an exit status on Ctrl-C or a `JobError`.
 
-    Returns 0 on success, `INTERRUPTED` after Ctrl-C ("rerun the same command to resume")
+    Returns 0 on success, `INTERRUPTED` after Ctrl-C ("rerun the same command to resume"),
+    `TERMINATED` after SIGTERM (the same line, "terminated")
     and `BAD_INPUT` after a `JobError` (or a ``SystemExit`` with a message); argparse's own
     exit status passes through. Any other exception keeps its traceback: it is a bug.
     """
+    previous = _on_sigterm(_terminate)
     try:
         main(argv)
     except SystemExit as exit:
@@ -126,6 +133,10 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
             return exit.code or 0
         report(one_line(f"{name}: error: {exit.code}"))
         return BAD_INPUT
+    except _Terminated:
+        _close_progress_bars()
+        report(f"{name}: terminated; rerun the same command to resume")
+        return TERMINATED
     except KeyboardInterrupt:
         _close_progress_bars()
         report(f"{name}: interrupted; rerun the same command to resume")
@@ -133,7 +144,24 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
     except JobError as error:
         report(one_line(f"{name}: error: {error}"))
         return BAD_INPUT
+    finally:
+        _on_sigterm(previous)
     return 0
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the job is, so that it unwinds as after Ctrl-C."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise _Terminated
+
+
+def _on_sigterm(handler: Any) -> Any:
+    """Install ``handler`` for SIGTERM (main thread only); returns the one it replaced."""
+    if handler is None or threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, handler)
 
 
 def _close_progress_bars() -> None:

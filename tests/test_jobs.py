@@ -29,3 +29,31 @@ def test_run_script_turns_ctrl_c_and_job_errors_into_one_line(capsys):
     assert run_script("job.py", refused) == 2
     assert capsys.readouterr().err == "job.py: error: data/x.npy: damaged; rerun generate.py\n"
     assert run_script("job.py", lambda argv: None) == 0
+
+
+def test_sigterm_ends_a_job_in_one_line_as_ctrl_c_does(tmp_path):
+    # kill, Slurm, systemd and docker stop send SIGTERM: it left worker tracebacks, no hint.
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent(
+        """
+        import sys, time
+        from temp_gym.jobs import run_script
+
+        def main(argv):
+            print("ready", flush=True)
+            time.sleep(60)
+
+        sys.exit(run_script("job.py", main))
+        """
+    )
+    job = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)  # fmt: skip
+    assert job.stdout.readline().strip() == "ready"
+    job.send_signal(signal.SIGTERM)
+    _, stderr = job.communicate(timeout=60)
+    assert job.returncode == 143
+    assert stderr == "job.py: terminated; rerun the same command to resume\n"

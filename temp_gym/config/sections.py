@@ -177,7 +177,7 @@ class TrainConfig:
     """A torch device; auto: cuda when present, else cpu."""
     threads: int | None = None
     """torch CPU threads; null: one per core, and the weights then depend on the machine
-    (float sums are ordered by the thread count)."""
+    (float sums are ordered by the thread count) and need not repeat to the last digit."""
     batch_size: int = 256
     """Samples per optimizer step (the global batch, split over the ranks of torchrun)."""
     augment: bool = True
