@@ -3,6 +3,8 @@ states and motions a few millimetres from a surface are accepted."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from arm_fixtures import motions_from, random_configs, write_test_arm
@@ -465,3 +467,17 @@ def test_a_description_edited_after_registration_is_refused_not_half_read(arm):
             register_robot_file(path)
     finally:
         path.write_text(text)
+
+
+def test_a_second_file_of_a_registered_name_is_told_where_the_name_is(arm, tmp_path):
+    import shutil
+
+    from temp_gym.worlds.robots import robot_spec
+
+    folder = arm.description.path.parent
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    registered = robot_spec(arm.name).description
+    with pytest.raises(ValueError, match=rf"is taken by the registered robot '{arm.name}' "
+                                         rf"\(from {re.escape(str(registered))}\)"):  # fmt: skip
+        register_robot_file(copy / arm.description.path.name)

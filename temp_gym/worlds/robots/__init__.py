@@ -51,9 +51,10 @@ def register_robot(spec: RobotSpec) -> None:
             return
         for field in ("name", "env_id", "short_name", "seed_code"):
             if getattr(other, field) == getattr(spec, field):
+                source = "" if other.description is None else f" (from {other.description})"
                 raise ValueError(f"robot: {field} {getattr(spec, field)!r} is taken by the "
-                                 f"registered robot {other.name!r}; give this one another "
-                                 f"{field}")  # fmt: skip
+                                 f"registered robot {other.name!r}{source}; give this one "
+                                 f"another {field}")  # fmt: skip
     _register_in_problems(spec)
 
 
