@@ -165,10 +165,10 @@ class OMPLRRTConnectSettings(PlanSettings):
         super().__post_init__()
         if self.range is not None:
             self._normalize("range", positive(self.range, "range"))
-        if self.max_nodes < 2:
+        if self.max_nodes < 2:  # OMPL makes both roots before any budget is read
             raise ValueError(
-                f"max_nodes: at least 2 for RRT-Connect, whose two trees start with a root each "
-                f"(both count), got {self.max_nodes}"
+                f"max_nodes: at least 2 for OMPL's RRTConnect, whose two trees start with a "
+                f"root each (both count), got {self.max_nodes}"
             )
 
 

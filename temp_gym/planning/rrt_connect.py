@@ -75,11 +75,6 @@ class RRTConnectSettings(PlanSettings):
         super().__post_init__()
         if self.range is not None:
             self._normalize("range", positive(self.range, "range"))
-        if self.max_nodes < 2:
-            raise ValueError(
-                f"max_nodes: at least 2 for RRT-Connect, whose two trees start with a root each "
-                f"(both count), got {self.max_nodes}"
-            )
 
 
 def extension_range(problem: Problem, settings: RRTConnectSettings) -> float:

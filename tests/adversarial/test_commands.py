@@ -120,7 +120,7 @@ CASES = {
             "--set",
             "attention_patience=30",
         ),
-        ["--set attention_patience", "TEMPSettings"],
+        ["--set attention_patience", "--planner temp --set attention_patience="],
     ),
     "temp-plan: a setting out of range": (
         ("temp-plan", "{folder}/problem.json", "--set", "goal_bias=2"),

@@ -170,16 +170,16 @@ def test_bad_settings_are_one_line_naming_the_field(problem_2d, call, message):
     assert str(error.value).startswith(message) and "\n" not in str(error.value)
 
 
-@pytest.mark.parametrize("planner", ["rrt_connect", "ompl_rrt_connect"])
-def test_both_roots_count_against_max_nodes_so_one_node_is_refused(planner):
-    # With max_nodes=1 one planner reported 1 node and OMPL's 2, over the budget.
+def test_ompls_rrt_connect_refuses_a_budget_below_its_two_roots():
+    # OMPL makes both roots first: with max_nodes=1 it returned 2 nodes, over the budget (ours
+    # stops at its start's root, `test_the_node_budget_counts_both_trees`).
     problem = Problem.from_dict(
         {"robot": "point2d", "bounds": [[0, 0], [20, 20]], "start": [2, 2], "goal": [12, 2],
          "goal_radius": 0.5, "obstacles": []}
     )  # fmt: skip
-    with pytest.raises(ValueError, match=r"^max_nodes: at least 2 for RRT-Connect"):
-        plan(problem, planner=planner, max_nodes=1)
+    with pytest.raises(ValueError, match=r"^max_nodes: at least 2 for OMPL's RRTConnect"):
+        plan(problem, planner="ompl_rrt_connect", max_nodes=1)
     with pytest.raises(ValueError, match=r"^max_nodes: at least 2"):
-        plan(problem, planner=planner, settings=PlanSettings(max_nodes=1))
-    assert plan(problem, planner=planner, max_nodes=2).nodes == 2
-    assert plan(problem, planner=planner, time_limit=0.0).nodes == 2
+        plan(problem, planner="ompl_rrt_connect", settings=PlanSettings(max_nodes=1))
+    assert plan(problem, planner="ompl_rrt_connect", max_nodes=2).nodes == 2
+    assert plan(problem, planner="rrt_connect", max_nodes=1).nodes == 1
