@@ -9,8 +9,9 @@ Example:
     $ temp-plan problem.json --set attention_patience=60   # any setting of the planner's class
 
 ``--set KEY=VALUE`` (repeatable) sets any field of the planner's settings class
-(`temp_gym.planning.PLANNERS`; `temp_gym.planning.TEMPSettings` for ``temp``); the epilog of
-``--help`` lists them. TEMP's settings not given take the policy's own: the shipped policy's,
+(`temp_gym.planning.PLANNERS`; `temp_gym.planning.TEMPSettings` for ``temp``) that has no flag
+of its own (a key with a flag is refused: one value, one place); the epilog of ``--help``
+lists them. TEMP's settings not given take the policy's own: the shipped policy's,
 or those a ``--checkpoint`` carries.
 
 Batch mode plans every file in one process, so start-up (imports, the per-process warm-up of
