@@ -78,6 +78,11 @@ def load_yaml(data: str | bytes, name: str, anchors: bool = True) -> object:
         _refuse_anchors(data, name)
     try:
         document = yaml.load(data, Loader=_Loader)  # noqa: S506  (a safe loader)
+    except yaml.reader.ReaderError as error:  # bytes that are no text in any encoding YAML reads
+        encoding = error.encoding if error.encoding not in (None, "?") else "UTF-8"
+        raise ValueError(
+            f"{name}: not valid YAML: not {encoding} text at byte {error.position} ({error.reason})"
+        ) from None
     except yaml.YAMLError as error:
         problem = getattr(error, "problem", None) or type(error).__name__
         mark = getattr(error, "problem_mark", None)

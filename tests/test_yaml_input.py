@@ -55,3 +55,12 @@ def test_documents_that_never_end_or_do_not_parse_are_refused_in_one_line(text, 
     with pytest.raises(ValueError, match=r"^f\.yaml: ") as error:
         load_yaml(text, "f.yaml")
     assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_bytes_that_are_no_text_are_named_by_their_position():
+    # pyyaml's reader error has no "problem": the message said only "ReaderError".
+    with pytest.raises(ValueError) as error:
+        load_yaml(b"a: 1\n\xc3\x28\n", "f.yaml")
+    assert str(error.value) == (
+        "f.yaml: not valid YAML: not UTF-8 text at byte 6 (invalid trailing UTF-8 octet)"
+    )

@@ -230,7 +230,10 @@ def scene_obstacles(
             "robot_model_name",
             f"{_short(scene['robot_model_name'])} is not the {model_name!r} these problems need",
         )
-    if scene.get("is_diff"):
+    is_diff = scene.get("is_diff", False)
+    if not isinstance(is_diff, bool):
+        raise source.error("is_diff", f"expected true or false, got {_short(is_diff)}")
+    if is_diff:
         raise source.error("is_diff", "a scene difference cannot be read on its own")
     check_robot_state(source, scene.get("robot_state") or {}, "robot_state")
     frames = set(frames)

@@ -234,6 +234,8 @@ def _changed(path: list, value) -> dict:
 
 OBJECT = ["world", "collision_objects", 0]
 REFUSED_SCENES = [
+    # A string is no flag: "false" used to be read as true.
+    ({**SHELF, "is_diff": "false"}, r"scene0001.yaml: is_diff: expected true or false"),
     (_changed(OBJECT + ["meshes"], [{"vertices": [[0, 0, 0]], "triangles": [[0, 0, 0]]}]),
      r"scene0001.yaml: world.collision_objects\[0\] \('.*'\).meshes: meshes are not supported"),
     (_changed(OBJECT + ["planes"], [{"coef": [0, 0, 1, 0]}]), r"\.planes: planes are not"),
