@@ -28,6 +28,7 @@ from temp_gym.limits import MAX_OBSTACLES
 from temp_gym.problem.obstacles import UNIT_TOLERANCE, Box, Cylinder, Obstacle, Sphere
 from temp_gym.problem.obstacles import rotation_matrices as _rotations
 from temp_gym.problem.parsing import finite_float
+from temp_gym.problem.parsing import short_repr as _short
 
 PRIMITIVE_TYPES = {"box": "box", "sphere": "sphere", "cylinder": "cylinder", 1: "box",
                    2: "sphere", 3: "cylinder"}  # fmt: skip
@@ -140,11 +141,6 @@ class MoveItFile:
         """Refuse anything but an absent, empty or all-empty ``value`` (``what`` names it)."""
         if not _is_empty(value):
             raise self.error(field, f"{what} are not supported")
-
-
-def _short(value: Any, most: int = 40) -> str:
-    text = repr(value)
-    return text if len(text) <= most else f"{text[:most]}...({len(text)} characters)"
 
 
 def _is_empty(value: Any) -> bool:

@@ -27,12 +27,16 @@ def short(value: Any) -> str:
     return text if len(text) <= 24 else f"{text[:10]}...({len(text)} {unit})"
 
 
+def short_repr(value: Any, most: int = 40) -> str:
+    """``repr(value)`` for an error message, cut after ``most`` characters."""
+    text = repr(value)
+    return text if len(text) <= most else f"{text[:most]}...({len(text)} characters)"
+
+
 def as_float(value: Any, name: str) -> float:
     """``float(value)`` for a real number, or a `ValueError` naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
-        text = repr(value)
-        brief = text if len(text) <= 40 else f"{text[:40]}...({len(text)} characters)"
-        raise ValueError(f"{name}: expected a number, got {brief}")
+        raise ValueError(f"{name}: expected a number, got {short_repr(value)}")
     if isinstance(value, (complex, np.complexfloating)):
         raise ValueError(f"{name}: expected a real number, got {value!r}")
     try:

@@ -113,18 +113,16 @@ def refuse_built_in_names(description: RobotDescription) -> None:
     Registering it would fail anyway (`temp_gym.worlds.robots.register_robot`), but only
     after a build of minutes. The built-in arms' own descriptions pass.
     """
-    from temp_gym.worlds.robots import BUILT_IN
+    from temp_gym.worlds.robots import BUILT_IN, identity_clash
 
-    for spec in BUILT_IN:
-        if spec.description is not None and spec.description == description.path.resolve():
-            continue
-        for field in ("name", "env_id", "short_name", "seed_code"):
-            if getattr(spec, field) == getattr(description, field):
-                value = getattr(description, field)
-                raise DescriptionError(
-                    f"{description.path.name}: {field}: {value!r} is taken by the built-in "
-                    f"robot {spec.name!r}; give this robot another {field}"
-                )
+    own = description.path.resolve()
+    clash = identity_clash(description, [spec for spec in BUILT_IN if spec.description != own])
+    if clash is not None:
+        field, spec = clash
+        raise DescriptionError(
+            f"{description.path.name}: {field}: {getattr(description, field)!r} is taken by the "
+            f"built-in robot {spec.name!r}; give this robot another {field}"
+        )
 
 
 def build(path: str | Path, force: bool = False, log=print) -> Path:

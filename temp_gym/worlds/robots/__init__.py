@@ -40,21 +40,35 @@ BUILT_IN: tuple[RobotSpec, ...] = (POINT2D, POINT3D, KUKA_IIWA14, FRANKA_PANDA)
 """The robots registered when `temp_gym` is imported."""
 
 
+IDENTITY_FIELDS = ("name", "env_id", "short_name", "seed_code")
+"""The fields no two registered robots may share (a robot spec's, or a description's)."""
+
+
+def identity_clash(robot: object, others: list[RobotSpec]) -> tuple[str, RobotSpec] | None:
+    """The first of `IDENTITY_FIELDS` that ``robot`` shares with one of ``others``, and that one."""
+    for other in others:
+        for field in IDENTITY_FIELDS:
+            if getattr(other, field) == getattr(robot, field):
+                return field, other
+    return None
+
+
 def register_robot(spec: RobotSpec) -> None:
     """Make ``spec`` known by its name everywhere (problems, generators, planners, the env).
 
     Raises:
         ValueError: another robot has its name, env id, short name or seed code.
     """
-    for other in robot_specs():
-        if other is spec:
-            return
-        for field in ("name", "env_id", "short_name", "seed_code"):
-            if getattr(other, field) == getattr(spec, field):
-                source = "" if other.description is None else f" (from {other.description})"
-                raise ValueError(f"robot: {field} {getattr(spec, field)!r} is taken by the "
-                                 f"registered robot {other.name!r}{source}; give this one "
-                                 f"another {field}")  # fmt: skip
+    others = robot_specs()
+    if any(other is spec for other in others):
+        return
+    clash = identity_clash(spec, others)
+    if clash is not None:
+        field, other = clash
+        source = "" if other.description is None else f" (from {other.description})"
+        raise ValueError(f"robot: {field} {getattr(spec, field)!r} is taken by the "
+                         f"registered robot {other.name!r}{source}; give this one "
+                         f"another {field}")  # fmt: skip
     _register_in_problems(spec)
 
 
@@ -99,11 +113,13 @@ for _spec in BUILT_IN:
 __all__ = [
     "BUILT_IN",
     "FRANKA_PANDA",
+    "IDENTITY_FIELDS",
     "KUKA_IIWA14",
     "POINT2D",
     "POINT3D",
     "RobotSpec",
     "forget_robot",
+    "identity_clash",
     "register_robot",
     "robot_spec",
     "robot_specs",
