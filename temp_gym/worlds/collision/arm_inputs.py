@@ -70,6 +70,9 @@ def _all_reals(array: np.ndarray) -> bool:
 
 def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
     """``(N, dim)`` float64 states (one ``(dim,)`` state becomes ``(1, dim)``)."""
+    if type(states) is np.ndarray and states.dtype == np.float64 and states.ndim == 2:
+        if states.shape[1] == dim:  # the planners' own arrays: no conversion to check
+            return np.ascontiguousarray(states)
     states = _real_array(states, name)
     if states.ndim == 1:  # one state, or none at all
         states = states.reshape(1, -1) if states.size else states.reshape(0, dim)
@@ -80,6 +83,8 @@ def as_states(states: np.ndarray, dim: int, name: str = "states") -> np.ndarray:
 
 def as_state(state: np.ndarray, name: str, dim: int) -> np.ndarray:
     """One ``(dim,)`` float64 state; ``name`` is the field named in the error."""
+    if type(state) is np.ndarray and state.dtype == np.float64 and state.shape == (dim,):
+        return np.ascontiguousarray(state)  # the planners' own arrays: no conversion to check
     state = _real_array(state, name)
     if state.shape != (dim,):
         raise ValueError(f"{name}: expected shape ({dim},), got {state.shape}")
