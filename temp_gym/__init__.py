@@ -46,7 +46,16 @@ def register_robot_file(path):
     return spec
 
 
+def _described_arms() -> tuple[str, ...]:
+    """The description files of the registered arms (`temp_gym.hooks.described_arms`)."""
+    from temp_gym.worlds.robots import robot_specs
+
+    return tuple(sorted({str(spec.description) for spec in robot_specs()
+                         if spec.description is not None}))  # fmt: skip
+
+
 hooks.robot_file_loader = register_robot_file
+hooks.described_arms = _described_arms
 
 __all__ = [
     "ENV_IDS",

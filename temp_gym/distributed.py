@@ -67,9 +67,38 @@ def _check_backend(backend: str) -> None:
         raise ValueError(f"backend: expected one of {BACKENDS}, got {backend!r}")
 
 
-def _call(packed: tuple[Callable[[Any], Any], int, Any]) -> tuple[int, Any]:
-    function, index, argument = packed
+def _call(packed: tuple[Callable[[Any], Any], int, Any, tuple[str, ...]]) -> tuple[int, Any]:
+    function, index, argument, descriptions = packed
+    _register_arms(descriptions)
     return index, function(argument)
+
+
+def described_arms() -> tuple[str, ...]:
+    """The description files of the arms registered in this process, the shipped ones too.
+
+    A worker registers them before its first unit (`_register_arms`), so that a unit may name
+    a user's arm as this process does: workers start fresh (``spawn``, Ray), knowing only the
+    shipped robots. On a cluster, each file must be at the same path on every node.
+    """
+    from temp_gym import hooks
+
+    return () if hooks.described_arms is None else hooks.described_arms()
+
+
+_ARMS_REGISTERED: set[str] = set()
+"""The description files this worker registered (`_register_arms`)."""
+
+
+def _register_arms(descriptions: tuple[str, ...]) -> None:
+    missing = [path for path in descriptions if path not in _ARMS_REGISTERED]
+    if not missing:
+        return
+    import temp_gym  # noqa: F401  (sets the loader)
+    from temp_gym import hooks
+
+    for path in missing:
+        hooks.robot_file_loader(path)
+        _ARMS_REGISTERED.add(path)
 
 
 def _ignore_interrupts() -> None:
@@ -78,11 +107,13 @@ def _ignore_interrupts() -> None:
 
 
 def _local(function, arguments, workers: int) -> Iterator[tuple[int, Any]]:
-    packed = [(function, index, argument) for index, argument in enumerate(arguments)]
-    if workers <= 1 or len(packed) <= 1:
-        for item in packed:
-            yield _call(item)
+    if workers <= 1 or len(arguments) <= 1:
+        for index, argument in enumerate(arguments):
+            yield index, function(argument)
         return
+    descriptions = described_arms()
+    packed = [(function, index, argument, descriptions)
+              for index, argument in enumerate(arguments)]  # fmt: skip
     # spawn: workers import only what the unit needs, never a forked torch or Ray state.
     context = multiprocessing.get_context("spawn")
     # Workers are born ignoring SIGINT (an ignored signal stays ignored across exec), so a
@@ -144,8 +175,9 @@ def init_ray(address: str | None = None, workers: int | None = None):
 def _ray(function, arguments, workers: int, address: str | None) -> Iterator[tuple[int, Any]]:
     ray = init_ray(address, workers)
     remote = ray.remote(num_cpus=1)(_call)
+    descriptions = described_arms()
     pending = {
-        remote.remote((function, index, argument)): index
+        remote.remote((function, index, argument, descriptions)): index
         for index, argument in enumerate(arguments)
     }
     while pending:
@@ -165,6 +197,7 @@ def map_units(
     """Yield ``(index, function(arguments[index]))`` for every argument, as each finishes.
 
     ``function`` must be picklable (a module-level function or a `functools.partial` of one).
+    Workers register the arms this process has registered (`described_arms`) first.
     """
     _check_backend(backend)
     if backend == "ray":

@@ -16,6 +16,10 @@ robot_file_loader: Callable[[str], Any] | None = None
 ``env_id``); `import temp_gym` sets it to `temp_gym.register_robot_file`, so a config can name
 an arm by its description file without the config layer loading the worlds."""
 
+described_arms: Callable[[], tuple[str, ...]] | None = None
+"""``described_arms()``: the description files of the arms registered in this process;
+`import temp_gym` sets it, and `temp_gym.distributed` hands them to its worker processes."""
+
 default_policy_loader: Callable[[str], Any] | None = None
 """``loader(robot name)``: the policy the ``temp`` planner uses when given none (None: no
 default; `temp_gym.planning.temp_planner.set_default_policy` sets it)."""

@@ -21,6 +21,7 @@ from temp_gym.files import StoredFileError, read_json
 from temp_gym.planning.plan import PLANNERS
 from temp_gym.problem import robot_names
 from temp_gym.quiet import torchrl_info_silenced
+from temp_gym.worlds.arm.spec import robot_digest
 from temp_gym.worlds.generators import DIFFICULTIES
 from temp_gym.worlds.robots import robot_spec
 from temp_gym.worlds.splits import SPLITS as WORKSPACE_POOLS
@@ -84,6 +85,10 @@ def data_settings(config: Config) -> dict[str, Any]:
         settings["expert_reverse"] = True
     if env.description is not None:  # an arm of a description file: workers register it
         settings["robot_description"] = env.description
+        try:  # the arm itself, so that a dataset never mixes a description's edits
+            settings["robot_digest"] = robot_digest(env.description)
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"env.robot: {error}") from None
     try:
         check_family(robot, data.workspace_family, "data.workspace_family")
     except ValueError as error:
@@ -174,6 +179,18 @@ def incomplete_reason(root: Path, settings: dict[str, Any]) -> str | None:
     return None
 
 
+def upgraded_settings(stored: dict[str, Any], settings: dict[str, Any]) -> dict[str, Any]:
+    """``stored`` settings of an older temp-gym, in today's layout for comparing to ``settings``.
+
+    A described arm's dataset made before ``robot_digest`` was recorded takes today's digest:
+    what robot made it cannot be known, and refusing it would throw its units away.
+    """
+    if "robot_description" in stored and "robot_digest" not in stored:
+        if "robot_digest" in settings:
+            return {**stored, "robot_digest": settings["robot_digest"]}
+    return stored
+
+
 def dataset_exists(config: Config) -> bool:
     """Whether ``data.dir`` holds a complete dataset made with this config's settings."""
     root = data_dir(config)
@@ -182,7 +199,9 @@ def dataset_exists(config: Config) -> bool:
     except StoredFileError:
         return False
     settings = data_settings(config)
-    return stored == settings and incomplete_reason(root, settings) is None
+    if upgraded_settings(stored, settings) != settings:
+        return False
+    return incomplete_reason(root, settings) is None
 
 
 def _table(root: Path, split: str, table: str) -> dict[str, np.ndarray]:

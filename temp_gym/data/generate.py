@@ -51,6 +51,7 @@ from temp_gym.data.dataset import (
     data_dir,
     data_settings,
     incomplete_reason,
+    upgraded_settings,
     workspace_family,
 )
 from temp_gym.data.format import SPLITS
@@ -224,12 +225,23 @@ def _prepare(root: Path, settings: dict[str, Any]) -> None:
             "it records which settings made this dataset; if you know it was made with "
             "this config, delete it and rerun, else delete the directory",
         )
-        if stored != settings:
-            changed = differing_keys(stored, settings)
+        upgraded = upgraded_settings(stored, settings)
+        if upgraded != settings:
+            changed = differing_keys(upgraded, settings)
+            if changed == ["robot_digest"]:
+                raise ConfigError(
+                    f"{root} holds a dataset of {settings['robot']} as it was before its "
+                    "description, URDF or meshes were edited; delete it or choose another "
+                    "data.dir"
+                )
             raise ConfigError(
                 f"{root} holds a dataset made with other settings ({', '.join(changed)}); "
                 "delete it or choose another data.dir"
             )
+        if upgraded != stored:
+            report(f"{settings_path}: made before robot digests were recorded; its robot is "
+                   "taken to be the description as it is now")  # fmt: skip
+            write_json_atomic(settings_path, upgraded)
     else:
         write_json_atomic(settings_path, settings)
     for split in SPLITS:

@@ -3,6 +3,7 @@
 Example:
     $ temp-benchmark --problems problems/ --planners rrt_star informed_rrt_star --out results/b
     $ temp-benchmark --split point2d:challenging:50 --planners temp rrt_star --out results/b2
+    $ temp-benchmark --robot my_arm.yaml --problems my_arm_problems/ --planners rrt_connect --out b3
     $ python benchmarks/mbm.py mbm/ --planners temp rrt_star --out results/mbm
 
 The problem set is a folder of problem JSON files (searched recursively; a file
@@ -62,6 +63,10 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
                            help="the evaluation's test tasks, e.g. point2d:easy:50")  # fmt: skip
     else:
         parser.add_argument("source", metavar=source.metavar, help=source.help)
+    parser.add_argument("--robot", action="append", default=[], metavar="DESCRIPTION",
+                        help="a robot description (YAML) to register first, so that problems "
+                        "can name that arm; its derived data must be built (temp-robot build "
+                        "DESCRIPTION); repeatable")  # fmt: skip
     parser.add_argument("--planners", nargs="+", required=True,
                         help="registered planner names (temp_gym.planning.PLANNERS)")  # fmt: skip
     parser.add_argument("--out", required=True, help="output folder (rerunning resumes in it)")
@@ -113,6 +118,18 @@ def _settings(args: argparse.Namespace):
         raise ValueError(f"--{field.replace('_', '-')}:{reason}") from None
 
 
+def _register_robots(descriptions: Sequence[str]) -> None:
+    """Register the arms of the ``--robot`` descriptions (their workers register them too)."""
+    import temp_gym  # noqa: F401  (sets the loader)
+    from temp_gym import hooks
+
+    for description in descriptions:
+        try:
+            hooks.robot_file_loader(description)
+        except (OSError, ValueError) as error:
+            raise ValueError(f"--robot: {error}") from None
+
+
 def _check_out(out: Path, inputs: Sequence[str]) -> None:
     check_output_dir(out, "--out")
     for given in inputs:
@@ -145,6 +162,7 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     """
     if getattr(args, "overrides", None):
         raise ValueError(f"unexpected argument {args.overrides[0]!r}")
+    _register_robots(args.robot)
     settings = _settings(args)
     out = Path(args.out)
     # A generated split reads no folder: any --out will do.

@@ -429,3 +429,31 @@ def test_a_dataset_of_another_family_records_it_and_refuses_to_mix(tmp_path):
         with pytest.raises(ConfigError, match="other settings.*workspace_family"):
             generate_dataset(tiny(tmp_path, f"data.workspace_family={other}", *small),
                              progress=False)  # fmt: skip
+
+
+def _described_arm_settings(tmp_path):
+    """Settings as `data_settings` records them for an arm of a description file."""
+    from temp_gym.data.dataset import data_settings
+
+    settings = data_settings(tiny(tmp_path))
+    return {**settings, "robot_description": str(tmp_path / "arm.yaml"), "robot_digest": "a" * 64}
+
+
+def test_a_dataset_of_an_edited_robot_is_refused_and_an_older_one_takes_its_digest(tmp_path):
+    from temp_gym.config import ConfigError
+    from temp_gym.data.generate import _prepare
+
+    settings = _described_arm_settings(tmp_path)
+    root = tmp_path / "data"
+    _prepare(root, settings)
+    edited = {**settings, "robot_digest": "b" * 64}
+    with pytest.raises(ConfigError, match="as it was before its description, URDF or meshes"):
+        _prepare(root, edited)
+    older = tmp_path / "older"
+    older.mkdir()
+    stored = {key: value for key, value in settings.items() if key != "robot_digest"}
+    (older / "settings.json").write_text(json.dumps(stored))
+    _prepare(older, settings)  # made before digests were recorded: resumed, and recorded now
+    assert json.loads((older / "settings.json").read_text()) == settings
+    with pytest.raises(ConfigError, match="as it was before"):
+        _prepare(older, edited)

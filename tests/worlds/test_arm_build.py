@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from arm_fixtures import write_test_arm
@@ -103,3 +104,60 @@ def test_a_built_in_arm_names_its_urdf_in_pybullet_data_portably():
     assert portable_name(description.urdf, description.path.parent) == (
         "pybullet_data://franka_panda/panda.urdf"
     )
+
+
+def test_a_dataset_of_a_described_arm_records_the_arms_digest(built, tmp_path):
+    from temp_gym.config import load_config
+    from temp_gym.data.dataset import data_settings
+    from temp_gym.worlds.arm.spec import robot_digest
+    from temp_gym.worlds.robots import forget_robot
+
+    root = Path(__file__).resolve().parents[2]
+    try:
+        config = load_config(root / "configs" / "tiny.yaml",
+                             [f"env.robot={built}", f"data.dir={tmp_path}"])  # fmt: skip
+        settings = data_settings(config)
+    finally:
+        forget_robot("test_arm")
+    assert settings["robot_description"] == str(built.resolve())
+    assert settings["robot_digest"] == robot_digest(built)
+
+
+def joint_count(robot: str) -> int:
+    """The dimension of ``robot`` as a worker process knows it."""
+    from temp_gym.worlds.robots import robot_spec
+
+    return robot_spec(robot).dim
+
+
+def test_worker_processes_know_the_arms_this_process_registered(built):
+    import temp_gym
+    from temp_gym.distributed import map_units
+    from temp_gym.worlds.robots import forget_robot
+
+    spec = temp_gym.register_robot_file(built)
+    try:
+        results = dict(map_units(joint_count, ["test_arm", "kuka_iiwa14"], "local", 2))
+    finally:
+        forget_robot(spec.name)
+    assert results == {0: spec.dim, 1: 7}
+
+
+def test_the_benchmark_command_registers_a_described_arm_for_itself_and_its_workers(
+    built, tmp_path
+):
+    import json
+
+    from temp_gym.evaluation.benchmark_command import main
+    from temp_gym.worlds.robots import forget_robot
+
+    argv = ["--robot", str(built), "--split", "test_arm:easy:2", "--planners", "rrt_connect",
+            "--runs", "1", "--time-limit", "5", "--stop-at-first", "--workers", "2",
+            "--out", str(tmp_path / "out"), "--no-progress"]  # fmt: skip
+    try:
+        assert main(argv) == 0
+    finally:
+        forget_robot("test_arm")
+    records = [json.loads(line) for line in (tmp_path / "out" / "runs.jsonl").open()]
+    assert len(records) == 2
+    assert all(record["status"] != "crash" for record in records), records

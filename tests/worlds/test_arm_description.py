@@ -305,3 +305,24 @@ def test_a_mimic_above_the_base_is_no_part_of_the_arm(tmp_path):
         "j1",
         "j2",
     )
+
+
+def test_the_robot_digest_follows_every_source_of_the_arm_and_not_its_comments(tmp_path):
+    from temp_gym.worlds.arm.spec import robot_digest
+
+    path = write_test_arm(tmp_path)
+    first = robot_digest(path)
+    path.write_text("# a comment changes nothing\n" + path.read_text())
+    assert robot_digest(path) == first
+    digests = {first}
+    mesh = tmp_path / "test_arm" / "meshes" / "link.obj"
+    mesh.write_text(mesh.read_text().replace("v ", "v  ", 1) + "\n")  # the same mesh, new bytes
+    digests.add(robot_digest(path))
+    urdf = tmp_path / "test_arm" / "robot.urdf"
+    urdf.write_text(urdf.read_text().replace('radius="0.04"', 'radius="0.05"'))
+    digests.add(robot_digest(path))
+    path.write_text(path.read_text().replace("finger_a: 0.03", "finger_a: 0.02"))
+    digests.add(robot_digest(path))
+    path.write_text(path.read_text() + "planning: {goal_radius: 0.2}\n")  # no geometry, yet its own
+    digests.add(robot_digest(path))
+    assert len(digests) == 5

@@ -173,6 +173,27 @@ def _meaning(path: Path) -> str:
                       if isinstance(value, np.ndarray) else str(value))  # fmt: skip
 
 
+def robot_digest(path: str | Path) -> str:
+    """SHA-256 of the arm described at ``path``: its description's values and its sources.
+
+    The sources are what its derived data is made from (URDF, SRDF, meshes:
+    `temp_gym.worlds.arm.model.source_digest`). A dataset records it, so that a run resumed
+    after any of them was edited is refused rather than mixing two robots' demonstrations.
+
+    Raises:
+        DescriptionError, UrdfError: a bad description or URDF (one line).
+    """
+    import hashlib
+
+    from temp_gym.worlds.arm.model import load_arm, resolved_path, source_digest
+
+    resolved = resolved_path(path)
+    arm = load_arm(resolved, require_derived=False)
+    digest = hashlib.sha256(_meaning(resolved).encode())
+    digest.update(source_digest(arm.description, arm.chain).encode())
+    return digest.hexdigest()
+
+
 def register_robot_file(path: str | Path) -> RobotSpec:
     """Register the arm described at ``path`` under its name; return its spec.
 
@@ -194,4 +215,4 @@ def register_robot_file(path: str | Path) -> RobotSpec:
 
 
 __all__ = ["ArmPart", "arm_spec", "ensure_registered", "make_arm_checker",
-           "register_robot_file"]  # fmt: skip
+           "register_robot_file", "robot_digest"]  # fmt: skip
