@@ -39,7 +39,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from temp_gym.config.checks import check_output_dir
-from temp_gym.config.command_line import CommandParser, DefaultsHelpFormatter
+from temp_gym.config.command_line import (
+    CommandParser,
+    DefaultsHelpFormatter,
+    add_robot_argument,
+    register_robots,
+)
 from temp_gym.jobs import BAD_INPUT, INTERRUPTED, brief, display_path, one_line
 from temp_gym.limits import MAX_PROBLEM_BYTES
 
@@ -117,14 +122,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="problem",
         help="problem JSON files (temp_gym.problem; docs/security.md lists the sizes accepted)",
     )
-    parser.add_argument(
-        "--robot",
-        action="append",
-        default=[],
-        metavar="DESCRIPTION",
-        help="a robot description (YAML) to register first, so that problems can name that "
-        "arm; its derived data must be built (temp-robot build DESCRIPTION); repeatable",
-    )
+    add_robot_argument(parser)
     parser.add_argument(
         "--planner",
         default="temp",
@@ -196,19 +194,6 @@ def _parser() -> argparse.ArgumentParser:
         "http://127.0.0.1:8080 (needs temp-gym[view]) until Ctrl-C",
     )
     return parser
-
-
-def _register(description: str) -> None:
-    """Register the arm of a ``--robot`` description (one-line errors name the flag)."""
-    import temp_gym
-    from temp_gym.worlds.arm.description import DescriptionError
-    from temp_gym.worlds.arm.model import ArmDataError
-    from temp_gym.worlds.arm.urdf import UrdfError
-
-    try:
-        temp_gym.register_robot_file(description)
-    except (DescriptionError, UrdfError, ArmDataError, OSError) as error:
-        raise ValueError(f"--robot: {error}") from None
 
 
 def _error(message: object) -> None:
@@ -417,8 +402,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     batch = len(args.problems) > 1
     try:
-        for description in args.robot:
-            _register(description)
+        register_robots(args.robot)
         settings = _settings(args)
         outputs = _outputs(args)
         if args.view:

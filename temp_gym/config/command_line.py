@@ -125,6 +125,35 @@ def parse_args(
     return args
 
 
+def add_robot_argument(parser: argparse.ArgumentParser) -> None:
+    """The ``--robot DESCRIPTION`` flag (repeatable) of the commands that read problems."""
+    parser.add_argument(
+        "--robot",
+        action="append",
+        default=[],
+        metavar="DESCRIPTION",
+        help="a robot description (YAML) to register first, so that problems can name that "
+        "arm; its derived data must be built (temp-robot build DESCRIPTION); repeatable",
+    )
+
+
+def register_robots(descriptions: Sequence[str], flag: str = "--robot") -> None:
+    """Register the arms of robot description files (`temp_gym.register_robot_file`).
+
+    Raises:
+        ValueError: a bad description, stale derived data or a name clash, in one line that
+            names ``flag``.
+    """
+    import temp_gym  # noqa: F401  (sets the loader)
+    from temp_gym import hooks
+
+    for description in descriptions:
+        try:
+            hooks.robot_file_loader(description)
+        except (OSError, ValueError) as error:
+            raise ValueError(f"{flag}: {error}") from None
+
+
 def labelled_entry(entry: str, flag: str = "--policy") -> tuple[str, str]:
     """``LABEL=CHECKPOINT`` -> ``(label, checkpoint)``; the label may hold ``=``, the path not.
 

@@ -30,7 +30,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from temp_gym.config.checks import check_output_dir
-from temp_gym.config.command_line import count, number, script_parser
+from temp_gym.config.command_line import (
+    add_robot_argument,
+    count,
+    number,
+    register_robots,
+    script_parser,
+)
 from temp_gym.distributed import add_backend_arguments
 from temp_gym.jobs import BAD_INPUT, INTERRUPTED, JobError, one_line, report
 
@@ -63,10 +69,7 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
                            help="the evaluation's test tasks, e.g. point2d:easy:50")  # fmt: skip
     else:
         parser.add_argument("source", metavar=source.metavar, help=source.help)
-    parser.add_argument("--robot", action="append", default=[], metavar="DESCRIPTION",
-                        help="a robot description (YAML) to register first, so that problems "
-                        "can name that arm; its derived data must be built (temp-robot build "
-                        "DESCRIPTION); repeatable")  # fmt: skip
+    add_robot_argument(parser)
     parser.add_argument("--planners", nargs="+", required=True,
                         help="registered planner names (temp_gym.planning.PLANNERS)")  # fmt: skip
     parser.add_argument("--out", required=True, help="output folder (rerunning resumes in it)")
@@ -118,18 +121,6 @@ def _settings(args: argparse.Namespace):
         raise ValueError(f"--{field.replace('_', '-')}:{reason}") from None
 
 
-def _register_robots(descriptions: Sequence[str]) -> None:
-    """Register the arms of the ``--robot`` descriptions (their workers register them too)."""
-    import temp_gym  # noqa: F401  (sets the loader)
-    from temp_gym import hooks
-
-    for description in descriptions:
-        try:
-            hooks.robot_file_loader(description)
-        except (OSError, ValueError) as error:
-            raise ValueError(f"--robot: {error}") from None
-
-
 def _check_out(out: Path, inputs: Sequence[str]) -> None:
     check_output_dir(out, "--out")
     for given in inputs:
@@ -162,7 +153,7 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
     """
     if getattr(args, "overrides", None):
         raise ValueError(f"unexpected argument {args.overrides[0]!r}")
-    _register_robots(args.robot)
+    register_robots(args.robot)
     settings = _settings(args)
     out = Path(args.out)
     # A generated split reads no folder: any --out will do.

@@ -3,6 +3,7 @@
 Example:
     $ temp-view problem.json                  # the scene, start and goal
     $ temp-plan problem.json --out r.json && temp-view problem.json r.json
+    $ temp-view my_arm_problem.json --robot my_arm.yaml   # an arm of your own
     temp-view: viewer at http://127.0.0.1:8080 (Ctrl-C to stop)
 
 The path file is what ``temp-plan --out`` writes (a result with a ``"path"``), or a JSON
@@ -22,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from temp_gym.config.command_line import add_robot_argument, register_robots
 from temp_gym.jobs import BAD_INPUT
 
 PROG = "temp-view"
@@ -42,6 +44,7 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="a result JSON of temp-plan --out, or a JSON list of states",
     )
+    add_robot_argument(parser)
     parser.add_argument(
         "--host", default="127.0.0.1", help="address to serve on (127.0.0.1: this machine only)"
     )
@@ -126,6 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         require_viser()
         check_address(args.host, args.port)
+        register_robots(args.robot)
         problem = Problem.load(args.problem)
         path = None if args.path is None else load_path(args.path, problem.dim)
         if path is not None:

@@ -195,8 +195,7 @@ def test_bad_paths_are_one_line(bench, tmp_path, capsys):
         (command(tmp_path / "missing", tmp_path / "o1"), "does not exist"),
         (command(problems, problems / "inside"), "inside the problem folder"),
         (command(problems, out, "--seed", "5"), "other settings"),
-        (command(problems, tmp_path / "o2", "--robot", str(tmp_path / "arm.yaml")),
-         "--robot: "),
+        (command(problems, tmp_path / "o2", "--robot", str(tmp_path / "arm.yaml")), "--robot: "),
     ]:
         assert main(argv) == 2
         error = capsys.readouterr().err.strip()

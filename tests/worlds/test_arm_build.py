@@ -161,3 +161,29 @@ def test_the_benchmark_command_registers_a_described_arm_for_itself_and_its_work
     records = [json.loads(line) for line in (tmp_path / "out" / "runs.jsonl").open()]
     assert len(records) == 2
     assert all(record["status"] != "crash" for record in records), records
+
+
+def test_the_viewer_command_registers_a_described_arm(built, tmp_path, monkeypatch):
+    pytest.importorskip("viser")
+    import numpy as np
+
+    import temp_gym
+    from temp_gym.viewer import plan_viewer
+    from temp_gym.viewer.command import main
+    from temp_gym.worlds.generators import generate_task, generate_workspace
+    from temp_gym.worlds.robots import forget_robot
+
+    spec = temp_gym.register_robot_file(built)
+    try:
+        rng = np.random.default_rng(0)
+        generate_task(generate_workspace(spec.name, rng), rng, "easy").save(tmp_path / "p.json")
+    finally:
+        forget_robot(spec.name)
+    served = []
+    monkeypatch.setattr(plan_viewer, "serve_plan", lambda problem, **_: served.append(problem))
+    assert main([str(tmp_path / "p.json"), "--port", "0"]) == 2  # no such robot here yet
+    try:
+        assert main([str(tmp_path / "p.json"), "--robot", str(built), "--port", "0"]) == 0
+    finally:
+        forget_robot(spec.name)
+    assert [problem.robot for problem in served] == ["test_arm"]
