@@ -240,6 +240,7 @@ def test_invalid_obstacles_name_the_field_and_the_reason(obstacle, field, reason
         ([Cylinder((5, 5, 5), 0, 1)], r"^obstacles\[0\].radius: must be positive"),
         ([Sphere((5, 5, 5), -1)], r"^obstacles\[0\].radius: must be positive"),
         ([Sphere((5, 5, 5), [1])], r"^obstacles\[0\].radius: expected a number"),
+        ([Box((5, 5, 5), (1e-300, 1, 1))], r"^obstacles\[0\].half_extents: every side must be"),
         ([Cylinder((5, 5, 5), None, 1)], r"^obstacles\[0\].radius: expected a number"),
         ([Box((5, 5, 5), (1, 1, 1), (0, 0, 0, 0))], r"^obstacles\[0\].orientation: "),
         ([(5, 5, 5)], r"^obstacles\[0\]: expected a Box, Cylinder or Sphere, got tuple$"),
@@ -249,6 +250,11 @@ def test_invalid_obstacles_name_the_field_and_the_reason(obstacle, field, reason
 def test_obstacle_objects_are_checked_as_file_entries_are(obstacles, message):
     with pytest.raises(ValueError, match=message):
         Workspace.from_obstacles("point3d", BOUNDS_3D, obstacles)
+
+
+def test_missing_bounds_are_named_as_missing():
+    with pytest.raises(ValueError, match=r"^bounds: expected numbers, got None$"):
+        Workspace.from_obstacles("point3d", None, [])
 
 
 def test_a_2d_angle_that_is_not_finite_is_named():

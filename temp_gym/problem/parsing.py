@@ -86,6 +86,8 @@ def float_vector(value: Any, name: str, length: int) -> np.ndarray:
 
 def float_array(value: Any, name: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
     """A float64 array of ``value`` (of ``shape``, if given), or a `ValueError` naming it."""
+    if value is None:  # numpy reads None as NaN
+        raise ValueError(f"{name}: expected numbers, got None")
     try:
         array = np.array(value, dtype=np.float64)
     except OverflowError:

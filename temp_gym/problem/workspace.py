@@ -134,6 +134,12 @@ class Workspace:
             raise ValueError(
                 f"obstacles[{bad}].half_extents: must be positive, got {halves[bad].tolist()}"
             )
+        if np.any(2 * halves < MIN_LENGTH):  # as the bounds': volumes must not underflow
+            bad = int(np.argmax(np.any(2 * halves < MIN_LENGTH, axis=1)))
+            raise ValueError(
+                f"obstacles[{bad}].half_extents: every side must be at least {MIN_LENGTH:g} "
+                f"long, got {halves[bad].tolist()}"
+            )
         kinds = self._kinds(len(centers))
         orientations = self._orientations(len(centers), wdim)
         for b in np.flatnonzero(kinds == CYLINDER):

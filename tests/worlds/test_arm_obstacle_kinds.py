@@ -17,6 +17,7 @@ from temp_gym.problem import Problem, Workspace
 from temp_gym.problem.obstacles import BOX, CYLINDER, KIND_NAMES, SPHERE, Box, Cylinder, Sphere
 from temp_gym.worlds.arm.model import load_arm
 from temp_gym.worlds.arm_world import generate_arm_task, near_surface
+from temp_gym.worlds.collision.arm_enclosure import encloses, mesh_solids
 from temp_gym.worlds.collision.arm_exact import (
     ArmExactChecker,
     base_collides,
@@ -153,10 +154,11 @@ def test_axis_aligned_boxes_are_read_from_their_corners_and_kept_on_the_box_list
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_the_base_screen_keeps_every_obstacle_fcl_finds_touching_the_base(robot):
     """`base_collides` asks fcl only about obstacles whose bounding box meets the base's: the
-    same answers as fcl on every obstacle, for small obstacles of each kind around the base
-    (many of them touching it)."""
+    same answers as fcl, and the enclosure test fcl's surfaces need, on every obstacle, for
+    small obstacles of each kind around the base (many of them touching it, a few inside it)."""
     arm = load_arm(robot_spec(robot).description)
     bodies = [fcl.CollisionObject(shape, transform(pose)) for shape, pose in element_models(arm)[0]]
+    solids = mesh_solids(arm)[0]
     rng = np.random.default_rng(8)
     touching = 0
     for _ in range(300):
@@ -170,7 +172,7 @@ def test_the_base_screen_keeps_every_obstacle_fcl_finds_touching_the_base(robot)
         obstacles = arm_obstacles(workspace)
         (shape,) = obstacle_objects(obstacles)
         expected = any(fcl.collide(body, shape, fcl.CollisionRequest(), fcl.CollisionResult())
-                       for body in bodies)  # fmt: skip
+                       for body in bodies) or encloses(solids, np.eye(4), center)  # fmt: skip
         assert base_collides(arm, obstacles) == expected, obstacle
         touching += expected
     assert 20 < touching < 280  # both answers, many times
@@ -413,3 +415,36 @@ def test_a_checker_takes_box_corners_or_obstacles_not_both():
             "3 boxes, 3 cylinders, 2 spheres"
             in checker(arm, limits, obstacles=obstacles).description
         )
+
+
+ENCLOSED = [
+    ("kuka_iiwa14", [0.0] * 7, Sphere((0.0, 0.0, 0.08), 0.01)),  # inside the base
+    ("franka_panda", [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], Box((0.0, 0.0, 0.08),
+                                                                        (0.01, 0.01, 0.01))),
+    ("kuka_iiwa14", [1.430598, -0.37844, -1.379407, 1.090258, -1.958088, -0.983826, 1.988579],
+     Sphere((-0.028371723, -0.095068286, 0.762843844), 0.0271119)),  # inside link 3
+    ("franka_panda", [-1.351467, 0.9124, 0.200139, -0.174474, -2.519122, 1.628964, -1.045913],
+     Cylinder((0.096733343, -0.331628178, 0.524148338), 0.0054125, 0.0243695,
+              (-0.7071068, 0.0, 0.0, -0.7071068))),  # inside link 4
+]  # fmt: skip
+"""Obstacles wholly inside a link's mesh, touching none of its triangles, and a pose."""
+
+
+@pytest.mark.parametrize("robot, state, obstacle", ENCLOSED)
+def test_an_obstacle_wholly_inside_a_link_is_a_collision(robot, state, obstacle):
+    """fcl sees a mesh's surface only: the solid is tested where it finds no contact."""
+    spec = robot_spec(robot)
+    workspace = Workspace.from_obstacles(robot, spec.joint_limits(), [obstacle])
+    fast, exact = spec.make_checker(workspace), spec.make_checker(workspace, exact=True)
+    state = np.array(state)
+    assert not exact.states_free(state[None])[0] and not fast.states_free(state[None])[0]
+    report = exact.obstacle_report(state)
+    with PybulletArm(exact.arm, workspace) as bullet:  # the independent referee agrees
+        assert bullet.obstacle_distances(state)[0] < -0.02
+    if not exact.base_free:
+        assert "base link in collision" in fast.description
+        return
+    assert report and report[0][1] == 0 and report[0][2] < 0  # named, with a depth
+    kind = {Box: "box", Cylinder: "cylinder", Sphere: "sphere"}[type(obstacle)]
+    with pytest.raises(ValueError, match=f"^start: .*{report[0][0]}.*touches {kind} 0"):
+        Problem(workspace, state, state, 0.1)

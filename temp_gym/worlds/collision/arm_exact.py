@@ -12,9 +12,10 @@ the allowed-collision matrix enables (`temp_gym.worlds.collision.arm_self`).
 AABB) drops the pairs of a body and an obstacle whose world AABBs are apart; fcl's narrow
 phase decides the rest, then the enabled body pairs are tested (bounding spheres, then GJK on
 the pieces). A state outside the bounds or the joint limits, whatever the bounds say, or with
-NaN/inf coordinates, is not free. fcl tests a mesh's *surface* against obstacles: an obstacle
-entirely inside a link without touching a triangle is missed, which needs an obstacle smaller
-than a link.
+NaN/inf coordinates, is not free. fcl tests a mesh's *surface* against obstacles, so where it
+finds no contact an obstacle whose center lies in the body's box is tested for being wholly
+inside the mesh (`temp_gym.worlds.collision.arm_enclosure`). A motion needs no such test
+between its poses: an obstacle can only get inside a link through its surface.
 
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
 point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
@@ -53,6 +54,7 @@ from temp_gym.problem.obstacles import BOX, CYLINDER
 from temp_gym.worlds.arm.kinematics import identity_poses, segment_levers_into
 from temp_gym.worlds.arm.model import ArmModel
 from temp_gym.worlds.arm.sphere_tree import enclosing_sphere
+from temp_gym.worlds.collision.arm_enclosure import encloses, mesh_solids
 from temp_gym.worlds.collision.arm_exact_bounds import (
     aabb_gaps_into,
     box_center,
@@ -251,10 +253,15 @@ def base_collides(arm: ArmModel, obstacles: ArmObstacles) -> bool:
     request = fcl.CollisionRequest()
     objects = [fcl.CollisionObject(shape, transform(pose))
                for shape, pose in element_models(arm)[0]]  # fmt: skip
-    for obstacle in obstacle_objects(obstacles, np.flatnonzero(meets)):
+    solids = mesh_solids(arm)[0]
+    pose = np.eye(4)
+    indices = np.flatnonzero(meets)
+    for index, obstacle in zip(indices, obstacle_objects(obstacles, indices)):
         for obj in objects:
             if fcl.collide(obj, obstacle, request, fcl.CollisionResult()) > 0:
                 return True
+        if encloses(solids, pose, obstacles.centers[index]):  # inside, touching no triangle
+            return True
     return False
 
 
@@ -316,6 +323,7 @@ class ArmExactChecker:
             for body in piece_models(arm)
         ]
         self._local_center, self._local_half = _body_bounds(arm)
+        self._solids = mesh_solids(arm)
         self._motion_radii = arm.motion_radii()
         self._body_boxes = [
             fcl.CollisionObject(fcl.Box(*np.maximum(2 * half, 1e-9)), fcl.Transform())
@@ -360,6 +368,17 @@ class ArmExactChecker:
             for obj, _ in self._elements[j]
         )
 
+    def _encloses(self, poses: np.ndarray, j: int, obstacle: int) -> bool:
+        """Whether body ``j`` holds obstacle ``obstacle`` wholly inside a mesh (module doc)."""
+        solids = self._solids[j]
+        if not solids:
+            return False
+        pose = poses[j]
+        local = pose[:3, :3].T @ (self.obstacles.centers[obstacle] - pose[:3, 3])
+        if np.any(np.abs(local - self._local_center[j]) > self._local_half[j]):
+            return False
+        return any(solid.encloses(local) for solid in solids)
+
     def _candidate_pairs(self, poses: np.ndarray) -> np.ndarray:
         """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles'."""
         rotations = poses[..., :3, :3]
@@ -374,7 +393,7 @@ class ArmExactChecker:
             if j + 1 not in posed:
                 self._pose_body(poses, j + 1)
                 posed.add(j + 1)
-            if self._body_touches(j + 1, b):
+            if self._body_touches(j + 1, b) or self._encloses(poses, j + 1, b):
                 return False
         return True
 
@@ -569,7 +588,9 @@ class ArmExactChecker:
                 )
                 # fcl may report a mesh overlapping a sphere or a cylinder as 0 apart, not -1.
                 aligned = self.obstacles.axis_aligned[b]
-                if distance <= 0 or (not aligned and self._body_touches(j, b)):
+                if distance > 0 and self._encloses(poses, j, b):  # at least that deep
+                    distance = -distance
+                elif distance <= 0 or (not aligned and self._body_touches(j, b)):
                     request = fcl.CollisionRequest(num_max_contacts=8, enable_contact=True)
                     depth = 0.0
                     for obj, _ in self._elements[j]:
