@@ -13,9 +13,10 @@ AABB) drops the pairs of a body and an obstacle whose world AABBs are apart; fcl
 phase decides the rest, then the enabled body pairs are tested (bounding spheres, then GJK on
 the pieces). A state outside the bounds or the joint limits, whatever the bounds say, or with
 NaN/inf coordinates, is not free. fcl tests a mesh's *surface* against obstacles, so where it
-finds no contact an obstacle whose center lies in the body's box is tested for being wholly
-inside the mesh (`temp_gym.worlds.collision.arm_enclosure`). A motion needs no such test
-between its poses: an obstacle can only get inside a link through its surface.
+finds no contact an obstacle small enough to fit in the body's box, with its center in it, is
+tested for being wholly inside the mesh (`temp_gym.worlds.collision.arm_enclosure`). A motion
+needs no such test between its poses: an obstacle can only get inside a link through its
+surface.
 
 **Motions are certified, not sampled.** For a joint-space segment ``q(t) = a + t (b - a)``, a
 point of body ``j`` moves at most ``W_j |dt|`` when ``t`` changes by ``dt``, where
@@ -324,6 +325,10 @@ class ArmExactChecker:
         ]
         self._local_center, self._local_half = _body_bounds(arm)
         self._solids = mesh_solids(arm)
+        # Which obstacles fit in a body's box however it turns (a world box's half side is at
+        # most the local box's half diagonal): only those can be wholly inside it.
+        diagonal = np.linalg.norm(self._local_half, axis=1)
+        self._may_hold = np.all(self._aabb_half[None] <= diagonal[:, None, None], axis=2)
         self._motion_radii = arm.motion_radii()
         self._body_boxes = [
             fcl.CollisionObject(fcl.Box(*np.maximum(2 * half, 1e-9)), fcl.Transform())
@@ -393,7 +398,9 @@ class ArmExactChecker:
             if j + 1 not in posed:
                 self._pose_body(poses, j + 1)
                 posed.add(j + 1)
-            if self._body_touches(j + 1, b) or self._encloses(poses, j + 1, b):
+            if self._body_touches(j + 1, b):
+                return False
+            if self._may_hold[j + 1, b] and self._encloses(poses, j + 1, b):
                 return False
         return True
 
