@@ -335,3 +335,20 @@ def test_a_coordinate_a_hair_outside_is_printed_with_every_digit():
         "outside the bounds: joint 1 = -2.967060000001 is below its limit -2.96706; "
         "joint 2 = 3.2 is above its limit 1"
     )
+
+
+def test_a_path_is_told_whether_it_joins_the_start_to_the_goal_region():
+    problem = Problem.from_dict({"robot": "point2d", "bounds": [[0, 0], [10, 10]],
+                                 "obstacles": [], "start": [1, 1], "goal": [9, 9],
+                                 "goal_radius": 0.5})  # fmt: skip
+    assert problem.path_ends_error([[1, 1], [5, 5], [9.3, 9.3]]) is None
+    assert problem.path_ends_error([[1, 1 + 1e-10], [9, 9.5]]) is None  # rounding, the ball's edge
+    for path, words in [
+        ([[1, 1]], "at least 2 states"),
+        ([[1, 1, 1], [9, 9, 9]], "at least 2 states of 2 numbers"),
+        ([["a", 1], [9, 9]], "no array of numbers"),
+        ([[1.1, 1], [9, 9]], "not at the problem's start"),
+        ([[1, 1], [9, 9.6]], "outside the goal region"),
+        ([[1, 1], [float("nan"), 9]], "outside the goal region"),
+    ]:
+        assert words in problem.path_ends_error(path), path

@@ -126,11 +126,7 @@ def run_seed(seed: int, problem: str, run: int) -> int:
 
 def reaches_goal(problem: Problem, path: np.ndarray) -> bool:
     """Whether ``path`` starts at the start and ends in the goal region (a closed ball)."""
-    path = np.asarray(path, dtype=np.float64)
-    if path.ndim != 2 or path.shape[1] != problem.dim or len(path) < 2:
-        return False
-    starts = np.allclose(path[0], problem.start, rtol=0.0, atol=1e-9)
-    return bool(starts and np.linalg.norm(path[-1] - problem.goal) <= problem.goal_radius + 1e-9)
+    return problem.path_ends_error(path) is None
 
 
 def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict[str, Any]:

@@ -66,6 +66,9 @@ from temp_gym.problem.parsing import (
 from temp_gym.problem.robots import robot_named
 from temp_gym.problem.workspace import Workspace
 
+PATH_END_SLACK = 1e-9
+"""How far a path's first state may be from the start, and its last outside the goal ball."""
+
 _KEYS = {"robot", "bounds", "obstacles", "start", "goal", "goal_radius", "version"}
 _OPTIONAL = {"bounds", "version"}
 VERSIONS = (1, 2)
@@ -204,6 +207,25 @@ class Problem:
         ):
             object.__setattr__(swapped, name, value)
         return swapped
+
+    def path_ends_error(self, path: Any) -> str | None:
+        """Why ``path`` does not run from the start into the goal region; None when it does.
+
+        ``path`` must be ``(K, dim)`` states with ``K >= 2``, the first the start and the last
+        in the closed goal ball, each to 1e-9 (rounding in stored files). Collisions are the
+        checkers' to find (`temp_gym.worlds.checkers.certify_path`).
+        """
+        try:
+            path = np.asarray(path, dtype=np.float64)
+        except (TypeError, ValueError):
+            return "it is no array of numbers"
+        if path.ndim != 2 or path.shape[1] != self.dim or len(path) < 2:
+            return f"expected at least 2 states of {self.dim} numbers, got shape {path.shape}"
+        if not np.allclose(path[0], self.start, rtol=0.0, atol=PATH_END_SLACK):
+            return f"it starts at {np.round(path[0], 6).tolist()}, not at the problem's start"
+        if not np.linalg.norm(path[-1] - self.goal) <= self.goal_radius + PATH_END_SLACK:
+            return "its last state is outside the goal region"
+        return None
 
     # ------------------------------------------------------------------ dict / JSON
     @classmethod

@@ -111,10 +111,9 @@ def path_warning(path: np.ndarray, problem) -> str | None:
     outside = path_outside_bounds(path, problem)
     if outside:
         return outside
-    if not np.allclose(path[0], problem.start, rtol=0.0, atol=1e-9):
-        return f"it starts at {np.round(path[0], 6).tolist()}, not at the problem's start"
-    if np.linalg.norm(path[-1] - problem.goal) > problem.goal_radius + 1e-9:
-        return "its last state is outside the goal region"
+    ends = problem.path_ends_error(path)
+    if ends:
+        return ends
     if not certify_path(problem, path):
         return "the exact collision checker refuses it (a state or motion in collision)"
     return None
