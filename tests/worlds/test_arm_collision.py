@@ -469,6 +469,34 @@ def test_a_description_edited_after_registration_is_refused_not_half_read(arm):
         path.write_text(text)
 
 
+def test_an_arms_spec_reads_its_description_again_only_when_the_file_changes(arm, monkeypatch):
+    """Every part of the spec checks the file is unchanged (a checker per plan, the joint
+    limits per problem); parsing its YAML each time cost about a millisecond a call."""
+    from temp_gym.worlds.arm import spec as spec_module
+    from temp_gym.worlds.robots import robot_spec
+
+    spec = robot_spec(arm.name)
+    spec.joint_limits()
+    read = []
+    real = spec_module.load_description
+    monkeypatch.setattr(
+        spec_module, "load_description", lambda path: read.append(path) or real(path)
+    )
+    for _ in range(3):
+        spec.joint_limits()
+        workspace = Workspace(arm.name, spec.joint_limits(), np.zeros((0, 3)), np.zeros((0, 3)))
+        spec.make_checker(workspace)
+    assert read == []
+    path = arm.description.path
+    text = path.read_text()
+    try:
+        path.write_text(text + "# a comment changes nothing\n")
+        spec.joint_limits()
+        assert len(read) == 1  # the edit is seen, and read once
+    finally:
+        path.write_text(text)
+
+
 def test_a_second_file_of_a_registered_name_is_told_where_the_name_is(arm, tmp_path):
     import shutil
 

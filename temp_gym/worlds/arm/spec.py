@@ -14,6 +14,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -164,7 +165,21 @@ _REGISTERED: dict[Path, str] = {}
 
 
 def _meaning(path: Path) -> str:
-    """A description's validated values as text: an edit of its comments or layout is none."""
+    """A description's validated values as text: an edit of its comments or layout is none.
+
+    Read again only when the file's modification time, size or inode changed, as `load_arm`
+    does: every part of an arm's spec asks, a checker for every plan and the joint limits for
+    every problem, and parsing the YAML costs about a millisecond.
+    """
+    try:
+        stat = path.stat()
+    except OSError:
+        return _meaning_of(path, None)
+    return _meaning_of(path, (stat.st_mtime_ns, stat.st_size, stat.st_ino))
+
+
+@functools.lru_cache(maxsize=64)
+def _meaning_of(path: Path, stamp: tuple[int, int, int] | None) -> str:
     import dataclasses
     import json
 
