@@ -73,6 +73,9 @@ OMPL_PLANNERS = ("ompl_rrt_star", "ompl_informed_rrt_star", "ompl_rrt_connect", 
 _NODE_RULES = {"ompl_rrt_star": "first_motion", "ompl_informed_rrt_star": "first_motion",
                "ompl_rrt_connect": "every_motion", "ompl_bit_star": "new_state"}  # fmt: skip
 """How the motion validator counts the nodes a planner adds (the module docstring says why)."""
+NEEDS_GOAL_STATE = ("ompl_rrt_connect", "ompl_bit_star")
+"""OMPL's planners that plan to goal states drawn from the goal (its ``GoalState``: the goal
+itself), and so cannot plan when the checker refuses it; the others reach the goal region."""
 RANGE_FACTOR = 2.0
 """OMPL's ``range`` is this many steering steps unless given (see the module docstring)."""
 K_NEAREST = False
@@ -234,6 +237,12 @@ def solve_with_ompl(problem: Problem, settings: PlanSettings, name: str) -> Plan
     time_limit = math.inf if settings.time_limit is None else settings.time_limit
     rule = _NODE_RULES[name]
     counters = _Counters(settings.max_nodes, started + time_limit, rule, problem.start)
+    start_free, goal_free = checker.states_free(np.stack([problem.start, problem.goal]))
+    counters.checks += 2
+    if not start_free or (name in NEEDS_GOAL_STATE and not goal_free):
+        # OMPL would report no valid start at once, or wait for a valid goal state, polling the
+        # termination condition about every 5 ms until `sample_limit` polls.
+        return _no_plan(name, counters, settings, started)
 
     space = ob.RealVectorStateSpace(dim)
     bounds = ob.RealVectorBounds(dim)
@@ -401,6 +410,29 @@ def _make_motion_validator(ob, si, checker: CollisionChecker, counters: _Counter
             return free
 
     return EdgeMotionValidator(si)
+
+
+def _no_plan(name: str, counters: _Counters, settings: PlanSettings, started: float) -> PlanResult:
+    """The result of a run that cannot start.
+
+    Its checker refuses the start, or the goal of a planner that needs goal states
+    (`NEEDS_GOAL_STATE`).
+    """
+    return PlanResult(
+        planner=name,
+        success=False,
+        path=None,
+        cost=math.inf,
+        nodes=counters.nodes,
+        samples=0,
+        sampling_failures=0,
+        collision_checks=counters.checks,
+        wall_time=time.perf_counter() - started,
+        time_to_first_solution=None,
+        nodes_to_first_solution=None,
+        history=AnytimeLog(started).as_arrays(),
+        seed=settings.seed,
+    )
 
 
 def _start_in_goal(
