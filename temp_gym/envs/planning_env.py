@@ -15,7 +15,7 @@ from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.temp_settings import local_fallback_count
 from temp_gym.planning.tree import Tree, default_step_size
-from temp_gym.problem import Problem, Workspace
+from temp_gym.problem import MIN_LENGTH, Problem, Workspace
 from temp_gym.worlds.encoding import check_resolution, occupancy_grid
 from temp_gym.worlds.normalization import MAX_RATIO
 from temp_gym.worlds.robots import robot_spec
@@ -189,6 +189,10 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"step_size: must be positive and finite, got {step_size!r}")
         if goal_radius is not None and not _is_positive(goal_radius):
             raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
+        if goal_radius is not None and goal_radius < MIN_LENGTH:  # as `Problem` refuses it
+            raise ValueError(
+                f"goal_radius: {goal_radius:g} is below {MIN_LENGTH:g} (its square would underflow)"
+            )
         if encoding_resolution is not None:
             check_resolution(encoding_resolution, spec.workspace_dim, "encoding_resolution")
         for name, value, most in (

@@ -173,8 +173,9 @@ class AttentionOutcome:
 
 def observer_for(problem: Problem, policy: SamplingPolicy, max_nodes: int) -> TreeObserver:
     """The observer matching what the policy was trained on (its resolution and L)."""
+    spec = robot_spec(problem.robot)
     resolution, max_path_length = observation_settings(
-        policy, robot_spec(problem.robot).encoding_resolution
+        policy, spec.encoding_resolution, spec.workspace_dim
     )
     occupancy = occupancy_grid(problem.workspace, resolution)
     return TreeObserver(problem, occupancy, max_path_length, max_nodes)
@@ -296,12 +297,18 @@ def _run_python(
     if propose_chunk is not None:
 
         def propose() -> np.ndarray:
-            return propose_chunk(*observer.path_so_far(tree, anchor))
+            proposals = np.asarray(propose_chunk(*observer.path_so_far(tree, anchor)))
+            if proposals.ndim != 2 or len(proposals) == 0:
+                raise ValueError(
+                    f"policy.propose_chunk: expected (k, {problem.dim}) proposals with k >= 1, "
+                    f"got shape {proposals.shape}"
+                )
+            return proposals
 
     elif propose_one is not None:
 
         def propose() -> np.ndarray:
-            return propose_one(*observer.path_so_far(tree, anchor))[None]
+            return np.asarray(propose_one(*observer.path_so_far(tree, anchor)))[None]
 
     else:
 

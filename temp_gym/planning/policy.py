@@ -55,9 +55,11 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from temp_gym.limits import MAX_PATH_LENGTH
 from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH
 from temp_gym.planning.temp_settings import DECLARED
 from temp_gym.problem import Problem
+from temp_gym.worlds.encoding import check_resolution
 
 
 @runtime_checkable
@@ -149,12 +151,32 @@ def policy_settings(policy: Any) -> PolicySettings:
     return PolicySettings(**{name: getattr(policy, name, None) for name in POLICY_SETTINGS})
 
 
-def observation_settings(policy: Any, robot_resolution: int) -> tuple[int, int]:
-    """``(encoding_resolution, max_path_length)`` of the observations ``policy`` reads."""
+def observation_settings(
+    policy: Any, robot_resolution: int, workspace_dim: int = 3
+) -> tuple[int, int]:
+    """``(encoding_resolution, max_path_length)`` of the observations ``policy`` reads.
+
+    Its declared values, else the robot's resolution and `DEFAULT_MAX_PATH_LENGTH`.
+
+    Raises:
+        ValueError: a declared value the envs would refuse, in one line naming
+            ``policy.<name>``.
+    """
     declared = policy_settings(policy)
+    resolution, length = declared.encoding_resolution, declared.max_path_length
+    if resolution is not None:
+        resolution = check_resolution(resolution, workspace_dim, "policy.encoding_resolution")
+    if length is not None:
+        integral = isinstance(length, (int, np.integer)) and not isinstance(length, bool)
+        if not integral or not 2 <= length <= MAX_PATH_LENGTH:
+            raise ValueError(
+                f"policy.max_path_length: expected an integer from 2 to {MAX_PATH_LENGTH}, "
+                f"got {length!r}"
+            )
+        length = int(length)
     return (
-        declared.encoding_resolution or robot_resolution,
-        declared.max_path_length or DEFAULT_MAX_PATH_LENGTH,
+        robot_resolution if resolution is None else resolution,
+        DEFAULT_MAX_PATH_LENGTH if length is None else length,
     )
 
 

@@ -12,6 +12,7 @@ import temp_gym  # noqa: F401  (registers the envs)
     [
         ({"goal_radius": 0.0}, "goal_radius"),  # was silently the default radius
         ({"goal_radius": float("nan")}, "goal_radius"),
+        ({"goal_radius": 1e-300}, "goal_radius"),  # refused only at reset()
         ({"encoding_resolution": 0}, "encoding_resolution"),  # was silently the default
         ({"encoding_resolution": 2.5}, "encoding_resolution"),
         ({"encoding_resolution": 1}, "encoding_resolution"),  # failed at reset() instead

@@ -1,6 +1,7 @@
 """The policy contract (`temp_gym.planning.policy`): what a third-party policy needs, and that
 the built-in policies meet it."""
 
+import numpy as np
 import pytest
 
 from temp_gym import Problem, plan
@@ -74,6 +75,40 @@ def test_declared_settings_are_read_from_attributes():
     policy = Minimal()
     policy.attention_nodes, policy.max_path_length = 50, 8
     assert policy_settings(policy) == PolicySettings(attention_nodes=50, max_path_length=8)
+
+
+@pytest.mark.parametrize(
+    "name, value, words",
+    [("max_path_length", -3, "expected an integer from 2 to 4096"),
+     ("max_path_length", True, "got True"), ("max_path_length", 1.5, "got 1.5"),
+     ("max_path_length", "8", "got '8'"), ("max_path_length", 10**6, "got 1000000"),
+     ("encoding_resolution", 0, "expected at least"),
+     ("encoding_resolution", "16", "expected an integer")],
+)  # fmt: skip
+def test_declared_observation_settings_are_checked_as_the_envs_check_them(wall, name, value, words):
+    """They used to be read as given: 1.5 became 1, 0 the default, -3 a crash deep inside."""
+    policy = Minimal()
+    setattr(policy, name, value)
+    with pytest.raises(ValueError, match=f"^policy.{name}: .*{words}"):
+        plan(Problem.from_dict(wall), planner="temp", policy=policy, seed=0, max_nodes=50)
+
+
+class EmptyChunk(Minimal):
+    def propose_chunk(self, path, length):
+        return np.zeros((0, 2), np.float32)
+
+
+class ListPropose(Minimal):
+    def propose(self, path, length):
+        return [0.0, 0.0]  # a list, as __call__ may return
+
+
+def test_a_fast_path_is_held_to_what_call_may_return_and_an_empty_chunk_is_named(wall):
+    problem = Problem.from_dict(wall)
+    with pytest.raises(ValueError, match=r"^policy.propose_chunk: expected \(k, 2\) proposals"):
+        plan(problem, planner="temp", policy=EmptyChunk(), seed=0, max_nodes=50)
+    result = plan(problem, planner="temp", policy=ListPropose(), seed=0, max_nodes=50)
+    assert result.nodes >= 1
 
 
 def test_the_built_in_policies_meet_the_contract():
