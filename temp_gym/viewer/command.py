@@ -62,7 +62,14 @@ def load_path(file: str | Path, dim: int) -> np.ndarray | None:
         OSError: the file cannot be read.
     """
     try:
-        data = json.loads(Path(file).read_text())
+        text = Path(file).read_text()
+    except OSError as error:  # the same kind of error, with a line a user can read
+        reason = (error.strerror or type(error).__name__).lower()
+        raise type(error)(f"{file}: cannot read the path file ({reason})") from None
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{file}: not UTF-8 text (byte {error.start})") from None
+    try:
+        data = json.loads(text)
     except json.JSONDecodeError as error:
         raise ValueError(f"{file}: not JSON ({error.msg}, line {error.lineno})") from None
     if isinstance(data, dict):

@@ -49,6 +49,10 @@ def test_bad_problems_and_addresses_get_one_line_and_exit_2(tmp_path, problem_fi
             "missing.json: cannot read the problem file (no such file",
         ),
         ([str(problem_file), "--port", "70000"], "port: expected an integer in 0..65535"),
+        (
+            [str(problem_file), str(tmp_path / "none.json")],
+            "none.json: cannot read the path file (no such file",
+        ),
         ([str(problem_file), "--host", "no.such.host.invalid"], "host: cannot listen"),
     ]:
         assert main(argv) == 2

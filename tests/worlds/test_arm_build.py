@@ -187,3 +187,14 @@ def test_the_viewer_command_registers_a_described_arm(built, tmp_path, monkeypat
     finally:
         forget_robot(spec.name)
     assert [problem.robot for problem in served] == ["test_arm"]
+
+
+@pytest.mark.parametrize("argv", [[], ["build"], ["check", "a.yaml", "b.yaml"]])
+def test_a_bad_command_line_is_one_line(argv, capsys):
+    from temp_gym.worlds.arm.build import main
+
+    with pytest.raises(SystemExit) as exit:
+        main(argv)
+    assert exit.value.code == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("temp-robot") and "error:" in error and "\n" not in error

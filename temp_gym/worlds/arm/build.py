@@ -18,7 +18,6 @@ changes nothing. Every step is deterministic (fixed seeds), so a rebuild writes 
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -26,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from temp_gym.config.command_line import CommandParser
 from temp_gym.worlds.arm.description import DescriptionError, RobotDescription
 from temp_gym.worlds.arm.model import DERIVED_FORMAT, ArmModel, load_arm, source_digest
 
@@ -150,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     from temp_gym.worlds.arm.model import ArmDataError
     from temp_gym.worlds.arm.urdf import UrdfError
 
-    parser = argparse.ArgumentParser(
+    parser = CommandParser(
         prog="temp-robot",
         description="Robot descriptions: build an arm's derived data (covering spheres, "
         "allowed-collision matrix, pair tables), written beside the description as "
