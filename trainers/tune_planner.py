@@ -267,20 +267,25 @@ def _effective(policy, temp: TEMPConfig, budget: int) -> dict[str, Any]:
     goal = temp.goal_tree is not False
     from_goal = goal and temp.attention_from_goal is not False
     return {
-        "attention_nodes": value["attention_nodes"] or budget, "noise_std": policy.noise_std,
+        "attention_nodes": _or(value["attention_nodes"], budget), "noise_std": policy.noise_std,
         "horizon": policy.chunk, "path_window": policy.path_window,
         "attention_patience": value["attention_patience"],
-        "attention_near_goal_factor": value["attention_near_goal_factor"] or 1.0,
-        "attention_uniform": value["attention_uniform"] or 0.0,
-        "attention_follow_fallback": value["attention_follow_fallback"] or 1.0,
-        "attention_local_fallback": value["attention_local_fallback"] or 0,
+        "attention_near_goal_factor": _or(value["attention_near_goal_factor"], 1.0),
+        "attention_uniform": _or(value["attention_uniform"], 0.0),
+        "attention_follow_fallback": _or(value["attention_follow_fallback"], 1.0),
+        "attention_local_fallback": _or(value["attention_local_fallback"], 0),
         "attention_keep_chunk": bool(temp.attention_keep_chunk),
         "attention_resume": RESUME_AFTER if value["attention_resume"] is None
         else value["attention_resume"],
-        "attention_resume_growth": value["attention_resume_growth"] or 1.0,
+        "attention_resume_growth": _or(value["attention_resume_growth"], 1.0),
         "goal_tree": goal, "attention_from_goal": from_goal,
         "attention_rounds": (value["attention_rounds"] if from_goal else 0),
     }  # fmt: skip
+
+
+def _or(value: Any, default: Any) -> Any:
+    """``value``, or ``default`` when it is None (a given 0 is a value: ``x or 1.0`` lost it)."""
+    return default if value is None else value
 
 
 def _cells(setting: dict[str, Any], window: int) -> list[str]:

@@ -144,6 +144,19 @@ def test_rounds_after_stalls_both_ways_are_tried(capsys, monkeypatch):
     assert "'attention_rounds'" in recommended
 
 
+def test_a_follow_probability_of_zero_is_reported_as_zero(capsys, monkeypatch):
+    """``value or 1.0`` used to report (and recommend) 1 for a row that ran with 0."""
+    monkeypatch.chdir(ROOT)
+    best = tune_planner.main(
+        [*ARGS, "--attention-nodes", "3000", "--noise-std", "0", "--follow-fallback", "0", "1",
+         "--tasks", "2", "--min-attention-success", "0"]
+    )  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    header, rows = _table(out)
+    assert [row[header.index("follow")].strip() for row in rows] == ["0", "1"]
+    assert best["attention_follow_fallback"] in (0.0, 1.0)
+
+
 def test_replacements_near_the_proposal_are_tried(capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
     best = tune_planner.main(
