@@ -50,7 +50,7 @@ from temp_gym.config import (
 from temp_gym.config.checks import check_output_dir
 from temp_gym.files import atomic_write, read_json
 from temp_gym.jobs import run_script
-from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
+from temp_gym.models.checkpoint_settings import CARRIED_KEYS
 from temp_gym.models.registry import CHECKPOINT_DIR, policy_from_checkpoint
 from temp_gym.models.snapshot import write_snapshot
 from temp_gym.worlds.robots import robot_specs
@@ -236,11 +236,10 @@ def training_figures(checkpoint: str | Path, hardware: str | None = None) -> lis
     return lines
 
 
-PLANNER_KEYS = (*CHECKPOINT_SETTINGS, "chosen_by")
+PLANNER_KEYS = CARRIED_KEYS
 """The planner settings a shipped checkpoint carries (`temp_gym.models.registry` applies them):
-the settings any checkpoint entry may give
-(`temp_gym.models.checkpoint_settings.CHECKPOINT_SETTINGS`, one list), and the text saying how
-they were chosen."""
+the settings any checkpoint entry may give, and the text saying how they were chosen
+(`temp_gym.models.checkpoint_settings.CARRIED_KEYS`, which loading checks)."""
 
 
 def planner_lines(planner: dict[str, Any], chunk: int) -> list[str]:

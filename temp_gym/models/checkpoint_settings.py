@@ -41,6 +41,37 @@ CHECKPOINT_SETTINGS: dict[str, type] = {
 after its ``@`` (`checkpoint_entry`), with its type."""
 
 
+CARRIED_KEYS = (*CHECKPOINT_SETTINGS, "chosen_by")
+"""The keys a checkpoint's ``planner`` entry may hold: the settings, and how they were chosen."""
+
+
+def check_carried(carried: object) -> None:
+    """Refuse a checkpoint's ``planner`` entry that is no mapping of known, valid settings.
+
+    Raises:
+        ValueError: one line naming the entry (``planner``) or its key (``planner.<key>``).
+    """
+    from temp_gym.planning.temp_settings import check
+
+    if not isinstance(carried, Mapping) or not all(isinstance(key, str) for key in carried):
+        raise ValueError(f"planner: expected a mapping of settings, got {brief(carried)}")
+    unknown = sorted(set(carried) - set(CARRIED_KEYS))
+    if unknown:
+        raise ValueError(f"planner: unknown settings {unknown}; expected some of "
+                         f"{list(CARRIED_KEYS)}")  # fmt: skip
+    for name, value in carried.items():
+        if value is None or name == "chosen_by":
+            continue
+        if name in DECLARED:
+            check(name, value, f"planner.{name}")
+            continue
+        kind = POLICY_SETTINGS[name]
+        numeric = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not numeric or (kind is int and not isinstance(value, int)) or not value >= 0:
+            raise ValueError(f"planner.{name}: expected a non-negative {kind.__name__}, "
+                             f"got {brief(value)}")  # fmt: skip
+
+
 def policy_keywords(carried: Mapping[str, Any]) -> dict[str, Any]:
     """`TEMPPolicy`'s keywords from a checkpoint's ``planner`` entry (absent keys: None).
 

@@ -56,6 +56,7 @@ from temp_gym.models.checkpoint_file import (  # noqa: F401  (CheckpointError re
     CheckpointError,
     read_checkpoint_bytes,
 )
+from temp_gym.models.checkpoint_settings import check_carried
 from temp_gym.models.eise import EISE
 from temp_gym.models.mpt import MPT
 from temp_gym.planning.policy import check_compatible  # noqa: F401  (re-exported)
@@ -278,7 +279,7 @@ def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) 
         ) from None
     if not isinstance(checkpoint, dict) or not isinstance(checkpoint.get("state_dict"), dict):
         raise CheckpointError(path, "not a TEMP checkpoint (no state_dict)", NOT_A_CHECKPOINT)
-    if checkpoint.get("version") != CHECKPOINT_VERSION:
+    if type(checkpoint.get("version")) is not int or checkpoint["version"] != CHECKPOINT_VERSION:
         raise CheckpointError(
             path,
             f"checkpoint version {checkpoint.get('version')!r}, expected {CHECKPOINT_VERSION}",
@@ -297,6 +298,11 @@ def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) 
         )
     if not isinstance(checkpoint.get("model_config"), dict):
         raise CheckpointError(path, "no valid 'model_config' entry", NOT_A_CHECKPOINT)
+    if "planner" in checkpoint:
+        try:
+            check_carried(checkpoint["planner"])
+        except ValueError as error:
+            raise CheckpointError(path, str(error), NOT_A_CHECKPOINT) from None
     for name, tensor in checkpoint["state_dict"].items():
         if not isinstance(tensor, torch.Tensor):
             raise CheckpointError(path, f"state_dict[{name!r}] is not a tensor", NOT_A_CHECKPOINT)

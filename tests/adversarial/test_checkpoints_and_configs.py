@@ -48,6 +48,27 @@ def test_a_checkpoint_asking_for_a_huge_model_is_refused_before_allocating(tmp_p
     assert grown < 200 * 1024
 
 
+@pytest.mark.parametrize(
+    "change, message",
+    [({"planner": [1, 2]}, "planner: expected a mapping of settings, got [1, 2]"),
+     ({"planner": None}, "planner: expected a mapping of settings"),
+     ({"planner": {"attention_patience": -3}}, "planner.attention_patience: expected an integer"),
+     ({"planner": {"attention_patiense": 30}}, "planner: unknown settings ['attention_patiense']"),
+     ({"planner": {"path_window": "16"}}, "planner.path_window: expected a non-negative int"),
+     ({"version": True}, "checkpoint version True, expected 1")],
+)  # fmt: skip
+def test_a_checkpoint_entry_of_the_wrong_shape_is_named_with_the_file(tmp_path, change, message):
+    """A planner entry that is no mapping used to crash deep in the registry, naming no file."""
+    checkpoint = torch.load(SHIPPED / "2d.pt", weights_only=True)
+    checkpoint.update(change)
+    path = tmp_path / "changed.pt"
+    torch.save(checkpoint, path)
+    with pytest.raises(CheckpointError, match="^" + str(path).replace(".", r"\.") + ": "):
+        load_checkpoint(path)
+    outcome = run("temp-plan", PROBLEM, "--checkpoint", path, cwd=tmp_path)
+    assert_refused(outcome, "changed.pt: " + message)
+
+
 def test_a_tampered_snapshot_beside_a_copy_is_named(tmp_path):
     copy = tmp_path / "policy.pt"
     shutil.copy(SHIPPED / "2d.pt", copy)
