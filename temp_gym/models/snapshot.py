@@ -110,6 +110,11 @@ def snapshot_bytes(checkpoint: str | Path) -> bytes | None:
         raise ValueError(
             f"{path}: a damaged inference snapshot ({error.problem}); {REWRITE}"
         ) from None
+    except OSError as error:  # a folder, no permission: one line, with what to do
+        reason = (error.strerror or type(error).__name__).lower()
+        raise ValueError(
+            f"{path}: an unreadable inference snapshot ({reason}); {REWRITE}"
+        ) from None
 
 
 def content_digest(arrays: dict[str, np.ndarray]) -> str:
@@ -193,7 +198,7 @@ def read_snapshot(
         raise ValueError(
             f"{path}: a damaged inference snapshot ({error.problem}); {REWRITE}"
         ) from None
-    except (KeyError, TypeError, ValueError, OSError, zipfile.BadZipFile) as error:
+    except (KeyError, TypeError, ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
         first = (str(error).splitlines() or [type(error).__name__])[0][:160]
         raise ValueError(f"{path}: a damaged inference snapshot ({first}); {REWRITE}") from None
 
@@ -212,7 +217,9 @@ def _check_arrays(arrays: dict[str, np.ndarray]) -> None:
         ValueError: naming the first array at fault.
     """
     stored = arrays.get("content")
-    if stored is not None and str(stored) != content_digest(arrays):
+    if stored is None:  # every snapshot is written with one (`write_snapshot`)
+        raise ValueError("it holds no digest of its arrays")
+    if str(stored) != content_digest(arrays):
         raise ValueError("its arrays do not match their stored digest")
     for name, array in arrays.items():
         if not name.startswith(("mpt.", "eise.")) or array.dtype.kind != "f":

@@ -94,6 +94,26 @@ def test_a_damaged_snapshot_is_a_clear_error(tmp_path):
         registry.load_cached(path)
 
 
+def test_an_empty_folder_or_digestless_snapshot_is_a_clear_error(tmp_path):
+    """An empty file was numpy's EOFError, a folder a bare IsADirectoryError, and a snapshot
+    without its digest was read unchecked."""
+    path = tmp_path / "policy.pt"
+    shutil.copy(registry.shipped_checkpoint("point2d"), path)
+    snapshot_path(path).write_bytes(b"")
+    with pytest.raises(ValueError, match="policy.kernels.npz: a damaged inference snapshot"):
+        registry.load_cached(path)
+    snapshot_path(path).unlink()
+    snapshot_path(path).mkdir()
+    with pytest.raises(ValueError, match="policy.kernels.npz: an unreadable inference snapshot"):
+        registry.load_cached(path)
+    snapshot_path(path).rmdir()
+    with np.load(snapshot_path(registry.shipped_checkpoint("point2d"))) as stored:
+        arrays = {name: stored[name] for name in stored.files if name != "content"}
+    np.savez(snapshot_path(path), **arrays)
+    with pytest.raises(ValueError, match="holds no digest of its arrays"):
+        registry.load_cached(path)
+
+
 def test_a_snapshot_core_loads_its_model_when_asked_and_only_from_the_same_bytes(tmp_path):
     path = tmp_path / "policy.pt"
     shutil.copy(registry.shipped_checkpoint("point2d"), path)
