@@ -34,6 +34,7 @@ import io
 import math
 import pickle
 import warnings
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -254,9 +255,27 @@ def weights_digest(state_dict: dict[str, torch.Tensor]) -> str:
     return digest.hexdigest()
 
 
+def _failed_member(source: io.BytesIO) -> str | None:
+    """The first member of a zip checkpoint whose bytes fail their CRC-32, else None.
+
+    PyTorch's reader does not check the CRCs its zip files store, so a flipped bit in a
+    weight would load as another policy. A file that is no zip is left to `torch.load`.
+    """
+    try:
+        with zipfile.ZipFile(source) as archive:
+            return archive.testzip()
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError):
+        return None
+    finally:
+        source.seek(0)
+
+
 def _read_checkpoint(path: str | Path, map_location, data: bytes | None = None) -> dict[str, Any]:
     """``torch.load(..., weights_only=True)``; every failure becomes a `CheckpointError`."""
     source = io.BytesIO(read_checkpoint_bytes(path) if data is None else data)
+    damaged = _failed_member(source)
+    if damaged is not None:
+        raise CheckpointError(path, f"damaged ({damaged} fails its CRC-32 check)", NOT_A_CHECKPOINT)
     try:
         with warnings.catch_warnings():  # torch warns about foreign pickle protocols
             warnings.simplefilter("ignore")

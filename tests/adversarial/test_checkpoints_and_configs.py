@@ -69,6 +69,25 @@ def test_a_checkpoint_entry_of_the_wrong_shape_is_named_with_the_file(tmp_path, 
     assert_refused(outcome, "changed.pt: " + message)
 
 
+def test_a_flipped_bit_in_a_weight_is_refused_by_its_crc(tmp_path):
+    """PyTorch reads a zip checkpoint without checking its CRCs: one flipped mantissa bit
+    loaded as another policy."""
+    import struct
+    import zipfile
+
+    data = bytearray((SHIPPED / "2d.pt").read_bytes())
+    with zipfile.ZipFile(SHIPPED / "2d.pt") as archive:
+        member = max(archive.infolist(), key=lambda info: info.file_size)
+    name_length, extra_length = struct.unpack("<HH", data[member.header_offset + 26 :][:4])
+    start = member.header_offset + 30 + name_length + extra_length
+    data[start + member.file_size // 2] ^= 0x01
+    path = tmp_path / "flipped.pt"
+    path.write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match=f"damaged \\({member.filename} fails its CRC-32"):
+        load_checkpoint(path)
+    assert_refused(run("temp-plan", PROBLEM, "--checkpoint", path, cwd=tmp_path), "flipped.pt")
+
+
 def test_a_tampered_snapshot_beside_a_copy_is_named(tmp_path):
     copy = tmp_path / "policy.pt"
     shutil.copy(SHIPPED / "2d.pt", copy)
