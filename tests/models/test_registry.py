@@ -171,12 +171,12 @@ def test_a_tampered_snapshot_beside_a_copy_serves_neither_the_copy_nor_the_origi
     original = arrays[name]
     for value, reason in [
         (0.5, "its arrays do not match their stored digest"),  # plausible weights, edited
-        (np.nan, "holds NaN or inf"),  # and with the digest left out: values no model has
+        (np.nan, "holds NaN or inf"),  # and with the digest rewritten: values no model has
         (1e30, "beyond"),
     ]:
         arrays[name] = np.full_like(original, value)
         if value != 0.5:
-            arrays.pop("content", None)
+            arrays["content"] = np.array(snapshot.content_digest(arrays))
         np.savez(tmp_path / "2d.kernels.npz", **arrays)
         with pytest.raises(ValueError, match=r"2d\.kernels\.npz: a damaged inference snapshot"):
             load_cached(copy)
