@@ -566,7 +566,12 @@ def check_job(config: Config, args: argparse.Namespace) -> None:
             raise ConfigError(f"data.corrections[{index}]: {round_dir} is not a folder")
     from temp_gym.data.dataset import data_settings  # the data section, as generation reads it
 
-    data_settings(config)
+    workspaces = data_settings(config)["workspaces"]
+    for split in ("train", "val"):  # training reads both; refused before data is generated
+        if workspaces[split] < 1:
+            raise ConfigError(
+                f"data.workspaces.{split}: training needs at least one {split} workspace, got 0"
+            )
     import torch
 
     from temp_gym.models.temp import load_checkpoint

@@ -64,7 +64,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "train.max_epochs": (1, MAX_EPOCHS),
     "train_eval.tasks": (0, MAX_TASKS),
     "train_eval.periodic_tasks": (0, MAX_TASKS),
-    "train_eval.max_nodes": (1, MAX_COUNT),
+    "train_eval.max_nodes": (2, MAX_COUNT),  # the planning env's least (a root and a node)
     "evaluation.tasks": (1, MAX_TASKS),
     "evaluation.max_nodes": (1, MAX_COUNT),
     "evaluation.curve_tasks": (0, MAX_TASKS),

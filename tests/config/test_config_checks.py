@@ -89,6 +89,7 @@ def test_a_number_of_thousands_of_digits_is_one_error():
         ("evaluation.time_limit=.inf", "evaluation.time_limit"),
         ("data.seed=-1", "data.seed"),
         ("train_eval.max_nodes=0", "train_eval.max_nodes"),
+        ("train_eval.max_nodes=1", "train_eval.max_nodes"),  # passed, then the env refused it
         ("train_eval.difficulty=foo", "train_eval.difficulty"),
     ],
 )

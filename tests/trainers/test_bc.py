@@ -249,7 +249,9 @@ def test_trains_a_chunked_mpt_that_plans(tmp_path):
      ("model.prediction=foo", "model: prediction: expected"),
      ("model.dropout=2", "model.dropout: must be at most"),
      ("train.device=foo", "train.device:"),
-     ("logger.backend=foo", "logger.backend: expected")],
+     ("logger.backend=foo", "logger.backend: expected"),
+     ("train_eval.max_nodes=1", "train_eval.max_nodes: must be at least 2"),  # crashed in the env
+     ("data.workspaces={train: 1, val: 0}", "data.workspaces.val: training needs at least one")],
 )  # fmt: skip
 def test_settings_that_would_train_or_compare_on_nothing_are_refused(tmp_path, override, message):
     command = [sys.executable, str(ROOT / "trainers" / "bc.py"), "--config",
@@ -305,7 +307,8 @@ def test_an_empty_split_is_refused_in_one_line(tmp_path):
                           env=dict(os.environ, OMP_NUM_THREADS="1"))  # fmt: skip
     error = done.stderr.strip().splitlines()[-1]
     assert done.returncode == 2, done.stderr[-2000:]
-    assert "data.workspaces.train: the train split of" in error and "holds no samples" in error
+    assert "data.workspaces.train: training needs at least one train workspace" in error
+    assert not (tmp_path / "data").exists()  # refused before the dataset was generated
 
 
 def test_a_split_whose_expert_plans_all_failed_says_so(tmp_path, monkeypatch):

@@ -44,7 +44,7 @@ def test_max_nodes_sets_the_budget_of_every_run_and_is_printed(capsys, monkeypat
     [
         (["--attention-nodes", "10000"], "exceeds the node budget 3000"),
         (["--max-nodes", "0"], "--max-nodes: must be at least 1"),
-        (["train_eval.max_nodes=0"], "train_eval.max_nodes: must be at least 1"),
+        (["train_eval.max_nodes=0"], "train_eval.max_nodes: must be at least 2"),
         (["--near-goal-factor", "0.5"],
          "--near-goal-factor: expected a finite number of at least 1, got 0.5"),
         (["--follow-fallback", "1.5"], "--follow-fallback: expected a number in [0, 1], got 1.5"),
