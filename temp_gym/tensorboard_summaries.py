@@ -5,6 +5,8 @@
   looks alarming (a rising validation term, say) carries its explanation on the dashboard.
 * `add_hparams` puts a run's configuration in the HParams dashboard of *the same run*
   (``SummaryWriter.add_hparams`` would start a new one), with the metrics to compare runs by.
+* `remove_events` empties a folder of event files before a summary that is written whole
+  again on a rerun (a report, a final comparison), so TensorBoard shows each step once.
 
 Examples:
     >>> add_scalar(writer, "val/recons", 0.41, step=3, description="EISE reconstruction ...")
@@ -14,7 +16,16 @@ Examples:
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from pathlib import Path
 from typing import Any
+
+
+def remove_events(folder: str | Path) -> None:
+    """Delete the TensorBoard event files directly in ``folder`` (none: nothing to do)."""
+    folder = Path(folder)
+    if folder.is_dir():
+        for path in folder.glob("events.out.tfevents.*"):
+            path.unlink(missing_ok=True)
 
 
 def _file_writer(writer: Any):

@@ -29,7 +29,8 @@ means), ``train/lr``, ``train/grad_norm``; ``val/loss``, ``val/recons``, ``val/s
 ``eval/success``, ``eval/nodes``, ``eval/cost`` (TEMP on ``train_eval.periodic_tasks`` test
 tasks, every ``train_eval.every`` epochs), ``eval/plan`` (image) and ``eval/attention``
 (figure: per-group attention along the plan, Eq. 7-8); ``eval/final/{temp,rrt_star}/...``
-(the comparison); ``time/epoch``, ``time/samples_per_s``. The config is in the HParams
+(the comparison, in the run folder's ``final/``, written whole again on a rerun);
+``time/epoch``, ``time/samples_per_s``. The config is in the HParams
 dashboard, and the custom-scalars dashboard puts each loss term's training and validation
 curves on one chart (``val/recons`` rises on unseen workspaces: the charts say why that is not
 divergence).
@@ -58,6 +59,7 @@ from temp_gym.config import (
 )
 from temp_gym.config.checks import CHOICES, check_output_dir
 from temp_gym.jobs import JobError, estimate_line, progress_line, report, run_script
+from temp_gym.tensorboard_summaries import remove_events
 
 if TYPE_CHECKING:
     import torch
@@ -441,6 +443,10 @@ def epoch_estimate(remaining: int, seconds: list[float]) -> str:
     return f"{line}, at most: training stops early at the lr floor"
 
 
+FINAL_EVENTS = "final"
+"""The run folder's subfolder of the final comparison's TensorBoard events."""
+
+
 def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> dict:
     """TEMP (best checkpoint) vs. RRT* on the same held-out tasks, up to the first solution.
 
@@ -466,7 +472,10 @@ def compare_with_rrt_star(config: Config, checkpoint: Path, run_dir: Path) -> di
     problems = training.draw_problems(
         config, eval_config.split, eval_config.tasks, eval_config.seed + 10_000
     )
-    logger = training.make_logger(config, run_dir)
+    # A folder of its own, emptied first: a rerun (of a finished run, or one killed during the
+    # comparison) writes the comparison again, and TensorBoard shows it once.
+    remove_events(run_dir / FINAL_EVENTS)
+    logger = training.make_logger(config, run_dir / FINAL_EVENTS)
     evaluate_with_figures(config, model, problems[:1], logger, 0, tag="eval/final/example")
     policy = TEMPPolicy(model.cpu(), noise_std=eval_config.noise_std or 0.0)
     timing = EvaluationSettings(robot=config.env.robot, groups={}, seed=eval_config.seed)

@@ -243,6 +243,9 @@ def _attention_plot(attention: dict[str, Any], out: Path) -> None:
 def _tensorboard(records, planners, log_dir: Path) -> None:
     from torch.utils.tensorboard import SummaryWriter
 
+    from temp_gym.tensorboard_summaries import remove_events
+
+    remove_events(log_dir)  # the report is written whole from its records, on a rerun too
     writer = SummaryWriter(log_dir=str(log_dir))
     groups = list(dict.fromkeys(r["group"] for r in records))
     solved = f"TEMP solved, baselines reached {1 + TAU:g} J_TEMP, vs time"

@@ -164,3 +164,17 @@ def test_make_results_pools_draws_and_keeps_worlds_it_did_not_rerun(tmp_path, mo
     assert again.count(make_results.KEPT_NOTE) == 1 and "## TEMP-3D-v0" not in again
     with pytest.raises(SystemExit):
         make_results.main(["--task-draws", "0", *docs])
+
+
+def test_a_report_written_again_shows_each_tensorboard_step_once(tmp_path):
+    """The report is rewritten whole from its records on a rerun; its events used to pile up."""
+    pytest.importorskip("tensorboard")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    for _ in range(2):
+        write_report(fake_records(), tmp_path, tensorboard=True)
+    events = EventAccumulator(str(tmp_path / "tensorboard"))
+    events.Reload()
+    tag = next(tag for tag in events.Tags()["scalars"] if tag.startswith("success_vs_time/"))
+    steps = [event.step for event in events.Scalars(tag)]
+    assert steps and len(steps) == len(set(steps))

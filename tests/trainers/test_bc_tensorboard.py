@@ -48,3 +48,13 @@ def test_a_rerun_replaces_the_events_of_the_steps_it_logs_again(tmp_path):
     points = [(event.step, float(tensor_util.make_ndarray(event.tensor_proto)))
               for event in events.Tensors("train/loss")]  # fmt: skip
     assert points == [(1, 1.0), (2, 20.0), (3, 30.0)]
+
+
+def test_the_final_comparison_is_logged_once_however_often_the_command_runs(tmp_path):
+    """A rerun of a finished run (or one killed in its comparison) compares again; its events
+    go to ``final/``, emptied first, so TensorBoard shows each once."""
+    for _ in range(2):
+        run_bc(tmp_path, "train.max_epochs=1", "train_eval.tasks=2")
+    events = EventAccumulator(str(tmp_path / "runs" / "TEMP-2D-v0__bc__0" / "final"))
+    events.Reload()
+    assert [event.step for event in events.Tensors("eval/final/temp/nodes_mean")] == [0]
