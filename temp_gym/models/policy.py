@@ -340,11 +340,19 @@ class TEMPPolicy:
         dim: int | None = None,
         **kwargs,
     ) -> TEMPPolicy:
-        """Load a checkpoint (``weights_only=True``); ``robot``/``dim`` are checked if given."""
+        """Load a checkpoint (``weights_only=True``); ``robot``/``dim`` are checked if given.
+
+        The settings the checkpoint carries (a shipped one's ``planner`` entry: noise, horizon,
+        path window, the planner's settings it was tuned with) apply unless ``kwargs`` give
+        others, as `temp_gym.models.registry.policy_from_checkpoint` applies them.
+        """
+        from temp_gym.models.checkpoint_settings import policy_keywords
         from temp_gym.models.temp import load_checkpoint
 
-        model, _ = load_checkpoint(path, robot=robot, dim=dim)
-        return cls(model, **kwargs)
+        model, loaded = load_checkpoint(path, robot=robot, dim=dim)
+        carried = {key: value for key, value in policy_keywords(loaded.get("planner", {})).items()
+                   if value is not None}  # fmt: skip
+        return cls(model, **{**carried, **kwargs})
 
     def save(self, path: str | Path) -> None:
         """Write the model's checkpoint (`TEMPModel.save`)."""

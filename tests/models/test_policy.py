@@ -416,3 +416,15 @@ def test_the_planner_settings_a_policy_carries_are_checked_as_the_planner_checks
     policy = TEMPPolicy(small_model, attention_rounds=2)
     assert policy.planner_settings()["attention_rounds"] == 2
     assert policy.fresh().attention_rounds == 2 and policy.fresh().attention_patience is None
+
+
+def test_from_checkpoint_applies_the_settings_a_checkpoint_carries_as_the_registry_does():
+    from temp_gym.models import registry
+    from temp_gym.models.policy import TEMPPolicy
+    from temp_gym.planning.policy import policy_settings
+
+    path = registry.shipped_checkpoint("point2d")
+    direct = TEMPPolicy.from_checkpoint(path)
+    assert policy_settings(direct) == policy_settings(registry.policy_from_checkpoint(path))
+    assert direct.attention_patience is not None  # the shipped policy carries one
+    assert TEMPPolicy.from_checkpoint(path, attention_patience=7).attention_patience == 7
