@@ -193,6 +193,47 @@ def _logged_scalar(run_dir: Path, tag: str) -> dict[int, float]:
     return values
 
 
+MAY_DIFFER = ("train.threads", "train.device", "data.dir", "data.workers", "train_eval",
+              "evaluation", "logger")  # fmt: skip
+"""Config keys that may differ from the run's: where and how fast it ran, what was evaluated
+and logged. The card shows the config given, so every other key must be the run's."""
+
+
+def check_trained_with(config: Config, source: dict[str, Any], checkpoint: Path) -> None:
+    """Refuse a ``--config`` and overrides other than those the checkpoint was trained with.
+
+    The model's sizes are in the checkpoint; the whole config, where the run's ``last.pt``
+    beside it stores one. The card would otherwise describe a training that never happened.
+
+    Raises:
+        ConfigError: naming each key that differs, with both values.
+    """
+    import dataclasses
+
+    import torch
+
+    from temp_gym.config import differing_keys, flatten, upgrade_stored
+    from temp_gym.models.temp import model_config_of
+
+    pairs = [({"model": dataclasses.asdict(model_config_of(source["model_config"]))},
+              {"model": dataclasses.asdict(config.model)}, checkpoint.name)]  # fmt: skip
+    last = checkpoint.with_name("last.pt")
+    if last.is_file():
+        try:
+            stored = torch.load(last, weights_only=True, map_location="cpu").get("config")
+        except (OSError, RuntimeError, AttributeError, EOFError):
+            stored = None
+        if isinstance(stored, dict):
+            pairs.append((upgrade_stored(stored), config.to_dict(), last.name))
+    for trained, given, where in pairs:
+        changed = differing_keys(trained, given, MAY_DIFFER)
+        if changed:
+            shown = ", ".join(f"{key}: {flatten(trained).get(key)!r} in {where}, "
+                              f"{flatten(given).get(key)!r} given" for key in changed)  # fmt: skip
+            raise ConfigError(f"--config: not the config the checkpoint was trained with "
+                              f"({shown}); give that config and its overrides")  # fmt: skip
+
+
 def training_figures(checkpoint: str | Path, hardware: str | None = None) -> list[str]:
     """Card lines from the run's ``last.pt`` history: the validation curve, time and hardware.
 
@@ -499,6 +540,7 @@ def main(argv: list[str] | None = None) -> Path:
         model, source = load_checkpoint(args.checkpoint, robot=config.env.robot)
     except (OSError, ValueError) as error:
         raise ConfigError(f"--checkpoint: {error}") from None
+    check_trained_with(config, source, Path(args.checkpoint))
     if args.horizon is not None and args.horizon > model.mpt.chunk:
         raise ConfigError(
             f"--horizon {args.horizon}: the model predicts {model.mpt.chunk} per call"

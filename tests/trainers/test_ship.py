@@ -21,6 +21,8 @@ from trainers import ship  # noqa: E402
 
 SMALL = {"token_dim": 16, "num_heads": 2, "num_layers": 1, "ffn_dim": 32, "num_sei_tokens": 2,
          "eise_hidden": 32}  # fmt: skip
+TRAINED_WITH = [f"model.{key}={value}" for key, value in SMALL.items()]
+"""The overrides of tiny.yaml that make the config the small model's (ship.py checks them)."""
 
 
 @pytest.fixture
@@ -34,7 +36,7 @@ def shipped(tmp_path, monkeypatch):
     path = ship.main([
         "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(best),
         "--attention-nodes", "40", "--noise-std", "0.02", "--out-dir", str(out),
-        f"data.dir={tmp_path / 'no-data'}",
+        f"data.dir={tmp_path / 'no-data'}", *TRAINED_WITH,
     ])  # fmt: skip
     monkeypatch.setattr(registry, "CHECKPOINT_DIR", out)
     return model, path
@@ -95,7 +97,7 @@ def test_without_a_budget_the_attention_phase_gets_all_of_max_nodes(shipped, tmp
     out = tmp_path / "whole-budget"
     again = ship.main([
         "--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(path),
-        "--out-dir", str(out), f"data.dir={tmp_path / 'no-data'}",
+        "--out-dir", str(out), f"data.dir={tmp_path / 'no-data'}", *TRAINED_WITH,
     ])  # fmt: skip
     _, checkpoint = load_checkpoint(again, robot="point2d")
     assert checkpoint["planner"]["attention_nodes"] is None
@@ -105,7 +107,7 @@ def test_without_a_budget_the_attention_phase_gets_all_of_max_nodes(shipped, tmp
 def test_a_near_goal_factor_is_shipped_carried_and_applied(shipped, tmp_path):
     model, path = shipped
     args = ["--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(path),
-            f"data.dir={tmp_path / 'no-data'}"]  # fmt: skip
+            f"data.dir={tmp_path / 'no-data'}", *TRAINED_WITH]  # fmt: skip
     out = tmp_path / "near-goal"
     again = ship.main([*args, "--attention-near-goal-factor", "5", "--out-dir", str(out)])
     _, checkpoint = load_checkpoint(again, robot="point2d")
@@ -202,6 +204,17 @@ def test_update_planner_changes_settings_keeps_weights_and_rewrites_the_card(shi
                                     "attention_local_fallback": 0}  # fmt: skip
     with pytest.raises(ConfigError, match="expected one of"):
         ship.main(["--update-planner", "TEMP-9D-v0", "noise_std=0", "--out-dir", out])
+
+
+def test_ship_refuses_a_config_the_checkpoint_was_not_trained_with(shipped, tmp_path):
+    """The card showed the config given beside the checkpoint's own sizes, contradicting them."""
+    _, path = shipped
+    best = path.parent.parent / "best.pt"
+    args = ["--config", str(ROOT / "configs" / "tiny.yaml"), "--checkpoint", str(best),
+            "--out-dir", str(tmp_path / "other"), f"data.dir={tmp_path / 'no-data'}"]  # fmt: skip
+    with pytest.raises(ValueError, match=r"model.token_dim: 16 in best.pt, 32 given"):
+        ship.main([*args, *TRAINED_WITH[1:]])
+    assert not (tmp_path / "other").exists()
 
 
 def test_ship_updates_every_setting_a_checkpoint_entry_may_give():
