@@ -26,6 +26,8 @@ TERMINATED = 143
 """Exit status after SIGTERM (128 + SIGTERM)."""
 BAD_INPUT = 2
 """Exit status for a `JobError` (as argparse uses for a bad command line)."""
+BROKEN_PIPE = 141
+"""Exit status when the output was closed (``... | head``): 128 + SIGPIPE, as a shell gives."""
 
 
 class JobError(Exception):
@@ -144,9 +146,22 @@ def run_script(name: str, main: Callable[[Sequence[str] | None], Any], argv=None
     except JobError as error:
         report(one_line(f"{name}: error: {error}"))
         return BAD_INPUT
+    except BrokenPipeError:  # ``... | head`` closed the output: stop quietly, as a shell does
+        _silence_stdout()
+        report(f"{name}: its output was closed; rerun the same command to resume")
+        return BROKEN_PIPE
     finally:
         _on_sigterm(previous)
     return 0
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null, so that flushing it at exit raises no second error."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # no file descriptor (a test's capture)
+        pass
 
 
 class _Terminated(KeyboardInterrupt):

@@ -57,3 +57,30 @@ def test_sigterm_ends_a_job_in_one_line_as_ctrl_c_does(tmp_path):
     _, stderr = job.communicate(timeout=60)
     assert job.returncode == 143
     assert stderr == "job.py: terminated; rerun the same command to resume\n"
+
+
+def test_a_closed_output_ends_a_job_in_one_line(tmp_path):
+    # ``bc.py | head`` ended in a BrokenPipeError traceback, and another at exit.
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent(
+        """
+        import sys
+        from temp_gym.jobs import run_script
+
+        def main(argv):
+            for line in range(100_000):
+                print("line", line)
+
+        sys.exit(run_script("job.py", main))
+        """
+    )
+    job = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)  # fmt: skip
+    job.stdout.readline()
+    job.stdout.close()  # what ``head`` does once it has its lines
+    stderr = job.stderr.read()
+    assert job.wait(timeout=60) == 141
+    assert stderr == "job.py: its output was closed; rerun the same command to resume\n"
