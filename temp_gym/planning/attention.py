@@ -233,6 +233,12 @@ def run_attention_phase(
     )
     compiled_proposer = fast_path(policy, "compiled_proposer")
     proposer = compiled_proposer() if compiled_proposer is not None else None
+    if proposer is not None and (not isinstance(proposer, tuple) or len(proposer) != 8):
+        raise ValueError(
+            "policy.compiled_proposer: expected None or the 8 entries "
+            "`temp_gym.models.policy.TEMPPolicy.compiled_proposer` returns, got "
+            f"{type(proposer).__name__} of {len(proposer) if isinstance(proposer, tuple) else 1}"
+        )
     context = compiled_context_of(tree.checker)
     can_compile = proposer is not None and context is not None
     if compiled_loop and not can_compile:

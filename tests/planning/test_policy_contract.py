@@ -111,6 +111,16 @@ def test_a_fast_path_is_held_to_what_call_may_return_and_an_empty_chunk_is_named
     assert result.nodes >= 1
 
 
+class OddCompiled(Minimal):
+    def compiled_proposer(self):
+        return (1, 2, 3)
+
+
+def test_a_compiled_proposer_of_the_wrong_shape_is_named(wall):
+    with pytest.raises(ValueError, match=r"^policy.compiled_proposer: expected None or the 8"):
+        plan(Problem.from_dict(wall), planner="temp", policy=OddCompiled(), seed=0, max_nodes=50)
+
+
 def test_the_built_in_policies_meet_the_contract():
     for policy in (UniformPolicy(seed=0), InformedPolicy(seed=0)):
         assert isinstance(policy, SamplingPolicy)
