@@ -47,11 +47,14 @@ def register_robot_file(path):
 
 
 def _described_arms() -> tuple[str, ...]:
-    """The description files of the registered arms (`temp_gym.hooks.described_arms`)."""
-    from temp_gym.worlds.robots import robot_specs
+    """The description files of the arms registered beyond the shipped ones.
+
+    Every process registers the shipped ones at import (`temp_gym.hooks.described_arms`).
+    """
+    from temp_gym.worlds.robots import BUILT_IN, robot_specs
 
     return tuple(sorted({str(spec.description) for spec in robot_specs()
-                         if spec.description is not None}))  # fmt: skip
+                         if spec.description is not None and spec not in BUILT_IN}))  # fmt: skip
 
 
 hooks.robot_file_loader = register_robot_file

@@ -74,7 +74,7 @@ def _call(packed: tuple[Callable[[Any], Any], int, Any, tuple[str, ...]]) -> tup
 
 
 def described_arms() -> tuple[str, ...]:
-    """The description files of the arms registered in this process, the shipped ones too.
+    """The description files of the arms registered in this process beyond the shipped ones.
 
     A worker registers them before its first unit (`_register_arms`), so that a unit may name
     a user's arm as this process does: workers start fresh (``spawn``, Ray), knowing only the

@@ -17,7 +17,8 @@ robot_file_loader: Callable[[str], Any] | None = None
 an arm by its description file without the config layer loading the worlds."""
 
 described_arms: Callable[[], tuple[str, ...]] | None = None
-"""``described_arms()``: the description files of the arms registered in this process;
+"""``described_arms()``: the description files of the arms registered in this process beyond
+the shipped ones;
 `import temp_gym` sets it, and `temp_gym.distributed` hands them to its worker processes."""
 
 default_policy_loader: Callable[[str], Any] | None = None
