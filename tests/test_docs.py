@@ -139,6 +139,22 @@ def test_every_python_snippet_of_the_site_runs_on_its_own(tmp_path):
     assert done.returncode == 0, done.stderr[-4000:]
 
 
+def test_every_problem_file_shown_in_the_docs_loads():
+    """A ``json`` block holding a whole problem (it names a robot) is one a reader may copy."""
+    import json
+
+    from temp_gym.problem import Problem
+
+    shown = []
+    for page in sorted([*DOCS.rglob("*.md"), ROOT / "README.md"]):
+        for block in re.findall(r"```json\n(.*?)```", page.read_text(), flags=re.S):
+            data = json.loads(block)
+            if isinstance(data, dict) and "robot" in data and "start" in data:
+                shown.append(page.name)
+                Problem.from_dict(data)  # raises, naming the field, if it does not load
+    assert "problem-format.md" in shown
+
+
 def test_a_snippet_that_leans_on_another_fails(tmp_path):
     found = [("a.md", "problem = 1\n"), ("b.md", "print(problem)\n")]
     assert "NameError" in run_snippets(found, tmp_path).stderr

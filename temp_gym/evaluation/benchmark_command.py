@@ -78,8 +78,8 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
                         help="seconds per run")  # fmt: skip
     parser.add_argument("--runs", type=count(1), default=DEFAULTS["runs"],
                         help="runs per planner and problem")  # fmt: skip
-    parser.add_argument("--seed", type=count(0), default=DEFAULTS["seed"],
-                        help="seed of the runs' seeds (and of a --split's tasks)")  # fmt: skip
+    seeds = "seed of the runs' seeds" + (" (and of a --split's tasks)" if source is None else "")
+    parser.add_argument("--seed", type=count(0), default=DEFAULTS["seed"], help=seeds)
     parser.add_argument("--max-nodes", type=count(1), default=None,
                         help="node budget per run (None: high enough that the time limit "
                         "ends every run)")  # fmt: skip

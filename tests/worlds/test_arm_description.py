@@ -60,6 +60,11 @@ def test_defaults_come_from_the_name(test_arm_path):
         ("&a name: a\n", "anchors"),
         (
             "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
+            "encoding: {resolution: 65}\n",  # accepted up to 128; the env refused it at reset
+            "encoding.resolution",
+        ),
+        (
+            "name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: a\ntip_link: b\n"
             f"joint_limits: {{j: [-1, {10**400}]}}\n",
             "joint_limits.j",
         ),

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from temp_gym.limits import MAX_ENCODING_CELLS, MIN_ENCODING_RESOLUTION
 from temp_gym.problem.parsing import finite_float
 
 PYBULLET_DATA = "pybullet_data://"
@@ -56,6 +57,8 @@ OPTIONAL = (
 )
 PLANNING_KEYS = ("step_size", "goal_radius", "max_nodes")
 ENCODING_KEYS = ("resolution", "region")
+MAX_ARM_RESOLUTION = round(MAX_ENCODING_CELLS ** (1 / 3))
+"""The most cells per axis of an arm's 3D occupancy grid (`temp_gym.limits`: 64)."""
 SPHERE_KEYS = ("tolerance",)
 EVALUATION_KEYS = ("rows", "tasks")
 
@@ -300,7 +303,11 @@ def parse_description(path: Path, data: object) -> RobotDescription:
     encoding = _section(path, "encoding", data.get("encoding"), ENCODING_KEYS)
     if "resolution" in encoding:
         values["encoding_resolution"] = _integer(
-            path, "encoding.resolution", encoding["resolution"], 2, 128
+            path,
+            "encoding.resolution",
+            encoding["resolution"],
+            MIN_ENCODING_RESOLUTION,
+            MAX_ARM_RESOLUTION,
         )
     if encoding.get("region") is not None:
         region = encoding["region"]
