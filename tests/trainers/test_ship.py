@@ -217,6 +217,24 @@ def test_ship_refuses_a_config_the_checkpoint_was_not_trained_with(shipped, tmp_
     assert not (tmp_path / "other").exists()
 
 
+def test_ship_refuses_a_config_other_than_the_runs_stored_one(shipped, tmp_path):
+    """Beside a run's ``last.pt``, the whole config is compared: keys that shape training must
+    be the run's; where it ran and what it logged may differ."""
+    from temp_gym.config import load_config
+
+    _, path = shipped
+    best = path.parent.parent / "best.pt"
+    base = ["--config", str(ROOT / "configs" / "tiny.yaml"), f"data.dir={tmp_path / 'no-data'}",
+            *TRAINED_WITH]  # fmt: skip
+    trained = load_config(base[1], base[2:]).to_dict()
+    torch.save({"config": trained}, best.with_name("last.pt"))
+    args = [*base, "--checkpoint", str(best)]
+    with pytest.raises(ValueError, match=r"optim.lr: 0.001 in last.pt, 0.5 given"):
+        ship.main([*args, "--out-dir", str(tmp_path / "a"), "optim.lr=0.5"])
+    shipped_again = ship.main([*args, "--out-dir", str(tmp_path / "b"), "logger.backend="])
+    assert shipped_again.is_file()
+
+
 def test_ship_updates_every_setting_a_checkpoint_entry_may_give():
     from temp_gym.models.checkpoint_settings import CHECKPOINT_SETTINGS
 
