@@ -25,3 +25,13 @@ def test_an_unknown_robot_has_no_family(tmp_path):
         load_ood_family("point4d")
     with pytest.raises(FileNotFoundError, match="temp_gym.evaluation.ood"):
         load_ood_family("point2d", tmp_path)
+
+
+def test_the_command_rewrites_the_point_families_and_the_arms_only_when_named(tmp_path):
+    """The arms' tasks are searched by planning: rewriting them by default would change the
+    family of record whenever the planners change."""
+    from temp_gym.evaluation.ood import main
+
+    main(["--out", str(tmp_path)])
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["2d", "3d"]
+    assert load_ood_family("point2d", tmp_path / "2d") == build_ood_family("point2d")
