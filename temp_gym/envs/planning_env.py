@@ -10,12 +10,17 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from temp_gym.limits import MAX_COUNT, MAX_PATH_LENGTH
-from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, TreeObserver
+from temp_gym.limits import MAX_COUNT
+from temp_gym.planning.observation import (
+    DEFAULT_MAX_PATH_LENGTH,
+    TreeObserver,
+    check_path_length,
+)
 from temp_gym.planning.samplers import UniformSampler
 from temp_gym.planning.temp_settings import local_fallback_count
 from temp_gym.planning.tree import Tree, default_step_size
-from temp_gym.problem import MIN_LENGTH, Problem, Workspace
+from temp_gym.problem import Problem, Workspace
+from temp_gym.problem.parsing import positive_length
 from temp_gym.worlds.encoding import check_resolution, occupancy_grid
 from temp_gym.worlds.normalization import MAX_RATIO
 from temp_gym.worlds.robots import robot_spec
@@ -183,22 +188,16 @@ class PlanningEnv(gym.Env):
             raise ValueError(f"max_nodes: expected an integer of at least 2, got {max_nodes!r}")
         if max_samples is not None and (not _is_integer(max_samples) or max_samples < 1):
             raise ValueError(f"max_samples: expected a positive integer, got {max_samples!r}")
-        if not _is_integer(max_path_length) or max_path_length < 2:
-            raise ValueError(f"max_path_length: must be at least 2, got {max_path_length!r}")
+        check_path_length(max_path_length)
         if step_size is not None and not _is_positive(step_size):
             raise ValueError(f"step_size: must be positive and finite, got {step_size!r}")
-        if goal_radius is not None and not _is_positive(goal_radius):
-            raise ValueError(f"goal_radius: must be positive and finite, got {goal_radius!r}")
-        if goal_radius is not None and goal_radius < MIN_LENGTH:  # as `Problem` refuses it
-            raise ValueError(
-                f"goal_radius: {goal_radius:g} is below {MIN_LENGTH:g} (its square would underflow)"
-            )
+        if goal_radius is not None:
+            positive_length(goal_radius, "goal_radius")  # as `Problem` checks it
         if encoding_resolution is not None:
             check_resolution(encoding_resolution, spec.workspace_dim, "encoding_resolution")
         for name, value, most in (
             ("max_nodes", max_nodes, MAX_COUNT),
             ("max_samples", max_samples, MAX_COUNT),
-            ("max_path_length", max_path_length, MAX_PATH_LENGTH),
             ("max_fallback_tries", max_fallback_tries, MAX_COUNT),
         ):
             if value is not None and _is_integer(value) and value > most:

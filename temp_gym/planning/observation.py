@@ -15,15 +15,32 @@ No two observations share memory.
 
 from __future__ import annotations
 
+import numbers
+
 import numba
 import numpy as np
 
+from temp_gym.limits import MAX_PATH_LENGTH
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 from temp_gym.worlds.normalization import MAX_RATIO, goal_radius_ratio, normalize
 
 DEFAULT_MAX_PATH_LENGTH = 64
 """Default L, the rows of the ``path`` (path-so-far) observation."""
+
+
+def check_path_length(value: object, name: str = "max_path_length") -> int:
+    """``value`` as L, the rows of the path observation, checked.
+
+    An integer from 2 (the start and one node) to `temp_gym.limits.MAX_PATH_LENGTH`.
+
+    Raises:
+        ValueError: anything else, in one line naming ``name``.
+    """
+    integral = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not integral or not 2 <= value <= MAX_PATH_LENGTH:
+        raise ValueError(f"{name}: expected an integer from 2 to {MAX_PATH_LENGTH}, got {value!r}")
+    return int(value)
 
 
 # Not nogil: releasing and taking back the GIL costs more than this microsecond kernel.

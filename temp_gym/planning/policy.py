@@ -55,8 +55,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from temp_gym.limits import MAX_PATH_LENGTH
-from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH
+from temp_gym.planning.observation import DEFAULT_MAX_PATH_LENGTH, check_path_length
 from temp_gym.planning.temp_settings import DECLARED
 from temp_gym.problem import Problem
 from temp_gym.worlds.encoding import check_resolution
@@ -167,13 +166,7 @@ def observation_settings(
     if resolution is not None:
         resolution = check_resolution(resolution, workspace_dim, "policy.encoding_resolution")
     if length is not None:
-        integral = isinstance(length, (int, np.integer)) and not isinstance(length, bool)
-        if not integral or not 2 <= length <= MAX_PATH_LENGTH:
-            raise ValueError(
-                f"policy.max_path_length: expected an integer from 2 to {MAX_PATH_LENGTH}, "
-                f"got {length!r}"
-            )
-        length = int(length)
+        length = check_path_length(length, "policy.max_path_length")
     return (
         robot_resolution if resolution is None else resolution,
         DEFAULT_MAX_PATH_LENGTH if length is None else length,
