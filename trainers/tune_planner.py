@@ -259,33 +259,28 @@ def _row_setup(row: dict[str, Any], base, config_temp: TEMPConfig):
 def _effective(policy, temp: TEMPConfig, budget: int) -> dict[str, Any]:
     """The settings a row ran with: given, else the policy's, else the planner's defaults."""
     from temp_gym import training
-    from temp_gym.planning.attention import RESUME_AFTER
+    from temp_gym.planning.temp_planner import DEFAULTS
     from temp_gym.planning.temp_settings import DECLARED, resolve
 
     settings = training.temp_settings(temp, policy)
-    value = {name: resolve(settings, policy, name, None) for name in DECLARED}
+    value = {name: resolve(settings, policy, name, DEFAULTS.get(name)) for name in DECLARED}
+    rounds = resolve(settings, policy, "attention_rounds", None)  # None: shown as "default"
     goal = temp.goal_tree is not False
     from_goal = goal and temp.attention_from_goal is not False
     return {
-        "attention_nodes": _or(value["attention_nodes"], budget), "noise_std": policy.noise_std,
-        "horizon": policy.chunk, "path_window": policy.path_window,
+        "attention_nodes": resolve(settings, policy, "attention_nodes", budget),
+        "noise_std": policy.noise_std, "horizon": policy.chunk, "path_window": policy.path_window,
         "attention_patience": value["attention_patience"],
-        "attention_near_goal_factor": _or(value["attention_near_goal_factor"], 1.0),
-        "attention_uniform": _or(value["attention_uniform"], 0.0),
-        "attention_follow_fallback": _or(value["attention_follow_fallback"], 1.0),
-        "attention_local_fallback": _or(value["attention_local_fallback"], 0),
+        "attention_near_goal_factor": value["attention_near_goal_factor"],
+        "attention_uniform": value["attention_uniform"],
+        "attention_follow_fallback": value["attention_follow_fallback"],
+        "attention_local_fallback": value["attention_local_fallback"],
         "attention_keep_chunk": bool(temp.attention_keep_chunk),
-        "attention_resume": RESUME_AFTER if value["attention_resume"] is None
-        else value["attention_resume"],
-        "attention_resume_growth": _or(value["attention_resume_growth"], 1.0),
+        "attention_resume": value["attention_resume"],
+        "attention_resume_growth": value["attention_resume_growth"],
         "goal_tree": goal, "attention_from_goal": from_goal,
-        "attention_rounds": (value["attention_rounds"] if from_goal else 0),
+        "attention_rounds": rounds if from_goal else 0,
     }  # fmt: skip
-
-
-def _or(value: Any, default: Any) -> Any:
-    """``value``, or ``default`` when it is None (a given 0 is a value: ``x or 1.0`` lost it)."""
-    return default if value is None else value
 
 
 def _cells(setting: dict[str, Any], window: int) -> list[str]:

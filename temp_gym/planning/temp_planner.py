@@ -97,6 +97,18 @@ from temp_gym.planning.temp_settings import TEMPSettings, resolve
 from temp_gym.planning.tree import Tree
 from temp_gym.problem import Problem
 
+DEFAULTS = {
+    "attention_near_goal_factor": 1.0,
+    "attention_local_fallback": 0,
+    "attention_uniform": 0.0,
+    "attention_follow_fallback": 1.0,
+    "attention_resume": RESUME_AFTER,
+    "attention_resume_growth": 1.0,
+    "attention_rounds": ATTENTION_ROUNDS,
+}
+"""The planner's value of each setting that neither its caller nor the policy gives
+(`temp_gym.planning.temp_settings.resolve`); the budget n and the patience follow the problem."""
+
 
 def set_default_policy(loader: Callable[[str], SamplingPolicy] | None) -> None:
     """Set what the ``temp`` planner uses when ``plan`` is given no policy.
@@ -135,19 +147,23 @@ def temp(problem: Problem, settings: TEMPSettings) -> PlanResult:
     rng = np.random.default_rng(settings.seed)
     tree = Tree(problem, step_size=settings.step_size)
     policy.reset(problem, seed=settings.seed)
+
+    def setting(name: str):  # the caller's, else the policy's, else the planner's `DEFAULTS`
+        return resolve(settings, policy, name, DEFAULTS[name])
+
     # The budget n (all of max_nodes by default) and the patience (its default follows the
     # start-goal distance) are resolved like every other setting.
     attention_nodes = resolve(settings, policy, "attention_nodes", settings.max_nodes)
     patience = resolve(settings, policy, "attention_patience", None)
     if patience is None:
         patience = default_patience(problem, tree.step_size)
-    factor = resolve(settings, policy, "attention_near_goal_factor", 1.0)
+    factor = setting("attention_near_goal_factor")
     near_sq, near_patience = (
         near_goal_limits(problem, patience, factor) if factor > 1 else (-1.0, 0)
     )
 
     # ---- attention-based planning (Algorithm 1)
-    local_tries = resolve(settings, policy, "attention_local_fallback", 0)
+    local_tries = setting("attention_local_fallback")
     limits = AttentionLimits(
         attention_nodes=attention_nodes,
         max_nodes=settings.max_nodes,
@@ -158,11 +174,11 @@ def temp(problem: Problem, settings: TEMPSettings) -> PlanResult:
         deadline=settings.deadline(log.started),
         local_tries=local_tries,
     )
-    uniform = resolve(settings, policy, "attention_uniform", 0.0)
-    follow = resolve(settings, policy, "attention_follow_fallback", 1.0)
-    resume = resolve(settings, policy, "attention_resume", RESUME_AFTER)
-    growth = resolve(settings, policy, "attention_resume_growth", 1.0)
-    rounds = resolve(settings, policy, "attention_rounds", ATTENTION_ROUNDS)
+    uniform = setting("attention_uniform")
+    follow = setting("attention_follow_fallback")
+    resume = setting("attention_resume")
+    growth = setting("attention_resume_growth")
+    rounds = setting("attention_rounds")
     keep_chunk = bool(settings.attention_keep_chunk)  # None: False, the rule shipped policies use
     outcome = run_attention_phase(
         tree, policy, rng, settings.goal_bias, limits, uniform=uniform, follow_fallback=follow,

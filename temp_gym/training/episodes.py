@@ -17,7 +17,7 @@ import numpy as np
 from temp_gym.config import Config, TEMPConfig, TrainEvalConfig
 from temp_gym.evaluation.statistics import bootstrap_interval
 from temp_gym.planning.plan import plan
-from temp_gym.planning.temp_planner import attention_solved_both_ways
+from temp_gym.planning.temp_planner import DEFAULTS, attention_solved_both_ways
 from temp_gym.planning.temp_settings import TEMPSettings, resolve
 from temp_gym.problem import Problem
 from temp_gym.worlds.structured import BOXES
@@ -40,7 +40,8 @@ def make_env(
     `PlanningMetrics`.
     """
     env_config, eval_config = config.env, config.train_eval
-    local = resolve(temp_settings(eval_config.temp), policy, "attention_local_fallback", 0)
+    name = "attention_local_fallback"
+    local = resolve(temp_settings(eval_config.temp), policy, name, DEFAULTS[name])
     env = gym.make(
         env_config.id,
         difficulty=eval_config.difficulty,
