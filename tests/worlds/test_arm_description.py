@@ -167,8 +167,8 @@ def test_the_chain_folds_fixed_joints_and_holds_joints_off_it(test_arm_path):
     assert chain.link_bodies["finger_left"] == chain.link_bodies["tip"] == 4
     # Fixed joints in and off the chain fold their links into the body above them.
     assert chain.link_bodies["l2b"] == chain.link_bodies["camera"] == 2
-    # Links above the base (world) are not part of the arm.
-    assert "world" not in chain.link_bodies
+    # A link above the base (world) rides on the base.
+    assert chain.link_bodies["world"] == 0 and chain.above_base == ("world",)
     kinds = [[element.kind for element in body] for body in chain.elements]
     assert kinds == [["box"], ["cylinder"], ["mesh", "mesh", "sphere"], ["mesh"],
                      ["box", "box", "box"]]  # fmt: skip
@@ -302,7 +302,7 @@ def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path):
         build(path)
 
 
-def test_a_mimic_above_the_base_is_no_part_of_the_arm(tmp_path):
+def test_a_mimic_above_the_base_is_not_followed(tmp_path):
     above = '<link name="world"/>' + _joint("jw", "world", "base", inner='<mimic joint="jz"/>')
     (tmp_path / "r.urdf").write_text(_TREE_HEAD + above + _TREE + "</robot>")
     text = "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l2\n"

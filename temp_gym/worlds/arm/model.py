@@ -247,6 +247,8 @@ def source_digest(description: RobotDescription, chain: ArmChain) -> str:
                 digest.update(mesh.read_bytes())
                 if mesh.suffix.lower() == ".dae":  # data built before its unit was applied
                     digest.update(b"unit applied\n")
+    if any(element.link in chain.above_base for element in chain.elements[0]):
+        digest.update(b"links above the base folded\n")  # data built before they were
     return digest.hexdigest()
 
 

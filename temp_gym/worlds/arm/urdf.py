@@ -8,7 +8,9 @@ What `read_chain` does with a URDF:
   into their parent's body, and so are links behind movable joints off the chain (fingers),
   held at the description's ``fixed_joints`` values (a ``mimic`` joint follows the joint it
   mimics; otherwise 0, clipped to its limits). Body 0 is the base, fixed at the world origin;
-  body ``j + 1`` is moved by joint ``j``. Links above ``base_link`` are not part of the arm.
+  body ``j + 1`` is moved by joint ``j``. Links above ``base_link`` (a mobile base, a torso,
+  a mount) and their other branches ride on the base too, held the same way
+  (`_fold_above`): the arm must not pass through them.
 * **Canonical frames.** Each body's frame is its chain link's URDF frame turned so that the
   joint's axis is z: then every joint turns (or slides) about z, which keeps the compiled
   kinematics short. Where an axis is a coordinate axis the turn is a signed permutation, so a
@@ -82,6 +84,7 @@ class ArmChain:
         elements: per body, its links' collision elements.
         fixed_values: the values given to movable joints off the chain.
         tip_link: the chain's last link.
+        above_base: the links above ``base_link`` (and their branches), folded into the base.
     """
 
     urdf: Path
@@ -95,6 +98,7 @@ class ArmChain:
     elements: tuple[tuple[CollisionElement, ...], ...]
     fixed_values: dict[str, float]
     tip_link: str
+    above_base: tuple[str, ...] = ()
 
     @property
     def dim(self) -> int:
@@ -329,6 +333,75 @@ def _check_mimics(
                 break  # refused when that joint's own turn comes
 
 
+def _axis(joint: ElementTree.Element, where: str) -> np.ndarray:
+    """A movable joint's unit axis (``<axis xyz>``, default x)."""
+    axis = _floats(joint.find("axis").get("xyz") if joint.find("axis") is not None else None,
+                   3, f"{where} axis", "1 0 0")  # fmt: skip
+    if np.linalg.norm(axis) < 1e-9:
+        raise UrdfError(f"{where}: zero axis")
+    return axis / np.linalg.norm(axis)
+
+
+def _held_motion(kind: str, axis: np.ndarray, value: float) -> np.ndarray:
+    """``(4, 4)``: a movable joint held at ``value``: a slide along or a turn about ``axis``."""
+    motion = np.eye(4)
+    if kind == "prismatic":
+        motion[:3, 3] = axis * value
+    else:
+        c, s = math.cos(value), math.sin(value)
+        skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]],
+                         [-axis[1], axis[0], 0]])  # fmt: skip
+        motion[:3, :3] = np.eye(3) + s * skew + (1 - c) * skew @ skew
+    return motion
+
+
+def _fold_above(
+    base_link: str,
+    children: dict[str, list[ElementTree.Element]],
+    parent_joint: dict[str, ElementTree.Element],
+    link_bodies: dict[str, int],
+    link_transforms: dict[str, np.ndarray],
+    held_value,
+    fixed_values: dict[str, float],
+) -> None:
+    """Fold every link that is not below ``base_link`` into the base (body 0).
+
+    A mobile manipulator's base, torso or mount carries the arm rigidly while it plans: the
+    links above ``base_link``, and every branch off them (wheels, a head, a second arm), are
+    placed in the base's frame with their movable joints at ``held_value(joint)`` (the
+    description's ``fixed_joints`` value, else 0; a ``<mimic>`` there is not followed), and
+    floating or planar joints at their zero pose. Without them the arm would pass through its
+    own base unseen. Fills ``link_bodies``, ``link_transforms`` and ``fixed_values``.
+    """
+
+    def step(joint: ElementTree.Element) -> np.ndarray:
+        """The child link's frame in its parent's, the joint held."""
+        name, kind = joint.get("name"), joint.get("type")
+        where = f"joint {name!r}"
+        origin = origin_transform(joint.find("origin"), where)
+        if kind not in MOVABLE:
+            return origin
+        value = held_value(joint)
+        fixed_values[name] = value
+        return origin @ _held_motion(kind, _axis(joint, where), value)
+
+    link, frame = base_link, np.eye(4)
+    while link in parent_joint:
+        joint = parent_joint[link]
+        parent = joint.find("parent").get("link")
+        frame = frame @ np.linalg.inv(step(joint))
+        link_bodies[parent] = 0
+        link_transforms[parent] = frame
+        pending = [(other, frame) for other in children.get(parent, []) if other is not joint]
+        while pending:  # the parent's other branches
+            branch, parent_frame = pending.pop()
+            child = branch.find("child").get("link")
+            link_bodies[child] = 0
+            link_transforms[child] = parent_frame @ step(branch)
+            pending += [(other, link_transforms[child]) for other in children.get(child, [])]
+        link = parent
+
+
 def read_chain(
     urdf: Path,
     base_link: str,
@@ -422,11 +495,7 @@ def read_chain(
             origin = link_transforms[parent] @ origin_transform(joint.find("origin"), where)
             body = link_bodies[parent]
             if kind in MOVABLE:
-                axis = _floats(joint.find("axis").get("xyz") if joint.find("axis") is not None
-                               else None, 3, f"{where} axis", "1 0 0")  # fmt: skip
-                if np.linalg.norm(axis) < 1e-9:
-                    raise UrdfError(f"{where}: zero axis")
-                axis = axis / np.linalg.norm(axis)
+                axis = _axis(joint, where)
                 turn = np.eye(4)
                 turn[:3, :3] = axis_frame(axis)
             if name in chain_names:
@@ -457,20 +526,28 @@ def read_chain(
                 if kind in MOVABLE:
                     value = fixed_value(joint)
                     fixed_values[name] = value
-                    motion = np.eye(4)
-                    if kind == "prismatic":
-                        motion[:3, 3] = axis * value
-                    else:
-                        c, s = math.cos(value), math.sin(value)
-                        skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]],
-                                         [-axis[1], axis[0], 0]])  # fmt: skip
-                        motion[:3, :3] = np.eye(3) + s * skew + (1 - c) * skew @ skew
-                    link_transforms[child] = origin @ motion
+                    link_transforms[child] = origin @ _held_motion(kind, axis, value)
                 elif kind == "fixed":
                     link_transforms[child] = origin
                 else:
                     raise UrdfError(f"{where}: a {kind} joint below the base is not supported")
             pending.append(child)
+
+    def held_value(joint: ElementTree.Element) -> float:
+        """A movable joint above the base: its ``fixed_joints`` value, else 0 (clipped)."""
+        try:
+            lower, upper = limits_of(joint)
+        except UrdfError:  # pybullet loads such a joint too; holding it needs no limits
+            lower, upper = -math.inf, math.inf
+        value = fixed_joints.get(joint.get("name"), 0.0)
+        if joint.get("name") in fixed_joints and not lower - 1e-12 <= value <= upper + 1e-12:
+            raise UrdfError(f"fixed_joints.{joint.get('name')}: {value} is outside its limits "
+                            f"[{lower}, {upper}] (override them with joint_limits)")  # fmt: skip
+        return float(np.clip(value, lower, upper))
+
+    below_base = set(link_bodies)
+    _fold_above(base_link, children, parent_joint, link_bodies, link_transforms, held_value,
+                fixed_values)  # fmt: skip
     if not names:
         raise UrdfError(f"{urdf.name}: no movable joint between {base_link!r} and {tip_link!r}")
     elements: list[list[CollisionElement]] = [[] for _ in bodies]
@@ -494,6 +571,7 @@ def read_chain(
         elements=tuple(tuple(e) for e in elements),
         fixed_values=fixed_values,
         tip_link=tip_link,
+        above_base=tuple(sorted(set(link_bodies) - below_base)),
     )
 
 
