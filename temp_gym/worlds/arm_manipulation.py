@@ -64,7 +64,7 @@ from temp_gym.worlds.arm_pieces import (
     objects_on,
     placed,
 )
-from temp_gym.worlds.arm_world import FLOOR_TOP, arm_of, arm_scale, base_free
+from temp_gym.worlds.arm_world import FLOOR_TOP, arm_of, arm_scale, base_free, scene_drop
 from temp_gym.worlds.structured import MANIPULATION
 
 FLOOR_SHARE = 0.4
@@ -342,16 +342,17 @@ def manipulation_scene(
     that finds no such place in `PLACEMENT_TRIES` is left out.
     """
     arm = arm_of(robot)
-    scale = arm_scale(arm)
+    scale, drop = arm_scale(arm), scene_drop(arm)
     ground, ground_pieces = _ground(rng)
-    ground_pieces = [piece.scaled(scale) for piece in ground_pieces]
+    ground_pieces = [piece.scaled(scale, drop) for piece in ground_pieces]
     names = list(BUILDERS)
     structures: list[list[Piece]] = []
     footprints: list[np.ndarray] = []
     for _ in range(int(rng.integers(STRUCTURES[0], STRUCTURES[1] + 1))):
         name = names[int(rng.integers(len(names)))]
         for _ in range(PLACEMENT_TRIES):
-            structure = [piece.scaled(scale) for piece in draw_structure(rng, name, ground)]
+            structure = [piece.scaled(scale, drop)
+                         for piece in draw_structure(rng, name, ground)]  # fmt: skip
             footprint = _footprint(structure)
             if _overlaps(footprint, footprints, SEPARATION * scale):
                 continue

@@ -87,9 +87,13 @@ class Piece:
             self.kind, center, self.half, compose(self.orientation, axis_quaternion(2, angle))
         )
 
-    def scaled(self, scale: float) -> Piece:
-        """This piece scaled about the origin (the robot's base)."""
-        return Piece(self.kind, self.center * scale, self.half * scale, self.orientation)
+    def scaled(self, scale: float, drop: float = 0.0) -> Piece:
+        """This piece scaled about the origin (the robot's base), then raised by ``drop``.
+
+        ``drop`` is `temp_gym.worlds.arm_world.scene_drop`, at most 0.
+        """
+        center = self.center * scale + np.array([0.0, 0.0, drop])
+        return Piece(self.kind, center, self.half * scale, self.orientation)
 
 
 def box(center, half, yaw: float = 0.0) -> Piece:

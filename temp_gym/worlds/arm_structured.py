@@ -66,6 +66,7 @@ from temp_gym.worlds.arm_world import (
     floor_slab,
     place,
     scaled,
+    scene_drop,
 )
 from temp_gym.worlds.structured import MANIPULATION
 
@@ -266,18 +267,19 @@ def generate_arm_structured_workspace(
     if family not in FAMILY_STRUCTURES:
         raise ValueError(f"family: expected one of {tuple(FAMILY_STRUCTURES)}, got {family!r}")
     arm = arm_of(robot)
-    scale = arm_scale(arm)
+    scale, drop = arm_scale(arm), scene_drop(arm)
 
     def draw(build: Callable, rng: np.random.Generator, side: int) -> list[Box]:
         """``build``'s boxes on ``side``, scaled, redrawn until they keep clear of the base."""
-        return draw_base_free(build, rng, side, TRIES, build.__name__.strip("_"), arm, scale)
+        return draw_base_free(build, rng, side, TRIES, build.__name__.strip("_"), arm, scale,
+                              drop)  # fmt: skip
 
     builders, (low, high) = FAMILY_STRUCTURES[family]
     names = list(builders)
     templates = list(TEMPLATES)
     for _ in range(TRIES):
         sides = [int(side) for side in rng.permutation(len(SIDES))]
-        boxes = scaled([floor_slab()], scale)
+        boxes = scaled([floor_slab()], scale, drop)
         for _ in range(int(rng.integers(low, high + 1))):
             builder = builders[names[int(rng.integers(len(names)))]]
             boxes += draw(builder, rng, sides.pop())

@@ -170,11 +170,32 @@ def arm_scale(arm: ArmModel) -> float:
     return arm.reach() / REFERENCE_REACH
 
 
-def scaled(boxes: list[Box], scale: float) -> list[Box]:
-    """The scene ``boxes`` scaled about the origin (the base) by ``scale``."""
-    if scale == 1.0:
+def scene_drop(arm: ArmModel) -> float:
+    """How far (m, at most 0) an arm's scene is lowered so that its floor stays below the base.
+
+    The templates stand on a floor just below z = 0, where the built-in arms' bases end. A base
+    that reaches lower (a round foot, a mount plate, a mobile base folded into it) would stand
+    in that floor, and no state of the arm would be free: its scene goes down by the base's
+    lowest point instead, when that is more than half the floor's gap below z = 0. Cached on
+    the arm.
+    """
+    key = "scene_drop"
+    if key not in arm._arrays:
+        pieces = [piece for piece in arm.geometry[0].pieces if len(piece)]
+        lowest = min((float(piece[:, 2].min()) for piece in pieces), default=0.0)
+        arm._arrays[key] = lowest if lowest < FLOOR_TOP * arm_scale(arm) / 2 else 0.0
+    return arm._arrays[key]
+
+
+def scaled(boxes: list[Box], scale: float, drop: float = 0.0) -> list[Box]:
+    """The scene ``boxes`` scaled about the origin (the base) by ``scale``, raised by ``drop``.
+
+    ``drop`` is `scene_drop`, at most 0.
+    """
+    if scale == 1.0 and drop == 0.0:
         return boxes
-    return [(center * scale, half * scale) for center, half in boxes]
+    lowered = np.array([0.0, 0.0, drop])
+    return [(center * scale + lowered, half * scale) for center, half in boxes]
 
 
 def base_free(arm: ArmModel, boxes: list[Box]) -> bool:
@@ -200,8 +221,9 @@ def draw_base_free(
     what: str,
     arm: ArmModel,
     scale: float = 1.0,
+    drop: float = 0.0,
 ) -> list[Box]:
-    """``build(rng, side)`` redrawn until its boxes, scaled, keep clear of the arm's base.
+    """``build(rng, side)`` redrawn until its boxes, as `scaled`, keep clear of the arm's base.
 
     Returns the scaled boxes.
 
@@ -210,7 +232,7 @@ def draw_base_free(
             ``what``).
     """
     for _ in range(tries):
-        boxes = scaled(build(rng, side), scale)
+        boxes = scaled(build(rng, side), scale, drop)
         if base_free(arm, boxes):
             return boxes
     raise RuntimeError(f"{what}: no base-free placement in {tries} draws")
@@ -231,9 +253,9 @@ def generate_arm_workspace(robot: str, rng: np.random.Generator, max_tries: int 
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
     arm = arm_of(robot)
-    scale = arm_scale(arm)
+    scale, drop = arm_scale(arm), scene_drop(arm)
     bounds = arm.joint_limits()
-    boxes: list[Box] = scaled([floor_slab()], scale)
+    boxes: list[Box] = scaled([floor_slab()], scale, drop)
     names = list(TEMPLATES)
 
     def any_template(rng: np.random.Generator, side: int) -> list[Box]:
@@ -243,7 +265,7 @@ def generate_arm_workspace(robot: str, rng: np.random.Generator, max_tries: int 
     for _ in range(int(rng.integers(3, 5))):
         side = int(sides.pop())
         boxes += draw_base_free(any_template, rng, side, max_tries, "generate_arm_workspace",
-                                arm, scale)  # fmt: skip
+                                arm, scale, drop)  # fmt: skip
     centers = np.array([c for c, _ in boxes])
     halves = np.array([h for _, h in boxes])
     return Workspace(robot, bounds, centers, halves)
@@ -351,6 +373,7 @@ def generate_arm_task(
 
 __all__ = [
     "FLOOR_TOP",
+    "scene_drop",
     "SIDES",
     "TEMPLATES",
     "box_corners",

@@ -195,3 +195,41 @@ def test_an_impossible_task_gives_up(arms, robot, near):
     with pytest.raises(RuntimeError, match="no 'any' start-goal pair in 100 tries"):
         _within(2, lambda: generate_arm_task(blocked, np.random.default_rng(0), "any", 0.1,
                                              max_tries=100, near=near))  # fmt: skip
+
+
+def test_a_base_that_reaches_below_the_floor_lowers_the_scene(tmp_path):
+    # The floor stood at z = -1 cm whatever the base: an arm whose base reaches lower (a round
+    # foot, a mount plate, a mobile base) stood in it, and no state of it was ever free.
+    from arm_fixtures import write_test_arm
+
+    from temp_gym.worlds.arm.build import build
+    from temp_gym.worlds.arm.spec import register_robot_file
+    from temp_gym.worlds.arm_world import scene_drop
+    from temp_gym.worlds.generators import generate_workspace
+    from temp_gym.worlds.robots import forget_robot
+
+    path = write_test_arm(tmp_path)
+    urdf = tmp_path / "test_arm" / "robot.urdf"
+    foot = '<origin xyz="0 0 0.05"/><geometry><box size="0.2 0.2 0.1"/>'
+    assert foot in urdf.read_text()
+    urdf.write_text(urdf.read_text().replace(
+        foot, '<origin xyz="0 0 -0.05"/><geometry><box size="0.2 0.2 0.3"/>'))  # fmt: skip
+    path.write_text(path.read_text().replace("test_arm\n", "low_test_arm\n", 1)
+                    .replace("TestArm", "LowTestArm").replace("90001", "90002"))  # fmt: skip
+    build(path, log=lambda line: None)
+    spec = register_robot_file(path)
+    try:
+        arm = load_arm(path)
+        assert scene_drop(arm) == pytest.approx(-0.2, abs=1e-6)
+        for family in ("boxes", "traps", "manipulation"):
+            workspace = generate_workspace(spec.name, np.random.default_rng(0), family=family)
+            floor_top = (workspace.obstacle_upper[:, 2]).min()
+            assert floor_top < -0.2, family
+            checker = make_checker(workspace)
+            assert checker.base_free, family
+            states = np.random.default_rng(1).uniform(*workspace.bounds, size=(400, spec.dim))
+            assert checker.states_free(states).mean() > 0.05, family
+        for robot in ROBOTS:  # the built-in arms' scenes stand where they always stood
+            assert scene_drop(load_arm(robot_spec(robot).description)) == 0.0
+    finally:
+        forget_robot(spec.name)
