@@ -205,6 +205,14 @@ def make_replay_buffer(config: Config, split: str) -> SplitData:
                 f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no "
                 "samples; training needs at least one workspace in each split"
             )
+        if plans[2] == plans[1]:  # no plan ran: more nodes cannot help
+            raise ConfigError(
+                f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no "
+                f"samples: none of its {plans[1]} tasks could be drawn (no free start and goal "
+                f"of difficulty {config.data.difficulty!r} in its workspaces); is the robot "
+                "in collision with its workspaces or itself in nearly every configuration? "
+                "(temp-view a workspace, or count free states with its checker)"
+            )
         raise ConfigError(
             f"data.workspaces.{split}: the {split} split of {config.data.dir} holds no samples: "
             f"{plans[0]} of its {plans[1]} expert plans succeeded (within data.max_nodes = "
@@ -217,15 +225,19 @@ def make_replay_buffer(config: Config, split: str) -> SplitData:
     return SplitData(buffer, workspaces, chunk, [load_corrections(path) for path in rounds])
 
 
-def _plans_stored(directory: str, split: str) -> tuple[int, int] | None:
-    """``(stored, attempted)`` expert plans of ``split`` from its dataset card (None: no card)."""
+def _plans_stored(directory: str, split: str) -> tuple[int, int, int] | None:
+    """``(stored, attempted, not drawn)`` expert plans of ``split`` from its dataset card.
+
+    None without a card. A task not drawn (no free start and goal found) counts as attempted.
+    """
     import json
     from pathlib import Path
 
     try:
         card = json.loads((Path(directory) / "dataset_card.json").read_text())
         counts = card["splits"][split]
-        return int(counts["plans_stored"]), int(counts["plans_attempted"])
+        not_drawn = int(counts.get("tasks_not_drawn", 0))
+        return int(counts["plans_stored"]), int(counts["plans_attempted"]), not_drawn
     except (OSError, ValueError, KeyError, TypeError):
         return None
 

@@ -323,6 +323,11 @@ def test_a_split_whose_expert_plans_all_failed_says_so(tmp_path, monkeypatch):
     (tmp_path / "dataset_card.json").write_text(json.dumps(card))
     with pytest.raises(ConfigError, match=r"holds no samples: 0 of its 3 expert plans succeeded"):
         make_replay_buffer(config, "val")
+    # No task could be drawn at all: the node budget is not what to change.
+    card["splits"]["val"]["tasks_not_drawn"] = 3
+    (tmp_path / "dataset_card.json").write_text(json.dumps(card))
+    with pytest.raises(ConfigError, match=r"none of its 3 tasks could be drawn \(no free start"):
+        make_replay_buffer(config, "val")
     (tmp_path / "dataset_card.json").unlink()  # no card: no count to give
     with pytest.raises(ConfigError, match=r"holds no samples; training needs at least one"):
         make_replay_buffer(config, "val")
