@@ -121,6 +121,29 @@ def test_a_xacro_file_is_refused_with_the_command_that_expands_it(tmp_path):
         load_arm(path, require_derived=False)
 
 
+def test_an_undeclared_namespace_prefix_is_read_as_pybullet_reads_it(tmp_path):
+    # airo-models' UR3e carries drake:acceleration without declaring xmlns:drake; pybullet,
+    # RViz and MoveIt load it, and this reader refused it as invalid XML.
+    limit = '<limit lower="-1" upper="1" drake:acceleration="3.1"/>'
+    urdf = _TREE_HEAD + _TREE.replace('<limit lower="-1" upper="1"/>', limit, 1) + "</robot>"
+    assert limit in urdf
+    (tmp_path / "r.urdf").write_text(urdf)
+    text = "name: r\nurdf: r.urdf\nbase_link: base\ntip_link: l2\n"
+    assert load_arm(_description(tmp_path, text), require_derived=False).joint_names == (
+        "j1",
+        "j2",
+    )
+    # An undeclared xacro prefix is still a xacro file; broken XML is still refused. (The same
+    # description with its URDF edited in this process: the URDF is read again, not cached.)
+    (tmp_path / "r.urdf").write_text(urdf.replace("<link name=\"l2\">", '<xacro:macro name="m"/>'
+                                                 '<link name="l2">'))  # fmt: skip
+    with pytest.raises(UrdfError, match=r"a xacro file"):
+        load_arm(tmp_path / "robot.yaml", require_derived=False)
+    (tmp_path / "r.urdf").write_text(urdf.replace("</robot>", ""))
+    with pytest.raises(UrdfError, match=r"r.urdf: not valid XML \(no element found"):
+        load_arm(tmp_path / "robot.yaml", require_derived=False)
+
+
 def test_an_exponent_without_a_dot_is_a_number(tmp_path):
     text = ("name: a\nurdf: pybullet_data://kuka_iiwa/model.urdf\nbase_link: lbr_iiwa_link_0\n"
             "tip_link: lbr_iiwa_link_7\nspheres: {tolerance: 6e-3}\n")  # fmt: skip

@@ -4,7 +4,8 @@
 (`temp_gym.worlds.arm.urdf`) and collision geometry (`temp_gym.worlds.arm.meshes`), and the
 derived data that ``temp-robot build`` wrote beside the description (spheres, the
 allowed-collision matrix, pair tables: `temp_gym.worlds.arm.build`). It is cached per
-description file and content, so every checker of a process shares one `ArmModel`.
+description file and content (and its URDF's and derived data's: an edited file is read
+again), so every checker of a process shares one `ArmModel`.
 
 Example:
     >>> arm = load_arm("temp_gym/worlds/robots/descriptions/kuka_iiwa14.yaml")
@@ -279,7 +280,18 @@ def _load(path: Path, stamp: tuple, require_derived: bool) -> ArmModel:
     elif require_derived:
         raise ArmDataError(f"{description.name}: no derived data ({derived_path.name}); run "
                            f"temp-robot build {path}")  # fmt: skip
-    return ArmModel(description, chain, geometry, derived)
+    arm = ArmModel(description, chain, geometry, derived)
+    arm._arrays["urdf_stamp"] = _stamp(chain.urdf)
+    return arm
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """A file's modification time and size (None: no file), to tell an edited file."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_mtime_ns, stat.st_size
 
 
 def resolved_path(path: str | Path) -> Path:
@@ -305,14 +317,13 @@ def load_arm(path: str | Path, require_derived: bool = True) -> ArmModel:
         ArmDataError: the derived data is missing or stale (``require_derived``).
     """
     path = resolved_path(path)
-    stat = path.stat() if path.is_file() else None
-    derived = path.with_name(path.stem + ".derived.json")
-    derived_stat = derived.stat() if derived.is_file() else None
-    stamp = tuple(
-        (s.st_mtime_ns, s.st_size) if s is not None else None for s in (stat, derived_stat)
-    )
+    stamp = (_stamp(path), _stamp(path.with_name(path.stem + ".derived.json")))
     with _LOCK:
-        return _load(path, stamp, require_derived)
+        arm = _load(path, stamp, require_derived)
+        if arm._arrays["urdf_stamp"] != _stamp(arm.chain.urdf):  # the URDF was edited since
+            _load.cache_clear()
+            arm = _load(path, stamp, require_derived)
+        return arm
 
 
 __all__ = [

@@ -27,6 +27,7 @@ Errors name the URDF element and the reason in one line (`UrdfError`).
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
@@ -161,15 +162,47 @@ XACRO_NAMESPACE = "{http://www.ros.org/wiki/xacro}"
 """Elements of this namespace make a file xacro, a macro language over URDF, not URDF."""
 
 
+_PREFIXED = re.compile(rb"(?:<|\s)([A-Za-z_][\w.-]*):[A-Za-z_][\w.-]*")
+_DECLARED = re.compile(rb"xmlns:([A-Za-z_][\w.-]*)\s*=")
+_ROBOT_TAG = re.compile(rb"<robot(?=[\s>/])")
+
+
+def _declare_prefixes(text: bytes) -> bytes | None:
+    """``text`` with its undeclared namespace prefixes declared on ``<robot>``, or None.
+
+    URDFs exported by some tools carry attributes such as ``drake:acceleration`` without
+    declaring ``xmlns:drake``. pybullet, RViz and MoveIt read them (their parsers ignore
+    namespaces), so this reader does too: each prefix gets a namespace of its own, ``xacro``
+    its real one (so that a xacro file is still recognised as one).
+    """
+    used = set(_PREFIXED.findall(text)) - set(_DECLARED.findall(text)) - {b"xmlns", b"xml"}
+    match = _ROBOT_TAG.search(text)
+    if not used or match is None:
+        return None
+    declarations = b"".join(
+        b' xmlns:%s="%s"' % (prefix, (XACRO_NAMESPACE.strip("{}") if prefix == b"xacro"
+                                      else f"urn:undeclared:{prefix.decode()}").encode())
+        for prefix in sorted(used)
+    )  # fmt: skip
+    return text[: match.end()] + declarations + text[match.end() :]
+
+
 def _parse(urdf: Path) -> ElementTree.Element:
     if not urdf.is_file():
         raise UrdfError(f"urdf: no such file: {urdf}")
     if urdf.stat().st_size > MAX_URDF_BYTES:
         raise UrdfError(f"{urdf.name}: larger than {MAX_URDF_BYTES} bytes")
+    text = urdf.read_bytes()
     try:
-        root = ElementTree.fromstring(urdf.read_bytes())
+        root = ElementTree.fromstring(text)
     except ElementTree.ParseError as error:
-        raise UrdfError(f"{urdf.name}: not valid XML ({error})") from None
+        declared = _declare_prefixes(text) if "unbound prefix" in str(error) else None
+        if declared is None:
+            raise UrdfError(f"{urdf.name}: not valid XML ({error})") from None
+        try:
+            root = ElementTree.fromstring(declared)
+        except ElementTree.ParseError as other:  # what is wrong besides the prefixes
+            raise UrdfError(f"{urdf.name}: not valid XML ({other})") from None
     if root.tag != "robot":
         raise UrdfError(f"{urdf.name}: the root element is <{root.tag}>, not <robot>")
     if any(element.tag.startswith(XACRO_NAMESPACE) for element in root.iter()):
