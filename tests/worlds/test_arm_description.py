@@ -311,7 +311,7 @@ def test_a_mesh_is_read_in_the_unit_its_file_declares_and_a_zero_scale_is_refuse
         load_arm(flat, require_derived=False)
 
 
-def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path):
+def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path, capsys):
     from temp_gym.worlds.arm.build import main
 
     text = ("name: point2d\nurdf: pybullet_data://kuka_iiwa/model.urdf\n"
@@ -319,6 +319,10 @@ def test_a_built_in_robots_name_is_refused_before_the_build(tmp_path):
     path = _description(tmp_path, text)
     assert main(["build", str(path)]) == 2
     assert not path.with_name("robot.derived.json").exists()  # refused before any work
+    capsys.readouterr()
+    # `check` gives the refusal `build` would give, not "run temp-robot build".
+    assert main(["check", str(path)]) == 2
+    assert "name: 'point2d' is taken by the built-in robot" in capsys.readouterr().err
     with pytest.raises(DescriptionError, match=r"name: 'point2d' is taken by the built-in robot"):
         from temp_gym.worlds.arm.build import build
 

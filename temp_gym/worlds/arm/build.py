@@ -171,8 +171,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "build":
             build(args.description, force=args.force)
         else:
+            # What `build` would refuse first, then the data.
+            refuse_built_in_names(load_arm(args.description, require_derived=False).description)
             arm = load_arm(args.description)
-            refuse_built_in_names(arm.description)
             enabled = len(arm.enabled_pairs())
             print(f"{arm.name}: {arm.dim} joints, {arm.num_bodies} bodies, {enabled} body pairs "
                   "checked for self-collision; derived data up to date")  # fmt: skip
