@@ -1,11 +1,12 @@
 """Environment encoding: an occupancy grid of the workspace, the model's view of obstacles.
 
 A cell is occupied when the closed box of the cell overlaps an obstacle, so an obstacle
-thinner than a cell still shows up: exactly for boxes (rotated or not) and spheres, and
-conservatively for cylinders, where a cell by the rim may be marked without touching it
-(`mark_obstacles`). The grid covers the robot's encoding region
-(`temp_gym.worlds.robots.RobotSpec.region`): the configuration bounds for point robots, and a
-fixed box around the iiwa that holds its whole reach.
+thinner than a cell still shows up: exactly for rotated boxes and spheres, and conservatively
+for cylinders, where a cell by the rim may be marked without touching it; an axis-aligned box
+marks the cells it spans, not those it only touches at a face (`mark_obstacles`). The grid
+covers the robot's encoding region (`temp_gym.worlds.robots.RobotSpec.region`): the
+configuration bounds for point robots, and a fixed box around the iiwa that holds its whole
+reach.
 """
 
 from __future__ import annotations
@@ -135,6 +136,11 @@ def mark_obstacles(flat, region, codes, centers, halves, rotations, lower, upper
             if exact:
                 stop[k] = min(max(int(np.ceil((upper[b, k] - region[0, k]) / cell[k])), 0),
                               resolution)  # fmt: skip
+                # A box thinner than rounding, on a grid line inside the region: the cell
+                # after the line (else it would span no cell and vanish from the grid).
+                if (stop[k] == first[k] and upper[b, k] > region[0, k]
+                        and lower[b, k] < region[1, k]):  # fmt: skip
+                    stop[k] = first[k] + 1
             else:  # a cell its bounding box only touches is tested too
                 stop[k] = min(max(int(np.floor((upper[b, k] - region[0, k]) / cell[k])) + 1, 0),
                               resolution)  # fmt: skip

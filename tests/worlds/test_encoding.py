@@ -29,6 +29,12 @@ def test_cells_overlapping_a_box_are_occupied():
 def test_a_box_thinner_than_a_cell_still_shows_up():
     grid = occupancy_grid(workspace_2d([[10.3, 10.0]], [[1e-6, 5.0]]), 16)
     assert grid[8].sum() > 0 and grid.sum() == grid[8].sum()
+    # Thinner than rounding, on a grid line (x = 10 at 20 cells): it spanned no cell and
+    # vanished, though the checkers block every motion across it.
+    grid = occupancy_grid(workspace_2d([[10.0, 10.0]], [[1e-17, 8.0]]), 20)
+    assert grid[10, 2:18].all() and grid.sum() == 16
+    # Touching the region from outside stays outside.
+    assert occupancy_grid(workspace_2d([[-1.0, 10.0]], [[1.0, 8.0]]), 20).sum() == 0
 
 
 def test_obstacles_outside_the_region_are_ignored_and_an_empty_world_is_free():
