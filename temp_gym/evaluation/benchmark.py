@@ -29,6 +29,7 @@ database, the summary and the plots; `temp_gym.evaluation.benchmark_command` is
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -78,6 +79,10 @@ class BenchmarkSettings:
     """Simplify each solved run's path (`temp_gym.planning.simplify`), as OMPL's Benchmark does
     when asked: the run's time, cost and path states stay the planner's, and the record adds
     the simplified path's length, states and the simplification's time."""
+    checkpoint: str | None = None
+    """A trained policy file (`trainers/bc.py`'s ``best.pt``) for the ``temp`` planner; None:
+    each robot's shipped policy. Stored as an absolute path; the manifest keeps its content's
+    digest, so that a resume with another policy is refused."""
 
     def __post_init__(self) -> None:
         from temp_gym.planning.plan import PLANNERS  # the built-in planners registered
@@ -107,14 +112,28 @@ class BenchmarkSettings:
         object.__setattr__(self, "max_nodes", count(self.max_nodes, "max_nodes"))
         object.__setattr__(self, "stop_at_first", flag(self.stop_at_first, "stop_at_first"))
         object.__setattr__(self, "simplify", flag(self.simplify, "simplify"))
+        if self.checkpoint is not None:
+            if not isinstance(self.checkpoint, (str, os.PathLike)):
+                raise ValueError(f"checkpoint: expected a file path, got {self.checkpoint!r}")
+            if "temp" not in planners:
+                raise ValueError("checkpoint: a policy for the temp planner, which is not among "
+                                 f"the planners {list(planners)}")  # fmt: skip
+            path = os.path.abspath(os.fspath(self.checkpoint))
+            if not os.path.isfile(path):
+                raise ValueError(f"checkpoint: no such file: {self.checkpoint}")
+            object.__setattr__(self, "checkpoint", path)
 
     def manifest(self) -> dict[str, Any]:
         """What ``benchmark.json`` holds: the settings a stored run depends on."""
         shared = asdict(self)
         del shared["planners"], shared["runs"]  # may grow between reruns
-        for name in ("stop_at_first", "simplify"):  # off: as stored before the setting existed
-            if not shared[name]:
+        for name in ("stop_at_first", "simplify", "checkpoint"):  # off: as stored before
+            if not shared[name]:  # the setting existed
                 del shared[name]
+        if self.checkpoint is not None:  # the policy, wherever its file lies
+            from temp_gym.models.snapshot import file_digest
+
+            shared["checkpoint"] = file_digest(self.checkpoint)
         return {"format": FORMAT, "record_version": RECORD_VERSION, **shared}
 
 
@@ -127,6 +146,30 @@ def run_seed(seed: int, problem: str, run: int) -> int:
 def reaches_goal(problem: Problem, path: np.ndarray) -> bool:
     """Whether ``path`` starts at the start and ends in the goal region (a closed ball)."""
     return problem.path_ends_error(path) is None
+
+
+@functools.lru_cache(maxsize=4)
+def _loaded_policy(path: str):
+    from temp_gym.models.registry import policy_from_checkpoint
+
+    return policy_from_checkpoint(path)
+
+
+def checkpoint_policy(path: str, problem: Problem | None = None):
+    """The policy of the checkpoint at ``path``, loaded once per process.
+
+    Loaded as `temp-plan` loads it, with the planner settings it carries.
+
+    Raises:
+        ValueError: it was trained for another robot than ``problem``'s (one line).
+    """
+    from temp_gym.planning.policy import check_compatible
+
+    policy = _loaded_policy(path)
+    if problem is not None:
+        check_compatible(policy.robot, policy.dim, problem.robot, problem.dim,
+                         f"checkpoint {path}")  # fmt: skip
+    return policy
 
 
 def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict[str, Any]:
@@ -143,9 +186,12 @@ def run_once(job: tuple[str, Problem, str, int, int, BenchmarkSettings]) -> dict
     forget_workspace(problem.workspace)
     started = time.perf_counter()
     try:
+        options = {}
+        if planner == "temp" and settings.checkpoint is not None:
+            options["policy"] = checkpoint_policy(settings.checkpoint, problem)
         result = plan(problem, planner, seed=seed, time_limit=settings.time_limit,
                       max_nodes=settings.max_nodes, stop_at_first=settings.stop_at_first,
-                      simplify=settings.simplify)  # fmt: skip
+                      simplify=settings.simplify, **options)  # fmt: skip
     except Exception as error:  # recorded as OMPL's Benchmark records a crash; rerun later
         return {**record, "status": "crash", "solved": False, "error": one_line(error),
                 "time": time.perf_counter() - started, "finished": time.time()}  # fmt: skip

@@ -99,6 +99,9 @@ def build_parser(source: ProblemSource | None = None, prog: str = PROG) -> argpa
         metavar="N",
         help="run only the first N problems of each experiment (by name)",
     )
+    parser.add_argument("--checkpoint", default=None, metavar="PATH",
+                        help="temp: a trained policy (trainers/bc.py's best.pt) instead of each "
+                        "robot's shipped one (a robot of your own ships none)")  # fmt: skip
     parser.add_argument("--group", choices=("scene", "one", "problem"), default="scene",
                         help="experiments: one per scene (a problem name's part before its "
                         "last '/'), one for the whole set, or one per problem")  # fmt: skip
@@ -115,6 +118,7 @@ def _settings(args: argparse.Namespace):
             planners=tuple(args.planners), time_limit=args.time_limit, runs=args.runs,
             seed=args.seed, max_nodes=args.max_nodes or DEFAULT_MAX_NODES,
             stop_at_first=args.stop_at_first, simplify=args.simplify,
+            checkpoint=args.checkpoint,
         )  # fmt: skip
     except ValueError as error:
         field, _, reason = str(error).partition(":")
@@ -141,6 +145,30 @@ def _load(args: argparse.Namespace, source: ProblemSource | None) -> tuple[list,
         problems, skipped = folder_problems(args.problems)
         return problems, skipped, Path(args.problems).absolute().name
     return split_problems(args.split, args.seed), [], args.split.replace(":", "-")
+
+
+def _check_policies(problems: list, settings) -> None:
+    """Refuse, before any run, a ``temp`` planner without a policy for some problem's robot.
+
+    Every run of it would otherwise be recorded as a crash.
+    """
+    from temp_gym.evaluation.benchmark import checkpoint_policy
+    from temp_gym.models.registry import shipped_checkpoint
+
+    for _, problem in {(p.robot, p.dim): (name, p) for name, p in problems}.values():
+        if settings.checkpoint is not None:
+            try:
+                checkpoint_policy(settings.checkpoint, problem)
+            except ValueError as error:
+                raise ValueError(f"--checkpoint: {error}") from None
+            continue
+        try:
+            shipped_checkpoint(problem.robot)
+        except FileNotFoundError:
+            raise ValueError(
+                f"--planners temp: no pretrained policy ships for robot {problem.robot!r}; give "
+                "one with --checkpoint PATH (trainers/bc.py trains one)"
+            ) from None
 
 
 def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
@@ -173,6 +201,8 @@ def run(args: argparse.Namespace, source: ProblemSource | None = None) -> str:
         report(one_line(f"{PROG}: skipping {name}: {reason}"))
     if not problems:
         raise ValueError("problems: no problem left to run (every one was skipped)")
+    if "temp" in settings.planners:
+        _check_policies(problems, settings)
     experiments = group_experiments(problems, args.group, whole)
     if args.limit is not None:
         experiments = {name: sorted(members, key=lambda named: named[0])[: args.limit]

@@ -334,3 +334,42 @@ def test_the_outputs_are_written_under_the_folders_lock(bench, monkeypatch):
     monkeypatch.setattr(report, "write_outputs", watched)
     assert main(command(problems, out)) == 0
     assert held == [True]
+
+
+def test_temp_plans_with_a_checkpoint_and_a_robot_without_a_policy_is_refused(
+    tmp_path, capsys, monkeypatch
+):
+    # A robot of your own ships no policy: temp-benchmark had no way to give one, and recorded
+    # every temp run as a crash (exit 0).
+    from temp_gym.models import registry
+
+    problems = tmp_path / "problems"
+    (problems / "walls").mkdir(parents=True)
+    (problems / "walls" / "0000.json").write_text(json.dumps(WALLS))
+    shipped_2d, shipped_3d = (registry.shipped_checkpoint(r) for r in ("point2d", "point3d"))
+    base = ["--problems", str(problems), "--planners", "temp", "--runs", "1", "--time-limit", "1",
+            "--max-nodes", "300", "--stop-at-first", "--no-progress"]  # fmt: skip
+
+    def refused(argv, message, out):
+        assert main([*argv, "--out", str(out)]) == 2
+        error = capsys.readouterr().err.strip()
+        assert message in error and "\n" not in error, error
+        assert not (out / "runs.jsonl").exists()
+
+    out = tmp_path / "out"
+    assert main([*base, "--out", str(out), "--checkpoint", str(shipped_2d)]) == 0
+    records = read_records(out / "runs.jsonl")
+    assert [r["status"] for r in records] == ["solved"]
+    other = tmp_path / "other.pt"  # another policy: resuming would mix the two
+    other.write_bytes(shipped_3d.read_bytes())
+    assert main([*base, "--out", str(out), "--checkpoint", str(other)]) == 2
+    assert "other settings (differs in: checkpoint)" in capsys.readouterr().err
+    refused([*base, "--checkpoint", str(shipped_3d)],
+            "--checkpoint: checkpoint", tmp_path / "o1")  # fmt: skip
+    refused([*base[:3], "rrt_star", *base[4:], "--checkpoint", str(shipped_2d)],
+            "--checkpoint: a policy for the temp planner", tmp_path / "o2")  # fmt: skip
+    refused([*base, "--checkpoint", str(tmp_path / "missing.pt")],
+            "--checkpoint: no such file", tmp_path / "o3")  # fmt: skip
+    monkeypatch.setattr(registry, "CHECKPOINT_DIR", str(tmp_path / "none"))
+    refused(base, "--planners temp: no pretrained policy ships for robot 'point2d'; give one "
+            "with --checkpoint PATH", tmp_path / "o4")  # fmt: skip
