@@ -229,6 +229,10 @@ def test_a_base_that_reaches_below_the_floor_lowers_the_scene(tmp_path):
             assert checker.base_free, family
             states = np.random.default_rng(1).uniform(*workspace.bounds, size=(400, spec.dim))
             assert checker.states_free(states).mean() > 0.05, family
+            # The policy's grid goes down with the scene: it holds the floor's top (a
+            # manipulation scene may stand on a pedestal over a floor further down).
+            region = spec.region(workspace.bounds)
+            assert family == "manipulation" or region[0, 2] < floor_top < region[1, 2], family
         for robot in ROBOTS:  # the built-in arms' scenes stand where they always stood
             assert scene_drop(load_arm(robot_spec(robot).description)) == 0.0
     finally:

@@ -86,9 +86,13 @@ def make_arm_checker(arm, workspace, exact: bool = False):
     return ArmSphereChecker(arm, workspace.bounds, obstacles=obstacles)
 
 
-def default_region(reach: float) -> np.ndarray:
-    """The occupancy grid's box around an arm of this reach (base at the origin, z up)."""
-    return np.array([[-1.1 * reach, -1.1 * reach, -0.15 * reach],
+def default_region(reach: float, drop: float = 0.0) -> np.ndarray:
+    """The occupancy grid's box around an arm of this reach (base at the origin, z up).
+
+    Its floor goes down with the arm's scene (``drop``, `temp_gym.worlds.arm_world.scene_drop`),
+    so that the policy sees the floor and furniture of an arm whose base reaches below z = 0.
+    """
+    return np.array([[-1.1 * reach, -1.1 * reach, drop - 0.15 * reach],
                      [1.1 * reach, 1.1 * reach, 1.25 * reach]])  # fmt: skip
 
 
@@ -105,8 +109,10 @@ def arm_spec(path: str | Path) -> RobotSpec:
     region = description.encoding_region
     if region is None:
         from temp_gym.worlds.arm.model import load_arm
+        from temp_gym.worlds.arm_world import scene_drop
 
-        region = default_region(load_arm(key, require_derived=False).reach())
+        arm = load_arm(key, require_derived=False)
+        region = default_region(arm.reach(), scene_drop(arm))
     return RobotSpec(
         name=description.name,
         env_id=description.env_id,
