@@ -273,8 +273,8 @@ def _load(path: Path, stamp: tuple, require_derived: bool) -> ArmModel:
         if derived.get("source_digest") != source_digest(description, chain):
             if require_derived:
                 raise ArmDataError(
-                    f"{derived_path.name}: made from another description, URDF or mesh; run "
-                    f"temp-robot build {path}"
+                    f"{derived_path.name}: made from another description, URDF or mesh, or by "
+                    f"another version of temp-gym; run temp-robot build {path}"
                 )
             derived = None
     elif require_derived:
