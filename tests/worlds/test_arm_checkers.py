@@ -547,3 +547,28 @@ def test_an_edges_first_intervals_tile_it_end_first_then_start(steps):
     assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))  # no gap, no overlap
     assert all(0 < b - a <= COARSE_INTERVALS / steps * (1 + 1e-12) for a, b in spans)
     assert len(middle) == -(-max(steps - 2, 0) // COARSE_INTERVALS)
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_reported_penetration_is_no_deeper_than_the_link_and_obstacle_allow(arms, robot):
+    # fcl's contact depth of a link mesh in a box reached 0.8-1.4 m for a 10 cm floor slab
+    # and a hand 0.1-0.25 m across, and `Problem.load` printed it. No translation longer than
+    # the link's size plus the slab's thickness is needed to separate them.
+    from temp_gym.problem import Workspace
+
+    arm = arms[robot]
+    workspace = generate_arm_workspace(robot, np.random.default_rng(0))
+    floor = Workspace(robot, workspace.bounds, workspace.obstacle_centers[:1],
+                      workspace.obstacle_half_extents[:1])  # fmt: skip
+    exact = ArmExactChecker(arm, floor.bounds, floor.obstacle_lower, floor.obstacle_upper)
+    thickness = 2 * floor.obstacle_half_extents[0, 2]
+    deep = 0
+    for state in _uniform(arm, 300, seed=1):
+        report = exact.obstacle_report(state)
+        if report and report[0][2] < 0:
+            link, _, distance = report[0]
+            points = np.concatenate(arm.geometry[arm.body_names.index(link)].pieces)
+            size = np.linalg.norm(points.max(axis=0) - points.min(axis=0))
+            assert -distance <= size + thickness + 0.01, (link, distance, size)
+            deep += 1
+    assert deep > 10

@@ -575,8 +575,9 @@ class ArmExactChecker:
         """Per body near an obstacle: ``(link, obstacle index, distance)``, nearest first.
 
         The distance is in metres (0 or less: touching, with fcl's penetration depth negated
-        where fcl gives one). Bodies farther than `MESH_DISTANCE_BELOW` from every obstacle
-        are left out. `obstacle_name` names an index in words.
+        where fcl gives one, at most `_depth_bound`). Bodies farther than
+        `MESH_DISTANCE_BELOW` from every obstacle are left out. `obstacle_name` names an index
+        in words.
         """
         poses = self.arm.forward_kinematics(as_state(state, "state", self.dim))[0]
         if not self._obstacles:
@@ -604,10 +605,23 @@ class ArmExactChecker:
                         result = fcl.CollisionResult()
                         if fcl.collide(obj, self._obstacles[b], request, result):
                             depth = max([depth] + [c.penetration_depth for c in result.contacts])
-                    distance = -depth
+                    distance = -min(depth, self._depth_bound(poses, j, b))
                 if distance <= MESH_DISTANCE_BELOW:
                     report.append((self.arm.body_names[j], int(b), float(distance)))
         return sorted(report, key=lambda entry: entry[2])
+
+    def _depth_bound(self, poses: np.ndarray, j: int, b: int) -> float:
+        """An upper bound on how deep body ``j`` is in obstacle ``b``.
+
+        Their world boxes' least overlap along an axis: moving the body that far along it
+        separates the boxes, so the shapes. fcl's contact depths between a mesh and a box can
+        be far larger (a metre for a link 5 cm into a 10 cm slab).
+        """
+        rotation = poses[j, :3, :3]
+        center = rotation @ self._local_center[j] + poses[j, :3, 3]
+        half = np.abs(rotation) @ self._local_half[j]
+        overlap = half + self._aabb_half[b] - np.abs(center - self._aabb_center[b])
+        return float(max(overlap.min(), 0.0))
 
     def obstacle_name(self, index: int) -> str:
         """Obstacle ``index`` as messages name it: its kind and index, e.g. ``"cylinder 3"``."""
