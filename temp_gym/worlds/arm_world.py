@@ -306,6 +306,37 @@ def _draw_near(fast, exact, rng: np.random.Generator, lower: np.ndarray, upper: 
     return np.array(found).reshape(-1, len(lower))
 
 
+def full_turn_joints(arm: ArmModel, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``bool (dim,)``: the revolute joints whose range (within the bounds) exceeds a turn."""
+    from temp_gym.worlds.arm.urdf import REVOLUTE
+
+    return (arm.chain.joint_types == REVOLUTE) & (np.asarray(upper) - np.asarray(lower) > 2 * np.pi)
+
+
+def in_start_turn(goals: np.ndarray, starts: np.ndarray, turning: np.ndarray,
+                  lower: np.ndarray, upper: np.ndarray) -> np.ndarray:  # fmt: skip
+    """``goals`` with each ``turning`` joint moved by whole turns nearest its start's value.
+
+    The same poses: a joint whose range exceeds a turn (a UR arm's +-2 pi) reaches a pose in
+    several windings, and a goal a turn away from the start is often reachable only through
+    the floor (the known limitations). Values stay within ``lower`` and ``upper``.
+    """
+    if not turning.any():
+        return goals
+    goals = goals.copy()
+    value, start = goals[:, turning], starts[:, turning]
+    low, high = lower[turning], upper[turning]
+    turns = np.floor((value - start) / (2 * np.pi))
+    best = value
+    for k in (turns, turns + 1):  # the values a whole turn apart on either side of the start
+        shifted = value - 2 * np.pi * k
+        better = (shifted >= low) & (shifted <= high) & (np.abs(shifted - start)
+                                                         < np.abs(best - start))  # fmt: skip
+        best = np.where(better, shifted, best)
+    goals[:, turning] = best
+    return goals
+
+
 def generate_arm_task(
     workspace: Workspace,
     rng: np.random.Generator,
@@ -346,6 +377,7 @@ def generate_arm_task(
     exact = spec.make_checker(workspace, exact=True) if near != "none" else None
     lower, upper = workspace.bounds
     dim = workspace.dim
+    turning = full_turn_joints(arm_of(workspace.robot), lower, upper)
     batch = 64 if near == "none" else 8
     for first in range(0, max_tries, batch):
         count = min(batch, max_tries - first)
@@ -358,7 +390,8 @@ def generate_arm_task(
         else:
             goals = _draw_near(fast, exact, rng, lower, upper, count)
         count = min(len(starts), len(goals))  # fewer near a surface, or none, in this attempt
-        starts, goals = starts[:count], goals[:count]
+        starts, goals = starts[:count], in_start_turn(goals[:count], starts[:count], turning,
+                                                      lower, upper)  # fmt: skip
         ok = fast.states_free(starts) & fast.states_free(goals)
         ok &= np.linalg.norm(goals - starts, axis=1) > 2 * goal_radius
         if difficulty != "any":
