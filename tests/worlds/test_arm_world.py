@@ -197,27 +197,35 @@ def test_an_impossible_task_gives_up(arms, robot, near):
                                              max_tries=100, near=near))  # fmt: skip
 
 
-def test_a_base_that_reaches_below_the_floor_lowers_the_scene(tmp_path):
-    # The floor stood at z = -1 cm whatever the base: an arm whose base reaches lower (a round
-    # foot, a mount plate, a mobile base) stood in it, and no state of it was ever free.
+def _edited_test_arm(folder, name, code, old, new):
+    """The fixtures' test arm with ``old`` replaced by ``new`` in its URDF, built and
+    registered as ``name`` (seed code ``code``); returns ``(path, spec)``."""
     from arm_fixtures import write_test_arm
 
     from temp_gym.worlds.arm.build import build
     from temp_gym.worlds.arm.spec import register_robot_file
+
+    path = write_test_arm(folder)
+    urdf = folder / "test_arm" / "robot.urdf"
+    assert old in urdf.read_text()
+    urdf.write_text(urdf.read_text().replace(old, new))
+    camel = "".join(part.title() for part in name.split("_"))
+    path.write_text(path.read_text().replace("test_arm\n", f"{name}\n", 1)
+                    .replace("TestArm", camel).replace("90001", str(code)))  # fmt: skip
+    build(path, log=lambda line: None)
+    return path, register_robot_file(path)
+
+
+def test_a_base_that_reaches_below_the_floor_lowers_the_scene(tmp_path):
+    # The floor stood at z = -1 cm whatever the base: an arm whose base reaches lower (a round
+    # foot, a mount plate, a mobile base) stood in it, and no state of it was ever free.
     from temp_gym.worlds.arm_world import scene_drop
     from temp_gym.worlds.generators import generate_workspace
     from temp_gym.worlds.robots import forget_robot
 
-    path = write_test_arm(tmp_path)
-    urdf = tmp_path / "test_arm" / "robot.urdf"
-    foot = '<origin xyz="0 0 0.05"/><geometry><box size="0.2 0.2 0.1"/>'
-    assert foot in urdf.read_text()
-    urdf.write_text(urdf.read_text().replace(
-        foot, '<origin xyz="0 0 -0.05"/><geometry><box size="0.2 0.2 0.3"/>'))  # fmt: skip
-    path.write_text(path.read_text().replace("test_arm\n", "low_test_arm\n", 1)
-                    .replace("TestArm", "LowTestArm").replace("90001", "90002"))  # fmt: skip
-    build(path, log=lambda line: None)
-    spec = register_robot_file(path)
+    foot = '<origin xyz="0 0 {}"/><geometry><box size="0.2 0.2 {}"/>'
+    path, spec = _edited_test_arm(tmp_path, "low_test_arm", 90002, foot.format(0.05, 0.1),
+                                  foot.format(-0.05, 0.3))  # fmt: skip
     try:
         arm = load_arm(path)
         assert scene_drop(arm) == pytest.approx(-0.2, abs=1e-6)
@@ -243,23 +251,13 @@ def test_a_goal_is_drawn_in_the_starts_turn_of_a_joint_with_more_than_a_turn(tmp
     # A UR arm's joints turn +-2 pi: a goal drawn a turn away from the start was often
     # reachable only through the floor (6 of 8 challenging UR3e tasks unsolved in 40,000
     # nodes). The same poses are drawn in the start's winding.
-    from arm_fixtures import write_test_arm
-
-    from temp_gym.worlds.arm.build import build
-    from temp_gym.worlds.arm.spec import register_robot_file
     from temp_gym.worlds.arm_world import full_turn_joints
     from temp_gym.worlds.generators import generate_task, generate_workspace
     from temp_gym.worlds.robots import forget_robot
 
-    path = write_test_arm(tmp_path)
-    urdf = tmp_path / "test_arm" / "robot.urdf"
-    shoulder = '<limit lower="-2.5" upper="2.5"/>'
-    assert shoulder in urdf.read_text()
-    urdf.write_text(urdf.read_text().replace(shoulder, '<limit lower="-6.2" upper="6.2"/>'))
-    path.write_text(path.read_text().replace("test_arm\n", "turning_test_arm\n", 1)
-                    .replace("TestArm", "TurningTestArm").replace("90001", "90003"))  # fmt: skip
-    build(path, log=lambda line: None)
-    spec = register_robot_file(path)
+    path, spec = _edited_test_arm(tmp_path, "turning_test_arm", 90003,
+                                  '<limit lower="-2.5" upper="2.5"/>',
+                                  '<limit lower="-6.2" upper="6.2"/>')  # fmt: skip
     try:
         arm = load_arm(path)
         assert full_turn_joints(arm, *arm.joint_limits()).tolist() == [True, False, False, False]
