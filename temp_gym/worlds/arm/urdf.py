@@ -494,9 +494,20 @@ def read_chain(
             return overrides[name]
         return _limits(joint, kind, f"joint {name!r}")
 
-    def fixed_value(joint: ElementTree.Element) -> float:
+    def fixed_value(joint: ElementTree.Element, above: bool = False) -> float:
+        """The value a movable joint off the chain is held at.
+
+        Its ``fixed_joints`` value, else as it mimics (below the base), else 0, within its
+        limits. Above the base (``above``) a joint without limits, which pybullet loads too,
+        is held without them.
+        """
         name = joint.get("name")
-        lower, upper = limits_of(joint)
+        try:
+            lower, upper = limits_of(joint)
+        except UrdfError:
+            if not above:
+                raise
+            lower, upper = -math.inf, math.inf
         if name in fixed_joints:
             value = fixed_joints[name]
             if not lower - 1e-12 <= value <= upper + 1e-12:
@@ -506,7 +517,7 @@ def read_chain(
                 )
             return value
         mimic = joint.find("mimic")
-        if mimic is not None:  # its source is off the chain (`_check_mimics`)
+        if mimic is not None and not above:  # its source is off the chain (`_check_mimics`)
             multiplier, offset = _mimic_terms(mimic, f"joint {name!r} mimic")
             source = joints[mimic.get("joint")]
             return float(np.clip(multiplier * fixed_value(source) + offset, lower, upper))
@@ -566,21 +577,9 @@ def read_chain(
                     raise UrdfError(f"{where}: a {kind} joint below the base is not supported")
             pending.append(child)
 
-    def held_value(joint: ElementTree.Element) -> float:
-        """A movable joint above the base: its ``fixed_joints`` value, else 0 (clipped)."""
-        try:
-            lower, upper = limits_of(joint)
-        except UrdfError:  # pybullet loads such a joint too; holding it needs no limits
-            lower, upper = -math.inf, math.inf
-        value = fixed_joints.get(joint.get("name"), 0.0)
-        if joint.get("name") in fixed_joints and not lower - 1e-12 <= value <= upper + 1e-12:
-            raise UrdfError(f"fixed_joints.{joint.get('name')}: {value} is outside its limits "
-                            f"[{lower}, {upper}] (override them with joint_limits)")  # fmt: skip
-        return float(np.clip(value, lower, upper))
-
     below_base = set(link_bodies)
-    _fold_above(base_link, children, parent_joint, link_bodies, link_transforms, held_value,
-                fixed_values)  # fmt: skip
+    _fold_above(base_link, children, parent_joint, link_bodies, link_transforms,
+                lambda joint: fixed_value(joint, above=True), fixed_values)  # fmt: skip
     if not names:
         raise UrdfError(f"{urdf.name}: no movable joint between {base_link!r} and {tip_link!r}")
     elements: list[list[CollisionElement]] = [[] for _ in bodies]
