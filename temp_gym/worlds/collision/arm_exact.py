@@ -384,11 +384,15 @@ class ArmExactChecker:
             return False
         return any(solid.encloses(local) for solid in solids)
 
-    def _candidate_pairs(self, poses: np.ndarray) -> np.ndarray:
-        """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles'."""
+    def _world_boxes(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(centers, halves)`` (..., B, 3): the world AABBs of the bodies' posed local boxes."""
         rotations = poses[..., :3, :3]
         centers = np.einsum("...ij,...j->...i", rotations, self._local_center) + poses[..., :3, 3]
-        halves = np.einsum("...ij,...j->...i", np.abs(rotations), self._local_half)
+        return centers, np.einsum("...ij,...j->...i", np.abs(rotations), self._local_half)
+
+    def _candidate_pairs(self, poses: np.ndarray) -> np.ndarray:
+        """``bool (..., B, M)``: world AABBs of the bodies' local boxes overlap the obstacles'."""
+        centers, halves = self._world_boxes(poses)
         gap = np.abs(centers[..., None, :] - self._aabb_center) - halves[..., None, :]
         return np.all(gap <= self._aabb_half, axis=-1) & self._has_geometry[:, None]
 
@@ -617,10 +621,8 @@ class ArmExactChecker:
         separates the boxes, so the shapes. fcl's contact depths between a mesh and a box can
         be far larger (a metre for a link 5 cm into a 10 cm slab).
         """
-        rotation = poses[j, :3, :3]
-        center = rotation @ self._local_center[j] + poses[j, :3, 3]
-        half = np.abs(rotation) @ self._local_half[j]
-        overlap = half + self._aabb_half[b] - np.abs(center - self._aabb_center[b])
+        centers, halves = self._world_boxes(poses)
+        overlap = halves[j] + self._aabb_half[b] - np.abs(centers[j] - self._aabb_center[b])
         return float(max(overlap.min(), 0.0))
 
     def obstacle_name(self, index: int) -> str:
