@@ -127,13 +127,14 @@ class BenchmarkSettings:
         """What ``benchmark.json`` holds: the settings a stored run depends on."""
         shared = asdict(self)
         del shared["planners"], shared["runs"]  # may grow between reruns
-        for name in ("stop_at_first", "simplify", "checkpoint"):  # off: as stored before
-            if not shared[name]:  # the setting existed
+        checkpoint = shared.pop("checkpoint")
+        for name in ("stop_at_first", "simplify"):  # off: as stored before the setting existed
+            if not shared[name]:
                 del shared[name]
-        if self.checkpoint is not None:  # the policy, wherever its file lies
+        if checkpoint is not None:  # the policy, wherever its file lies
             from temp_gym.models.snapshot import file_digest
 
-            shared["checkpoint"] = file_digest(self.checkpoint)
+            shared["checkpoint"] = file_digest(checkpoint)
         return {"format": FORMAT, "record_version": RECORD_VERSION, **shared}
 
 
