@@ -406,7 +406,6 @@ def generate_arm_task(
 
 __all__ = [
     "FLOOR_TOP",
-    "scene_drop",
     "SIDES",
     "TEMPLATES",
     "box_corners",
@@ -423,4 +422,7 @@ __all__ = [
     "near_surface",
     "scaled",
     "place",
+    "scene_drop",
+    "full_turn_joints",
+    "in_start_turn",
 ]
